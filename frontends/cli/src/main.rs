@@ -1,0 +1,125 @@
+//! `hob`: the command-line frontend of the hob controller.
+//!
+//! Exit status: 0 done; 2 refused (an invalid program or machine configuration, or bad
+//! arguments: the message names the file, position, key and limit); 1 anything else.
+
+mod render;
+
+use clap::{Parser, Subcommand};
+use hob_rt_core::config::machine::MachineConfig;
+use hob_rt_core::config::LoadError;
+use hob_rt_core::planner::plan_file;
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+
+/// Default machine configuration, looked up in this order when `--machine` is not given.
+const MACHINE_DEFAULTS: [&str; 2] = ["config/machine.toml", "/etc/hob/machine.toml"];
+
+#[derive(Debug, Parser)]
+#[command(name = "hob", version, about = "hob: CNC for gear hobbing machines")]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Debug, Subcommand)]
+enum Command {
+    /// Plan a program: gearbox ratio, differential, hob swivel, passes, speeds, times.
+    Plan {
+        /// Program file (TOML).
+        program: PathBuf,
+        /// Machine configuration [default: config/machine.toml, then /etc/hob/machine.toml].
+        #[arg(long, value_name = "FILE")]
+        machine: Option<PathBuf>,
+        /// Print the plan as JSON.
+        #[arg(long)]
+        json: bool,
+    },
+    /// Validate a program against the machine (and the machine configuration itself).
+    Check {
+        /// Program file (TOML); without it only the machine configuration is checked.
+        program: Option<PathBuf>,
+        /// Machine configuration [default: config/machine.toml, then /etc/hob/machine.toml].
+        #[arg(long, value_name = "FILE")]
+        machine: Option<PathBuf>,
+    },
+}
+
+/// Why a command failed, and with which exit status.
+enum Failure {
+    Refused(LoadError),
+    Other(String),
+}
+
+fn main() -> ExitCode {
+    let cli = Cli::parse();
+    match run(cli.command) {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(Failure::Refused(e)) => {
+            eprintln!("hob: refused: {e}");
+            ExitCode::from(2)
+        }
+        Err(Failure::Other(e)) => {
+            eprintln!("hob: error: {e}");
+            ExitCode::FAILURE
+        }
+    }
+}
+
+fn run(command: Command) -> Result<(), Failure> {
+    match command {
+        Command::Plan { program, machine, json } => {
+            let machine = load_machine(machine.as_deref())?;
+            let plan = plan_file(&program, &machine).map_err(Failure::Refused)?;
+            if json {
+                let text = serde_json::to_string_pretty(&plan).map_err(|e| Failure::Other(e.to_string()))?;
+                println!("{text}");
+            } else {
+                print!("{}", render::plan_text(&program, &plan));
+            }
+            Ok(())
+        }
+        Command::Check { program, machine } => {
+            let machine_file = machine_path(machine.as_deref())?;
+            let machine = MachineConfig::load(&machine_file).map_err(Failure::Refused)?;
+            match program {
+                None => println!("{}: ok ({})", machine_file.display(), machine.machine.name),
+                Some(program) => {
+                    let plan = plan_file(&program, &machine).map_err(Failure::Refused)?;
+                    println!(
+                        "{}: ok on {}: {} pass{}, {:.0} s",
+                        program.display(),
+                        machine_file.display(),
+                        plan.passes.len(),
+                        if plan.passes.len() == 1 { "" } else { "es" },
+                        plan.total_time_s
+                    );
+                    for w in &plan.warnings {
+                        println!("  note: {w}");
+                    }
+                }
+            }
+            Ok(())
+        }
+    }
+}
+
+fn machine_path(given: Option<&Path>) -> Result<PathBuf, Failure> {
+    if let Some(p) = given {
+        return Ok(p.to_path_buf());
+    }
+    MACHINE_DEFAULTS
+        .iter()
+        .map(PathBuf::from)
+        .find(|p| p.exists())
+        .ok_or_else(|| {
+            Failure::Other(format!(
+                "no machine configuration: give --machine FILE or install one at {}",
+                MACHINE_DEFAULTS.join(" or ")
+            ))
+        })
+}
+
+fn load_machine(given: Option<&Path>) -> Result<MachineConfig, Failure> {
+    MachineConfig::load(&machine_path(given)?).map_err(Failure::Refused)
+}

@@ -1,0 +1,182 @@
+//! Loading and validating TOML files (machine configuration, plant, programs).
+//!
+//! Start-up code: it may allocate and fail. Every refusal names the file, the line and
+//! column, the key, and the limit that was broken; all problems of a file are reported at
+//! once so the machine builder or operator fixes them in one go.
+
+pub mod machine;
+pub mod source;
+
+use serde::de::DeserializeOwned;
+use source::{Position, locate_key, position_of};
+use std::fmt;
+use std::path::{Path, PathBuf};
+
+/// One broken rule in a file: which key, and why.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Problem {
+    /// Dotted key path, `[i]` for array elements, e.g. `strategy.rough_depths_mm[1]`.
+    pub key: String,
+    /// What is wrong and which limit applies.
+    pub message: String,
+    /// Where the key is written, when it is written at all.
+    pub position: Option<Position>,
+}
+
+/// Collects the problems found while validating one file.
+#[derive(Debug, Default)]
+pub struct Problems {
+    list: Vec<Problem>,
+}
+
+impl Problems {
+    pub fn new() -> Self {
+        Self::default()
+    }
+
+    /// Records a problem with `key`.
+    pub fn push(&mut self, key: impl Into<String>, message: impl Into<String>) {
+        self.list.push(Problem {
+            key: key.into(),
+            message: message.into(),
+            position: None,
+        });
+    }
+
+    /// Records a problem unless `ok`.
+    pub fn require(&mut self, ok: bool, key: &str, message: impl FnOnce() -> String) {
+        if !ok {
+            self.push(key, message());
+        }
+    }
+
+    /// Requires a finite value strictly above zero.
+    pub fn positive(&mut self, key: &str, value: f64) {
+        self.require(value.is_finite() && value > 0.0, key, || {
+            format!("must be greater than 0 (is {value})")
+        });
+    }
+
+    /// Requires a finite value at or above zero.
+    pub fn non_negative(&mut self, key: &str, value: f64) {
+        self.require(value.is_finite() && value >= 0.0, key, || {
+            format!("must be 0 or more (is {value})")
+        });
+    }
+
+    /// Requires `lo <= value <= hi`.
+    pub fn within(&mut self, key: &str, value: f64, lo: f64, hi: f64, unit: &str) {
+        self.require(value.is_finite() && (lo..=hi).contains(&value), key, || {
+            format!("must be within {lo} .. {hi} {unit} (is {value})")
+        });
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.list.is_empty()
+    }
+
+    pub fn as_slice(&self) -> &[Problem] {
+        &self.list
+    }
+
+    /// `Ok(())` when nothing was found, else the problems located in `src`.
+    pub fn into_result(self, file: &Path, src: &str) -> Result<(), LoadError> {
+        if self.list.is_empty() {
+            return Ok(());
+        }
+        let problems = self
+            .list
+            .into_iter()
+            .map(|mut p| {
+                p.position = locate_key(src, &p.key);
+                p
+            })
+            .collect();
+        Err(LoadError::Invalid {
+            file: file.to_path_buf(),
+            problems,
+        })
+    }
+}
+
+/// Why a file was refused.
+#[derive(Debug)]
+pub enum LoadError {
+    /// The file could not be read.
+    Io { file: PathBuf, error: std::io::Error },
+    /// Not valid TOML, a value of the wrong type, a missing or an unknown key.
+    Syntax {
+        file: PathBuf,
+        position: Option<Position>,
+        message: String,
+    },
+    /// Well-formed, but values break the rules (limits, consistency, the machine).
+    Invalid {
+        file: PathBuf,
+        problems: Vec<Problem>,
+    },
+}
+
+impl LoadError {
+    /// The problems of an `Invalid` file (empty otherwise).
+    pub fn problems(&self) -> &[Problem] {
+        match self {
+            LoadError::Invalid { problems, .. } => problems,
+            _ => &[],
+        }
+    }
+}
+
+impl fmt::Display for LoadError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            LoadError::Io { file, error } => write!(f, "{}: cannot read: {error}", file.display()),
+            LoadError::Syntax {
+                file,
+                position,
+                message,
+            } => match position {
+                Some(p) => write!(f, "{}:{p}: {message}", file.display()),
+                None => write!(f, "{}: {message}", file.display()),
+            },
+            LoadError::Invalid { file, problems } => {
+                let n = problems.len();
+                write!(
+                    f,
+                    "{}: {n} problem{} found",
+                    file.display(),
+                    if n == 1 { "" } else { "s" }
+                )?;
+                for p in problems {
+                    match p.position {
+                        Some(pos) => write!(f, "\n  {}:{pos}: {}: {}", file.display(), p.key, p.message)?,
+                        None => write!(f, "\n  {}: {}: {}", file.display(), p.key, p.message)?,
+                    }
+                }
+                Ok(())
+            }
+        }
+    }
+}
+
+impl std::error::Error for LoadError {}
+
+/// Reads `file` and deserialises it; returns the value and the source text (kept to
+/// locate later validation problems).
+pub fn read_toml<T: DeserializeOwned>(file: &Path) -> Result<(T, String), LoadError> {
+    let src = std::fs::read_to_string(file).map_err(|error| LoadError::Io {
+        file: file.to_path_buf(),
+        error,
+    })?;
+    let value = parse_toml(file, &src)?;
+    Ok((value, src))
+}
+
+/// Deserialises `src` (the contents of `file`, named in errors).
+pub fn parse_toml<T: DeserializeOwned>(file: &Path, src: &str) -> Result<T, LoadError> {
+    toml::from_str(src).map_err(|e| LoadError::Syntax {
+        file: file.to_path_buf(),
+        position: e.span().map(|s| position_of(src, s.start)),
+        message: e.message().trim().to_string(),
+    })
+}

@@ -1,0 +1,48 @@
+//! Unit conversions. Quantities are `f64` with the unit in the name (`_mm`, `_deg`,
+//! `_rpm`, `_counts`, `_arcsec`, `_um`); these helpers are the only place the factors live.
+
+/// Arc seconds in one degree.
+pub const ARCSEC_PER_DEG: f64 = 3600.0;
+/// Degrees in one revolution.
+pub const DEG_PER_REV: f64 = 360.0;
+/// Seconds in one minute.
+pub const S_PER_MIN: f64 = 60.0;
+
+/// Degrees per second for a speed in revolutions per minute.
+pub fn rpm_to_deg_per_s(speed_rpm: f64) -> f64 {
+    speed_rpm * DEG_PER_REV / S_PER_MIN
+}
+
+/// Revolutions per minute for a speed in degrees per second.
+pub fn deg_per_s_to_rpm(speed_deg_per_s: f64) -> f64 {
+    speed_deg_per_s * S_PER_MIN / DEG_PER_REV
+}
+
+/// Arc length in micrometres of an angle in arc seconds at radius `radius_mm`.
+pub fn arcsec_to_um_at_radius(angle_arcsec: f64, radius_mm: f64) -> f64 {
+    (angle_arcsec / ARCSEC_PER_DEG).to_radians() * radius_mm * 1000.0
+}
+
+/// Angle in arc seconds of an arc length in micrometres at radius `radius_mm`.
+pub fn um_to_arcsec_at_radius(length_um: f64, radius_mm: f64) -> f64 {
+    (length_um / 1000.0 / radius_mm).to_degrees() * ARCSEC_PER_DEG
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn one_arcsec_at_42_5_mm_is_0_21_um() {
+        // domain.md section 9.
+        let um = arcsec_to_um_at_radius(1.0, 42.5);
+        assert!((um - 0.206).abs() < 0.001, "{um}");
+        assert!((um_to_arcsec_at_radius(um, 42.5) - 1.0).abs() < 1e-12);
+    }
+
+    #[test]
+    fn speeds_convert_both_ways() {
+        assert!((rpm_to_deg_per_s(212.2) - 1273.2).abs() < 1e-9);
+        assert!((deg_per_s_to_rpm(rpm_to_deg_per_s(14.1)) - 14.1).abs() < 1e-12);
+    }
+}
