@@ -6,8 +6,8 @@
 mod render;
 
 use clap::{Parser, Subcommand};
-use hob_rt_core::config::machine::MachineConfig;
 use hob_rt_core::config::LoadError;
+use hob_rt_core::config::machine::MachineConfig;
 use hob_rt_core::planner::plan_file;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
@@ -68,26 +68,33 @@ fn main() -> ExitCode {
 
 fn run(command: Command) -> Result<(), Failure> {
     match command {
-        Command::Plan { program, machine, json } => {
+        Command::Plan {
+            program,
+            machine,
+            json,
+        } => {
             let machine = load_machine(machine.as_deref())?;
             let plan = plan_file(&program, &machine).map_err(Failure::Refused)?;
             if json {
                 let text = serde_json::to_string_pretty(&plan).map_err(|e| Failure::Other(e.to_string()))?;
-                println!("{text}");
+                emit(&format!("{text}\n"))
             } else {
-                print!("{}", render::plan_text(&program, &plan));
+                emit(&render::plan_text(&program, &plan))
             }
-            Ok(())
         }
         Command::Check { program, machine } => {
             let machine_file = machine_path(machine.as_deref())?;
             let machine = MachineConfig::load(&machine_file).map_err(Failure::Refused)?;
             match program {
-                None => println!("{}: ok ({})", machine_file.display(), machine.machine.name),
+                None => emit(&format!(
+                    "{}: ok ({})\n",
+                    machine_file.display(),
+                    machine.machine.name
+                )),
                 Some(program) => {
                     let plan = plan_file(&program, &machine).map_err(Failure::Refused)?;
-                    println!(
-                        "{}: ok on {}: {} pass{}, {:.0} s",
+                    let mut text = format!(
+                        "{}: ok on {}: {} pass{}, {:.0} s\n",
                         program.display(),
                         machine_file.display(),
                         plan.passes.len(),
@@ -95,12 +102,22 @@ fn run(command: Command) -> Result<(), Failure> {
                         plan.total_time_s
                     );
                     for w in &plan.warnings {
-                        println!("  note: {w}");
+                        text.push_str(&format!("  note: {w}\n"));
                     }
+                    emit(&text)
                 }
             }
-            Ok(())
         }
+    }
+}
+
+/// Writes to stdout; a reader that went away (`hob plan ... | head`) is not an error.
+fn emit(text: &str) -> Result<(), Failure> {
+    use std::io::Write;
+    let mut out = std::io::stdout().lock();
+    match out.write_all(text.as_bytes()).and_then(|()| out.flush()) {
+        Err(e) if e.kind() != std::io::ErrorKind::BrokenPipe => Err(Failure::Other(format!("stdout: {e}"))),
+        _ => Ok(()),
     }
 }
 

@@ -93,10 +93,14 @@ fn write_plan(o: &mut String, program: &Path, p: &Plan) -> std::fmt::Result {
             p.egb_ratio, p.starts, p.teeth
         )?,
     }
-    writeln!(o, "          differential {:.6} deg of table per mm of Y", p.differential_deg_per_mm)?;
-    let sense = p
-        .hob_swivel_sense
-        .map_or(String::new(), |h| format!(", in the sense of a {}-hand helix", hand(h)));
+    writeln!(
+        o,
+        "          differential {:.6} deg of table per mm of Y",
+        p.differential_deg_per_mm
+    )?;
+    let sense = p.hob_swivel_sense.map_or(String::new(), |h| {
+        format!(", in the sense of a {}-hand helix", hand(h))
+    });
     writeln!(o, "set A     hob swivel {:.3} deg{sense}", p.hob_swivel_deg)?;
     let s = &p.signs;
     writeln!(
@@ -110,7 +114,10 @@ fn write_plan(o: &mut String, program: &Path, p: &Plan) -> std::fmt::Result {
     )?;
     let mut shape = Vec::new();
     if let Some(c) = p.x_shape.crowning {
-        shape.push(format!("crowning {} mm (arc radius {:.3} mm)", c.height_mm, c.radius_mm));
+        shape.push(format!(
+            "crowning {} mm (arc radius {:.3} mm)",
+            c.height_mm, c.radius_mm
+        ));
     }
     if let Some(points) = &p.x_shape.contour {
         shape.push(format!("contour of {} points", points.len()));
@@ -118,15 +125,35 @@ fn write_plan(o: &mut String, program: &Path, p: &Plan) -> std::fmt::Result {
     writeln!(
         o,
         "X shape   {}{}",
-        if shape.is_empty() { "straight".to_string() } else { shape.join(" + ") },
-        if p.x_shape.x_moves_in_cut { " (X unclamped in the cut)" } else { " (X clamped in the cut)" }
+        if shape.is_empty() {
+            "straight".to_string()
+        } else {
+            shape.join(" + ")
+        },
+        if p.x_shape.x_moves_in_cut {
+            " (X unclamped in the cut)"
+        } else {
+            " (X clamped in the cut)"
+        }
     )?;
     writeln!(o, "X safe    {:.3} mm", p.x_safe_mm)?;
     writeln!(o)?;
     writeln!(
         o,
         "{:>4} {:<6} {:>7} {:>8} {:>8} {:>7} {:>6} {:>7} {:>8} {:>8} {:>8} {:>8} {:>8}",
-        "pass", "kind", "depth", "X", "spindle", "VFD", "AO", "table", "feed", "Y start", "Y end", "cut", "pass"
+        "pass",
+        "kind",
+        "depth",
+        "X",
+        "spindle",
+        "VFD",
+        "AO",
+        "table",
+        "feed",
+        "Y start",
+        "Y end",
+        "cut",
+        "pass"
     )?;
     writeln!(
         o,
@@ -153,7 +180,12 @@ fn write_plan(o: &mut String, program: &Path, p: &Plan) -> std::fmt::Result {
         )?;
     }
     writeln!(o)?;
-    writeln!(o, "total cycle time {:.1} s ({})", p.total_time_s, minutes(p.total_time_s))?;
+    writeln!(
+        o,
+        "total cycle time {:.1} s ({})",
+        p.total_time_s,
+        minutes(p.total_time_s)
+    )?;
     for w in &p.warnings {
         writeln!(o, "note: {w}")?;
     }

@@ -151,9 +151,11 @@ impl LinearAxisConfig {
         p.require((1..=127).contains(&self.can_node_id), &k("can_node_id"), || {
             format!("must be a CANopen node id 1 .. 127 (is {})", self.can_node_id)
         });
-        p.require(self.encoder_counts_per_motor_rev > 0, &k("encoder_counts_per_motor_rev"), || {
-            "must be greater than 0".into()
-        });
+        p.require(
+            self.encoder_counts_per_motor_rev > 0,
+            &k("encoder_counts_per_motor_rev"),
+            || "must be greater than 0".into(),
+        );
         for (name, v) in [
             ("motor_to_screw_ratio", self.motor_to_screw_ratio),
             ("screw_lead_mm", self.screw_lead_mm),
@@ -177,9 +179,16 @@ impl LinearAxisConfig {
                 )
             },
         );
-        p.require(self.max_feed_mm_min <= self.rapid_mm_min, &k("max_feed_mm_min"), || {
-            format!("must not exceed rapid_mm_min {} (is {})", self.rapid_mm_min, self.max_feed_mm_min)
-        });
+        p.require(
+            self.max_feed_mm_min <= self.rapid_mm_min,
+            &k("max_feed_mm_min"),
+            || {
+                format!(
+                    "must not exceed rapid_mm_min {} (is {})",
+                    self.rapid_mm_min, self.max_feed_mm_min
+                )
+            },
+        );
         let motor = self.motor_rpm(self.rapid_mm_min);
         p.require(motor <= self.motor_max_rpm, &k("rapid_mm_min"), || {
             format!(
@@ -340,17 +349,31 @@ impl MachineConfig {
 
     /// Checks every value; problems are named by their key.
     pub fn validate(&self, p: &mut Problems) {
-        p.require(!self.machine.name.trim().is_empty(), "machine.name", || "must not be empty".into());
+        p.require(!self.machine.name.trim().is_empty(), "machine.name", || {
+            "must not be empty".into()
+        });
         p.require(
             (250..=100_000).contains(&self.control.cycle_period_us),
             "control.cycle_period_us",
-            || format!("must be within 250 .. 100000 us (is {})", self.control.cycle_period_us),
+            || {
+                format!(
+                    "must be within 250 .. 100000 us (is {})",
+                    self.control.cycle_period_us
+                )
+            },
         );
-        p.require(!self.can.interface.trim().is_empty(), "can.interface", || "must not be empty".into());
+        p.require(!self.can.interface.trim().is_empty(), "can.interface", || {
+            "must not be empty".into()
+        });
         p.require(
             [125_000, 250_000, 500_000, 800_000, 1_000_000].contains(&self.can.bitrate_bit_s),
             "can.bitrate_bit_s",
-            || format!("must be a CiA 301 bit rate of 125000 .. 1000000 (is {})", self.can.bitrate_bit_s),
+            || {
+                format!(
+                    "must be a CiA 301 bit rate of 125000 .. 1000000 (is {})",
+                    self.can.bitrate_bit_s
+                )
+            },
         );
         self.validate_spindle(p);
         self.validate_table(p);
@@ -366,9 +389,11 @@ impl MachineConfig {
 
     fn validate_spindle(&self, p: &mut Problems) {
         let s = &self.spindle;
-        p.require(s.encoder_counts_per_rev >= 4, "spindle.encoder_counts_per_rev", || {
-            format!("must be at least 4 (is {})", s.encoder_counts_per_rev)
-        });
+        p.require(
+            s.encoder_counts_per_rev >= 4,
+            "spindle.encoder_counts_per_rev",
+            || format!("must be at least 4 (is {})", s.encoder_counts_per_rev),
+        );
         for (key, v) in [
             ("spindle.motor_to_spindle_ratio", s.motor_to_spindle_ratio),
             ("spindle.motor_rated_rpm", s.motor_rated_rpm),
@@ -394,9 +419,11 @@ impl MachineConfig {
         p.require((1..=127).contains(&t.can_node_id), "table.can_node_id", || {
             format!("must be a CANopen node id 1 .. 127 (is {})", t.can_node_id)
         });
-        p.require(t.encoder_counts_per_motor_rev > 0, "table.encoder_counts_per_motor_rev", || {
-            "must be greater than 0".into()
-        });
+        p.require(
+            t.encoder_counts_per_motor_rev > 0,
+            "table.encoder_counts_per_motor_rev",
+            || "must be greater than 0".into(),
+        );
         for (key, v) in [
             ("table.worm_ratio", t.worm_ratio),
             ("table.motor_max_rpm", t.motor_max_rpm),
@@ -422,12 +449,19 @@ impl MachineConfig {
         p.require(
             l.max_tool_diameter_mm >= l.min_tool_diameter_mm,
             "process.max_tool_diameter_mm",
-            || format!("must not be below min_tool_diameter_mm {}", l.min_tool_diameter_mm),
+            || {
+                format!(
+                    "must not be below min_tool_diameter_mm {}",
+                    l.min_tool_diameter_mm
+                )
+            },
         );
         p.within("process.max_helix_deg", l.max_helix_deg, 0.0, 60.0, "deg");
-        p.require((1..=10).contains(&l.max_hob_starts), "process.max_hob_starts", || {
-            format!("must be within 1 .. 10 (is {})", l.max_hob_starts)
-        });
+        p.require(
+            (1..=10).contains(&l.max_hob_starts),
+            "process.max_hob_starts",
+            || format!("must be within 1 .. 10 (is {})", l.max_hob_starts),
+        );
     }
 
     fn validate_io(&self, p: &mut Problems) {
@@ -438,9 +472,16 @@ impl MachineConfig {
         check_bits(p, "io.inputs", &io.inputs.bindings(), io.digital_input_count);
         check_bits(p, "io.outputs", &io.outputs.bindings(), io.digital_output_count);
         let ch = io.analog_outputs.spindle_speed.channel;
-        p.require(ch < io.analog_output_count, "io.analog_outputs.spindle_speed.channel", || {
-            format!("must be below io.analog_output_count {} (is {ch})", io.analog_output_count)
-        });
+        p.require(
+            ch < io.analog_output_count,
+            "io.analog_outputs.spindle_speed.channel",
+            || {
+                format!(
+                    "must be below io.analog_output_count {} (is {ch})",
+                    io.analog_output_count
+                )
+            },
+        );
     }
 
     fn validate_node_ids(&self, p: &mut Problems) {
@@ -461,7 +502,9 @@ impl MachineConfig {
 fn check_bits(p: &mut Problems, table: &str, bindings: &[(&str, DigitalBinding)], count: u8) {
     for (i, (name, b)) in bindings.iter().enumerate() {
         let key = format!("{table}.{name}.bit");
-        p.require(b.bit < count, &key, || format!("must be below the coupler's {count} bits (is {})", b.bit));
+        p.require(b.bit < count, &key, || {
+            format!("must be below the coupler's {count} bits (is {})", b.bit)
+        });
         if let Some((other, _)) = bindings[..i].iter().find(|(_, o)| o.bit == b.bit) {
             p.push(key, format!("bit {} is already used by {table}.{other}", b.bit));
         }

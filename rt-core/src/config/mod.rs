@@ -111,10 +111,7 @@ pub enum LoadError {
         message: String,
     },
     /// Well-formed, but values break the rules (limits, consistency, the machine).
-    Invalid {
-        file: PathBuf,
-        problems: Vec<Problem>,
-    },
+    Invalid { file: PathBuf, problems: Vec<Problem> },
 }
 
 impl LoadError {

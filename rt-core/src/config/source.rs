@@ -100,12 +100,19 @@ pub fn locate_key(src: &str, path: &str) -> Option<Position> {
 mod tests {
     use super::*;
 
-    const SRC: &str = "[workpiece]\nteeth = 17\ncontour = [[0.0, 0.0], [20.0, -0.01]]\n\n[tool]\nkind = \"hob\"\n";
+    const SRC: &str =
+        "[workpiece]\nteeth = 17\ncontour = [[0.0, 0.0], [20.0, -0.01]]\n\n[tool]\nkind = \"hob\"\n";
 
     #[test]
     fn finds_keys_and_elements() {
-        assert_eq!(locate_key(SRC, "workpiece.teeth"), Some(Position { line: 2, column: 1 }));
-        assert_eq!(locate_key(SRC, "tool.kind"), Some(Position { line: 6, column: 1 }));
+        assert_eq!(
+            locate_key(SRC, "workpiece.teeth"),
+            Some(Position { line: 2, column: 1 })
+        );
+        assert_eq!(
+            locate_key(SRC, "tool.kind"),
+            Some(Position { line: 6, column: 1 })
+        );
         assert_eq!(
             locate_key(SRC, "workpiece.contour[1]"),
             Some(Position { line: 3, column: 24 })
@@ -114,7 +121,10 @@ mod tests {
 
     #[test]
     fn missing_key_points_at_its_table() {
-        assert_eq!(locate_key(SRC, "tool.starts"), Some(Position { line: 5, column: 2 }));
+        assert_eq!(
+            locate_key(SRC, "tool.starts"),
+            Some(Position { line: 5, column: 2 })
+        );
     }
 
     #[test]

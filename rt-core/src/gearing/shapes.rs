@@ -121,7 +121,8 @@ pub struct XShape {
 impl XShape {
     /// X offset at `face_mm` along the face: the sum of the crowning and contour offsets.
     pub fn x_offset_mm(&self, face_mm: f64) -> f64 {
-        self.crowning.map_or(0.0, |c| c.x_offset_mm(face_mm)) + self.contour.map_or(0.0, |c| c.x_offset_mm(face_mm))
+        self.crowning.map_or(0.0, |c| c.x_offset_mm(face_mm))
+            + self.contour.map_or(0.0, |c| c.x_offset_mm(face_mm))
     }
 
     /// Whether X moves during the cut (it must not be clamped then).
@@ -132,7 +133,9 @@ impl XShape {
     /// Most negative offset over the face (the deepest point), 0 when straight.
     pub fn min_offset_mm(&self) -> f64 {
         let crowning = self.crowning.map_or(0.0, |c| -c.height_mm);
-        let contour = self.contour.map_or(0.0, |c| c.points().iter().map(|p| p.1).fold(0.0, f64::min));
+        let contour = self
+            .contour
+            .map_or(0.0, |c| c.points().iter().map(|p| p.1).fold(0.0, f64::min));
         crowning + contour
     }
 }

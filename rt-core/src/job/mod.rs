@@ -6,7 +6,9 @@
 //! `hob check` and `hob plan` refuse exactly the same programs.
 
 use crate::config::{LoadError, Problems, read_toml};
-use crate::gearing::shapes::{Contour, ContourError, Crowning, MAX_CONTOUR_POINTS, XShape, crowning_height_mm};
+use crate::gearing::shapes::{
+    Contour, ContourError, Crowning, MAX_CONTOUR_POINTS, XShape, crowning_height_mm,
+};
 use crate::gearing::signs::{CutMethod, Hand, StartSide};
 use serde::{Deserialize, Serialize};
 use std::path::Path;
@@ -220,7 +222,12 @@ impl Program {
         p.require(
             t.pressure_angle_deg > 0.0 && t.pressure_angle_deg < 45.0,
             "tool.pressure_angle_deg",
-            || format!("must be within 0 .. 45 deg, exclusive (is {})", t.pressure_angle_deg),
+            || {
+                format!(
+                    "must be within 0 .. 45 deg, exclusive (is {})",
+                    t.pressure_angle_deg
+                )
+            },
         );
         p.positive("tool.outside_diameter_mm", t.outside_diameter_mm);
         p.positive("tool.length_mm", t.length_mm);
@@ -241,7 +248,7 @@ impl Program {
         p.positive("strategy.total_depth_mm", s.total_depth_mm);
         p.non_negative("strategy.finish_allowance_mm", s.finish_allowance_mm);
         p.require(
-            !(s.finish_allowance_mm >= s.total_depth_mm),
+            s.finish_allowance_mm < s.total_depth_mm,
             "strategy.finish_allowance_mm",
             || {
                 format!(
@@ -258,7 +265,10 @@ impl Program {
         if c.kind == CycleKind::RadialPlunge {
             match s.plunge_feed_mm_min {
                 Some(f) => p.positive("strategy.plunge_feed_mm_min", f),
-                None => p.push("strategy.plunge_feed_mm_min", "the radial-plunge cycle needs a plunge feed"),
+                None => p.push(
+                    "strategy.plunge_feed_mm_min",
+                    "the radial-plunge cycle needs a plunge feed",
+                ),
             }
             p.require(s.retract_mm > 1.0, "strategy.retract_mm", || {
                 format!(
@@ -308,7 +318,10 @@ impl Program {
                 let lead = match t.lead_angle_deg {
                     Some(g) if (0.0..15.0).contains(&g) => Some(g),
                     Some(g) => {
-                        p.push("tool.lead_angle_deg", format!("must be within 0 .. 15 deg (is {g})"));
+                        p.push(
+                            "tool.lead_angle_deg",
+                            format!("must be within 0 .. 15 deg (is {g})"),
+                        );
                         None
                     }
                     None => {
@@ -325,10 +338,14 @@ impl Program {
                 p.require(t.starts.is_none_or(|z0| z0 == 1), "tool.starts", || {
                     "a disk cutter has no starts: leave it out or set 1".into()
                 });
-                p.require(t.lead_angle_deg.is_none_or(|g| g == 0.0), "tool.lead_angle_deg", || {
-                    "a disk cutter has no lead angle: leave it out or set 0".into()
+                p.require(
+                    t.lead_angle_deg.is_none_or(|g| g == 0.0),
+                    "tool.lead_angle_deg",
+                    || "a disk cutter has no lead angle: leave it out or set 0".into(),
+                );
+                p.require(t.hand.is_none(), "tool.hand", || {
+                    "a disk cutter has no hand: leave it out".into()
                 });
-                p.require(t.hand.is_none(), "tool.hand", || "a disk cutter has no hand: leave it out".into());
                 // The disk is swivelled by the helix angle alone; its "hand" is irrelevant.
                 (Some(1), Some(0.0), Some(Hand::Right))
             }
@@ -344,7 +361,10 @@ impl Program {
             let height = match (c.height_mm, c.radius_mm) {
                 (Some(h), None) => {
                     p.require(h > 0.0 && h < b / 2.0, "workpiece.crowning.height_mm", || {
-                        format!("must be within 0 .. half the face width {} mm, exclusive (is {h})", b / 2.0)
+                        format!(
+                            "must be within 0 .. half the face width {} mm, exclusive (is {h})",
+                            b / 2.0
+                        )
                     });
                     h
                 }
@@ -366,19 +386,25 @@ impl Program {
             None => None,
             Some(points) => {
                 for (i, pt) in points.iter().enumerate() {
-                    p.require((0.0..=b).contains(&pt[0]), &format!("workpiece.contour[{i}]"), || {
-                        format!("face position {} mm is outside the face width 0 .. {b} mm", pt[0])
-                    });
+                    p.require(
+                        (0.0..=b).contains(&pt[0]),
+                        &format!("workpiece.contour[{i}]"),
+                        || format!("face position {} mm is outside the face width 0 .. {b} mm", pt[0]),
+                    );
                 }
                 match Contour::new(points) {
                     Ok(c) => Some(c),
                     Err(e) => {
                         ok = false;
                         let (key, msg) = match e {
-                            ContourError::TooFew => ("workpiece.contour".to_string(), "needs at least 2 points".to_string()),
-                            ContourError::TooMany => {
-                                ("workpiece.contour".to_string(), format!("has more than {MAX_CONTOUR_POINTS} points"))
-                            }
+                            ContourError::TooFew => (
+                                "workpiece.contour".to_string(),
+                                "needs at least 2 points".to_string(),
+                            ),
+                            ContourError::TooMany => (
+                                "workpiece.contour".to_string(),
+                                format!("has more than {MAX_CONTOUR_POINTS} points"),
+                            ),
                             ContourError::NotIncreasing { index } => (
                                 format!("workpiece.contour[{index}]"),
                                 "face positions must increase strictly from point to point".to_string(),
@@ -417,11 +443,15 @@ impl Program {
         }
         let sum: f64 = depths.iter().sum();
         let want = s.total_depth_mm - s.finish_allowance_mm;
-        p.require((sum - want).abs() <= DEPTH_SUM_TOLERANCE_MM, "strategy.rough_depths_mm", || {
-            format!(
-                "the rough depths add up to {sum} mm but total_depth_mm - finish_allowance_mm = {want} mm"
-            )
-        });
+        p.require(
+            (sum - want).abs() <= DEPTH_SUM_TOLERANCE_MM,
+            "strategy.rough_depths_mm",
+            || {
+                format!(
+                    "the rough depths add up to {sum} mm but total_depth_mm - finish_allowance_mm = {want} mm"
+                )
+            },
+        );
     }
 
     fn check_cutting_data(&self, p: &mut Problems, table: &str, d: &CuttingData) {
@@ -435,7 +465,10 @@ fn count(p: &mut Problems, key: &str, value: i64, lo: u32, hi: u32) -> Option<u3
     match u32::try_from(value) {
         Ok(v) if (lo..=hi).contains(&v) => Some(v),
         _ => {
-            p.push(key, format!("must be a whole number within {lo} .. {hi} (is {value})"));
+            p.push(
+                key,
+                format!("must be a whole number within {lo} .. {hi} (is {value})"),
+            );
             None
         }
     }

@@ -210,7 +210,11 @@ impl<'a> Planner<'a> {
             helix_hand: helical.then_some(w.helix_hand),
             pitch_diameter_mm: pitch_diameter,
             helix_lead_mm: helix_lead_mm(w.helix_deg, w.module_mm, self.c.teeth),
-            egb_ratio: if self.is_indexing() { 0.0 } else { egb_ratio(self.c.starts, self.c.teeth) },
+            egb_ratio: if self.is_indexing() {
+                0.0
+            } else {
+                egb_ratio(self.c.starts, self.c.teeth)
+            },
             differential_deg_per_mm: self.differential_deg_per_mm,
             hob_swivel_deg: self.swivel_signed_deg.abs(),
             hob_swivel_sense: match self.swivel_signed_deg {
@@ -226,7 +230,11 @@ impl<'a> Planner<'a> {
                     height_mm: c.height_mm,
                     radius_mm: c.radius_mm,
                 }),
-                contour: self.c.x_shape.contour.map(|c| c.points().iter().map(|&(f, x)| [f, x]).collect()),
+                contour: self
+                    .c
+                    .x_shape
+                    .contour
+                    .map(|c| c.points().iter().map(|&(f, x)| [f, x]).collect()),
                 x_moves_in_cut: self.c.x_shape.moves_x(),
             },
             single_pitch_tolerance_grade5_um: single_pitch_tolerance_um(pitch_diameter, w.module_mm, 5),
@@ -253,26 +261,40 @@ impl<'a> Planner<'a> {
             },
         );
         p.require(w.helix_deg <= lim.max_helix_deg, "workpiece.helix_deg", || {
-            format!("{} deg is above the machine's process.max_helix_deg = {}", w.helix_deg, lim.max_helix_deg)
+            format!(
+                "{} deg is above the machine's process.max_helix_deg = {}",
+                w.helix_deg, lim.max_helix_deg
+            )
         });
         p.require(self.c.starts <= lim.max_hob_starts, "tool.starts", || {
-            format!("{} starts is above the machine's process.max_hob_starts = {}", self.c.starts, lim.max_hob_starts)
+            format!(
+                "{} starts is above the machine's process.max_hob_starts = {}",
+                self.c.starts, lim.max_hob_starts
+            )
         });
         let s = &prog.strategy;
-        p.require(s.total_depth_mm < w.outside_diameter_mm / 2.0, "strategy.total_depth_mm", || {
-            format!(
-                "{} mm reaches the blank's axis (outside radius {} mm)",
-                s.total_depth_mm,
-                w.outside_diameter_mm / 2.0
-            )
-        });
-        p.require(s.total_depth_mm < t.outside_diameter_mm / 2.0, "strategy.total_depth_mm", || {
-            format!(
-                "{} mm is deeper than the tool's radius {} mm",
-                s.total_depth_mm,
-                t.outside_diameter_mm / 2.0
-            )
-        });
+        p.require(
+            s.total_depth_mm < w.outside_diameter_mm / 2.0,
+            "strategy.total_depth_mm",
+            || {
+                format!(
+                    "{} mm reaches the blank's axis (outside radius {} mm)",
+                    s.total_depth_mm,
+                    w.outside_diameter_mm / 2.0
+                )
+            },
+        );
+        p.require(
+            s.total_depth_mm < t.outside_diameter_mm / 2.0,
+            "strategy.total_depth_mm",
+            || {
+                format!(
+                    "{} mm is deeper than the tool's radius {} mm",
+                    s.total_depth_mm,
+                    t.outside_diameter_mm / 2.0
+                )
+            },
+        );
         let x = &self.m.x;
         let x_safe = self.x_safe_mm();
         p.require(x_safe <= x.soft_limit_max_mm, "strategy.retract_mm", || {
@@ -281,9 +303,15 @@ impl<'a> Planner<'a> {
                 x.soft_limit_max_mm
             )
         });
-        if let Some(f) = s.plunge_feed_mm_min.filter(|_| prog.cycle.kind == CycleKind::RadialPlunge) {
+        if let Some(f) = s
+            .plunge_feed_mm_min
+            .filter(|_| prog.cycle.kind == CycleKind::RadialPlunge)
+        {
             p.require(f <= x.max_feed_mm_min, "strategy.plunge_feed_mm_min", || {
-                format!("{f} mm/min is above the X axis' x.max_feed_mm_min = {}", x.max_feed_mm_min)
+                format!(
+                    "{f} mm/min is above the X axis' x.max_feed_mm_min = {}",
+                    x.max_feed_mm_min
+                )
             });
         }
     }
@@ -351,7 +379,10 @@ impl<'a> Planner<'a> {
         let key_f = format!("{}.feed_mm_per_rev", spec.data_key);
         let v_c = spec.data.cutting_speed_m_min;
         p.require(v_c <= m.process.max_cutting_speed_m_min, &key_vc, || {
-            format!("{v_c} m/min is above the machine's process.max_cutting_speed_m_min = {}", m.process.max_cutting_speed_m_min)
+            format!(
+                "{v_c} m/min is above the machine's process.max_cutting_speed_m_min = {}",
+                m.process.max_cutting_speed_m_min
+            )
         });
         let n_c = spindle_rpm(v_c, t.outside_diameter_mm);
         p.require(n_c <= m.spindle.max_spindle_rpm, &key_vc, || {
@@ -378,21 +409,33 @@ impl<'a> Planner<'a> {
             )
         });
         p.require(v_f <= m.y.max_feed_mm_min, &key_f, || {
-            format!("gives an axial feed of {v_f:.1} mm/min, above the machine's y.max_feed_mm_min = {}", m.y.max_feed_mm_min)
+            format!(
+                "gives an axial feed of {v_f:.1} mm/min, above the machine's y.max_feed_mm_min = {}",
+                m.y.max_feed_mm_min
+            )
         });
 
         let x_mm = self.x_at_depth_mm(spec.depth_mm);
         let deepest = x_mm + self.c.x_shape.min_offset_mm();
-        p.require(deepest >= m.x.soft_limit_min_mm, "strategy.total_depth_mm", || {
-            format!(
-                "the {:?} pass needs X = {deepest:.3} mm, below the soft limit x.soft_limit_min_mm = {}",
-                spec.kind, m.x.soft_limit_min_mm
-            )
-        });
+        p.require(
+            deepest >= m.x.soft_limit_min_mm,
+            "strategy.total_depth_mm",
+            || {
+                format!(
+                    "the {:?} pass needs X = {deepest:.3} mm, below the soft limit x.soft_limit_min_mm = {}",
+                    spec.kind, m.x.soft_limit_min_mm
+                )
+            },
+        );
 
         let approach = match prog.cycle.kind {
             CycleKind::RadialPlunge => 0.0,
-            _ => approach_mm(spec.depth_mm, t.outside_diameter_mm, t.length_mm, self.swivel_signed_deg),
+            _ => approach_mm(
+                spec.depth_mm,
+                t.outside_diameter_mm,
+                t.length_mm,
+                self.swivel_signed_deg,
+            ),
         };
         let bottom = w.height_above_table_mm;
         let top = bottom + w.face_width_mm;
@@ -410,8 +453,16 @@ impl<'a> Planner<'a> {
         }
 
         let drive = m.spindle.drive();
-        let stroke_s = if v_f > 0.0 { (y_end - y_start).abs() / v_f * 60.0 } else { 0.0 };
-        let strokes = if self.is_indexing() { f64::from(self.c.teeth) } else { 1.0 };
+        let stroke_s = if v_f > 0.0 {
+            (y_end - y_start).abs() / v_f * 60.0
+        } else {
+            0.0
+        };
+        let strokes = if self.is_indexing() {
+            f64::from(self.c.teeth)
+        } else {
+            1.0
+        };
         let cut_time_s = stroke_s * strokes;
         let mut pass = Pass {
             kind: spec.kind,
@@ -452,7 +503,11 @@ impl<'a> Planner<'a> {
         let prog = self.program();
         let x_in = self.x_safe_mm() - pass.x_mm;
         let stroke = (pass.y_end_mm - pass.y_start_mm).abs();
-        let stroke_s = if pass.axial_feed_mm_min > 0.0 { stroke / pass.axial_feed_mm_min * 60.0 } else { 0.0 };
+        let stroke_s = if pass.axial_feed_mm_min > 0.0 {
+            stroke / pass.axial_feed_mm_min * 60.0
+        } else {
+            0.0
+        };
         match prog.cycle.kind {
             CycleKind::RadialAxial => self.x_rapid_s(x_in) + stroke_s + self.x_rapid_s(x_in),
             CycleKind::RadialPlunge => {
@@ -460,7 +515,11 @@ impl<'a> Planner<'a> {
                 let feed_mm_min = prog.strategy.plunge_feed_mm_min.unwrap_or(f64::INFINITY);
                 let rapid = prog.strategy.retract_mm - 1.0;
                 let plunge_s = (1.0 + pass.depth_mm) / feed_mm_min * 60.0;
-                let turn_s = if table_base_rpm > 0.0 { 60.0 / table_base_rpm } else { 0.0 };
+                let turn_s = if table_base_rpm > 0.0 {
+                    60.0 / table_base_rpm
+                } else {
+                    0.0
+                };
                 self.x_rapid_s(rapid) + plunge_s + turn_s + stroke_s + self.x_rapid_s(x_in)
             }
             CycleKind::ToothByTooth => {
@@ -480,7 +539,8 @@ impl<'a> Planner<'a> {
     fn total_time_s(&self, passes: &[Pass]) -> f64 {
         let drive = self.m.spindle.drive();
         let ramp_s = |from_rpm: f64, to_rpm: f64| {
-            (drive.vfd_hz(to_rpm) - drive.vfd_hz(from_rpm)).abs() / drive.vfd_hz_at_full_scale * self.m.spindle.vfd_ramp_s
+            (drive.vfd_hz(to_rpm) - drive.vfd_hz(from_rpm)).abs() / drive.vfd_hz_at_full_scale
+                * self.m.spindle.vfd_ramp_s
         };
         let Some(first) = passes.first() else { return 0.0 };
         let mut total = ramp_s(0.0, first.spindle_rpm);
@@ -515,7 +575,10 @@ impl<'a> Planner<'a> {
             ));
         }
         if kind == ToolKind::Disk && prog.is_helical() {
-            out.push("a disk cutter on a helical gear: the profile is exact only for the helix it was ground for".into());
+            out.push(
+                "a disk cutter on a helical gear: the profile is exact only for the helix it was ground for"
+                    .into(),
+            );
         }
         out
     }

@@ -50,13 +50,20 @@ fn a_bad_value_is_named_with_its_position() {
     assert!(p.message.contains("6000.0 motor rpm"), "{}", p.message);
     let line = src.lines().position(|l| l.starts_with("max_table_rpm")).unwrap() + 1;
     assert_eq!(p.position.map(|p| p.line), Some(line));
-    assert!(err.to_string().contains(&format!("machine.toml:{line}:1: table.max_table_rpm")), "{err}");
+    assert!(
+        err.to_string()
+            .contains(&format!("machine.toml:{line}:1: table.max_table_rpm")),
+        "{err}"
+    );
 }
 
 #[test]
 fn all_problems_are_reported_at_once() {
     let src = shipped_src()
-        .replace("screw_lead_mm = 10.0\nmotor_max_rpm = 4000.0\nsoft_limit_min_mm = 25.0", "screw_lead_mm = -1.0\nmotor_max_rpm = 4000.0\nsoft_limit_min_mm = 25.0")
+        .replace(
+            "screw_lead_mm = 10.0\nmotor_max_rpm = 4000.0\nsoft_limit_min_mm = 25.0",
+            "screw_lead_mm = -1.0\nmotor_max_rpm = 4000.0\nsoft_limit_min_mm = 25.0",
+        )
         .replace("interval_travel_m = 5.0", "interval_travel_m = 0.0");
     let err = load_src(&src).unwrap_err();
     let keys: Vec<&str> = err.problems().iter().map(|p| p.key.as_str()).collect();

@@ -1,0 +1,200 @@
+//! Runs the real `hob` binary on good and bad programs: exit status and message.
+#![allow(clippy::unwrap_used)]
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+fn root() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../..")
+}
+
+fn hob(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_hob"))
+        .args(args)
+        .current_dir(root())
+        .output()
+        .expect("run hob")
+}
+
+fn text(b: &[u8]) -> String {
+    String::from_utf8_lossy(b).into_owned()
+}
+
+/// Writes `src` to a fresh temporary program file.
+fn temp_program(name: &str, src: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("hob-cli-test-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).expect("temp dir");
+    let path = dir.join(name);
+    std::fs::write(&path, src).expect("write program");
+    path
+}
+
+fn spur_src() -> String {
+    std::fs::read_to_string(root().join("config/programs/spur-z17-m5.toml")).expect("example")
+}
+
+#[test]
+fn plan_json_has_the_promised_fields() {
+    let out = hob(&["plan", "config/programs/spur-z17-m5.toml", "--json"]);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).expect("json");
+    assert!((v["egb_ratio"].as_f64().unwrap() - 1.0 / 17.0).abs() < 1e-12);
+    assert_eq!(v["differential_deg_per_mm"].as_f64(), Some(0.0));
+    assert!((v["hob_swivel_deg"].as_f64().unwrap() - 3.3).abs() < 1e-12);
+    let passes = v["passes"].as_array().expect("passes");
+    assert_eq!(passes.len(), 3);
+    for key in [
+        "kind",
+        "depth_mm",
+        "x_mm",
+        "spindle_rpm",
+        "table_rpm",
+        "axial_feed_mm_min",
+        "vfd_hz",
+        "analog_out_v",
+        "y_start_mm",
+        "y_end_mm",
+        "cut_time_s",
+    ] {
+        assert!(passes.iter().all(|p| !p[key].is_null()), "missing {key}");
+    }
+    assert_eq!(passes[0]["kind"], "rough");
+    assert_eq!(passes[2]["kind"], "finish");
+    assert!((passes[0]["spindle_rpm"].as_f64().unwrap() - 119.366).abs() < 1e-3);
+    assert!(v["total_time_s"].as_f64().unwrap() > 0.0);
+}
+
+#[test]
+fn plan_text_is_readable() {
+    let out = hob(&["plan", "config/programs/helical-z31-m3.toml"]);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    let s = text(&out.stdout);
+    assert!(s.contains("helical right hand, beta 20 deg"), "{s}");
+    assert!(s.contains("hob swivel 17.200 deg"), "{s}");
+    assert!(s.contains("total cycle time"), "{s}");
+}
+
+#[test]
+fn check_accepts_every_example() {
+    for name in [
+        "spur-z17-m5",
+        "helical-z31-m3",
+        "spline-z12-m2-plunge",
+        "tooth-by-tooth-z24-m8",
+    ] {
+        let out = hob(&["check", &format!("config/programs/{name}.toml")]);
+        assert!(out.status.success(), "{name}: {}", text(&out.stderr));
+        assert!(text(&out.stdout).contains(": ok on"), "{name}");
+    }
+}
+
+#[test]
+fn check_without_a_program_checks_the_machine() {
+    let out = hob(&["check", "--machine", "config/machine.toml"]);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    assert!(text(&out.stdout).contains("config/machine.toml: ok"));
+}
+
+fn assert_refused(args: &[&str], needles: &[&str]) {
+    let out = hob(args);
+    assert_eq!(
+        out.status.code(),
+        Some(2),
+        "stdout {} stderr {}",
+        text(&out.stdout),
+        text(&out.stderr)
+    );
+    let err = text(&out.stderr);
+    for n in needles {
+        assert!(err.contains(n), "missing {n:?} in: {err}");
+    }
+    assert!(out.stdout.is_empty(), "nothing planned on a refusal");
+}
+
+#[test]
+fn refuses_a_table_speed_above_the_machine_naming_field_and_limit() {
+    let p = temp_program("fast-table.toml", &spur_src().replace("teeth = 17", "teeth = 5"));
+    let p = p.to_str().unwrap();
+    assert_refused(
+        &["plan", p],
+        &["strategy.rough.cutting_speed_m_min", "table.max_table_rpm = 14.1"],
+    );
+    assert_refused(&["check", p], &["strategy.rough.cutting_speed_m_min"]);
+}
+
+#[test]
+fn refuses_a_hob_of_another_module() {
+    let src = spur_src().replace(
+        "[tool]\nkind = \"hob\"\nmodule_mm = 5.0",
+        "[tool]\nkind = \"hob\"\nmodule_mm = 4.0",
+    );
+    let p = temp_program("module.toml", &src);
+    assert_refused(
+        &["plan", p.to_str().unwrap(), "--json"],
+        &["tool.module_mm", "workpiece.module_mm = 5"],
+    );
+}
+
+#[test]
+fn refuses_an_allowance_not_smaller_than_the_depth() {
+    let src = spur_src().replace("finish_allowance_mm = 0.5", "finish_allowance_mm = 12.0");
+    let p = temp_program("allowance.toml", &src);
+    assert_refused(
+        &["check", p.to_str().unwrap()],
+        &["strategy.finish_allowance_mm", "total_depth_mm = 11.25"],
+    );
+}
+
+#[test]
+fn refuses_rough_depths_that_do_not_add_up() {
+    let p = temp_program("depths.toml", &spur_src().replace("[6.0, 4.75]", "[6.0, 5.0]"));
+    assert_refused(
+        &["check", p.to_str().unwrap()],
+        &["strategy.rough_depths_mm", "11 mm", "10.75 mm"],
+    );
+}
+
+#[test]
+fn refuses_zero_teeth_with_the_position() {
+    let src = spur_src().replace("teeth = 17", "teeth = 0");
+    let line = src.lines().position(|l| l.starts_with("teeth")).unwrap() + 1;
+    let p = temp_program("teeth.toml", &src);
+    assert_refused(
+        &["check", p.to_str().unwrap()],
+        &[&format!("teeth.toml:{line}:1: workpiece.teeth"), "(is 0)"],
+    );
+}
+
+#[test]
+fn refuses_a_typo() {
+    let p = temp_program("typo.toml", &spur_src().replace("retract_mm", "retrakt_mm"));
+    assert_refused(
+        &["plan", p.to_str().unwrap()],
+        &["unknown field `retrakt_mm`", "typo.toml:"],
+    );
+}
+
+#[test]
+fn refuses_a_broken_machine_file() {
+    let machine = std::fs::read_to_string(root().join("config/machine.toml"))
+        .unwrap()
+        .replace("max_table_rpm = 14.1", "max_table_rpm = 60.0");
+    let m = temp_program("machine.toml", &machine);
+    assert_refused(
+        &[
+            "plan",
+            "config/programs/spur-z17-m5.toml",
+            "--machine",
+            m.to_str().unwrap(),
+        ],
+        &["machine.toml:", "table.max_table_rpm", "4500.0 motor rpm"],
+    );
+}
+
+#[test]
+fn a_missing_file_is_refused() {
+    assert_refused(
+        &["check", "config/programs/does-not-exist.toml"],
+        &["does-not-exist.toml: cannot read"],
+    );
+}
