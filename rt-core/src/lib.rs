@@ -18,6 +18,7 @@
 //! ```
 
 pub mod config;
+pub mod control;
 pub mod gearing;
 pub mod job;
 pub mod planner;

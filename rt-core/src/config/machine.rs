@@ -39,6 +39,7 @@ pub enum Active {
 pub struct MachineConfig {
     pub machine: Identity,
     pub control: ControlConfig,
+    pub gearbox: GearboxConfig,
     pub can: CanConfig,
     pub spindle: SpindleConfig,
     pub table: TableConfig,
@@ -61,6 +62,40 @@ pub struct Identity {
 pub struct ControlConfig {
     /// Control cycle and CANopen SYNC period.
     pub cycle_period_us: u32,
+    /// From the SYNC at which a target is applied to the instant the drive's position
+    /// follows it (CSP interpolation over one period plus the servo's own lag). The
+    /// spindle angle is predicted one cycle plus this far ahead.
+    pub drive_delay_us: u32,
+    /// Bandwidth of the spindle angle/speed/acceleration observer.
+    pub spindle_observer_bandwidth_hz: f64,
+    /// Spindle speed within this share of the set speed counts as reached.
+    pub spindle_speed_tolerance: f64,
+    /// Time the spindle may take to reach its speed before it is a fault.
+    pub spindle_start_timeout_s: f64,
+    /// The X clamp must report closed (or open) within this time.
+    pub x_clamp_timeout_s: f64,
+}
+
+/// The electronic gearbox: engagement, synchronism windows, cross-coupling.
+#[derive(Debug, Clone, PartialEq, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct GearboxConfig {
+    /// Time to ramp the coupling in (or out) while the spindle runs.
+    pub engage_time_s: f64,
+    /// The feed into the cut waits until the synchronisation error is inside this window.
+    pub fine_window_arcsec: f64,
+    /// Leaving this window in the cut is a fault.
+    pub coarse_window_arcsec: f64,
+    /// Cross-coupling compensation of the synchronisation error on the table command.
+    pub ccc_enabled: bool,
+    /// Proportional gain (table correction per arcsec of error).
+    pub ccc_kp: f64,
+    /// Integral gain, 1/s.
+    pub ccc_ki_per_s: f64,
+    /// Bound of the correction.
+    pub ccc_limit_arcsec: f64,
+    /// Table speed of the phase correction that brings the table onto the recorded tooth gap.
+    pub phase_sync_speed_deg_s: f64,
 }
 
 #[derive(Debug, Clone, PartialEq, Deserialize, Serialize)]
@@ -362,6 +397,26 @@ impl MachineConfig {
                 )
             },
         );
+        let c = &self.control;
+        p.require(c.drive_delay_us <= 10 * c.cycle_period_us, "control.drive_delay_us", || {
+            format!("must be at most 10 cycles ({} us) (is {})", 10 * c.cycle_period_us, c.drive_delay_us)
+        });
+        let nyquist_hz = 1e6 / f64::from(c.cycle_period_us.max(1)) / 2.0;
+        p.within("control.spindle_observer_bandwidth_hz", c.spindle_observer_bandwidth_hz, 0.1, nyquist_hz / 2.0, "Hz");
+        p.within("control.spindle_speed_tolerance", c.spindle_speed_tolerance, 0.001, 0.5, "");
+        p.positive("control.spindle_start_timeout_s", c.spindle_start_timeout_s);
+        p.positive("control.x_clamp_timeout_s", c.x_clamp_timeout_s);
+        let g = &self.gearbox;
+        p.positive("gearbox.engage_time_s", g.engage_time_s);
+        p.positive("gearbox.fine_window_arcsec", g.fine_window_arcsec);
+        p.require(g.coarse_window_arcsec > g.fine_window_arcsec, "gearbox.coarse_window_arcsec", || {
+            format!("must be wider than gearbox.fine_window_arcsec = {} (is {})", g.fine_window_arcsec, g.coarse_window_arcsec)
+        });
+        p.non_negative("gearbox.ccc_kp", g.ccc_kp);
+        p.require(g.ccc_kp < 1.0, "gearbox.ccc_kp", || format!("must be below 1 for a stable correction (is {})", g.ccc_kp));
+        p.non_negative("gearbox.ccc_ki_per_s", g.ccc_ki_per_s);
+        p.non_negative("gearbox.ccc_limit_arcsec", g.ccc_limit_arcsec);
+        p.positive("gearbox.phase_sync_speed_deg_s", g.phase_sync_speed_deg_s);
         p.require(!self.can.interface.trim().is_empty(), "can.interface", || {
             "must not be empty".into()
         });

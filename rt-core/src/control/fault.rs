@@ -1,0 +1,108 @@
+//! Faults and refusals on the real-time path: `Copy` enums with fields, no strings.
+
+use serde::Serialize;
+
+/// A machine axis.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Axis {
+    B,
+    X,
+    Y,
+}
+
+impl Axis {
+    pub fn name(self) -> &'static str {
+        match self {
+            Axis::B => "B",
+            Axis::X => "X",
+            Axis::Y => "Y",
+        }
+    }
+}
+
+/// Which end of an axis.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum End {
+    Min,
+    Max,
+}
+
+/// Something that stops the machine.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+#[serde(tag = "fault", rename_all = "kebab-case")]
+pub enum Fault {
+    /// The safety relay opened the chain (e-stop, hardware limit, VFD fault relay).
+    SafetyChainOpen,
+    /// E-stop button pressed.
+    EmergencyStop,
+    /// A hardware limit switch.
+    HardwareLimit { axis: Axis, end: End },
+    /// A commanded position outside the soft limits.
+    SoftLimit { axis: Axis, position: f64 },
+    /// Actual position too far from the command (mm, or deg for B).
+    FollowingError { axis: Axis, error: f64 },
+    /// The drive reports a fault.
+    DriveFault { axis: Axis },
+    /// The VFD's fault relay.
+    VfdFault,
+    /// Synchronisation error left the coarse window in the cut (arcsec).
+    SyncLost { error_arcsec: f64 },
+    /// The spindle did not reach its speed in time.
+    SpindleSpeed { set_rpm: f64, actual_rpm: f64 },
+    /// The lube pressure switch did not confirm in time.
+    LubeTimeout,
+    /// The X clamp did not report in time.
+    ClampTimeout,
+    /// A drive's feedback did not arrive (bus).
+    FeedbackLost { axis: Axis },
+}
+
+impl Fault {
+    /// Whether X can still be retracted after this fault.
+    pub fn x_can_move(&self) -> bool {
+        !matches!(
+            self,
+            Fault::DriveFault { axis: Axis::X }
+                | Fault::FollowingError { axis: Axis::X, .. }
+                | Fault::FeedbackLost { axis: Axis::X }
+                | Fault::HardwareLimit { axis: Axis::X, end: End::Max }
+                | Fault::SoftLimit { axis: Axis::X, .. }
+        )
+    }
+
+    /// Whether the table can still follow the spindle during the retract.
+    pub fn table_can_follow(&self) -> bool {
+        !matches!(
+            self,
+            Fault::DriveFault { axis: Axis::B }
+                | Fault::FollowingError { axis: Axis::B, .. }
+                | Fault::FeedbackLost { axis: Axis::B }
+                | Fault::SyncLost { .. }
+        )
+    }
+}
+
+/// Why a command was refused. Nothing changed.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Refusal {
+    NoProgram,
+    /// A cycle is running; stop it first.
+    CycleRunning,
+    /// The machine is in fault; reset first.
+    Faulted,
+    /// Power-up (lubrication, safety chain) not finished.
+    NotReady,
+    /// Nothing to hold, resume, stop or reset.
+    NothingToDo,
+    /// The move would leave the soft limits.
+    OutsideSoftLimits,
+    /// The program has no single-mode depth.
+    NoSingleDepth,
+    /// The value is not a finite number in range.
+    BadValue,
+    /// The safety chain is open: close it (reset button) first.
+    SafetyChainOpen,
+}
