@@ -4,6 +4,7 @@
 //! arguments: the message names the file, position, key and limit); 1 anything else.
 
 mod render;
+mod simulate;
 
 use clap::{Parser, Subcommand};
 use hob_rt_core::config::LoadError;
@@ -35,6 +36,29 @@ enum Command {
         #[arg(long)]
         json: bool,
     },
+    /// Run a program against the simulated machine; write DIR/trace.csv and DIR/summary.json.
+    Simulate {
+        /// Program file (TOML).
+        program: PathBuf,
+        /// Machine configuration [default: config/machine.toml, then /etc/hob/machine.toml].
+        #[arg(long, value_name = "FILE")]
+        machine: Option<PathBuf>,
+        /// Plant (simulated machine) parameters.
+        #[arg(long, value_name = "FILE", default_value = "config/plant.toml")]
+        plant: PathBuf,
+        /// Cross-coupling compensation off.
+        #[arg(long)]
+        no_ccc: bool,
+        /// Follow the last measured spindle angle instead of the predicted one.
+        #[arg(long)]
+        no_predictor: bool,
+        /// Run the single-mode pass instead of the automatic cycle.
+        #[arg(long)]
+        single: bool,
+        /// Output directory.
+        #[arg(long, value_name = "DIR", default_value = "out/simulate")]
+        out: PathBuf,
+    },
     /// Validate a program against the machine (and the machine configuration itself).
     Check {
         /// Program file (TOML); without it only the machine configuration is checked.
@@ -49,6 +73,8 @@ enum Command {
 enum Failure {
     Refused(LoadError),
     Other(String),
+    /// Already reported.
+    Exit(u8),
 }
 
 fn main() -> ExitCode {
@@ -63,6 +89,7 @@ fn main() -> ExitCode {
             eprintln!("hob: error: {e}");
             ExitCode::FAILURE
         }
+        Err(Failure::Exit(code)) => ExitCode::from(code),
     }
 }
 
@@ -80,6 +107,41 @@ fn run(command: Command) -> Result<(), Failure> {
                 emit(&format!("{text}\n"))
             } else {
                 emit(&render::plan_text(&program, &plan))
+            }
+        }
+        Command::Simulate {
+            program,
+            machine,
+            plant,
+            no_ccc,
+            no_predictor,
+            single,
+            out,
+        } => {
+            let machine = load_machine(machine.as_deref())?;
+            let options = hob_plant::sim::SimOptions {
+                cross_coupling: !no_ccc,
+                angle_source: if no_predictor {
+                    hob_rt_core::control::SpindleAngleSource::LastMeasured
+                } else {
+                    hob_rt_core::control::SpindleAngleSource::Predicted
+                },
+                single,
+                ..Default::default()
+            };
+            let args = simulate::Args {
+                program: &program,
+                plant: &plant,
+                out: &out,
+                options,
+            };
+            match simulate::run(&machine, &args) {
+                Ok(line) => emit(&line),
+                Err((true, e)) => {
+                    eprintln!("hob: refused: {e}");
+                    Err(Failure::Exit(2))
+                }
+                Err((false, e)) => Err(Failure::Other(e)),
             }
         }
         Command::Check { program, machine } => {

@@ -118,6 +118,12 @@ impl Gearbox {
         *self = Self::new(params, table);
     }
 
+    /// Turns cross-coupling on or off, keeping everything else.
+    pub fn set_cross_coupling(&mut self, on: bool) {
+        self.params.ccc_enabled = on;
+        self.ccc_integral_deg = 0.0;
+    }
+
     pub fn params(&self) -> &GearboxParams {
         &self.params
     }
@@ -128,6 +134,11 @@ impl Gearbox {
 
     pub fn status(&self) -> SyncStatus {
         self.status
+    }
+
+    /// The phase the table holds while synchronised (recorded + n pitches).
+    pub fn phase_target_deg(&self) -> Option<f64> {
+        self.phase_target_deg
     }
 
     pub fn recorded_phase_deg(&self) -> Option<f64> {

@@ -401,10 +401,7 @@ impl Controller {
     }
 
     fn spindle_at_speed(&self) -> bool {
-        let set = self.seq.spindle_set_rpm;
-        let sign = self.program.map_or(1.0, |p| p.spindle_sign);
-        let actual = self.m.spindle_speed_deg_s / 6.0 * sign;
-        (actual - set).abs() <= self.p.spindle_tolerance * set.max(1.0)
+        self.spindle_at_speed_s >= super::SPINDLE_SETTLE_S
     }
 
     fn spindle_stopped(&self) -> bool {

@@ -1,0 +1,141 @@
+//! The plant's parameters (`config/plant.toml`), validated like every configuration.
+
+use hob_rt_core::config::{LoadError, Problems, read_toml};
+use serde::{Deserialize, Serialize};
+use std::path::Path;
+
+#[derive(Debug, Clone, PartialEq, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct PlantConfig {
+    pub simulation: SimulationConfig,
+    pub spindle: SpindlePlant,
+    pub table: TablePlant,
+    pub x: LinearPlant,
+    pub y: LinearPlant,
+    pub peripherals: PeripheralPlant,
+}
+
+#[derive(Debug, Clone, PartialEq, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct SimulationConfig {
+    pub inner_step_us: u32,
+    pub sync_jitter_us: f64,
+    pub seed: u64,
+    pub safety_stop_delay_s: f64,
+}
+
+#[derive(Debug, Clone, PartialEq, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct SpindlePlant {
+    pub motor_pole_pairs: u32,
+    pub rated_torque_nm: f64,
+    pub rated_slip_rpm: f64,
+    pub breakdown_torque_nm: f64,
+    pub inertia_at_spindle_kg_m2: f64,
+    pub friction_at_spindle_nm: f64,
+    pub cutting_torque_nm: f64,
+    pub cutting_ripple: f64,
+    pub full_depth_mm: f64,
+}
+
+#[derive(Debug, Clone, PartialEq, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct TablePlant {
+    pub motor_inertia_kg_m2: f64,
+    pub table_inertia_kg_m2: f64,
+    pub work_link_t1_s: f64,
+    pub work_link_t2_s: f64,
+    pub work_link_stiffness_nm_rad: f64,
+    pub peak_motor_torque_nm: f64,
+    pub cut_force_share: f64,
+    pub velocity_loop_hz: f64,
+    pub position_loop_hz: f64,
+    pub velocity_feed_forward: f64,
+    pub friction_motor_nm: f64,
+}
+
+#[derive(Debug, Clone, PartialEq, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct LinearPlant {
+    pub motor_inertia_kg_m2: f64,
+    pub moving_mass_kg: f64,
+    pub friction_coefficient: f64,
+    pub peak_motor_torque_nm: f64,
+    pub velocity_loop_hz: f64,
+    pub position_loop_hz: f64,
+    pub velocity_feed_forward: f64,
+    pub hardware_limit_margin_mm: f64,
+    pub clamp_delay_s: f64,
+}
+
+#[derive(Debug, Clone, PartialEq, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct PeripheralPlant {
+    pub lube_pressure_delay_s: f64,
+}
+
+impl PlantConfig {
+    pub fn load(file: &Path) -> Result<Self, LoadError> {
+        let (config, src): (Self, String) = read_toml(file)?;
+        let mut p = Problems::new();
+        config.validate(&mut p);
+        p.into_result(file, &src)?;
+        Ok(config)
+    }
+
+    pub fn validate(&self, p: &mut Problems) {
+        let s = &self.simulation;
+        p.require((10..=1000).contains(&s.inner_step_us), "simulation.inner_step_us", || {
+            format!("must be within 10 .. 1000 us (at least 1 kHz physics) (is {})", s.inner_step_us)
+        });
+        p.within("simulation.sync_jitter_us", s.sync_jitter_us, 0.0, 200.0, "us");
+        p.non_negative("simulation.safety_stop_delay_s", s.safety_stop_delay_s);
+        let sp = &self.spindle;
+        p.require(sp.motor_pole_pairs >= 1, "spindle.motor_pole_pairs", || "must be at least 1".into());
+        for (k, v) in [
+            ("spindle.rated_torque_nm", sp.rated_torque_nm),
+            ("spindle.rated_slip_rpm", sp.rated_slip_rpm),
+            ("spindle.breakdown_torque_nm", sp.breakdown_torque_nm),
+            ("spindle.inertia_at_spindle_kg_m2", sp.inertia_at_spindle_kg_m2),
+            ("spindle.full_depth_mm", sp.full_depth_mm),
+        ] {
+            p.positive(k, v);
+        }
+        p.non_negative("spindle.friction_at_spindle_nm", sp.friction_at_spindle_nm);
+        p.non_negative("spindle.cutting_torque_nm", sp.cutting_torque_nm);
+        p.within("spindle.cutting_ripple", sp.cutting_ripple, 0.0, 1.0, "");
+        let t = &self.table;
+        for (k, v) in [
+            ("table.motor_inertia_kg_m2", t.motor_inertia_kg_m2),
+            ("table.table_inertia_kg_m2", t.table_inertia_kg_m2),
+            ("table.work_link_t1_s", t.work_link_t1_s),
+            ("table.work_link_stiffness_nm_rad", t.work_link_stiffness_nm_rad),
+            ("table.peak_motor_torque_nm", t.peak_motor_torque_nm),
+            ("table.velocity_loop_hz", t.velocity_loop_hz),
+            ("table.position_loop_hz", t.position_loop_hz),
+        ] {
+            p.positive(k, v);
+        }
+        p.non_negative("table.work_link_t2_s", t.work_link_t2_s);
+        p.within("table.cut_force_share", t.cut_force_share, 0.0, 1.0, "");
+        p.within("table.velocity_feed_forward", t.velocity_feed_forward, 0.0, 1.0, "");
+        p.non_negative("table.friction_motor_nm", t.friction_motor_nm);
+        for (axis, a) in [("x", &self.x), ("y", &self.y)] {
+            let k = |n: &str| format!("{axis}.{n}");
+            for (n, v) in [
+                ("motor_inertia_kg_m2", a.motor_inertia_kg_m2),
+                ("moving_mass_kg", a.moving_mass_kg),
+                ("peak_motor_torque_nm", a.peak_motor_torque_nm),
+                ("velocity_loop_hz", a.velocity_loop_hz),
+                ("position_loop_hz", a.position_loop_hz),
+                ("hardware_limit_margin_mm", a.hardware_limit_margin_mm),
+            ] {
+                p.positive(&k(n), v);
+            }
+            p.within(&k("friction_coefficient"), a.friction_coefficient, 0.0, 1.0, "");
+            p.within(&k("velocity_feed_forward"), a.velocity_feed_forward, 0.0, 1.0, "");
+            p.non_negative(&k("clamp_delay_s"), a.clamp_delay_s);
+        }
+        p.non_negative("peripherals.lube_pressure_delay_s", self.peripherals.lube_pressure_delay_s);
+    }
+}

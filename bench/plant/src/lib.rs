@@ -1,0 +1,19 @@
+//! # hob-plant: the simulated hobbing machine
+//!
+//! The physics the control core is closed against before any bus or process exists, and
+//! reused later by the virtual machine on the CAN bus:
+//! - [`spindle`]: VFD ramp, induction motor with slip, cutting torque at the gash frequency;
+//! - [`servo`]: CSP drives (targets at SYNC, interpolation), P/PI cascade with velocity
+//!   feed-forward, torque limit, encoder quantisation;
+//! - [`worklink`]: the work's torsional deflection under the cut (seed 003, about 20 Hz);
+//! - [`machine`]: the whole machine with its I/O (limit switches, lube pressure switch,
+//!   clamp, safety chain with a stop-category-1 delay) and fault injection;
+//! - [`sim`]: core against plant, faster than real time, with SYNC jitter; traces and
+//!   the accuracy summary of `hob simulate`.
+
+pub mod config;
+pub mod machine;
+pub mod servo;
+pub mod sim;
+pub mod spindle;
+pub mod worklink;

@@ -1,0 +1,380 @@
+//! The whole simulated machine: spindle, three servo axes, the I/O coupler's signals,
+//! the safety chain, and fault injection. Exchanges with the controller exactly what the
+//! bus carries: raw counts, drive status, raw I/O images, the analog voltage.
+
+use crate::config::PlantConfig;
+use crate::servo::{Servo, ServoParams};
+use crate::worklink::WorkLink;
+use crate::spindle::Spindle;
+use hob_rt_core::config::machine::MachineConfig;
+use hob_rt_core::control::fault::{Axis, End};
+use hob_rt_core::control::io::{Inputs, IoBits, Outputs};
+use hob_rt_core::control::{AxisFeedback, ControlParams, CycleInputs, CycleOutputs};
+use std::f64::consts::TAU;
+
+const G: f64 = 9.81;
+/// Time the simulated operator takes to reset the safety relay once its causes are gone.
+const SECONDS_FOR_OPERATOR_RESET: f64 = 0.5;
+
+/// What the plant must know of the job to load the spindle and the table in the cut.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Workpiece {
+    /// X with the tool tip on the blank's outside diameter.
+    pub x_surface_mm: f64,
+    pub face_bottom_mm: f64,
+    pub face_top_mm: f64,
+    pub tool_diameter_mm: f64,
+    pub pitch_radius_mm: f64,
+}
+
+/// A fault to inject.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Injection {
+    DriveFault(Axis),
+    OpenSafetyChain,
+    EmergencyStop,
+    HardwareLimit(Axis, End),
+    /// The lube pressure switch never closes.
+    NoLubePressure,
+    /// Something blocks the axis (a crash): a large opposing torque.
+    Obstruct(Axis),
+    VfdFault,
+}
+
+/// Initial positions.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct Start {
+    pub x_mm: f64,
+    pub y_mm: f64,
+    pub table_deg: f64,
+}
+
+/// The simulated machine.
+#[derive(Debug, Clone)]
+pub struct Plant {
+    cfg: PlantConfig,
+    params: ControlParams,
+    io: IoBits,
+    pub spindle: Spindle,
+    pub table: Servo,
+    pub x: Servo,
+    pub y: Servo,
+    /// Torsional deflection of the work on the table under the cut (seed 003).
+    pub work: WorkLink,
+    spindle_counts_per_rad: f64,
+    table_motor_rad_per_deg: f64,
+    x_rad_per_mm: f64,
+    y_rad_per_mm: f64,
+    hz_per_volt: f64,
+    t_s: f64,
+    inner_s: f64,
+    outputs: Outputs,
+    analog_v: f64,
+    drives_enabled: bool,
+    lube_on_since: Option<f64>,
+    clamp_changed_at: f64,
+    clamp_closed: bool,
+    chain_closed: bool,
+    chain_changed_at: f64,
+    workpiece: Option<Workpiece>,
+    estop: bool,
+    chain_open_injected: bool,
+    limit: Option<(Axis, End)>,
+    no_lube_pressure: bool,
+}
+
+fn linear_servo(m: &hob_rt_core::config::machine::LinearAxisConfig, p: &crate::config::LinearPlant, vertical: bool, period_s: f64, start_mm: f64) -> (Servo, f64) {
+    let counts_per_rad = f64::from(m.encoder_counts_per_motor_rev) / TAU;
+    let rad_per_mm = m.counts_per_mm() / counts_per_rad;
+    let m_per_rad = 0.001 / rad_per_mm;
+    let weight_n = p.moving_mass_kg * G;
+    let params = ServoParams {
+        inertia_kg_m2: p.motor_inertia_kg_m2 + p.moving_mass_kg * m_per_rad * m_per_rad,
+        counts_per_rad,
+        peak_torque_nm: p.peak_motor_torque_nm,
+        velocity_loop_hz: p.velocity_loop_hz,
+        position_loop_hz: p.position_loop_hz,
+        velocity_feed_forward: p.velocity_feed_forward,
+        friction_nm: p.friction_coefficient * weight_n * m_per_rad,
+        constant_load_nm: if vertical { weight_n * m_per_rad } else { 0.0 },
+        torsion: None,
+        brake: vertical,
+    };
+    (Servo::new(params, start_mm * rad_per_mm, period_s), rad_per_mm)
+}
+
+impl Plant {
+    pub fn new(cfg: &PlantConfig, machine: &MachineConfig, start: Start, gashes: u32) -> Self {
+        let params = ControlParams::from_machine(machine);
+        let period_s = params.period_s;
+        let t = &cfg.table;
+        let table_counts_per_rad = f64::from(machine.table.encoder_counts_per_motor_rev) / TAU;
+        let ratio = machine.table.worm_ratio;
+        let table_params = ServoParams {
+            inertia_kg_m2: t.motor_inertia_kg_m2 + t.table_inertia_kg_m2 / (ratio * ratio),
+            counts_per_rad: table_counts_per_rad,
+            peak_torque_nm: t.peak_motor_torque_nm,
+            velocity_loop_hz: t.velocity_loop_hz,
+            position_loop_hz: t.position_loop_hz,
+            velocity_feed_forward: t.velocity_feed_forward,
+            friction_nm: t.friction_motor_nm,
+            constant_load_nm: 0.0,
+            torsion: None,
+            brake: false,
+        };
+        let table_motor_rad_per_deg = ratio * TAU / 360.0;
+        let table = Servo::new(table_params, start.table_deg * table_motor_rad_per_deg, period_s);
+        let (x, x_rad_per_mm) = linear_servo(&machine.x, &cfg.x, false, period_s, start.x_mm);
+        let (y, y_rad_per_mm) = linear_servo(&machine.y, &cfg.y, true, period_s, start.y_mm);
+        let s = &machine.spindle;
+        Self {
+            cfg: cfg.clone(),
+            params,
+            io: params.io,
+            spindle: Spindle::new(&cfg.spindle, s.motor_to_spindle_ratio, s.vfd_hz_at_full_scale / s.vfd_ramp_s, gashes),
+            table,
+            x,
+            y,
+            work: WorkLink::new(t.work_link_t1_s, t.work_link_t2_s, t.work_link_stiffness_nm_rad),
+            spindle_counts_per_rad: f64::from(s.encoder_counts_per_rev) / TAU,
+            table_motor_rad_per_deg,
+            x_rad_per_mm,
+            y_rad_per_mm,
+            hz_per_volt: s.vfd_hz_at_full_scale / s.analog_full_scale_v,
+            t_s: 0.0,
+            inner_s: f64::from(cfg.simulation.inner_step_us) * 1e-6,
+            outputs: Outputs::default(),
+            analog_v: 0.0,
+            drives_enabled: false,
+            lube_on_since: None,
+            clamp_changed_at: 0.0,
+            clamp_closed: false,
+            chain_closed: false,
+            chain_changed_at: 0.0,
+            workpiece: None,
+            estop: false,
+            chain_open_injected: false,
+            limit: None,
+            no_lube_pressure: false,
+        }
+    }
+
+    pub fn set_workpiece(&mut self, w: Workpiece) {
+        self.workpiece = Some(w);
+    }
+
+    pub fn time_s(&self) -> f64 {
+        self.t_s
+    }
+
+    pub fn inject(&mut self, i: Injection) {
+        match i {
+            Injection::DriveFault(a) => self.servo_mut(a).fault = true,
+            Injection::OpenSafetyChain => self.chain_open_injected = true,
+            Injection::EmergencyStop => self.estop = true,
+            Injection::HardwareLimit(a, e) => self.limit = Some((a, e)),
+            Injection::NoLubePressure => self.no_lube_pressure = true,
+            Injection::Obstruct(a) => self.servo_mut(a).disturbance_nm = 1e3,
+            Injection::VfdFault => self.spindle.vfd_fault = true,
+        }
+    }
+
+    fn servo_mut(&mut self, a: Axis) -> &mut Servo {
+        match a {
+            Axis::B => &mut self.table,
+            Axis::X => &mut self.x,
+            Axis::Y => &mut self.y,
+        }
+    }
+
+    /// True spindle angle in the frame (deg, continuous).
+    pub fn spindle_deg(&self) -> f64 {
+        self.spindle.angle_rad.to_degrees()
+    }
+
+    /// True table angle (deg, continuous; the table itself, after the torsional link).
+    pub fn table_deg(&self) -> f64 {
+        let table_rad = self.table.motor_rad / self.table_motor_rad_per_deg * std::f64::consts::PI / 180.0;
+        (table_rad + self.work.angle_rad).to_degrees() * self.params.table.sign
+    }
+
+    pub fn x_mm(&self) -> f64 {
+        self.x.motor_rad / self.x_rad_per_mm * self.params.x.sign
+    }
+
+    pub fn y_mm(&self) -> f64 {
+        self.y.motor_rad / self.y_rad_per_mm * self.params.y.sign
+    }
+
+    pub fn outputs(&self) -> Outputs {
+        self.outputs
+    }
+
+    pub fn safety_chain_closed(&self) -> bool {
+        self.chain_closed
+    }
+
+    /// Whether the drives have power (chain closed, or within the stop-category-1 delay).
+    fn drives_powered(&self) -> bool {
+        self.chain_closed || self.t_s - self.chain_changed_at < self.cfg.simulation.safety_stop_delay_s
+    }
+
+    /// At SYNC: the drives and the I/O coupler take the controller's outputs.
+    pub fn apply(&mut self, o: &CycleOutputs) {
+        self.outputs = self.io.decode_outputs(o.digital_outputs);
+        self.analog_v = o.spindle_analog_v;
+        self.drives_enabled = o.drives_enabled;
+        // Targets are in each drive's own counts (the controller applied the polarity).
+        self.table.apply_target(unwrap_near(o.table_target_counts, self.table.position_counts()));
+        self.x.apply_target(unwrap_near(o.x_target_counts, self.x.position_counts()));
+        self.y.apply_target(unwrap_near(o.y_target_counts, self.y.position_counts()));
+    }
+
+    /// At SYNC: what the drives and the coupler report.
+    pub fn latch(&self) -> CycleInputs {
+        let p = self.params;
+        let fb = |s: &Servo| AxisFeedback {
+            position_counts: s.position_counts() as i32,
+            enabled: s.enabled && !s.fault,
+            fault: s.fault,
+            fresh: true,
+        };
+        let spindle_counts = (self.spindle.angle_rad * self.spindle_counts_per_rad).floor() as i64;
+        CycleInputs {
+            spindle_counts: (spindle_counts * p.spindle.sign as i64) as i32,
+            table: fb(&self.table),
+            x: fb(&self.x),
+            y: fb(&self.y),
+            digital_inputs: self.io.encode_inputs(&self.inputs()),
+        }
+    }
+
+    fn inputs(&self) -> Inputs {
+        let (x, y) = (self.x_mm(), self.y_mm());
+        let (xl, yl) = (self.params.x_limits, self.params.y_limits);
+        let limit = |a: Axis, e: End| self.limit == Some((a, e));
+        let lube_ok = !self.no_lube_pressure
+            && self
+                .lube_on_since
+                .is_some_and(|t0| self.t_s - t0 >= self.cfg.peripherals.lube_pressure_delay_s);
+        Inputs {
+            safety_chain_closed: self.chain_closed,
+            estop_pressed: self.estop,
+            x_limit_min: limit(Axis::X, End::Min) || x < xl.soft_min_mm - self.cfg.x.hardware_limit_margin_mm,
+            x_limit_max: limit(Axis::X, End::Max) || x > xl.soft_max_mm + self.cfg.x.hardware_limit_margin_mm,
+            y_limit_min: limit(Axis::Y, End::Min) || y < yl.soft_min_mm - self.cfg.y.hardware_limit_margin_mm,
+            y_limit_max: limit(Axis::Y, End::Max) || y > yl.soft_max_mm + self.cfg.y.hardware_limit_margin_mm,
+            vfd_fault: self.spindle.vfd_fault,
+            vfd_ready: !self.spindle.vfd_fault,
+            lube_pressure_ok: lube_ok,
+            coolant_running: self.outputs.coolant_pump,
+            x_clamp_closed: self.clamp_closed,
+            reset_button: false,
+            cycle_start_button: false,
+            cycle_stop_button: false,
+            feed_hold_button: false,
+        }
+    }
+
+    /// Advances the physics to `t_s` in inner steps.
+    pub fn advance_to(&mut self, t_s: f64) {
+        while self.t_s < t_s - 1e-12 {
+            let dt = self.inner_s.min(t_s - self.t_s);
+            self.advance(dt);
+        }
+    }
+
+    fn advance(&mut self, dt: f64) {
+        let t = self.t_s;
+        // The safety relay: opens on e-stop, hardware limits, the VFD fault relay and the
+        // PC fault relay; the operator resets it once every cause is gone.
+        let i = self.inputs();
+        let cause = self.estop
+            || self.chain_open_injected
+            || i.x_limit_min
+            || i.x_limit_max
+            || i.y_limit_min
+            || i.y_limit_max
+            || self.spindle.vfd_fault
+            || !self.outputs.pc_ok_relay;
+        if self.chain_closed && cause {
+            self.chain_closed = false;
+            self.chain_changed_at = t;
+        } else if !self.chain_closed && !cause && t - self.chain_changed_at >= SECONDS_FOR_OPERATOR_RESET {
+            self.chain_closed = true;
+            self.chain_changed_at = t;
+        }
+        let powered = self.drives_powered();
+        for s in [&mut self.table, &mut self.x, &mut self.y] {
+            s.enabled = self.drives_enabled && powered;
+        }
+        // Lube pump and pressure switch.
+        match (self.outputs.lube_pump, self.lube_on_since) {
+            (true, None) => self.lube_on_since = Some(t),
+            (false, Some(_)) => self.lube_on_since = None,
+            _ => {}
+        }
+        // X clamp.
+        if self.outputs.x_clamp != self.clamp_closed {
+            if t - self.clamp_changed_at >= self.cfg.x.clamp_delay_s {
+                self.clamp_closed = self.outputs.x_clamp;
+                self.clamp_changed_at = t;
+            }
+        } else {
+            self.clamp_changed_at = t;
+        }
+        self.x.locked = self.clamp_closed;
+        // Spindle: the VFD runs when commanded and powered.
+        let run = if self.outputs.spindle_run_forward {
+            1.0
+        } else if self.outputs.spindle_run_reverse {
+            -1.0
+        } else {
+            0.0
+        };
+        let set_hz = if powered { run * self.analog_v * self.hz_per_volt } else { 0.0 };
+        self.spindle.load_share = self.cut_share();
+        self.spindle.advance(set_hz, dt);
+        // The cut's tangential force on the gear, resisting the table's motion.
+        if let Some(w) = self.workpiece {
+            let force_n = self.spindle.cutting_torque_nm / (w.tool_diameter_mm / 2000.0);
+            let torque = self.cfg.table.cut_force_share * force_n * w.pitch_radius_mm / 1000.0;
+            // Resists the table's turning: on the drive through the worm, and on the work
+            // link, which deflects back against the turning.
+            let resisting = torque * (self.table.motor_rad_s / 1.0).tanh();
+            self.table.disturbance_nm = resisting / (self.table_motor_rad_per_deg * 180.0 / std::f64::consts::PI);
+            self.work.advance(-resisting, dt);
+        }
+        self.table.advance(dt);
+        self.x.advance(dt);
+        self.y.advance(dt);
+        self.t_s += dt;
+    }
+
+    /// Share of the full cutting load: depth of the tool in the blank while the hob is
+    /// within reach of the face.
+    fn cut_share(&self) -> f64 {
+        let Some(w) = self.workpiece else { return 0.0 };
+        let depth = w.x_surface_mm - self.x_mm();
+        if depth <= 0.0 {
+            return 0.0;
+        }
+        let d = w.tool_diameter_mm;
+        let reach = (depth.min(d / 2.0) * (d - depth.min(d / 2.0))).sqrt();
+        let y = self.y_mm();
+        if y < w.face_bottom_mm - reach || y > w.face_top_mm + reach {
+            return 0.0;
+        }
+        (depth / self.cfg.spindle.full_depth_mm).min(1.0)
+    }
+
+    /// Motor radians of the table per table degree (for diagnostics).
+    pub fn table_motor_rad_per_deg(&self) -> f64 {
+        self.table_motor_rad_per_deg
+    }
+}
+
+/// The 64-bit count nearest to `reference` whose low 32 bits are `wrapped`'s.
+fn unwrap_near(wrapped: i32, reference: i64) -> i64 {
+    reference + i64::from(wrapped.wrapping_sub(reference as i32))
+}

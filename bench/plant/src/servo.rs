@@ -1,0 +1,155 @@
+//! A servo axis as drives really behave: cyclic synchronous position (targets applied at
+//! SYNC, linear interpolation between SYNCs), a P position loop with velocity
+//! feed-forward around a PI velocity loop of finite bandwidth, a torque limit, encoder
+//! quantisation, and optionally a torsional load behind a gear (the table on its worm).
+
+use std::f64::consts::TAU;
+
+/// A torsional load behind a reduction: the load inertia on a spring to the gear output.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Torsion {
+    /// Motor revolutions per load revolution.
+    pub ratio: f64,
+    pub load_inertia_kg_m2: f64,
+    /// Spring at the load, Nm/rad.
+    pub stiffness_nm_rad: f64,
+    /// Damper at the load, Nm s/rad.
+    pub damping_nm_s_rad: f64,
+}
+
+/// Fixed parameters of one axis.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ServoParams {
+    /// Inertia the motor sees rigidly (rotor, plus a rigidly reflected load).
+    pub inertia_kg_m2: f64,
+    pub counts_per_rad: f64,
+    pub peak_torque_nm: f64,
+    pub velocity_loop_hz: f64,
+    pub position_loop_hz: f64,
+    pub velocity_feed_forward: f64,
+    /// Coulomb friction at the motor.
+    pub friction_nm: f64,
+    /// Constant load at the motor (gravity on a vertical axis).
+    pub constant_load_nm: f64,
+    pub torsion: Option<Torsion>,
+    /// A holding brake when disabled (vertical axis).
+    pub brake: bool,
+}
+
+/// One servo axis in motor coordinates (rad).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Servo {
+    p: ServoParams,
+    kp_v: f64,
+    ki_v: f64,
+    kv: f64,
+    pub motor_rad: f64,
+    pub motor_rad_s: f64,
+    /// Load angle (rad at the load) when torsional.
+    pub load_rad: f64,
+    pub load_rad_s: f64,
+    integral: f64,
+    target_prev_counts: f64,
+    target_counts: f64,
+    since_sync_s: f64,
+    period_s: f64,
+    pub enabled: bool,
+    pub fault: bool,
+    /// Locked by a clamp: does not move.
+    pub locked: bool,
+    /// External torque at the load (torsional) or at the motor (rigid), Nm.
+    pub disturbance_nm: f64,
+}
+
+impl Servo {
+    pub fn new(p: ServoParams, position_rad: f64, period_s: f64) -> Self {
+        let j = p.inertia_kg_m2 + p.torsion.map_or(0.0, |t| t.load_inertia_kg_m2 / (t.ratio * t.ratio));
+        let wv = TAU * p.velocity_loop_hz;
+        let counts = (position_rad * p.counts_per_rad).floor();
+        Self {
+            p,
+            kp_v: j * wv,
+            ki_v: j * wv * wv / 4.0,
+            kv: TAU * p.position_loop_hz,
+            motor_rad: position_rad,
+            motor_rad_s: 0.0,
+            load_rad: p.torsion.map_or(0.0, |t| position_rad / t.ratio),
+            load_rad_s: 0.0,
+            integral: 0.0,
+            target_prev_counts: counts,
+            target_counts: counts,
+            since_sync_s: 0.0,
+            period_s,
+            enabled: false,
+            fault: false,
+            locked: false,
+            disturbance_nm: 0.0,
+        }
+    }
+
+    /// Encoder reading (quantised).
+    pub fn position_counts(&self) -> i64 {
+        (self.motor_rad * self.p.counts_per_rad).floor() as i64
+    }
+
+    /// At SYNC: the new target takes effect, interpolated over the next period.
+    pub fn apply_target(&mut self, target_counts: i64) {
+        self.target_prev_counts = self.target_counts;
+        self.target_counts = target_counts as f64;
+        self.since_sync_s = 0.0;
+        if !self.enabled || self.fault {
+            // A disabled drive follows its actual position (no jump on enable).
+            let c = self.position_counts() as f64;
+            self.target_prev_counts = c;
+            self.target_counts = c;
+        }
+    }
+
+    /// Advances the physics by `dt_s`.
+    pub fn advance(&mut self, dt_s: f64) {
+        self.since_sync_s += dt_s;
+        let share = (self.since_sync_s / self.period_s).min(1.0);
+        let reference = self.target_prev_counts + (self.target_counts - self.target_prev_counts) * share;
+        let ff_rad_s = (self.target_counts - self.target_prev_counts) / self.period_s / self.p.counts_per_rad;
+        let active = self.enabled && !self.fault;
+        let torque = if active {
+            let pos_err = (reference - self.position_counts() as f64) / self.p.counts_per_rad;
+            let w_ref = self.kv * pos_err + self.p.velocity_feed_forward * ff_rad_s;
+            let e = w_ref - self.motor_rad_s;
+            let unclamped = self.kp_v * e + self.integral;
+            let t = unclamped.clamp(-self.p.peak_torque_nm, self.p.peak_torque_nm);
+            // Anti-windup: integrate only while not saturated.
+            if t == unclamped {
+                self.integral += self.ki_v * e * dt_s;
+            }
+            t
+        } else {
+            self.integral = 0.0;
+            0.0
+        };
+        if self.locked || (!active && self.p.brake) {
+            self.motor_rad_s = 0.0;
+            self.load_rad_s = 0.0;
+            return;
+        }
+        let friction = self.p.friction_nm * (self.motor_rad_s / 0.01).tanh();
+        match self.p.torsion {
+            None => {
+                let acc = (torque - friction - self.p.constant_load_nm - self.disturbance_nm) / self.p.inertia_kg_m2;
+                self.motor_rad_s += acc * dt_s;
+                self.motor_rad += self.motor_rad_s * dt_s;
+            }
+            Some(t) => {
+                let twist = self.motor_rad / t.ratio - self.load_rad;
+                let twist_rate = self.motor_rad_s / t.ratio - self.load_rad_s;
+                let spring = t.stiffness_nm_rad * twist + t.damping_nm_s_rad * twist_rate;
+                let acc_m = (torque - friction - spring / t.ratio) / self.p.inertia_kg_m2;
+                let acc_l = (spring - self.disturbance_nm) / t.load_inertia_kg_m2;
+                self.motor_rad_s += acc_m * dt_s;
+                self.load_rad_s += acc_l * dt_s;
+                self.motor_rad += self.motor_rad_s * dt_s;
+                self.load_rad += self.load_rad_s * dt_s;
+            }
+        }
+    }
+}

@@ -1,0 +1,388 @@
+//! Core against plant, in one process, faster than real time.
+//!
+//! Each cycle k: the plant runs to SYNC k (at `k T` plus a random jitter), takes the
+//! outputs of cycle k-1 and latches its feedback; the controller steps on that feedback.
+//! The trace row of cycle k holds the plant's true positions at SYNC k.
+
+use crate::config::PlantConfig;
+use crate::machine::{Injection, Plant, Start, Workpiece};
+use hob_rt_core::config::machine::MachineConfig;
+use hob_rt_core::control::egb::Coupling;
+use hob_rt_core::control::events::Event;
+use hob_rt_core::control::program::CycleProgram;
+use hob_rt_core::control::{
+    Command, ControlParams, Controller, CycleInputs, CycleOutputs, SpindleAngleSource, State, Status,
+};
+use hob_rt_core::gearing::iso1328::single_pitch_tolerance_um;
+use hob_rt_core::planner::Plan;
+use hob_rt_core::units::arcsec_to_um_at_radius;
+use serde::Serialize;
+
+/// Columns of `trace.csv`, in order.
+pub const TRACE_HEADER: &str =
+    "t_s,state,pass,spindle_deg,table_deg,table_cmd_deg,x_mm,x_cmd_mm,y_mm,y_cmd_mm,sync_err_arcsec";
+
+/// One trace row.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct TraceRow {
+    pub t_s: f64,
+    pub state: State,
+    pub hold: bool,
+    pub pass: u32,
+    pub spindle_deg: f64,
+    pub table_deg: f64,
+    pub table_cmd_deg: f64,
+    pub x_mm: f64,
+    pub x_cmd_mm: f64,
+    pub y_mm: f64,
+    pub y_cmd_mm: f64,
+    /// True synchronisation error while the gearbox is synchronised.
+    pub sync_err_arcsec: Option<f64>,
+}
+
+impl TraceRow {
+    /// The state word of the trace: `hold` overrides the state while feed hold is on.
+    pub fn state_word(&self) -> &'static str {
+        if self.hold { "hold" } else { self.state.name() }
+    }
+
+    /// The row as CSV (no newline).
+    pub fn csv(&self) -> String {
+        let err = self.sync_err_arcsec.map_or(String::new(), |e| format!("{e:.3}"));
+        format!(
+            "{:.3},{},{},{:.6},{:.6},{:.6},{:.5},{:.5},{:.5},{:.5},{err}",
+            self.t_s,
+            self.state_word(),
+            self.pass,
+            self.spindle_deg,
+            self.table_deg,
+            self.table_cmd_deg,
+            self.x_mm,
+            self.x_cmd_mm,
+            self.y_mm,
+            self.y_cmd_mm,
+        )
+    }
+}
+
+/// Options of a run.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SimOptions {
+    pub cross_coupling: bool,
+    pub angle_source: SpindleAngleSource,
+    pub single: bool,
+    /// Give up after this much simulated time.
+    pub max_time_s: f64,
+}
+
+impl Default for SimOptions {
+    fn default() -> Self {
+        Self {
+            cross_coupling: true,
+            angle_source: SpindleAngleSource::Predicted,
+            single: false,
+            max_time_s: 7200.0,
+        }
+    }
+}
+
+/// Synchronisation error statistics of one pass, in the cut.
+#[derive(Debug, Clone, Default, PartialEq, Serialize)]
+pub struct PassSummary {
+    pub pass: u32,
+    pub time_s: f64,
+    pub cut_time_s: f64,
+    pub samples: u64,
+    pub sync_err_rms_arcsec: f64,
+    pub sync_err_max_arcsec: f64,
+    pub sync_err_rms_um: f64,
+    pub sync_err_max_um: f64,
+    /// Mean error (a constant phase offset within the pass: no pitch error).
+    pub sync_err_mean_arcsec: f64,
+    /// Largest deviation from the pass mean.
+    pub sync_err_max_dev_arcsec: f64,
+    pub sync_err_max_dev_um: f64,
+    #[serde(skip)]
+    sum: f64,
+    #[serde(skip)]
+    sum_sq: f64,
+    #[serde(skip)]
+    min: f64,
+    #[serde(skip)]
+    max: f64,
+    #[serde(skip)]
+    first_t: f64,
+}
+
+/// `summary.json`.
+#[derive(Debug, Clone, Default, PartialEq, Serialize)]
+pub struct Summary {
+    pub cross_coupling: bool,
+    pub predictor: bool,
+    pub pitch_radius_mm: f64,
+    /// ISO 1328-1 grade 5 single pitch tolerance of this gear.
+    pub grade5_single_pitch_um: f64,
+    /// A quarter of it: the controller's bound.
+    pub bound_um: f64,
+    pub passes: Vec<PassSummary>,
+    pub max_sync_err_um: f64,
+    pub max_sync_err_arcsec: f64,
+    pub total_time_s: f64,
+    pub completed: bool,
+    pub fault: Option<String>,
+}
+
+/// A closed-loop run: controller, plant, clock.
+#[derive(Debug)]
+pub struct Simulation {
+    pub controller: Controller,
+    pub plant: Plant,
+    period_s: f64,
+    jitter_s: f64,
+    rng: u64,
+    cycle: u64,
+    outputs: CycleOutputs,
+    pub events: Vec<Event>,
+}
+
+impl Simulation {
+    /// A machine at rest at `start`, powered up (the controller's init runs in `run`).
+    pub fn new(machine: &MachineConfig, plant_cfg: &PlantConfig, start: Start, gashes: u32) -> Self {
+        let params = ControlParams::from_machine(machine);
+        Self {
+            controller: Controller::new(params),
+            plant: Plant::new(plant_cfg, machine, start, gashes),
+            period_s: params.period_s,
+            jitter_s: plant_cfg.simulation.sync_jitter_us * 1e-6,
+            rng: plant_cfg.simulation.seed.wrapping_mul(0x9E37_79B9_7F4A_7C15) | 1,
+            cycle: 0,
+            outputs: CycleOutputs::default(),
+            events: Vec::new(),
+        }
+    }
+
+    fn jitter(&mut self) -> f64 {
+        // xorshift64*: deterministic for a seed.
+        self.rng ^= self.rng >> 12;
+        self.rng ^= self.rng << 25;
+        self.rng ^= self.rng >> 27;
+        let u = (self.rng.wrapping_mul(0x2545_F491_4F6C_DD1D) >> 11) as f64 / (1u64 << 53) as f64;
+        (2.0 * u - 1.0) * self.jitter_s
+    }
+
+    /// One cycle; returns the trace row of this SYNC.
+    pub fn step(&mut self) -> TraceRow {
+        let t_sync = self.cycle as f64 * self.period_s;
+        let latch = t_sync + self.jitter();
+        self.plant.advance_to(latch.max(self.plant.time_s()));
+        self.plant.apply(&self.outputs);
+        let inputs: CycleInputs = self.plant.latch();
+        let row = self.row(t_sync);
+        self.outputs = self.controller.step(&inputs);
+        while let Some(e) = self.controller.events().pop() {
+            self.events.push(e);
+        }
+        self.cycle += 1;
+        row
+    }
+
+    fn row(&self, t_s: f64) -> TraceRow {
+        let s: Status = self.controller.status();
+        let g = self.controller.gearbox();
+        let sync_err_arcsec = match (g.coupling(), g.phase_target_deg()) {
+            (Coupling::Synchronised, Some(target)) => {
+                let coupled = g.params().coupled_deg(self.plant.spindle_deg(), self.plant.y_mm());
+                Some((self.plant.table_deg() - coupled - target) * 3600.0)
+            }
+            _ => None,
+        };
+        TraceRow {
+            t_s,
+            state: s.state,
+            hold: s.hold,
+            pass: s.pass,
+            spindle_deg: self.plant.spindle_deg(),
+            table_deg: self.plant.table_deg(),
+            table_cmd_deg: s.table_cmd_deg,
+            x_mm: self.plant.x_mm(),
+            x_cmd_mm: s.x_cmd_mm,
+            y_mm: self.plant.y_mm(),
+            y_cmd_mm: s.y_cmd_mm,
+            sync_err_arcsec,
+        }
+    }
+
+    /// Runs until the controller leaves power-up (or `max_s` passes).
+    pub fn power_up(&mut self, max_s: f64, sink: &mut dyn FnMut(&TraceRow)) -> bool {
+        let end = self.cycle + (max_s / self.period_s) as u64;
+        while self.cycle < end {
+            let row = self.step();
+            sink(&row);
+            if row.state == State::Idle {
+                return true;
+            }
+        }
+        false
+    }
+
+    /// Runs cycles until `done(row)` or `max_s`; returns whether `done` was reached.
+    pub fn run_until(&mut self, max_s: f64, sink: &mut dyn FnMut(&TraceRow), done: &mut dyn FnMut(&TraceRow, &[Event]) -> bool) -> bool {
+        let end = self.cycle + (max_s / self.period_s) as u64;
+        while self.cycle < end {
+            let row = self.step();
+            sink(&row);
+            if done(&row, &self.events) {
+                return true;
+            }
+        }
+        false
+    }
+
+    pub fn command(&mut self, c: Command) -> Result<(), hob_rt_core::control::fault::Refusal> {
+        self.controller.command(c)
+    }
+
+    pub fn inject(&mut self, i: Injection) {
+        self.plant.inject(i);
+    }
+
+    pub fn time_s(&self) -> f64 {
+        self.cycle as f64 * self.period_s
+    }
+}
+
+/// Where the plant starts for a program: X beyond the safe position, Y above the start.
+pub fn start_for(program: &CycleProgram) -> Start {
+    let first = program.passes()[0];
+    Start {
+        x_mm: program.x_safe_mm + 10.0,
+        y_mm: first.y_start_mm + 5.0,
+        table_deg: 0.0,
+    }
+}
+
+/// What the plant must know of the job.
+pub fn workpiece_for(program: &CycleProgram, plan: &Plan, face_width_mm: f64, tool_diameter_mm: f64) -> Workpiece {
+    Workpiece {
+        x_surface_mm: program.x_surface_mm,
+        face_bottom_mm: program.face_bottom_mm,
+        face_top_mm: program.face_bottom_mm + face_width_mm,
+        tool_diameter_mm,
+        pitch_radius_mm: plan.pitch_diameter_mm / 2.0,
+    }
+}
+
+/// Collects the per-pass statistics of the cut from trace rows.
+#[derive(Debug, Clone, Default)]
+pub struct SummaryBuilder {
+    passes: Vec<PassSummary>,
+    pitch_radius_mm: f64,
+    normal_module_mm: f64,
+}
+
+impl SummaryBuilder {
+    pub fn new(plan: &Plan) -> Self {
+        Self {
+            passes: Vec::new(),
+            pitch_radius_mm: plan.pitch_diameter_mm / 2.0,
+            normal_module_mm: plan.normal_module_mm,
+        }
+    }
+
+    pub fn add(&mut self, row: &TraceRow, period_s: f64) {
+        if row.pass == 0 {
+            return;
+        }
+        let idx = row.pass as usize - 1;
+        while self.passes.len() <= idx {
+            self.passes.push(PassSummary {
+                pass: self.passes.len() as u32 + 1,
+                first_t: row.t_s,
+                min: f64::INFINITY,
+                max: f64::NEG_INFINITY,
+                ..PassSummary::default()
+            });
+        }
+        let p = &mut self.passes[idx];
+        p.time_s = row.t_s - p.first_t + period_s;
+        if row.state == State::Cut && !row.hold {
+            p.cut_time_s += period_s;
+            if let Some(e) = row.sync_err_arcsec {
+                p.samples += 1;
+                p.sum += e;
+                p.sum_sq += e * e;
+                p.min = p.min.min(e);
+                p.max = p.max.max(e);
+            }
+        }
+    }
+
+    pub fn finish(mut self, options: &SimOptions, total_time_s: f64, completed: bool, fault: Option<String>) -> Summary {
+        let r = self.pitch_radius_mm;
+        for p in &mut self.passes {
+            if p.samples == 0 {
+                continue;
+            }
+            let n = p.samples as f64;
+            let mean = p.sum / n;
+            p.sync_err_rms_arcsec = (p.sum_sq / n).sqrt();
+            p.sync_err_max_arcsec = p.max.abs().max(p.min.abs());
+            p.sync_err_mean_arcsec = mean;
+            p.sync_err_max_dev_arcsec = (p.max - mean).abs().max((p.min - mean).abs());
+            p.sync_err_rms_um = arcsec_to_um_at_radius(p.sync_err_rms_arcsec, r);
+            p.sync_err_max_um = arcsec_to_um_at_radius(p.sync_err_max_arcsec, r);
+            p.sync_err_max_dev_um = arcsec_to_um_at_radius(p.sync_err_max_dev_arcsec, r);
+        }
+        let tol = single_pitch_tolerance_um(2.0 * r, self.normal_module_mm, 5);
+        let max_arcsec = self.passes.iter().map(|p| p.sync_err_max_arcsec).fold(0.0, f64::max);
+        Summary {
+            cross_coupling: options.cross_coupling,
+            predictor: options.angle_source == SpindleAngleSource::Predicted,
+            pitch_radius_mm: r,
+            grade5_single_pitch_um: tol,
+            bound_um: tol / 4.0,
+            max_sync_err_arcsec: max_arcsec,
+            max_sync_err_um: arcsec_to_um_at_radius(max_arcsec, r),
+            passes: self.passes,
+            total_time_s,
+            completed,
+            fault,
+        }
+    }
+}
+
+/// Runs a whole program: power-up, load, start, until done or a fault; every row goes to
+/// `sink`. Returns the summary.
+pub fn run_program(
+    machine: &MachineConfig,
+    plant_cfg: &PlantConfig,
+    program: &CycleProgram,
+    plan: &Plan,
+    job: &hob_rt_core::job::Program,
+    options: &SimOptions,
+    sink: &mut dyn FnMut(&TraceRow),
+) -> Result<Summary, String> {
+    let mut sim = Simulation::new(machine, plant_cfg, start_for(program), job.tool.gashes.max(1) as u32);
+    sim.plant.set_workpiece(workpiece_for(program, plan, job.workpiece.face_width_mm, job.tool.outside_diameter_mm));
+    sim.controller.set_angle_source(options.angle_source);
+    let mut builder = SummaryBuilder::new(plan);
+    let period = sim.period_s;
+    let mut both = |row: &TraceRow| {
+        builder.add(row, period);
+        sink(row);
+    };
+    if !sim.power_up(60.0, &mut both) {
+        return Err("the machine did not leave power-up within 60 s".into());
+    }
+    sim.controller.load(*program).map_err(|r| format!("program refused: {r:?}"))?;
+    sim.controller.set_cross_coupling(options.cross_coupling);
+    sim.command(Command::Start { single: options.single })
+        .map_err(|r| format!("start refused: {r:?}"))?;
+    let completed = sim.run_until(options.max_time_s, &mut both, &mut |row, _| {
+        matches!(row.state, State::Idle | State::Faulted)
+    });
+    let fault = sim.controller.status().fault.map(|f| format!("{f:?}"));
+    let completed = completed && fault.is_none();
+    let total = sim.time_s();
+    Ok(builder.finish(options, total, completed, fault))
+}

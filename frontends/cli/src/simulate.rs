@@ -1,0 +1,76 @@
+//! `hob simulate`: the whole program, core against the simulated machine, in-process.
+
+use hob_plant::config::PlantConfig;
+use hob_plant::sim::{SimOptions, TRACE_HEADER, run_program};
+use hob_rt_core::config::Problems;
+use hob_rt_core::config::machine::MachineConfig;
+use hob_rt_core::control::SpindleAngleSource;
+use hob_rt_core::control::program::CycleProgram;
+use hob_rt_core::job::Program;
+use hob_rt_core::planner;
+use std::io::{BufWriter, Write};
+use std::path::Path;
+
+/// What `hob simulate` needs besides the files.
+pub struct Args<'a> {
+    pub program: &'a Path,
+    pub plant: &'a Path,
+    pub out: &'a Path,
+    pub options: SimOptions,
+}
+
+/// Runs the simulation; `Err((refused, message))`.
+pub fn run(machine: &MachineConfig, a: &Args<'_>) -> Result<String, (bool, String)> {
+    let plant = PlantConfig::load(a.plant).map_err(|e| (true, e.to_string()))?;
+    let (job, src) = Program::read(a.program).map_err(|e| (true, e.to_string()))?;
+    let mut p = Problems::new();
+    let built = CycleProgram::build(&job, machine, &mut p);
+    let plan = planner::plan(&job, machine, &mut p);
+    let (Some(cycle), Some(plan)) = (built, plan) else {
+        let e = p.into_result(a.program, &src).err().map_or_else(|| "refused".to_string(), |e| e.to_string());
+        return Err((true, e));
+    };
+    if a.options.single && cycle.single().is_none() {
+        return Err((true, format!("{}: cycle.single_depth_mm: --single needs a single-mode depth", a.program.display())));
+    }
+    std::fs::create_dir_all(a.out).map_err(|e| (false, format!("{}: {e}", a.out.display())))?;
+    let trace_path = a.out.join("trace.csv");
+    let file = std::fs::File::create(&trace_path).map_err(|e| (false, format!("{}: {e}", trace_path.display())))?;
+    let mut w = BufWriter::new(file);
+    let mut io_error = None;
+    let _ = writeln!(w, "{TRACE_HEADER}");
+    let summary = run_program(machine, &plant, &cycle, &plan, &job, &a.options, &mut |row| {
+        if io_error.is_none()
+            && let Err(e) = writeln!(w, "{}", row.csv())
+        {
+            io_error = Some(e);
+        }
+    })
+    .map_err(|e| (false, e))?;
+    if let Some(e) = io_error.or_else(|| w.flush().err()) {
+        return Err((false, format!("{}: {e}", trace_path.display())));
+    }
+    let json = serde_json::to_string_pretty(&summary).map_err(|e| (false, e.to_string()))?;
+    let summary_path = a.out.join("summary.json");
+    std::fs::write(&summary_path, json + "\n").map_err(|e| (false, format!("{}: {e}", summary_path.display())))?;
+    let passes: Vec<String> = summary
+        .passes
+        .iter()
+        .map(|p| format!("{}: max {:.2} um", p.pass, p.sync_err_max_um))
+        .collect();
+    Ok(format!(
+        "{}: {} in {:.1} s simulated; sync error {} (bound {:.2} um = 1/4 of grade-5 f_p); ccc {}, predictor {}; trace {}\n",
+        a.program.display(),
+        match &summary.fault {
+            Some(f) => format!("FAULT {f}"),
+            None if summary.completed => "done".to_string(),
+            None => "not finished".to_string(),
+        },
+        summary.total_time_s,
+        passes.join(", "),
+        summary.bound_um,
+        if a.options.cross_coupling { "on" } else { "off" },
+        if a.options.angle_source == SpindleAngleSource::Predicted { "on" } else { "off (last measured angle)" },
+        trace_path.display(),
+    ))
+}
