@@ -13,6 +13,8 @@ use hob_rt_core::control::{AxisFeedback, ControlParams, CycleInputs, CycleOutput
 use std::f64::consts::TAU;
 
 const G: f64 = 9.81;
+/// Lag of the cutting force behind the chip thickness (seed 003: T_P = 5.4e-4 s).
+const CUT_FORCE_LAG_S: f64 = 5.4e-4;
 /// Time the simulated operator takes to reset the safety relay once its causes are gone.
 const SECONDS_FOR_OPERATOR_RESET: f64 = 0.5;
 
@@ -192,10 +194,16 @@ impl Plant {
         self.spindle.angle_rad.to_degrees()
     }
 
-    /// True table angle (deg, continuous; the table itself, after the torsional link).
+    /// True table angle (deg, continuous): the table on its worm wheel, as the drive
+    /// moved it. The work's own elastic twist on the table is [`Self::work_twist_arcsec`].
     pub fn table_deg(&self) -> f64 {
-        let table_rad = self.table.motor_rad / self.table_motor_rad_per_deg * std::f64::consts::PI / 180.0;
-        (table_rad + self.work.angle_rad).to_degrees() * self.params.table.sign
+        self.table.motor_rad / self.table_motor_rad_per_deg * self.params.table.sign
+    }
+
+    /// Torsional deflection of the work relative to the table under the cut (seed 003's
+    /// work link): a property of the machine that no drive encoder sees.
+    pub fn work_twist_arcsec(&self) -> f64 {
+        self.work.angle_rad.to_degrees() * 3600.0 * self.params.table.sign
     }
 
     pub fn x_mm(&self) -> f64 {
@@ -333,7 +341,9 @@ impl Plant {
             0.0
         };
         let set_hz = if powered { run * self.analog_v * self.hz_per_volt } else { 0.0 };
-        self.spindle.load_share = self.cut_share();
+        // Cutting force follows the chip with the first-order lag of seed 003.
+        let share = self.cut_share();
+        self.spindle.load_share += (share - self.spindle.load_share) * (dt / CUT_FORCE_LAG_S).min(1.0);
         self.spindle.advance(set_hz, dt);
         // The cut's tangential force on the gear, resisting the table's motion.
         if let Some(w) = self.workpiece {
@@ -351,8 +361,9 @@ impl Plant {
         self.t_s += dt;
     }
 
-    /// Share of the full cutting load: depth of the tool in the blank while the hob is
-    /// within reach of the face.
+    /// Share of the full cutting load: the depth of the tool in the blank times how far
+    /// the hob has entered the face (the engaged length grows from zero at the reach of
+    /// the hob's tip circle to full with its centre at the face).
     fn cut_share(&self) -> f64 {
         let Some(w) = self.workpiece else { return 0.0 };
         let depth = w.x_surface_mm - self.x_mm();
@@ -360,12 +371,12 @@ impl Plant {
             return 0.0;
         }
         let d = w.tool_diameter_mm;
-        let reach = (depth.min(d / 2.0) * (d - depth.min(d / 2.0))).sqrt();
+        let h = depth.min(d / 2.0);
+        let reach = (h * (d - h)).sqrt();
         let y = self.y_mm();
-        if y < w.face_bottom_mm - reach || y > w.face_top_mm + reach {
-            return 0.0;
-        }
-        (depth / self.cfg.spindle.full_depth_mm).min(1.0)
+        let outside = (w.face_bottom_mm - y).max(y - w.face_top_mm).max(0.0);
+        let entered = if reach > 0.0 { (1.0 - outside / reach).clamp(0.0, 1.0) } else { 0.0 };
+        (depth / self.cfg.spindle.full_depth_mm).min(1.0) * entered
     }
 
     /// Motor radians of the table per table degree (for diagnostics).

@@ -19,8 +19,11 @@ use hob_rt_core::units::arcsec_to_um_at_radius;
 use serde::Serialize;
 
 /// Columns of `trace.csv`, in order.
-pub const TRACE_HEADER: &str =
-    "t_s,state,pass,spindle_deg,table_deg,table_cmd_deg,x_mm,x_cmd_mm,y_mm,y_cmd_mm,sync_err_arcsec";
+///
+/// `sync_err_arcsec` is the true table against the gearbox law for the true spindle angle
+/// and Y (empty unless the gearbox is synchronised); `work_twist_arcsec` is the work's
+/// elastic twist on the table under the cut, which no encoder sees (reported apart).
+pub const TRACE_HEADER: &str = "t_s,state,pass,spindle_deg,table_deg,table_cmd_deg,x_mm,x_cmd_mm,y_mm,y_cmd_mm,sync_err_arcsec,work_twist_arcsec";
 
 /// One trace row.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -38,6 +41,7 @@ pub struct TraceRow {
     pub y_cmd_mm: f64,
     /// True synchronisation error while the gearbox is synchronised.
     pub sync_err_arcsec: Option<f64>,
+    pub work_twist_arcsec: f64,
 }
 
 impl TraceRow {
@@ -50,7 +54,7 @@ impl TraceRow {
     pub fn csv(&self) -> String {
         let err = self.sync_err_arcsec.map_or(String::new(), |e| format!("{e:.3}"));
         format!(
-            "{:.3},{},{},{:.6},{:.6},{:.6},{:.5},{:.5},{:.5},{:.5},{err}",
+            "{:.3},{},{},{:.6},{:.6},{:.6},{:.5},{:.5},{:.5},{:.5},{err},{:.3}",
             self.t_s,
             self.state_word(),
             self.pass,
@@ -61,6 +65,7 @@ impl TraceRow {
             self.x_cmd_mm,
             self.y_mm,
             self.y_cmd_mm,
+            self.work_twist_arcsec,
         )
     }
 }
@@ -73,6 +78,9 @@ pub struct SimOptions {
     pub single: bool,
     /// Give up after this much simulated time.
     pub max_time_s: f64,
+    /// For comparisons only: synchronism windows so wide that they never hold the feed or
+    /// fault the cut (to measure what a configuration without the predictor would cut).
+    pub windows_off: bool,
 }
 
 impl Default for SimOptions {
@@ -82,6 +90,7 @@ impl Default for SimOptions {
             angle_source: SpindleAngleSource::Predicted,
             single: false,
             max_time_s: 7200.0,
+            windows_off: false,
         }
     }
 }
@@ -102,6 +111,9 @@ pub struct PassSummary {
     /// Largest deviation from the pass mean.
     pub sync_err_max_dev_arcsec: f64,
     pub sync_err_max_dev_um: f64,
+    /// Largest elastic twist of the work on the table in the cut (machine, not control).
+    pub work_twist_max_arcsec: f64,
+    pub work_twist_max_um: f64,
     #[serde(skip)]
     sum: f64,
     #[serde(skip)]
@@ -209,6 +221,7 @@ impl Simulation {
             y_mm: self.plant.y_mm(),
             y_cmd_mm: s.y_cmd_mm,
             sync_err_arcsec,
+            work_twist_arcsec: self.plant.work_twist_arcsec(),
         }
     }
 
@@ -307,6 +320,7 @@ impl SummaryBuilder {
         p.time_s = row.t_s - p.first_t + period_s;
         if row.state == State::Cut && !row.hold {
             p.cut_time_s += period_s;
+            p.work_twist_max_arcsec = p.work_twist_max_arcsec.max(row.work_twist_arcsec.abs());
             if let Some(e) = row.sync_err_arcsec {
                 p.samples += 1;
                 p.sum += e;
@@ -332,6 +346,7 @@ impl SummaryBuilder {
             p.sync_err_rms_um = arcsec_to_um_at_radius(p.sync_err_rms_arcsec, r);
             p.sync_err_max_um = arcsec_to_um_at_radius(p.sync_err_max_arcsec, r);
             p.sync_err_max_dev_um = arcsec_to_um_at_radius(p.sync_err_max_dev_arcsec, r);
+            p.work_twist_max_um = arcsec_to_um_at_radius(p.work_twist_max_arcsec, r);
         }
         let tol = single_pitch_tolerance_um(2.0 * r, self.normal_module_mm, 5);
         let max_arcsec = self.passes.iter().map(|p| p.sync_err_max_arcsec).fold(0.0, f64::max);
@@ -354,7 +369,7 @@ impl SummaryBuilder {
 /// Runs a whole program: power-up, load, start, until done or a fault; every row goes to
 /// `sink`. Returns the summary.
 pub fn run_program(
-    machine: &MachineConfig,
+    machine_in: &MachineConfig,
     plant_cfg: &PlantConfig,
     program: &CycleProgram,
     plan: &Plan,
@@ -362,6 +377,12 @@ pub fn run_program(
     options: &SimOptions,
     sink: &mut dyn FnMut(&TraceRow),
 ) -> Result<Summary, String> {
+    let mut machine = machine_in.clone();
+    if options.windows_off {
+        machine.gearbox.fine_window_arcsec = 1e9;
+        machine.gearbox.coarse_window_arcsec = 2e9;
+    }
+    let machine = &machine;
     let mut sim = Simulation::new(machine, plant_cfg, start_for(program), job.tool.gashes.max(1) as u32);
     sim.plant.set_workpiece(workpiece_for(program, plan, job.workpiece.face_width_mm, job.tool.outside_diameter_mm));
     sim.controller.set_angle_source(options.angle_source);

@@ -55,6 +55,9 @@ enum Command {
         /// Run the single-mode pass instead of the automatic cycle.
         #[arg(long)]
         single: bool,
+        /// For comparisons: synchronism windows never hold the feed or fault the cut.
+        #[arg(long)]
+        no_windows: bool,
         /// Output directory.
         #[arg(long, value_name = "DIR", default_value = "out/simulate")]
         out: PathBuf,
@@ -116,6 +119,7 @@ fn run(command: Command) -> Result<(), Failure> {
             no_ccc,
             no_predictor,
             single,
+            no_windows,
             out,
         } => {
             let machine = load_machine(machine.as_deref())?;
@@ -127,6 +131,7 @@ fn run(command: Command) -> Result<(), Failure> {
                     hob_rt_core::control::SpindleAngleSource::Predicted
                 },
                 single,
+                windows_off: no_windows,
                 ..Default::default()
             };
             let args = simulate::Args {
