@@ -85,13 +85,22 @@ impl PlantConfig {
 
     pub fn validate(&self, p: &mut Problems) {
         let s = &self.simulation;
-        p.require((10..=1000).contains(&s.inner_step_us), "simulation.inner_step_us", || {
-            format!("must be within 10 .. 1000 us (at least 1 kHz physics) (is {})", s.inner_step_us)
-        });
+        p.require(
+            (10..=1000).contains(&s.inner_step_us),
+            "simulation.inner_step_us",
+            || {
+                format!(
+                    "must be within 10 .. 1000 us (at least 1 kHz physics) (is {})",
+                    s.inner_step_us
+                )
+            },
+        );
         p.within("simulation.sync_jitter_us", s.sync_jitter_us, 0.0, 200.0, "us");
         p.non_negative("simulation.safety_stop_delay_s", s.safety_stop_delay_s);
         let sp = &self.spindle;
-        p.require(sp.motor_pole_pairs >= 1, "spindle.motor_pole_pairs", || "must be at least 1".into());
+        p.require(sp.motor_pole_pairs >= 1, "spindle.motor_pole_pairs", || {
+            "must be at least 1".into()
+        });
         for (k, v) in [
             ("spindle.rated_torque_nm", sp.rated_torque_nm),
             ("spindle.rated_slip_rpm", sp.rated_slip_rpm),
@@ -118,7 +127,13 @@ impl PlantConfig {
         }
         p.non_negative("table.work_link_t2_s", t.work_link_t2_s);
         p.within("table.cut_force_share", t.cut_force_share, 0.0, 1.0, "");
-        p.within("table.velocity_feed_forward", t.velocity_feed_forward, 0.0, 1.0, "");
+        p.within(
+            "table.velocity_feed_forward",
+            t.velocity_feed_forward,
+            0.0,
+            1.0,
+            "",
+        );
         p.non_negative("table.friction_motor_nm", t.friction_motor_nm);
         for (axis, a) in [("x", &self.x), ("y", &self.y)] {
             let k = |n: &str| format!("{axis}.{n}");
@@ -136,6 +151,9 @@ impl PlantConfig {
             p.within(&k("velocity_feed_forward"), a.velocity_feed_forward, 0.0, 1.0, "");
             p.non_negative(&k("clamp_delay_s"), a.clamp_delay_s);
         }
-        p.non_negative("peripherals.lube_pressure_delay_s", self.peripherals.lube_pressure_delay_s);
+        p.non_negative(
+            "peripherals.lube_pressure_delay_s",
+            self.peripherals.lube_pressure_delay_s,
+        );
     }
 }

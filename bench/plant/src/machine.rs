@@ -4,8 +4,8 @@
 
 use crate::config::PlantConfig;
 use crate::servo::{Servo, ServoParams};
-use crate::worklink::WorkLink;
 use crate::spindle::Spindle;
+use crate::worklink::WorkLink;
 use hob_rt_core::config::machine::MachineConfig;
 use hob_rt_core::control::fault::{Axis, End};
 use hob_rt_core::control::io::{Inputs, IoBits, Outputs};
@@ -78,6 +78,7 @@ pub struct Plant {
     clamp_closed: bool,
     chain_closed: bool,
     chain_changed_at: f64,
+    chain_cause_gone_at: Option<f64>,
     workpiece: Option<Workpiece>,
     estop: bool,
     chain_open_injected: bool,
@@ -85,7 +86,13 @@ pub struct Plant {
     no_lube_pressure: bool,
 }
 
-fn linear_servo(m: &hob_rt_core::config::machine::LinearAxisConfig, p: &crate::config::LinearPlant, vertical: bool, period_s: f64, start_mm: f64) -> (Servo, f64) {
+fn linear_servo(
+    m: &hob_rt_core::config::machine::LinearAxisConfig,
+    p: &crate::config::LinearPlant,
+    vertical: bool,
+    period_s: f64,
+    start_mm: f64,
+) -> (Servo, f64) {
     let counts_per_rad = f64::from(m.encoder_counts_per_motor_rev) / TAU;
     let rad_per_mm = m.counts_per_mm() / counts_per_rad;
     let m_per_rad = 0.001 / rad_per_mm;
@@ -99,7 +106,6 @@ fn linear_servo(m: &hob_rt_core::config::machine::LinearAxisConfig, p: &crate::c
         velocity_feed_forward: p.velocity_feed_forward,
         friction_nm: p.friction_coefficient * weight_n * m_per_rad,
         constant_load_nm: if vertical { weight_n * m_per_rad } else { 0.0 },
-        torsion: None,
         brake: vertical,
     };
     (Servo::new(params, start_mm * rad_per_mm, period_s), rad_per_mm)
@@ -121,7 +127,6 @@ impl Plant {
             velocity_feed_forward: t.velocity_feed_forward,
             friction_nm: t.friction_motor_nm,
             constant_load_nm: 0.0,
-            torsion: None,
             brake: false,
         };
         let table_motor_rad_per_deg = ratio * TAU / 360.0;
@@ -133,7 +138,12 @@ impl Plant {
             cfg: cfg.clone(),
             params,
             io: params.io,
-            spindle: Spindle::new(&cfg.spindle, s.motor_to_spindle_ratio, s.vfd_hz_at_full_scale / s.vfd_ramp_s, gashes),
+            spindle: Spindle::new(
+                &cfg.spindle,
+                s.motor_to_spindle_ratio,
+                s.vfd_hz_at_full_scale / s.vfd_ramp_s,
+                gashes,
+            ),
             table,
             x,
             y,
@@ -153,6 +163,7 @@ impl Plant {
             clamp_closed: false,
             chain_closed: false,
             chain_changed_at: 0.0,
+            chain_cause_gone_at: None,
             workpiece: None,
             estop: false,
             chain_open_injected: false,
@@ -233,9 +244,12 @@ impl Plant {
         self.analog_v = o.spindle_analog_v;
         self.drives_enabled = o.drives_enabled;
         // Targets are in each drive's own counts (the controller applied the polarity).
-        self.table.apply_target(unwrap_near(o.table_target_counts, self.table.position_counts()));
-        self.x.apply_target(unwrap_near(o.x_target_counts, self.x.position_counts()));
-        self.y.apply_target(unwrap_near(o.y_target_counts, self.y.position_counts()));
+        self.table
+            .apply_target(unwrap_near(o.table_target_counts, self.table.position_counts()));
+        self.x
+            .apply_target(unwrap_near(o.x_target_counts, self.x.position_counts()));
+        self.y
+            .apply_target(unwrap_near(o.y_target_counts, self.y.position_counts()));
     }
 
     /// At SYNC: what the drives and the coupler report.
@@ -305,10 +319,19 @@ impl Plant {
             || i.y_limit_max
             || self.spindle.vfd_fault
             || !self.outputs.pc_ok_relay;
+        if cause {
+            self.chain_cause_gone_at = None;
+        } else if self.chain_cause_gone_at.is_none() {
+            self.chain_cause_gone_at = Some(t);
+        }
         if self.chain_closed && cause {
             self.chain_closed = false;
             self.chain_changed_at = t;
-        } else if !self.chain_closed && !cause && t - self.chain_changed_at >= SECONDS_FOR_OPERATOR_RESET {
+        } else if !self.chain_closed
+            && self
+                .chain_cause_gone_at
+                .is_some_and(|t0| t - t0 >= SECONDS_FOR_OPERATOR_RESET)
+        {
             self.chain_closed = true;
             self.chain_changed_at = t;
         }
@@ -340,7 +363,11 @@ impl Plant {
         } else {
             0.0
         };
-        let set_hz = if powered { run * self.analog_v * self.hz_per_volt } else { 0.0 };
+        let set_hz = if powered {
+            run * self.analog_v * self.hz_per_volt
+        } else {
+            0.0
+        };
         // Cutting force follows the chip with the first-order lag of seed 003.
         let share = self.cut_share();
         self.spindle.load_share += (share - self.spindle.load_share) * (dt / CUT_FORCE_LAG_S).min(1.0);
@@ -352,7 +379,8 @@ impl Plant {
             // Resists the table's turning: on the drive through the worm, and on the work
             // link, which deflects back against the turning.
             let resisting = torque * (self.table.motor_rad_s / 1.0).tanh();
-            self.table.disturbance_nm = resisting / (self.table_motor_rad_per_deg * 180.0 / std::f64::consts::PI);
+            self.table.disturbance_nm =
+                resisting / (self.table_motor_rad_per_deg * 180.0 / std::f64::consts::PI);
             self.work.advance(-resisting, dt);
         }
         self.table.advance(dt);
@@ -375,7 +403,11 @@ impl Plant {
         let reach = (h * (d - h)).sqrt();
         let y = self.y_mm();
         let outside = (w.face_bottom_mm - y).max(y - w.face_top_mm).max(0.0);
-        let entered = if reach > 0.0 { (1.0 - outside / reach).clamp(0.0, 1.0) } else { 0.0 };
+        let entered = if reach > 0.0 {
+            (1.0 - outside / reach).clamp(0.0, 1.0)
+        } else {
+            0.0
+        };
         (depth / self.cfg.spindle.full_depth_mm).min(1.0) * entered
     }
 

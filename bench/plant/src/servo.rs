@@ -1,21 +1,10 @@
 //! A servo axis as drives really behave: cyclic synchronous position (targets applied at
 //! SYNC, linear interpolation between SYNCs), a P position loop with velocity
 //! feed-forward around a PI velocity loop of finite bandwidth, a torque limit, encoder
-//! quantisation, and optionally a torsional load behind a gear (the table on its worm).
+//! quantisation. Loads are reflected rigidly; the work's own elasticity is
+//! [`crate::worklink`].
 
 use std::f64::consts::TAU;
-
-/// A torsional load behind a reduction: the load inertia on a spring to the gear output.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Torsion {
-    /// Motor revolutions per load revolution.
-    pub ratio: f64,
-    pub load_inertia_kg_m2: f64,
-    /// Spring at the load, Nm/rad.
-    pub stiffness_nm_rad: f64,
-    /// Damper at the load, Nm s/rad.
-    pub damping_nm_s_rad: f64,
-}
 
 /// Fixed parameters of one axis.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -31,7 +20,6 @@ pub struct ServoParams {
     pub friction_nm: f64,
     /// Constant load at the motor (gravity on a vertical axis).
     pub constant_load_nm: f64,
-    pub torsion: Option<Torsion>,
     /// A holding brake when disabled (vertical axis).
     pub brake: bool,
 }
@@ -45,9 +33,6 @@ pub struct Servo {
     kv: f64,
     pub motor_rad: f64,
     pub motor_rad_s: f64,
-    /// Load angle (rad at the load) when torsional.
-    pub load_rad: f64,
-    pub load_rad_s: f64,
     integral: f64,
     target_prev_counts: f64,
     target_counts: f64,
@@ -57,13 +42,13 @@ pub struct Servo {
     pub fault: bool,
     /// Locked by a clamp: does not move.
     pub locked: bool,
-    /// External torque at the load (torsional) or at the motor (rigid), Nm.
+    /// External torque at the motor, Nm.
     pub disturbance_nm: f64,
 }
 
 impl Servo {
     pub fn new(p: ServoParams, position_rad: f64, period_s: f64) -> Self {
-        let j = p.inertia_kg_m2 + p.torsion.map_or(0.0, |t| t.load_inertia_kg_m2 / (t.ratio * t.ratio));
+        let j = p.inertia_kg_m2;
         let wv = TAU * p.velocity_loop_hz;
         let counts = (position_rad * p.counts_per_rad).floor();
         Self {
@@ -73,8 +58,6 @@ impl Servo {
             kv: TAU * p.position_loop_hz,
             motor_rad: position_rad,
             motor_rad_s: 0.0,
-            load_rad: p.torsion.map_or(0.0, |t| position_rad / t.ratio),
-            load_rad_s: 0.0,
             integral: 0.0,
             target_prev_counts: counts,
             target_counts: counts,
@@ -129,27 +112,11 @@ impl Servo {
         };
         if self.locked || (!active && self.p.brake) {
             self.motor_rad_s = 0.0;
-            self.load_rad_s = 0.0;
             return;
         }
         let friction = self.p.friction_nm * (self.motor_rad_s / 0.01).tanh();
-        match self.p.torsion {
-            None => {
-                let acc = (torque - friction - self.p.constant_load_nm - self.disturbance_nm) / self.p.inertia_kg_m2;
-                self.motor_rad_s += acc * dt_s;
-                self.motor_rad += self.motor_rad_s * dt_s;
-            }
-            Some(t) => {
-                let twist = self.motor_rad / t.ratio - self.load_rad;
-                let twist_rate = self.motor_rad_s / t.ratio - self.load_rad_s;
-                let spring = t.stiffness_nm_rad * twist + t.damping_nm_s_rad * twist_rate;
-                let acc_m = (torque - friction - spring / t.ratio) / self.p.inertia_kg_m2;
-                let acc_l = (spring - self.disturbance_nm) / t.load_inertia_kg_m2;
-                self.motor_rad_s += acc_m * dt_s;
-                self.load_rad_s += acc_l * dt_s;
-                self.motor_rad += self.motor_rad_s * dt_s;
-                self.load_rad += self.load_rad_s * dt_s;
-            }
-        }
+        let acc = (torque - friction - self.p.constant_load_nm - self.disturbance_nm) / self.p.inertia_kg_m2;
+        self.motor_rad_s += acc * dt_s;
+        self.motor_rad += self.motor_rad_s * dt_s;
     }
 }

@@ -203,7 +203,9 @@ impl Simulation {
         let g = self.controller.gearbox();
         let sync_err_arcsec = match (g.coupling(), g.phase_target_deg()) {
             (Coupling::Synchronised, Some(target)) => {
-                let coupled = g.params().coupled_deg(self.plant.spindle_deg(), self.plant.y_mm());
+                let coupled = g
+                    .params()
+                    .coupled_deg(self.plant.spindle_deg(), self.plant.y_mm());
                 Some((self.plant.table_deg() - coupled - target) * 3600.0)
             }
             _ => None,
@@ -239,7 +241,12 @@ impl Simulation {
     }
 
     /// Runs cycles until `done(row)` or `max_s`; returns whether `done` was reached.
-    pub fn run_until(&mut self, max_s: f64, sink: &mut dyn FnMut(&TraceRow), done: &mut dyn FnMut(&TraceRow, &[Event]) -> bool) -> bool {
+    pub fn run_until(
+        &mut self,
+        max_s: f64,
+        sink: &mut dyn FnMut(&TraceRow),
+        done: &mut dyn FnMut(&TraceRow, &[Event]) -> bool,
+    ) -> bool {
         let end = self.cycle + (max_s / self.period_s) as u64;
         while self.cycle < end {
             let row = self.step();
@@ -249,6 +256,11 @@ impl Simulation {
             }
         }
         false
+    }
+
+    /// The outputs of the last cycle (to be applied at the next SYNC).
+    pub fn last_outputs(&self) -> CycleOutputs {
+        self.outputs
     }
 
     pub fn command(&mut self, c: Command) -> Result<(), hob_rt_core::control::fault::Refusal> {
@@ -275,7 +287,12 @@ pub fn start_for(program: &CycleProgram) -> Start {
 }
 
 /// What the plant must know of the job.
-pub fn workpiece_for(program: &CycleProgram, plan: &Plan, face_width_mm: f64, tool_diameter_mm: f64) -> Workpiece {
+pub fn workpiece_for(
+    program: &CycleProgram,
+    plan: &Plan,
+    face_width_mm: f64,
+    tool_diameter_mm: f64,
+) -> Workpiece {
     Workpiece {
         x_surface_mm: program.x_surface_mm,
         face_bottom_mm: program.face_bottom_mm,
@@ -331,7 +348,13 @@ impl SummaryBuilder {
         }
     }
 
-    pub fn finish(mut self, options: &SimOptions, total_time_s: f64, completed: bool, fault: Option<String>) -> Summary {
+    pub fn finish(
+        mut self,
+        options: &SimOptions,
+        total_time_s: f64,
+        completed: bool,
+        fault: Option<String>,
+    ) -> Summary {
         let r = self.pitch_radius_mm;
         for p in &mut self.passes {
             if p.samples == 0 {
@@ -349,7 +372,11 @@ impl SummaryBuilder {
             p.work_twist_max_um = arcsec_to_um_at_radius(p.work_twist_max_arcsec, r);
         }
         let tol = single_pitch_tolerance_um(2.0 * r, self.normal_module_mm, 5);
-        let max_arcsec = self.passes.iter().map(|p| p.sync_err_max_arcsec).fold(0.0, f64::max);
+        let max_arcsec = self
+            .passes
+            .iter()
+            .map(|p| p.sync_err_max_arcsec)
+            .fold(0.0, f64::max);
         Summary {
             cross_coupling: options.cross_coupling,
             predictor: options.angle_source == SpindleAngleSource::Predicted,
@@ -383,8 +410,18 @@ pub fn run_program(
         machine.gearbox.coarse_window_arcsec = 2e9;
     }
     let machine = &machine;
-    let mut sim = Simulation::new(machine, plant_cfg, start_for(program), job.tool.gashes.max(1) as u32);
-    sim.plant.set_workpiece(workpiece_for(program, plan, job.workpiece.face_width_mm, job.tool.outside_diameter_mm));
+    let mut sim = Simulation::new(
+        machine,
+        plant_cfg,
+        start_for(program),
+        job.tool.gashes.max(1) as u32,
+    );
+    sim.plant.set_workpiece(workpiece_for(
+        program,
+        plan,
+        job.workpiece.face_width_mm,
+        job.tool.outside_diameter_mm,
+    ));
     sim.controller.set_angle_source(options.angle_source);
     let mut builder = SummaryBuilder::new(plan);
     let period = sim.period_s;
@@ -395,10 +432,14 @@ pub fn run_program(
     if !sim.power_up(60.0, &mut both) {
         return Err("the machine did not leave power-up within 60 s".into());
     }
-    sim.controller.load(*program).map_err(|r| format!("program refused: {r:?}"))?;
+    sim.controller
+        .load(*program)
+        .map_err(|r| format!("program refused: {r:?}"))?;
     sim.controller.set_cross_coupling(options.cross_coupling);
-    sim.command(Command::Start { single: options.single })
-        .map_err(|r| format!("start refused: {r:?}"))?;
+    sim.command(Command::Start {
+        single: options.single,
+    })
+    .map_err(|r| format!("start refused: {r:?}"))?;
     let completed = sim.run_until(options.max_time_s, &mut both, &mut |row, _| {
         matches!(row.state, State::Idle | State::Faulted)
     });

@@ -25,7 +25,8 @@ impl WorkLink {
 
     /// Advances by `dt_s` under `torque_nm` (semi-implicit Euler).
     pub fn advance(&mut self, torque_nm: f64, dt_s: f64) {
-        let acc = (torque_nm / self.stiffness - self.t2_s * self.rate_rad_s - self.angle_rad) / (self.t1_s * self.t1_s);
+        let acc = (torque_nm / self.stiffness - self.t2_s * self.rate_rad_s - self.angle_rad)
+            / (self.t1_s * self.t1_s);
         self.rate_rad_s += acc * dt_s;
         self.angle_rad += self.rate_rad_s * dt_s;
     }

@@ -27,15 +27,25 @@ pub fn run(machine: &MachineConfig, a: &Args<'_>) -> Result<String, (bool, Strin
     let built = CycleProgram::build(&job, machine, &mut p);
     let plan = planner::plan(&job, machine, &mut p);
     let (Some(cycle), Some(plan)) = (built, plan) else {
-        let e = p.into_result(a.program, &src).err().map_or_else(|| "refused".to_string(), |e| e.to_string());
+        let e = p
+            .into_result(a.program, &src)
+            .err()
+            .map_or_else(|| "refused".to_string(), |e| e.to_string());
         return Err((true, e));
     };
     if a.options.single && cycle.single().is_none() {
-        return Err((true, format!("{}: cycle.single_depth_mm: --single needs a single-mode depth", a.program.display())));
+        return Err((
+            true,
+            format!(
+                "{}: cycle.single_depth_mm: --single needs a single-mode depth",
+                a.program.display()
+            ),
+        ));
     }
     std::fs::create_dir_all(a.out).map_err(|e| (false, format!("{}: {e}", a.out.display())))?;
     let trace_path = a.out.join("trace.csv");
-    let file = std::fs::File::create(&trace_path).map_err(|e| (false, format!("{}: {e}", trace_path.display())))?;
+    let file =
+        std::fs::File::create(&trace_path).map_err(|e| (false, format!("{}: {e}", trace_path.display())))?;
     let mut w = BufWriter::new(file);
     let mut io_error = None;
     let _ = writeln!(w, "{TRACE_HEADER}");
@@ -52,7 +62,8 @@ pub fn run(machine: &MachineConfig, a: &Args<'_>) -> Result<String, (bool, Strin
     }
     let json = serde_json::to_string_pretty(&summary).map_err(|e| (false, e.to_string()))?;
     let summary_path = a.out.join("summary.json");
-    std::fs::write(&summary_path, json + "\n").map_err(|e| (false, format!("{}: {e}", summary_path.display())))?;
+    std::fs::write(&summary_path, json + "\n")
+        .map_err(|e| (false, format!("{}: {e}", summary_path.display())))?;
     let passes: Vec<String> = summary
         .passes
         .iter()
@@ -70,7 +81,11 @@ pub fn run(machine: &MachineConfig, a: &Args<'_>) -> Result<String, (bool, Strin
         passes.join(", "),
         summary.bound_um,
         if a.options.cross_coupling { "on" } else { "off" },
-        if a.options.angle_source == SpindleAngleSource::Predicted { "on" } else { "off (last measured angle)" },
+        if a.options.angle_source == SpindleAngleSource::Predicted {
+            "on"
+        } else {
+            "off (last measured angle)"
+        },
         trace_path.display(),
     ))
 }

@@ -398,22 +398,51 @@ impl MachineConfig {
             },
         );
         let c = &self.control;
-        p.require(c.drive_delay_us <= 10 * c.cycle_period_us, "control.drive_delay_us", || {
-            format!("must be at most 10 cycles ({} us) (is {})", 10 * c.cycle_period_us, c.drive_delay_us)
-        });
+        p.require(
+            c.drive_delay_us <= 10 * c.cycle_period_us,
+            "control.drive_delay_us",
+            || {
+                format!(
+                    "must be at most 10 cycles ({} us) (is {})",
+                    10 * c.cycle_period_us,
+                    c.drive_delay_us
+                )
+            },
+        );
         let nyquist_hz = 1e6 / f64::from(c.cycle_period_us.max(1)) / 2.0;
-        p.within("control.spindle_observer_bandwidth_hz", c.spindle_observer_bandwidth_hz, 0.1, nyquist_hz / 2.0, "Hz");
-        p.within("control.spindle_speed_tolerance", c.spindle_speed_tolerance, 0.001, 0.5, "");
+        p.within(
+            "control.spindle_observer_bandwidth_hz",
+            c.spindle_observer_bandwidth_hz,
+            0.1,
+            nyquist_hz / 2.0,
+            "Hz",
+        );
+        p.within(
+            "control.spindle_speed_tolerance",
+            c.spindle_speed_tolerance,
+            0.001,
+            0.5,
+            "",
+        );
         p.positive("control.spindle_start_timeout_s", c.spindle_start_timeout_s);
         p.positive("control.x_clamp_timeout_s", c.x_clamp_timeout_s);
         let g = &self.gearbox;
         p.positive("gearbox.engage_time_s", g.engage_time_s);
         p.positive("gearbox.fine_window_arcsec", g.fine_window_arcsec);
-        p.require(g.coarse_window_arcsec > g.fine_window_arcsec, "gearbox.coarse_window_arcsec", || {
-            format!("must be wider than gearbox.fine_window_arcsec = {} (is {})", g.fine_window_arcsec, g.coarse_window_arcsec)
-        });
+        p.require(
+            g.coarse_window_arcsec > g.fine_window_arcsec,
+            "gearbox.coarse_window_arcsec",
+            || {
+                format!(
+                    "must be wider than gearbox.fine_window_arcsec = {} (is {})",
+                    g.fine_window_arcsec, g.coarse_window_arcsec
+                )
+            },
+        );
         p.non_negative("gearbox.ccc_kp", g.ccc_kp);
-        p.require(g.ccc_kp < 1.0, "gearbox.ccc_kp", || format!("must be below 1 for a stable correction (is {})", g.ccc_kp));
+        p.require(g.ccc_kp < 1.0, "gearbox.ccc_kp", || {
+            format!("must be below 1 for a stable correction (is {})", g.ccc_kp)
+        });
         p.non_negative("gearbox.ccc_ki_per_s", g.ccc_ki_per_s);
         p.non_negative("gearbox.ccc_limit_arcsec", g.ccc_limit_arcsec);
         p.positive("gearbox.phase_sync_speed_deg_s", g.phase_sync_speed_deg_s);

@@ -234,8 +234,12 @@ impl Gearbox {
         }
 
         let before = self.phase_move.position;
-        self.phase_move
-            .step_towards(self.phase_goal_deg, p.phase_speed_deg_s, p.table_accel_deg_s2, dt_s);
+        self.phase_move.step_towards(
+            self.phase_goal_deg,
+            p.phase_speed_deg_s,
+            p.table_accel_deg_s2,
+            dt_s,
+        );
         self.base_deg += self.phase_move.position - before;
         if self.coupling == Coupling::Phasing && !self.table_moving() {
             self.coupling = Coupling::Synchronised;
@@ -293,12 +297,14 @@ mod tests {
 
     /// Runs an ideal table (follows its command exactly) with the spindle at `rpm`.
     fn run(g: &mut Gearbox, spindle: &mut f64, table: &mut f64, rpm: f64, cycles: u32) -> f64 {
+        // The command is for the next instant; the table reaches it there.
         let mut max_step = 0.0f64;
         for _ in 0..cycles {
-            *spindle += rpm * 6.0 * 0.001;
-            let cmd = g.step(*spindle, 0.0, *spindle, *table, 0.0, 0.001);
+            let next = *spindle + rpm * 6.0 * 0.001;
+            let cmd = g.step(next, 0.0, *spindle, *table, 0.0, 0.001);
             max_step = max_step.max((cmd - *table).abs());
             *table = cmd;
+            *spindle = next;
         }
         max_step
     }
@@ -336,7 +342,10 @@ mod tests {
         assert_eq!(g.coupling(), Coupling::Synchronised);
         let phase = table - spindle / 17.0;
         let gaps = (phase - rec) / p.pitch_deg;
-        assert!((gaps - gaps.round()).abs() < 1e-9, "phase {phase} vs recorded {rec}: {gaps} pitches");
+        assert!(
+            (gaps - gaps.round()).abs() < 1e-9,
+            "phase {phase} vs recorded {rec}: {gaps} pitches"
+        );
         assert_eq!(g.recorded_phase_deg(), Some(rec));
     }
 
@@ -380,13 +389,22 @@ mod tests {
         let (mut spindle, mut table) = (0.0, 0.0);
         g.engage();
         run(&mut g, &mut spindle, &mut table, 100.0, 2000);
-        // The table stands 0.01 deg ahead of its command for a second.
+        // The table stands 0.01 deg ahead of where the law puts it for a second.
+        let rec = g.recorded_phase_deg().unwrap();
         let mut cmd = table;
         for _ in 0..1000 {
-            spindle += 0.6;
-            cmd = g.step(spindle, 0.0, spindle, cmd + 0.01, 0.0, 0.001);
+            let next = spindle + 0.6;
+            cmd = g.step(next, 0.0, spindle, spindle / 17.0 + rec + 0.01, 0.0, 0.001);
+            spindle = next;
         }
         let s = g.status();
+        assert!((s.error_deg - 0.01).abs() < 1e-9, "{s:?}");
         assert!(s.ccc_deg > 0.0 && s.ccc_deg <= p.ccc_limit_deg + 1e-12, "{s:?}");
+        assert!(
+            (s.ccc_deg - p.ccc_limit_deg).abs() < 1e-12,
+            "saturates at its bound: {s:?}"
+        );
+        let ideal = (spindle - 0.6 + 0.6) / 17.0 + rec;
+        assert!(cmd < ideal, "the command is pulled back against the error");
     }
 }

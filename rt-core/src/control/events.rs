@@ -10,14 +10,24 @@ pub const EVENT_CAPACITY: usize = 256;
 /// What happened.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum EventKind {
-    StateChanged { from: State, to: State },
+    StateChanged {
+        from: State,
+        to: State,
+    },
     Fault(Fault),
     FaultCleared,
-    PassStarted { pass: u32 },
+    PassStarted {
+        pass: u32,
+    },
     /// First engagement on this blank: its tooth phase, deg.
-    PhaseRecorded { phase_deg: f64 },
+    PhaseRecorded {
+        phase_deg: f64,
+    },
     Accepted(Command),
-    Refused { command: Command, reason: Refusal },
+    Refused {
+        command: Command,
+        reason: Refusal,
+    },
     ProgramLoaded,
     CycleDone,
 }

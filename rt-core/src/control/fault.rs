@@ -67,7 +67,10 @@ impl Fault {
             Fault::DriveFault { axis: Axis::X }
                 | Fault::FollowingError { axis: Axis::X, .. }
                 | Fault::FeedbackLost { axis: Axis::X }
-                | Fault::HardwareLimit { axis: Axis::X, end: End::Max }
+                | Fault::HardwareLimit {
+                    axis: Axis::X,
+                    end: End::Max
+                }
                 | Fault::SoftLimit { axis: Axis::X, .. }
         )
     }

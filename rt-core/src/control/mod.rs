@@ -346,7 +346,10 @@ impl Controller {
     }
 
     fn event(&mut self, kind: EventKind) {
-        self.events.push(Event { cycle: self.cycle, kind });
+        self.events.push(Event {
+            cycle: self.cycle,
+            kind,
+        });
     }
 
     /// Latches a fault (the first one wins) and starts the reaction.
@@ -394,12 +397,18 @@ impl Controller {
         );
         self.last_spindle_for_gearbox_deg = self.m.spindle_for_gearbox_deg;
         self.check_soft_limits();
-        self.history = [self.history[1], [self.table_cmd_deg, self.x.position, self.y.position]];
+        self.history = [
+            self.history[1],
+            [self.table_cmd_deg, self.x.position, self.y.position],
+        ];
         self.outputs()
     }
 
     fn measure(&mut self, input: &CycleInputs) {
-        let spindle = self.p.spindle.to_units(self.unwrap[0].update(input.spindle_counts));
+        let spindle = self
+            .p
+            .spindle
+            .to_units(self.unwrap[0].update(input.spindle_counts));
         let est = self.observer.update(spindle);
         let for_gearbox = match self.angle_source {
             SpindleAngleSource::Predicted => est.predict_deg(self.p.horizon_s),
@@ -409,7 +418,10 @@ impl Controller {
             spindle_deg: est.angle_deg,
             spindle_speed_deg_s: est.speed_deg_s,
             spindle_for_gearbox_deg: for_gearbox,
-            table_deg: self.p.table.to_units(self.unwrap[1].update(input.table.position_counts)),
+            table_deg: self
+                .p
+                .table
+                .to_units(self.unwrap[1].update(input.table.position_counts)),
             x_mm: self.p.x.to_units(self.unwrap[2].update(input.x.position_counts)),
             y_mm: self.p.y.to_units(self.unwrap[3].update(input.y.position_counts)),
             inputs: self.p.io.decode(input.digital_inputs),
@@ -420,9 +432,8 @@ impl Controller {
     fn supervise(&mut self, input: &CycleInputs) {
         let i = self.m.inputs;
         let active = self.seq.drives_should_be_enabled();
-        if !i.safety_chain_closed && active {
-            self.raise(Fault::SafetyChainOpen);
-        }
+        // The specific causes first, so that the root cause is the fault reported: each of
+        // them also opens the safety chain.
         if i.estop_pressed {
             self.raise(Fault::EmergencyStop);
         }
@@ -439,6 +450,9 @@ impl Controller {
         if i.vfd_fault {
             self.raise(Fault::VfdFault);
         }
+        if !i.safety_chain_closed && active {
+            self.raise(Fault::SafetyChainOpen);
+        }
         let drives = [(input.table, Axis::B), (input.x, Axis::X), (input.y, Axis::Y)];
         for (k, (fb, axis)) in drives.into_iter().enumerate() {
             if fb.fault {
@@ -452,7 +466,11 @@ impl Controller {
         if active && self.cycle > 3 {
             let [b, x, y] = self.history[0];
             let errors = [
-                (self.m.table_deg - b, self.p.table_max_following_error_deg, Axis::B),
+                (
+                    self.m.table_deg - b,
+                    self.p.table_max_following_error_deg,
+                    Axis::B,
+                ),
                 (self.m.x_mm - x, self.p.x_limits.max_following_error_mm, Axis::X),
                 (self.m.y_mm - y, self.p.y_limits.max_following_error_mm, Axis::Y),
             ];
@@ -476,7 +494,11 @@ impl Controller {
                 .clamp(SPINDLE_TRIM_RANGE.0, SPINDLE_TRIM_RANGE.1);
         }
         let within = set > 0.0 && (actual - set).abs() <= self.p.spindle_tolerance * set;
-        self.spindle_at_speed_s = if within { self.spindle_at_speed_s + self.p.period_s } else { 0.0 };
+        self.spindle_at_speed_s = if within {
+            self.spindle_at_speed_s + self.p.period_s
+        } else {
+            0.0
+        };
     }
 
     fn check_soft_limits(&mut self) {

@@ -115,7 +115,9 @@ mod tests {
     /// Quantised angle of a spindle turning at `rpm` with a speed ripple.
     fn counts(t: f64, rpm: f64, ripple: f64, ripple_hz: f64) -> f64 {
         let w = rpm * 6.0;
-        let angle = w * t + ripple * w / (std::f64::consts::TAU * ripple_hz) * (1.0 - (std::f64::consts::TAU * ripple_hz * t).cos());
+        let angle = w * t
+            + ripple * w / (std::f64::consts::TAU * ripple_hz)
+                * (1.0 - (std::f64::consts::TAU * ripple_hz * t).cos());
         (angle / 0.036).floor() * 0.036
     }
 
@@ -139,15 +141,17 @@ mod tests {
 
     proptest! {
         #[test]
-        fn constant_speed_is_tracked_to_within_a_count(rpm in 5.0f64..250.0) {
-            let mut obs = SpindleObserver::new(0.001, 25.0);
+        fn constant_speed_is_tracked_to_within_a_count(rpm in 2.0f64..250.0) {
+            // The shipped bandwidth (config/machine.toml).
+            let mut obs = SpindleObserver::new(0.001, 10.0);
             let mut est = SpindleEstimate::default();
             for k in 0..2000 {
                 est = obs.update(counts(f64::from(k) * 0.001, rpm, 0.0, 1.0));
             }
             let truth = rpm * 6.0 * 1.999;
             prop_assert!((est.angle_deg - truth).abs() < 0.036 * 2.0, "{} vs {truth}", est.angle_deg);
-            prop_assert!((est.speed_deg_s - rpm * 6.0).abs() < 0.02 * rpm * 6.0);
+            // Speed to 1 % or 1 deg/s: a count is 0.036 deg, at 2 rpm only 0.33 per cycle.
+            prop_assert!((est.speed_deg_s - rpm * 6.0).abs() < 0.01 * rpm * 6.0 + 1.0);
         }
     }
 }

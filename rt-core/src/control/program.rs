@@ -73,12 +73,18 @@ impl CycleProgram {
             Some(_) => {
                 let mut single = program.clone();
                 single.cycle.mode = Mode::Single;
-                planner::plan(&single, machine, p)?.passes.first().map(PassSetpoint::from_pass)
+                planner::plan(&single, machine, p)?
+                    .passes
+                    .first()
+                    .map(PassSetpoint::from_pass)
             }
             None => None,
         };
         if plan.passes.len() > MAX_PASSES {
-            p.push("strategy.rough_passes", format!("at most {} passes in all", MAX_PASSES));
+            p.push(
+                "strategy.rough_passes",
+                format!("at most {} passes in all", MAX_PASSES),
+            );
             return None;
         }
         Some(Self::from_plan(program, &plan, checked.x_shape, single))
@@ -86,7 +92,11 @@ impl CycleProgram {
 
     fn from_plan(program: &Program, plan: &Plan, shape: XShape, single: Option<PassSetpoint>) -> Self {
         let s = &plan.signs;
-        let ratio = if program.cycle.kind == CycleKind::ToothByTooth { 0.0 } else { plan.egb_ratio };
+        let ratio = if program.cycle.kind == CycleKind::ToothByTooth {
+            0.0
+        } else {
+            plan.egb_ratio
+        };
         let mut passes = [PassSetpoint::from_pass(&plan.passes[0]); MAX_PASSES];
         for (slot, pass) in passes.iter_mut().zip(&plan.passes) {
             *slot = PassSetpoint::from_pass(pass);

@@ -107,7 +107,9 @@ impl State {
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum Command {
     /// Start the loaded program: all passes, or the single-mode pass.
-    Start { single: bool },
+    Start {
+        single: bool,
+    },
     FeedHold,
     Resume,
     /// Cycle stop: out of the cut, gearbox out, spindle off.
@@ -115,9 +117,14 @@ pub enum Command {
     /// Clear a fault whose cause is gone.
     Reset,
     /// Move an axis by a distance (mm, or deg for B), only when idle.
-    Jog { axis: Axis, distance: f64 },
+    Jog {
+        axis: Axis,
+        distance: f64,
+    },
     /// Spindle at a speed, only when idle (e.g. to centre the blank).
-    SpindleOn { rpm: f64 },
+    SpindleOn {
+        rpm: f64,
+    },
     SpindleOff,
     /// A new blank is on the table: forget the recorded tooth phase.
     NewBlank,
@@ -144,7 +151,11 @@ pub(super) struct Sequencer {
 
 impl Sequencer {
     pub fn pass_number(&self) -> u32 {
-        if self.state.in_cycle() { self.pass_index as u32 + 1 } else { 0 }
+        if self.state.in_cycle() {
+            self.pass_index as u32 + 1
+        } else {
+            0
+        }
     }
 
     pub fn drives_should_be_enabled(&self) -> bool {
@@ -256,7 +267,7 @@ impl Controller {
                 match state {
                     State::Idle => self.seq.spindle_set_rpm = 0.0,
                     State::Jog => self.enter(State::Idle),
-                    s if s.tool_in_work() || s == State::Infeed => self.enter(State::Unclamp),
+                    s if s.tool_in_work() || s == State::Infeed => self.leave_cut(),
                     State::Home | State::Disengage | State::SpindleDown => {}
                     _ => self.enter(State::Disengage),
                 }
@@ -264,7 +275,11 @@ impl Controller {
             }
             Command::Jog { axis, distance } => {
                 if state != State::Idle {
-                    return Err(if state == State::Init { Refusal::NotReady } else { Refusal::CycleRunning });
+                    return Err(if state == State::Init {
+                        Refusal::NotReady
+                    } else {
+                        Refusal::CycleRunning
+                    });
                 }
                 if !distance.is_finite() {
                     return Err(Refusal::BadValue);
@@ -294,7 +309,11 @@ impl Controller {
             }
             Command::SpindleOn { rpm } => {
                 if state != State::Idle {
-                    return Err(if state == State::Init { Refusal::NotReady } else { Refusal::CycleRunning });
+                    return Err(if state == State::Init {
+                        Refusal::NotReady
+                    } else {
+                        Refusal::CycleRunning
+                    });
                 }
                 if !(rpm.is_finite() && rpm > 0.0 && rpm <= self.p.spindle_max_rpm) {
                     return Err(Refusal::BadValue);
@@ -368,7 +387,10 @@ impl Controller {
 
     /// X for the current Y in the cut: pass depth plus crowning/contour.
     fn x_in_cut(&self, program: &CycleProgram, pass: &PassSetpoint) -> f64 {
-        pass.x_mm + program.shape.x_offset_mm(self.y.position - program.face_bottom_mm)
+        pass.x_mm
+            + program
+                .shape
+                .x_offset_mm(self.y.position - program.face_bottom_mm)
     }
 
     /// Steps X towards `target` at rapid (or `speed`), pausing on feed hold.
@@ -378,7 +400,8 @@ impl Controller {
             self.x.step_stop(l.accel_mm_s2, self.p.period_s);
             return false;
         }
-        self.x.step_towards(target, speed_mm_s, l.accel_mm_s2, self.p.period_s)
+        self.x
+            .step_towards(target, speed_mm_s, l.accel_mm_s2, self.p.period_s)
     }
 
     /// Steps Y towards `target` at rapid, slower while the gearbox couples the table to
@@ -415,11 +438,22 @@ impl Controller {
         let state = self.seq.state;
         self.seq.coolant = matches!(
             state,
-            State::Infeed | State::Plunge | State::ExtraRev | State::Clamp | State::Cut | State::Unclamp | State::Retract
+            State::Infeed
+                | State::Plunge
+                | State::ExtraRev
+                | State::Clamp
+                | State::Cut
+                | State::Unclamp
+                | State::Retract
         ) && self.seq.spindle_set_rpm > 0.0;
         let status = self.gearbox.status();
-        if state.tool_in_work() && self.gearbox.coupling() == Coupling::Synchronised && !status.in_coarse_window {
-            self.raise(Fault::SyncLost { error_arcsec: status.error_deg * 3600.0 });
+        if state.tool_in_work()
+            && self.gearbox.coupling() == Coupling::Synchronised
+            && !status.in_coarse_window
+        {
+            self.raise(Fault::SyncLost {
+                error_arcsec: status.error_deg * 3600.0,
+            });
             return;
         }
         match state {
@@ -487,11 +521,16 @@ impl Controller {
                 }
                 self.seq.spindle_set_rpm = pass.spindle_rpm;
                 if self.spindle_at_speed() {
-                    self.event(EventKind::PassStarted { pass: self.seq.pass_index as u32 + 1 });
+                    self.event(EventKind::PassStarted {
+                        pass: self.seq.pass_index as u32 + 1,
+                    });
                     self.enter(State::Engage);
                 } else if self.seq.state_time_s > self.p.spindle_start_timeout_s {
                     let actual_rpm = self.m.spindle_speed_deg_s.abs() / 6.0;
-                    self.raise(Fault::SpindleSpeed { set_rpm: pass.spindle_rpm, actual_rpm });
+                    self.raise(Fault::SpindleSpeed {
+                        set_rpm: pass.spindle_rpm,
+                        actual_rpm,
+                    });
                 }
             }
             State::Engage => {
@@ -517,7 +556,11 @@ impl Controller {
                 };
                 if self.move_x(target, rapid_x) {
                     self.seq.rev_start_deg = self.m.spindle_deg;
-                    self.enter(if program.cycle == CycleKind::RadialPlunge { State::Plunge } else { State::Clamp });
+                    if program.cycle == CycleKind::RadialPlunge {
+                        self.enter(State::Plunge);
+                    } else {
+                        self.enter_cut_or_clamp(&program);
+                    }
                 }
             }
             State::Plunge => {
@@ -530,15 +573,10 @@ impl Controller {
             State::ExtraRev => {
                 let table_turn = (program.ratio_signed * (self.m.spindle_deg - self.seq.rev_start_deg)).abs();
                 if table_turn >= 360.0 {
-                    self.enter(State::Clamp);
+                    self.enter_cut_or_clamp(&program);
                 }
             }
             State::Clamp => {
-                if program.shape.moves_x() {
-                    self.seq.feed_scale = 0.0;
-                    self.enter(State::Cut);
-                    return;
-                }
                 self.seq.clamp = true;
                 if self.m.inputs.x_clamp_closed {
                     self.seq.feed_scale = 0.0;
@@ -585,7 +623,11 @@ impl Controller {
                 }
             }
             State::Home => {
-                let start = if self.seq.single { pass.y_start_mm } else { program.passes()[0].y_start_mm };
+                let start = if self.seq.single {
+                    pass.y_start_mm
+                } else {
+                    program.passes()[0].y_start_mm
+                };
                 if self.move_y(start) {
                     self.enter(State::Disengage);
                 }
@@ -594,7 +636,8 @@ impl Controller {
                 self.seq.clamp = false;
                 self.seq.feed_scale = 0.0;
                 self.y.step_stop(self.p.y_limits.accel_mm_s2, dt);
-                let unclamped = !self.m.inputs.x_clamp_closed || self.seq.state_time_s > self.p.clamp_timeout_s;
+                let unclamped =
+                    !self.m.inputs.x_clamp_closed || self.seq.state_time_s > self.p.clamp_timeout_s;
                 if unclamped
                     && self
                         .x
@@ -606,14 +649,32 @@ impl Controller {
         }
     }
 
+    /// Out of the cut: unclamp X first if it was clamped.
+    fn leave_cut(&mut self) {
+        let moves_x = self.program.is_some_and(|p| p.shape.moves_x());
+        self.enter(if moves_x { State::Retract } else { State::Unclamp });
+    }
+
+    /// Into the cut: X clamped first unless it moves in the cut (crowning, contour).
+    fn enter_cut_or_clamp(&mut self, program: &CycleProgram) {
+        self.seq.feed_scale = 0.0;
+        self.enter(if program.shape.moves_x() {
+            State::Cut
+        } else {
+            State::Clamp
+        });
+    }
+
     fn sequence_cut(&mut self, program: &CycleProgram, pass: &PassSetpoint) {
         let dt = self.p.period_s;
         let want = if self.seq.hold { 0.0 } else { 1.0 };
         let ramp = dt / FEED_RAMP_S;
         self.seq.feed_scale += (want - self.seq.feed_scale).clamp(-ramp, ramp);
         // Y is tied to the spindle: it advances with the spindle's turning, never with time.
-        let spindle_delta = program.spindle_sign * (self.m.spindle_for_gearbox_deg - self.last_spindle_for_gearbox_deg);
-        let dy = program.feed_sign * pass.feed_mm_per_spindle_deg * spindle_delta.max(0.0) * self.seq.feed_scale;
+        let spindle_delta =
+            program.spindle_sign * (self.m.spindle_for_gearbox_deg - self.last_spindle_for_gearbox_deg);
+        let dy =
+            program.feed_sign * pass.feed_mm_per_spindle_deg * spindle_delta.max(0.0) * self.seq.feed_scale;
         let before = self.y.position;
         let mut y = before + dy;
         let done = (pass.y_end_mm - y) * program.feed_sign <= 0.0;
@@ -628,7 +689,7 @@ impl Controller {
         if done {
             self.y.velocity = 0.0;
             self.x.velocity = 0.0;
-            self.enter(State::Unclamp);
+            self.leave_cut();
         }
     }
 
@@ -671,11 +732,13 @@ impl Controller {
                 let done = match self.seq.jog_axis {
                     Some(Axis::X) => {
                         let l = self.p.x_limits;
-                        self.x.step_towards(self.seq.jog_target, l.rapid_mm_s / 2.0, l.accel_mm_s2, dt)
+                        self.x
+                            .step_towards(self.seq.jog_target, l.rapid_mm_s / 2.0, l.accel_mm_s2, dt)
                     }
                     Some(Axis::Y) => {
                         let l = self.p.y_limits;
-                        self.y.step_towards(self.seq.jog_target, l.rapid_mm_s / 2.0, l.accel_mm_s2, dt)
+                        self.y
+                            .step_towards(self.seq.jog_target, l.rapid_mm_s / 2.0, l.accel_mm_s2, dt)
                     }
                     Some(Axis::B) | None => !self.gearbox.table_moving(),
                 };

@@ -277,18 +277,20 @@ impl Program {
                 )
             });
         }
-        if c.mode == Mode::Single {
-            match c.single_depth_mm {
-                None => p.push("cycle.single_depth_mm", "single mode needs the depth of its pass"),
-                Some(d) => p.require(d > 0.0 && d <= s.total_depth_mm, "cycle.single_depth_mm", || {
-                    format!(
-                        "must be within 0 .. strategy.total_depth_mm = {} mm (is {d})",
-                        s.total_depth_mm
-                    )
-                }),
+        // The single-mode depth is checked whenever it is given: the same program may be
+        // started in single mode from the HMI.
+        match c.single_depth_mm {
+            None if c.mode == Mode::Single => {
+                p.push("cycle.single_depth_mm", "single mode needs the depth of its pass")
             }
+            None => {}
+            Some(d) => p.require(d > 0.0 && d <= s.total_depth_mm, "cycle.single_depth_mm", || {
+                format!(
+                    "must be within 0 .. strategy.total_depth_mm = {} mm (is {d})",
+                    s.total_depth_mm
+                )
+            }),
         }
-
         if !p.is_empty() {
             return None;
         }

@@ -450,7 +450,8 @@ proptest! {
             .replace("total_depth_mm = 11.25", &format!("total_depth_mm = {total:?}"))
             .replace("finish_allowance_mm = 0.5", &format!("finish_allowance_mm = {allowance:?}"))
             .replace("rough_passes = 2", &format!("rough_passes = {n}"))
-            .replace("rough_depths_mm = [6.0, 4.75]\n", &list);
+            .replace("rough_depths_mm = [6.0, 4.75]\n", &list)
+            .replace("single_depth_mm = 5.0\n", "");
         let p = plan_src(&src).map_err(|e| TestCaseError::fail(e.to_string()))?;
         let depths: Vec<f64> = p.passes.iter().map(|x| x.depth_mm).collect();
         prop_assert!(depths.windows(2).all(|w| w[1] > w[0]), "{depths:?}");

@@ -1,0 +1,119 @@
+//! Shared set-up of the closed-loop tests: the shipped machine and plant, example
+//! programs (optionally edited), a powered-up simulation.
+#![allow(dead_code, clippy::unwrap_used)]
+
+use hob_plant::config::PlantConfig;
+use hob_plant::sim::{Simulation, TraceRow, start_for, workpiece_for};
+use hob_rt_core::config::Problems;
+use hob_rt_core::config::machine::MachineConfig;
+use hob_rt_core::control::events::Event;
+use hob_rt_core::control::program::CycleProgram;
+use hob_rt_core::control::{Command, State};
+use hob_rt_core::job::Program;
+use hob_rt_core::planner::{self, Plan};
+use std::path::{Path, PathBuf};
+
+pub fn root() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../..")
+}
+
+pub fn machine() -> MachineConfig {
+    MachineConfig::load(&root().join("config/machine.toml")).unwrap()
+}
+
+pub fn plant() -> PlantConfig {
+    PlantConfig::load(&root().join("config/plant.toml")).unwrap()
+}
+
+/// An example program with textual edits applied to its source.
+pub fn program(name: &str, edits: &[(&str, &str)]) -> (Program, CycleProgram, Plan) {
+    let mut src = std::fs::read_to_string(root().join("config/programs").join(name)).unwrap();
+    for (from, to) in edits {
+        assert!(src.contains(from), "{name} has no {from:?}");
+        src = src.replace(from, to);
+    }
+    let job: Program = toml::from_str(&src).unwrap();
+    let m = machine();
+    let mut p = Problems::new();
+    let cycle = CycleProgram::build(&job, &m, &mut p).unwrap_or_else(|| panic!("{:?}", p.as_slice()));
+    let plan = planner::plan(&job, &m, &mut p).unwrap();
+    (job, cycle, plan)
+}
+
+/// A short spur job (shallow, narrow, fast feed) so that whole cycles run in a second.
+pub fn short_spur(extra: &[(&str, &str)]) -> (Program, CycleProgram, Plan) {
+    let mut edits = vec![
+        ("face_width_mm = 40.0", "face_width_mm = 4.0"),
+        ("allowance_mm = 2.0", "allowance_mm = 0.5"),
+        ("total_depth_mm = 11.25", "total_depth_mm = 2.0"),
+        ("finish_allowance_mm = 0.5", "finish_allowance_mm = 0.2"),
+        ("rough_depths_mm = [6.0, 4.75]\n", ""),
+        ("rough_passes = 2", "rough_passes = 1"),
+        ("feed_mm_per_rev = 2.0", "feed_mm_per_rev = 8.0"),
+        ("feed_mm_per_rev = 1.0", "feed_mm_per_rev = 6.0"),
+        ("single_depth_mm = 5.0", "single_depth_mm = 1.0"),
+    ];
+    edits.extend_from_slice(extra);
+    program("spur-z17-m5.toml", &edits)
+}
+
+/// A powered-up machine with `cycle` loaded; power-up rows are dropped.
+pub fn powered_up(job: &Program, cycle: &CycleProgram, plan: &Plan) -> Simulation {
+    let mut sim = Simulation::new(&machine(), &plant(), start_for(cycle), job.tool.gashes as u32);
+    sim.plant.set_workpiece(workpiece_for(
+        cycle,
+        plan,
+        job.workpiece.face_width_mm,
+        job.tool.outside_diameter_mm,
+    ));
+    assert!(sim.power_up(30.0, &mut |_| {}), "power-up");
+    sim.controller.load(*cycle).unwrap();
+    sim
+}
+
+/// Rows and events of a stretch of a run.
+pub struct Run {
+    pub rows: Vec<TraceRow>,
+    pub events: Vec<Event>,
+}
+
+impl Run {
+    /// The sequence of states, each once per visit.
+    pub fn states(&self) -> Vec<State> {
+        let mut out: Vec<State> = Vec::new();
+        for r in &self.rows {
+            if out.last() != Some(&r.state) {
+                out.push(r.state);
+            }
+        }
+        out
+    }
+
+    /// Index of the first row in `state`.
+    pub fn first(&self, state: State) -> Option<usize> {
+        self.rows.iter().position(|r| r.state == state)
+    }
+}
+
+/// Runs until `done` or `max_s`.
+pub fn run(sim: &mut Simulation, max_s: f64, mut done: impl FnMut(&TraceRow) -> bool) -> Run {
+    let mut rows = Vec::new();
+    let from = sim.events.len();
+    sim.run_until(max_s, &mut |r| rows.push(*r), &mut |r, _| done(r));
+    Run {
+        rows,
+        events: sim.events[from..].to_vec(),
+    }
+}
+
+/// Starts and runs to the end of the cycle (idle or faulted).
+pub fn run_cycle(sim: &mut Simulation, single: bool, max_s: f64) -> Run {
+    sim.command(Command::Start { single }).unwrap();
+    run(sim, max_s, |r| matches!(r.state, State::Idle | State::Faulted))
+}
+
+/// Whether `expected` appears in `states` in this order (other states may lie between).
+pub fn in_order(states: &[State], expected: &[State]) -> bool {
+    let mut it = states.iter();
+    expected.iter().all(|e| it.any(|s| s == e))
+}
