@@ -500,3 +500,51 @@ fn lube_runs_again_after_5_m_of_travel() {
     run(&mut sim, 10.0, |_| false);
     assert_eq!(sim.controller.lube_cycles(), 2, "5.6 m of Y");
 }
+
+#[test]
+fn leaving_the_coarse_window_in_the_cut_is_a_fault_with_retract_first() {
+    // Without prediction the table lags the spindle by ~2 ms: ~300 arcsec at 119 rpm,
+    // beyond the 200 arcsec coarse window once the cross-coupling's bound is used up.
+    let (job, cycle, plan) = short_spur(&[]);
+    let mut sim = powered_up(&job, &cycle, &plan);
+    sim.controller.set_angle_source(hob_rt_core::control::SpindleAngleSource::LastMeasured);
+    let r = run_cycle(&mut sim, false, 300.0);
+    let faults: Vec<_> = r
+        .events
+        .iter()
+        .filter_map(|e| if let EventKind::Fault(f) = e.kind { Some(f) } else { None })
+        .collect();
+    assert!(matches!(faults.first(), Some(Fault::SyncLost { .. })), "{faults:?}");
+    assert_eq!(r.rows.last().unwrap().state, Faulted);
+    let states = r.states();
+    if states.contains(&Cut) {
+        assert!(in_order(&states, &[Cut, FaultRetract, FaultStop, Faulted]), "{states:?}");
+    }
+}
+
+#[test]
+fn coolant_runs_only_while_cutting() {
+    let (job, cycle, plan) = short_spur(&[]);
+    let mut sim = powered_up(&job, &cycle, &plan);
+    sim.command(Command::Start { single: false }).unwrap();
+    let (mut cut_cycles, mut coolant_in_cut, mut coolant_elsewhere) = (0, true, false);
+    for _ in 0..300_000 {
+        let row = sim.step();
+        let on = sim.controller.status().outputs.coolant_pump;
+        match row.state {
+            Cut => {
+                cut_cycles += 1;
+                coolant_in_cut &= on;
+            }
+            ToSafe | ToStart | SpindleUp | Engage | Home | Disengage | SpindleDown => coolant_elsewhere |= on,
+            _ => {}
+        }
+        if row.state == Idle {
+            break;
+        }
+    }
+    assert!(cut_cycles > 1000);
+    assert!(coolant_in_cut, "coolant on in every cut cycle");
+    assert!(!coolant_elsewhere, "coolant off out of the cut");
+    assert!(!sim.controller.status().outputs.coolant_pump);
+}
