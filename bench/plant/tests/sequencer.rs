@@ -507,18 +507,31 @@ fn leaving_the_coarse_window_in_the_cut_is_a_fault_with_retract_first() {
     // beyond the 200 arcsec coarse window once the cross-coupling's bound is used up.
     let (job, cycle, plan) = short_spur(&[]);
     let mut sim = powered_up(&job, &cycle, &plan);
-    sim.controller.set_angle_source(hob_rt_core::control::SpindleAngleSource::LastMeasured);
+    sim.controller
+        .set_angle_source(hob_rt_core::control::SpindleAngleSource::LastMeasured);
     let r = run_cycle(&mut sim, false, 300.0);
     let faults: Vec<_> = r
         .events
         .iter()
-        .filter_map(|e| if let EventKind::Fault(f) = e.kind { Some(f) } else { None })
+        .filter_map(|e| {
+            if let EventKind::Fault(f) = e.kind {
+                Some(f)
+            } else {
+                None
+            }
+        })
         .collect();
-    assert!(matches!(faults.first(), Some(Fault::SyncLost { .. })), "{faults:?}");
+    assert!(
+        matches!(faults.first(), Some(Fault::SyncLost { .. })),
+        "{faults:?}"
+    );
     assert_eq!(r.rows.last().unwrap().state, Faulted);
     let states = r.states();
     if states.contains(&Cut) {
-        assert!(in_order(&states, &[Cut, FaultRetract, FaultStop, Faulted]), "{states:?}");
+        assert!(
+            in_order(&states, &[Cut, FaultRetract, FaultStop, Faulted]),
+            "{states:?}"
+        );
     }
 }
 
