@@ -17,6 +17,7 @@
 //! assert!((spindle_rpm(30.0, 80.0) - 119.366).abs() < 1e-3);
 //! ```
 
+pub mod canopen;
 pub mod config;
 pub mod control;
 pub mod gearing;

@@ -1,0 +1,204 @@
+//! CiA 402 drive profile: the power state machine (statusword 0x6041, controlword 0x6040),
+//! the modes of operation, and the objects the controller uses.
+
+/// Objects of the drive profile.
+pub mod object {
+    pub const CONTROLWORD: u16 = 0x6040;
+    pub const STATUSWORD: u16 = 0x6041;
+    pub const MODES_OF_OPERATION: u16 = 0x6060;
+    pub const MODES_DISPLAY: u16 = 0x6061;
+    pub const POSITION_ACTUAL: u16 = 0x6064;
+    pub const TARGET_POSITION: u16 = 0x607A;
+    pub const VELOCITY_OFFSET: u16 = 0x60B1;
+    pub const INTERPOLATION_PERIOD: u16 = 0x60C2;
+    pub const SUPPORTED_MODES: u16 = 0x6502;
+}
+
+/// Mode of operation: cyclic synchronous position.
+pub const MODE_CSP: i8 = 8;
+/// Mode of operation: interpolated position.
+pub const MODE_IP: i8 = 7;
+
+/// Whether 0x6502 announces a mode (bit `mode - 1`).
+pub fn supports_mode(supported: u32, mode: i8) -> bool {
+    mode >= 1 && supported & (1 << (mode - 1)) != 0
+}
+
+/// States of the power state machine (CiA 402 figure 5).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum PowerState {
+    NotReadyToSwitchOn,
+    SwitchOnDisabled,
+    ReadyToSwitchOn,
+    SwitchedOn,
+    OperationEnabled,
+    QuickStopActive,
+    FaultReactionActive,
+    Fault,
+}
+
+impl PowerState {
+    /// Decodes the statusword (bits 0-3, 5, 6).
+    pub fn from_statusword(sw: u16) -> Self {
+        match sw & 0x006F {
+            0x0000 | 0x0020 => PowerState::NotReadyToSwitchOn,
+            0x0040 | 0x0060 => PowerState::SwitchOnDisabled,
+            0x0021 => PowerState::ReadyToSwitchOn,
+            0x0023 => PowerState::SwitchedOn,
+            0x0027 => PowerState::OperationEnabled,
+            0x0007 => PowerState::QuickStopActive,
+            0x000F | 0x002F => PowerState::FaultReactionActive,
+            0x0008 | 0x0028 => PowerState::Fault,
+            _ => match sw & 0x004F {
+                0x0040 => PowerState::SwitchOnDisabled,
+                0x0008 => PowerState::Fault,
+                _ => PowerState::NotReadyToSwitchOn,
+            },
+        }
+    }
+
+    /// The statusword a drive reports in this state (voltage enabled bit 4 set when
+    /// powered, remote bit 9 set).
+    pub fn statusword(self) -> u16 {
+        let base = match self {
+            PowerState::NotReadyToSwitchOn => 0x0000,
+            PowerState::SwitchOnDisabled => 0x0040,
+            PowerState::ReadyToSwitchOn => 0x0021,
+            PowerState::SwitchedOn => 0x0023,
+            PowerState::OperationEnabled => 0x0027,
+            PowerState::QuickStopActive => 0x0007,
+            PowerState::FaultReactionActive => 0x000F,
+            PowerState::Fault => 0x0008,
+        };
+        base | 0x0200 | 0x0010
+    }
+
+    pub fn name(self) -> &'static str {
+        match self {
+            PowerState::NotReadyToSwitchOn => "not ready to switch on",
+            PowerState::SwitchOnDisabled => "switch on disabled",
+            PowerState::ReadyToSwitchOn => "ready to switch on",
+            PowerState::SwitchedOn => "switched on",
+            PowerState::OperationEnabled => "operation enabled",
+            PowerState::QuickStopActive => "quick stop active",
+            PowerState::FaultReactionActive => "fault reaction active",
+            PowerState::Fault => "fault",
+        }
+    }
+}
+
+/// Controlword commands.
+pub mod command {
+    pub const SHUTDOWN: u16 = 0x0006;
+    pub const SWITCH_ON: u16 = 0x0007;
+    pub const ENABLE_OPERATION: u16 = 0x000F;
+    pub const DISABLE_VOLTAGE: u16 = 0x0000;
+    pub const QUICK_STOP: u16 = 0x0002;
+    pub const DISABLE_OPERATION: u16 = 0x0007;
+    pub const FAULT_RESET: u16 = 0x0080;
+}
+
+/// The controlword that moves a drive in `state` one step towards "operation enabled"
+/// (`enable`) or towards "switch on disabled" (not `enable`).
+pub fn next_controlword(state: PowerState, enable: bool) -> u16 {
+    use command::*;
+    if !enable {
+        return DISABLE_VOLTAGE;
+    }
+    match state {
+        PowerState::Fault => FAULT_RESET,
+        PowerState::SwitchOnDisabled | PowerState::NotReadyToSwitchOn => SHUTDOWN,
+        PowerState::ReadyToSwitchOn => SWITCH_ON,
+        PowerState::SwitchedOn | PowerState::OperationEnabled => ENABLE_OPERATION,
+        PowerState::QuickStopActive => DISABLE_VOLTAGE,
+        PowerState::FaultReactionActive => DISABLE_VOLTAGE,
+    }
+}
+
+/// The drive side: the state a drive moves to on a controlword (CiA 402 transitions
+/// 2-12, 15, 16; a fault is entered by the drive itself).
+pub fn drive_transition(state: PowerState, cw: u16) -> PowerState {
+    use PowerState::*;
+    let fault_reset = cw & 0x0080 != 0;
+    let bits = cw & 0x000F;
+    // Disable voltage (bit 1 = 0) and quick stop (bits 1 = 1, 2 = 0).
+    let disable_voltage = bits & 0x0002 == 0;
+    let quick_stop = bits & 0x0006 == 0x0002;
+    match state {
+        Fault if fault_reset => SwitchOnDisabled,
+        Fault | FaultReactionActive | NotReadyToSwitchOn => state,
+        _ if disable_voltage => SwitchOnDisabled,
+        OperationEnabled if quick_stop => QuickStopActive,
+        QuickStopActive => state,
+        _ if quick_stop => SwitchOnDisabled,
+        SwitchOnDisabled if bits & 0x7 == 0x6 => ReadyToSwitchOn,
+        ReadyToSwitchOn if bits == 0x7 => SwitchedOn,
+        ReadyToSwitchOn if bits == 0xF => OperationEnabled,
+        SwitchedOn if bits == 0xF => OperationEnabled,
+        SwitchedOn if bits & 0x7 == 0x6 => ReadyToSwitchOn,
+        OperationEnabled if bits == 0x7 => SwitchedOn,
+        OperationEnabled if bits & 0x7 == 0x6 => ReadyToSwitchOn,
+        s => s,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn statuswords_decode() {
+        assert_eq!(PowerState::from_statusword(0x0250), PowerState::SwitchOnDisabled);
+        assert_eq!(PowerState::from_statusword(0x0231), PowerState::ReadyToSwitchOn);
+        assert_eq!(PowerState::from_statusword(0x0233), PowerState::SwitchedOn);
+        assert_eq!(PowerState::from_statusword(0x0237), PowerState::OperationEnabled);
+        assert_eq!(PowerState::from_statusword(0x0217), PowerState::QuickStopActive);
+        assert_eq!(PowerState::from_statusword(0x0218), PowerState::Fault);
+        for s in [
+            PowerState::SwitchOnDisabled,
+            PowerState::ReadyToSwitchOn,
+            PowerState::SwitchedOn,
+            PowerState::OperationEnabled,
+            PowerState::QuickStopActive,
+            PowerState::FaultReactionActive,
+            PowerState::Fault,
+        ] {
+            assert_eq!(PowerState::from_statusword(s.statusword()), s);
+        }
+    }
+
+    #[test]
+    fn the_master_walks_a_drive_to_operation_enabled() {
+        let mut s = PowerState::Fault;
+        let mut steps = Vec::new();
+        for _ in 0..6 {
+            let cw = next_controlword(s, true);
+            steps.push(cw);
+            s = drive_transition(s, cw);
+        }
+        assert_eq!(s, PowerState::OperationEnabled);
+        assert_eq!(&steps[..4], &[0x0080, 0x0006, 0x0007, 0x000F]);
+    }
+
+    #[test]
+    fn quick_stop_and_disable() {
+        let s = drive_transition(PowerState::OperationEnabled, command::QUICK_STOP);
+        assert_eq!(s, PowerState::QuickStopActive);
+        assert_eq!(
+            drive_transition(s, command::DISABLE_VOLTAGE),
+            PowerState::SwitchOnDisabled
+        );
+        assert_eq!(
+            drive_transition(PowerState::OperationEnabled, command::DISABLE_VOLTAGE),
+            PowerState::SwitchOnDisabled
+        );
+    }
+
+    #[test]
+    fn csp_support_bit() {
+        // 0x6502 bit 7 = mode 8 (CSP), bit 6 = mode 7 (IP).
+        assert!(supports_mode(0x0000_0080, MODE_CSP));
+        assert!(!supports_mode(0x0000_0040, MODE_CSP));
+        assert!(supports_mode(0x0000_0040, MODE_IP));
+    }
+}
