@@ -72,7 +72,8 @@ pub struct Plant {
     inner_s: f64,
     outputs: Outputs,
     analog_v: f64,
-    drives_enabled: bool,
+    /// Enable of each drive (B, X, Y) as commanded over the bus.
+    drive_enable: [bool; 3],
     lube_on_since: Option<f64>,
     clamp_changed_at: f64,
     clamp_closed: bool,
@@ -157,7 +158,7 @@ impl Plant {
             inner_s: f64::from(cfg.simulation.inner_step_us) * 1e-6,
             outputs: Outputs::default(),
             analog_v: 0.0,
-            drives_enabled: false,
+            drive_enable: [false; 3],
             lube_on_since: None,
             clamp_changed_at: 0.0,
             clamp_closed: false,
@@ -240,16 +241,47 @@ impl Plant {
 
     /// At SYNC: the drives and the I/O coupler take the controller's outputs.
     pub fn apply(&mut self, o: &CycleOutputs) {
-        self.outputs = self.io.decode_outputs(o.digital_outputs);
-        self.analog_v = o.spindle_analog_v;
-        self.drives_enabled = o.drives_enabled;
-        // Targets are in each drive's own counts (the controller applied the polarity).
-        self.table
-            .apply_target(unwrap_near(o.table_target_counts, self.table.position_counts()));
-        self.x
-            .apply_target(unwrap_near(o.x_target_counts, self.x.position_counts()));
-        self.y
-            .apply_target(unwrap_near(o.y_target_counts, self.y.position_counts()));
+        self.apply_io(o.digital_outputs, o.spindle_analog_v);
+        let e = o.drives_enabled;
+        self.apply_drives(
+            [o.table_target_counts, o.x_target_counts, o.y_target_counts],
+            [e; 3],
+        );
+    }
+
+    /// At SYNC: each drive's target (its own counts, wrapping) and enable (B, X, Y).
+    /// Targets are in each drive's own counts (the controller applied the polarity).
+    pub fn apply_drives(&mut self, targets: [i32; 3], enable: [bool; 3]) {
+        self.drive_enable = enable;
+        for (i, s) in [&mut self.table, &mut self.x, &mut self.y]
+            .into_iter()
+            .enumerate()
+        {
+            s.enabled = enable[i] && s.enabled_power;
+            s.apply_target(unwrap_near(targets[i], s.position_counts()));
+        }
+    }
+
+    /// The I/O coupler's outputs: raw digital image and the spindle's analog voltage.
+    pub fn apply_io(&mut self, digital_outputs: u32, spindle_analog_v: f64) {
+        self.outputs = self.io.decode_outputs(digital_outputs);
+        self.analog_v = spindle_analog_v;
+    }
+
+    /// The raw digital input image (what the I/O coupler reports).
+    pub fn input_image(&self) -> u32 {
+        self.io.encode_inputs(&self.inputs())
+    }
+
+    /// The spindle encoder reading (counts, wrapping; B drive's auxiliary input).
+    pub fn spindle_counts(&self) -> i32 {
+        let c = (self.spindle.angle_rad * self.spindle_counts_per_rad).floor() as i64;
+        (c * self.params.spindle.sign as i64) as i32
+    }
+
+    /// Whether the drives have power now.
+    pub fn drives_have_power(&self) -> bool {
+        self.drives_powered()
     }
 
     /// At SYNC: what the drives and the coupler report.
@@ -261,9 +293,9 @@ impl Plant {
             fault: s.fault,
             fresh: true,
         };
-        let spindle_counts = (self.spindle.angle_rad * self.spindle_counts_per_rad).floor() as i64;
+        let _ = p;
         CycleInputs {
-            spindle_counts: (spindle_counts * p.spindle.sign as i64) as i32,
+            spindle_counts: self.spindle_counts(),
             table: fb(&self.table),
             x: fb(&self.x),
             y: fb(&self.y),
@@ -336,8 +368,12 @@ impl Plant {
             self.chain_changed_at = t;
         }
         let powered = self.drives_powered();
-        for s in [&mut self.table, &mut self.x, &mut self.y] {
-            s.enabled = self.drives_enabled && powered;
+        for (i, s) in [&mut self.table, &mut self.x, &mut self.y]
+            .into_iter()
+            .enumerate()
+        {
+            s.enabled_power = powered;
+            s.enabled = self.drive_enable[i] && powered;
         }
         // Lube pump and pressure switch.
         match (self.outputs.lube_pump, self.lube_on_since) {

@@ -39,6 +39,8 @@ pub struct Servo {
     since_sync_s: f64,
     period_s: f64,
     pub enabled: bool,
+    /// The drive's power stage has power (safety chain).
+    pub enabled_power: bool,
     pub fault: bool,
     /// Locked by a clamp: does not move.
     pub locked: bool,
@@ -64,6 +66,7 @@ impl Servo {
             since_sync_s: 0.0,
             period_s,
             enabled: false,
+            enabled_power: true,
             fault: false,
             locked: false,
             disturbance_nm: 0.0,

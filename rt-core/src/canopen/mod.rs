@@ -8,6 +8,8 @@ pub mod busload;
 pub mod cia402;
 pub mod emcy;
 pub mod frame;
+pub mod master;
 pub mod nmt;
 pub mod pdo;
+pub mod plan;
 pub mod sdo;

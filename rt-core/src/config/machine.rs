@@ -104,6 +104,28 @@ pub struct CanConfig {
     /// SocketCAN interface, e.g. `can0`.
     pub interface: String,
     pub bitrate_bit_s: u32,
+    /// Heartbeat period of the master and of every node.
+    pub heartbeat_ms: u16,
+    /// A node whose heartbeat is missing this long is lost.
+    pub heartbeat_timeout_ms: u16,
+    /// Synchronous TPDOs missing this many cycles in a row is a fault (the last value is
+    /// held meanwhile).
+    pub tpdo_misses_to_fault: u32,
+    /// Map the velocity offset 0x60B1 into the target RPDO (8 instead of 4 bytes per
+    /// drive and cycle). Off: the drives take the velocity from their CSP interpolation.
+    pub velocity_feed_forward_in_pdo: bool,
+    /// The B drive's object carrying the spindle encoder (auxiliary encoder input,
+    /// vendor-specific: take it from the drive's object dictionary at commissioning).
+    pub spindle_encoder_index: u16,
+    pub spindle_encoder_subindex: u8,
+    /// Inhibit time of the drives' statusword TPDO.
+    pub statusword_inhibit_ms: u16,
+    /// Inhibit time of the I/O coupler's input TPDO.
+    pub inputs_inhibit_ms: u16,
+    /// Least time between two event-driven RPDOs of one kind (controlword, outputs).
+    pub event_rpdo_spacing_ms: u16,
+    /// `hob bus-load` refuses a configuration whose worst case exceeds this share.
+    pub bus_load_limit: f64,
 }
 
 /// Axis C: hob spindle, induction motor on a VFD, encoder on the spindle.
@@ -449,6 +471,39 @@ impl MachineConfig {
         p.require(!self.can.interface.trim().is_empty(), "can.interface", || {
             "must not be empty".into()
         });
+        let can = &self.can;
+        p.require(
+            (10..=10_000).contains(&can.heartbeat_ms),
+            "can.heartbeat_ms",
+            || format!("must be within 10 .. 10000 ms (is {})", can.heartbeat_ms),
+        );
+        p.require(
+            can.heartbeat_timeout_ms > can.heartbeat_ms,
+            "can.heartbeat_timeout_ms",
+            || {
+                format!(
+                    "must be longer than can.heartbeat_ms = {} (is {})",
+                    can.heartbeat_ms, can.heartbeat_timeout_ms
+                )
+            },
+        );
+        p.require(
+            (1..=100).contains(&can.tpdo_misses_to_fault),
+            "can.tpdo_misses_to_fault",
+            || format!("must be within 1 .. 100 (is {})", can.tpdo_misses_to_fault),
+        );
+        p.require(
+            (0x2000..=0x5FFF).contains(&can.spindle_encoder_index)
+                || (0x6000..=0x9FFF).contains(&can.spindle_encoder_index),
+            "can.spindle_encoder_index",
+            || {
+                format!(
+                    "must be an application object 0x2000 .. 0x9FFF (is 0x{:04X})",
+                    can.spindle_encoder_index
+                )
+            },
+        );
+        p.within("can.bus_load_limit", can.bus_load_limit, 0.05, 1.0, "");
         p.require(
             [125_000, 250_000, 500_000, 800_000, 1_000_000].contains(&self.can.bitrate_bit_s),
             "can.bitrate_bit_s",
