@@ -300,6 +300,7 @@ impl Plant {
             x: fb(&self.x),
             y: fb(&self.y),
             digital_inputs: self.io.encode_inputs(&self.inputs()),
+            io_valid: true,
         }
     }
 

@@ -321,6 +321,7 @@ pub struct Cyclic {
     fresh: [bool; 3],
     misses: [u32; 3],
     inputs: [u8; 3],
+    inputs_seen: bool,
     last_controlword: [Option<u16>; 3],
     controlword_age: [u32; 3],
     last_outputs: Option<[u8; 2]>,
@@ -346,6 +347,7 @@ impl Cyclic {
             fresh: [false; 3],
             misses: [0; 3],
             inputs: [0; 3],
+            inputs_seen: false,
             last_controlword: [None; 3],
             controlword_age: [u32::MAX; 3],
             last_outputs: None,
@@ -386,6 +388,17 @@ impl Cyclic {
         self.liveness
     }
 
+    /// Whether every drive whose synchronous TPDO came in the last cycle has sent it
+    /// again since the last [`Self::inputs`] (a lockstep runner waits for this; a drive
+    /// that went silent is not waited for).
+    pub fn all_fresh(&self) -> bool {
+        let silent = self.plan.tpdo_misses_to_fault;
+        self.fresh
+            .iter()
+            .zip(&self.misses)
+            .all(|(f, m)| *f || *m >= silent)
+    }
+
     /// Requests quick stop of every drive (kept until cleared).
     pub fn set_quick_stop(&mut self, on: bool) {
         self.quick_stop = on;
@@ -415,6 +428,7 @@ impl Cyclic {
                     && let Some(v) = self.plan.io.inputs.unpack(f)
                 {
                     self.inputs = [v[0] as u8, v[1] as u8, v[2] as u8];
+                    self.inputs_seen = true;
                 }
             }
             Cob::Emcy(_) => {
@@ -452,6 +466,7 @@ impl Cyclic {
             }
         }
         let mut fb = [AxisFeedback::default(); 3];
+        #[allow(clippy::needless_range_loop)] // five arrays indexed by drive
         for i in 0..3 {
             if self.fresh[i] {
                 self.misses[i] = 0;
@@ -468,11 +483,15 @@ impl Cyclic {
                 position_counts: self.position[i],
                 enabled: state == PowerState::OperationEnabled,
                 fault: matches!(state, PowerState::Fault | PowerState::FaultReactionActive),
-                fresh: self.misses[i] < self.plan.tpdo_misses_to_fault,
+                // The control core counts the misses and faults after the configured number.
+                fresh: self.fresh[i],
             };
             self.fresh[i] = false;
         }
+        let io_alive =
+            u64::from(self.liveness[3].cycles_since_heartbeat) as f64 * cycle_ms <= f64::from(timeout);
         CycleInputs {
+            io_valid: self.inputs_seen && io_alive,
             spindle_counts: self.spindle,
             table: fb[0],
             x: fb[1],
@@ -546,7 +565,7 @@ impl Cyclic {
         let hb_cycles = (f64::from(self.plan.heartbeat_ms) / 1000.0 / self.plan.cycle_s)
             .round()
             .max(1.0) as u64;
-        if self.cycle % hb_cycles == 0 {
+        if self.cycle.is_multiple_of(hb_cycles) {
             send(
                 bus,
                 &NmtState::Operational.heartbeat(MASTER_NODE),

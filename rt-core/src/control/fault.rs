@@ -57,6 +57,8 @@ pub enum Fault {
     ClampTimeout,
     /// A drive's feedback did not arrive (bus).
     FeedbackLost { axis: Axis },
+    /// The I/O coupler's inputs are not current (its heartbeat is lost).
+    IoLost,
 }
 
 impl Fault {

@@ -40,9 +40,6 @@ const SPINDLE_TRIM_RANGE: (f64, f64) = (0.8, 1.25);
 /// The spindle must hold its speed this long before the gearbox engages.
 pub const SPINDLE_SETTLE_S: f64 = 0.5;
 
-/// Consecutive cycles without fresh feedback from a drive before it is a fault.
-pub const FEEDBACK_MISSES_TO_FAULT: u32 = 3;
-
 /// One drive's feedback, latched at SYNC.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
 pub struct AxisFeedback {
@@ -66,6 +63,9 @@ pub struct CycleInputs {
     pub y: AxisFeedback,
     /// Raw digital input image of the I/O coupler.
     pub digital_inputs: u32,
+    /// The input image is current: it arrived at least once and the coupler is alive.
+    /// While false the inputs read as inactive with the safety chain open.
+    pub io_valid: bool,
 }
 
 /// Everything to send for the next SYNC.
@@ -141,6 +141,8 @@ pub struct ControlParams {
     pub spindle_start_timeout_s: f64,
     pub clamp_timeout_s: f64,
     pub observer_bandwidth_hz: f64,
+    /// Consecutive cycles without fresh feedback from a drive before it is a fault.
+    pub feedback_misses_to_fault: u32,
     pub gearbox: GearboxParams,
     pub lube: LubeParams,
     pub io: IoBits,
@@ -188,6 +190,7 @@ impl ControlParams {
             spindle_start_timeout_s: m.control.spindle_start_timeout_s,
             clamp_timeout_s: m.control.x_clamp_timeout_s,
             observer_bandwidth_hz: m.control.spindle_observer_bandwidth_hz,
+            feedback_misses_to_fault: m.can.tpdo_misses_to_fault,
             gearbox: GearboxParams {
                 ratio_signed: 0.0,
                 differential_signed_deg_per_mm: 0.0,
@@ -424,7 +427,11 @@ impl Controller {
                 .to_units(self.unwrap[1].update(input.table.position_counts)),
             x_mm: self.p.x.to_units(self.unwrap[2].update(input.x.position_counts)),
             y_mm: self.p.y.to_units(self.unwrap[3].update(input.y.position_counts)),
-            inputs: self.p.io.decode(input.digital_inputs),
+            inputs: if input.io_valid {
+                self.p.io.decode(input.digital_inputs)
+            } else {
+                Inputs::default()
+            },
         };
     }
 
@@ -432,6 +439,9 @@ impl Controller {
     fn supervise(&mut self, input: &CycleInputs) {
         let i = self.m.inputs;
         let active = self.seq.drives_should_be_enabled();
+        if !input.io_valid && active {
+            self.raise(Fault::IoLost);
+        }
         // The specific causes first, so that the root cause is the fault reported: each of
         // them also opens the safety chain.
         if i.estop_pressed {
@@ -459,7 +469,7 @@ impl Controller {
                 self.raise(Fault::DriveFault { axis });
             }
             self.misses[k] = if fb.fresh { 0 } else { self.misses[k] + 1 };
-            if self.misses[k] >= FEEDBACK_MISSES_TO_FAULT {
+            if self.misses[k] >= self.p.feedback_misses_to_fault {
                 self.raise(Fault::FeedbackLost { axis });
             }
         }

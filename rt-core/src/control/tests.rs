@@ -62,6 +62,7 @@ fn power_up_waits_for_lubrication_and_the_safety_chain() {
     });
     let mut input = CycleInputs {
         digital_inputs: closed,
+        io_valid: true,
         ..CycleInputs::default()
     };
     input.table.fresh = true;
@@ -93,9 +94,10 @@ fn missing_feedback_is_counted_then_a_fault() {
             safety_chain_closed: true,
             ..Inputs::default()
         }),
+        io_valid: true,
         ..CycleInputs::default()
     };
-    for _ in 0..FEEDBACK_MISSES_TO_FAULT - 1 {
+    for _ in 0..p.feedback_misses_to_fault - 1 {
         c.step(&input);
         assert_eq!(c.status().fault, None);
     }
