@@ -448,6 +448,11 @@ impl Plant {
         (depth / self.cfg.spindle.full_depth_mm).min(1.0) * entered
     }
 
+    /// Whether the tool is in the work (cutting load on the spindle).
+    pub fn cutting(&self) -> bool {
+        self.cut_share() > 0.0
+    }
+
     /// Motor radians of the table per table degree (for diagnostics).
     pub fn table_motor_rad_per_deg(&self) -> f64 {
         self.table_motor_rad_per_deg

@@ -107,7 +107,9 @@ fn drive_od(node: u8, name: &str, spindle: Option<(u16, u8)>) -> Od {
             0,
             Access::Ro,
             &SUPPORTED_MODES.to_le_bytes(),
-        );
+        )
+        // A vendor-specific text the machine builder may write (axis label).
+        .set_rw_str(0x2000, 0, "");
     if let Some((index, sub)) = spindle {
         od.set(index, sub, Access::Ro, &0i32.to_le_bytes());
     }
@@ -161,6 +163,10 @@ pub struct VirtualMachine {
     delayed: VecDeque<(u64, Frame)>,
     rng: u64,
     powered_before: bool,
+    cutting_syncs: u64,
+    /// The nodes' own clock (heartbeats, inhibit times): advances by one period per SYNC
+    /// and by wall time while no SYNC runs, so both never mix.
+    node_clock_s: f64,
 }
 
 impl VirtualMachine {
@@ -187,6 +193,8 @@ impl VirtualMachine {
             delayed: VecDeque::new(),
             rng: plant.simulation.seed.wrapping_mul(0x9E37_79B9_7F4A_7C15) | 1,
             powered_before: false,
+            cutting_syncs: 0,
+            node_clock_s: 0.0,
         }
     }
 
@@ -203,6 +211,11 @@ impl VirtualMachine {
 
     pub fn time_s(&self) -> f64 {
         self.time_s
+    }
+
+    /// SYNCs during which the tool was in the work.
+    pub fn cutting_syncs(&self) -> u64 {
+        self.cutting_syncs
     }
 
     pub fn syncs(&self) -> u64 {
@@ -250,7 +263,7 @@ impl VirtualMachine {
 
     /// Handles one frame from the bus; frames to send are appended to `out`.
     pub fn on_frame(&mut self, f: &Frame, out: &mut Vec<Frame>) {
-        let now = self.time_s;
+        let now = self.node_clock_s;
         let mut sync = false;
         for i in 0..3 {
             let e = self.drives[i].handle(f, now, out);
@@ -390,7 +403,8 @@ impl VirtualMachine {
                     .frame(),
                 );
             }
-            if self.drives[i].master_lost(self.time_s) && self.state[i] == PowerState::OperationEnabled {
+            if self.drives[i].master_lost(self.node_clock_s) && self.state[i] == PowerState::OperationEnabled
+            {
                 // Communication error reaction: quick stop.
                 self.set_state(i, PowerState::QuickStopActive);
                 out.push(
@@ -416,7 +430,8 @@ impl VirtualMachine {
         }
 
         // TPDOs, through the injected faults.
-        let now = self.time_s;
+        self.node_clock_s += self.period_s;
+        let now = self.node_clock_s;
         let mut tx = Vec::new();
         for n in self.drives.iter_mut().chain(std::iter::once(&mut self.io)) {
             n.transmit_pdos(true, now, &mut tx);
@@ -459,12 +474,16 @@ impl VirtualMachine {
 
         self.time_s += self.period_s;
         self.plant.advance_to(self.time_s);
+        self.cutting_syncs += u64::from(self.plant.cutting());
     }
 
-    /// Without SYNCs (boot, pre-operational): heartbeats on wall time.
-    pub fn idle(&mut self, wall_s: f64, out: &mut Vec<Frame>) {
+    /// Without SYNCs (boot, pre-operational, a dead master): the nodes' clock runs on
+    /// wall time (`wall_dt_s` since the last call); heartbeats go on.
+    pub fn idle(&mut self, wall_dt_s: f64, out: &mut Vec<Frame>) {
+        self.node_clock_s += wall_dt_s.max(0.0);
+        let now = self.node_clock_s;
         for n in self.nodes_mut() {
-            n.heartbeat(wall_s, out);
+            n.heartbeat(now, out);
         }
     }
 }

@@ -104,8 +104,6 @@ impl Node {
 
     /// Reset communication: PDO and heartbeat parameters back to defaults; boot-up.
     fn reset(&mut self, out: &mut Vec<Frame>) {
-        let app: Vec<(u16, u8, Vec<u8>)> = Vec::new();
-        let _ = app;
         for index in
             (0x1000u16..0x2000).filter(|i| !(0x1000..=0x1018).contains(i) || *i == 0x1016 || *i == 0x1017)
         {
@@ -244,7 +242,10 @@ impl Node {
                 sync
             } else {
                 let inhibit_s = f64::from(self.od.u32(comm, 3)) * 1e-4;
-                self.last_tpdo[n].as_ref() != Some(&data) && now_s - self.last_tpdo_s[n] >= inhibit_s - 1e-9
+                let event_s = f64::from(self.od.u32(comm, 5)) * 1e-3;
+                let since = now_s - self.last_tpdo_s[n];
+                let changed = self.last_tpdo[n].as_ref() != Some(&data);
+                (changed && since >= inhibit_s - 1e-9) || (event_s > 0.0 && since >= event_s - 1e-9)
             };
             if due {
                 out.push(Frame::new((cob & 0x7FF) as u16, &data));

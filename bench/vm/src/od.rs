@@ -53,6 +53,20 @@ impl Od {
         self
     }
 
+    /// A writable string of any length (written by segmented SDO).
+    pub fn set_rw_str(&mut self, index: u16, sub: u8, text: &str) -> &mut Self {
+        self.entries.insert(
+            (index, sub),
+            Entry {
+                data: text.as_bytes().to_vec(),
+                access: Access::Rw,
+                size: None,
+                mappable: false,
+            },
+        );
+        self
+    }
+
     pub fn u32(&self, index: u16, sub: u8) -> u32 {
         let d = self
             .entries

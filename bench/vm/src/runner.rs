@@ -16,6 +16,10 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::mpsc::Receiver;
 use std::time::{Duration, Instant};
 
+/// Without a SYNC for this long the nodes' clock runs on wall time (boot, a dead master).
+/// Longer than any lockstep wait of the master, so a live master never looks dead.
+pub const SYNC_SILENCE: Duration = Duration::from_secs(1);
+
 /// Runs the virtual machine on `bus` until `stop`; faults arrive on `faults`.
 pub fn serve(
     vm: &mut VirtualMachine,
@@ -23,7 +27,7 @@ pub fn serve(
     stop: &AtomicBool,
     faults: Option<&Receiver<VmFault>>,
 ) {
-    let start = Instant::now();
+    let mut last_idle = Instant::now();
     let mut out = Vec::new();
     vm.power_on(&mut out);
     let mut last_sync = vm.syncs();
@@ -43,9 +47,11 @@ pub fn serve(
         if vm.syncs() != last_sync {
             last_sync = vm.syncs();
             last_sync_wall = Instant::now();
-        } else if last_sync_wall.elapsed() > Duration::from_millis(20) {
+            last_idle = Instant::now();
+        } else if last_sync_wall.elapsed() > SYNC_SILENCE {
             // No SYNC running: heartbeats on wall time.
-            vm.idle(start.elapsed().as_secs_f64(), &mut out);
+            vm.idle(last_idle.elapsed().as_secs_f64(), &mut out);
+            last_idle = Instant::now();
             flush(bus, &mut out);
         }
         if !busy {

@@ -3,6 +3,7 @@
 //! Exit status: 0 done; 2 refused (an invalid program or machine configuration, or bad
 //! arguments: the message names the file, position, key and limit); 1 anything else.
 
+mod can;
 mod render;
 mod simulate;
 
@@ -62,6 +63,26 @@ enum Command {
         #[arg(long, value_name = "DIR", default_value = "out/simulate")]
         out: PathBuf,
     },
+    /// Worst-case CAN bus load per cycle of the configured PDO set; refused above the limit.
+    BusLoad {
+        /// Machine configuration [default: config/machine.toml, then /etc/hob/machine.toml].
+        #[arg(long, value_name = "FILE")]
+        machine: Option<PathBuf>,
+    },
+    /// Commissioning tools for the CAN bus (scan, SDO, dump, a run over the bus).
+    Can {
+        #[command(subcommand)]
+        command: CanCommand,
+        /// SocketCAN interface [default: can.interface of the machine configuration].
+        #[arg(long, global = true)]
+        iface: Option<String>,
+        /// Machine configuration [default: config/machine.toml, then /etc/hob/machine.toml].
+        #[arg(long, value_name = "FILE", global = true)]
+        machine: Option<PathBuf>,
+        /// SDO timeout per frame, ms.
+        #[arg(long, default_value_t = 100, global = true)]
+        timeout_ms: u64,
+    },
     /// Validate a program against the machine (and the machine configuration itself).
     Check {
         /// Program file (TOML); without it only the machine configuration is checked.
@@ -69,6 +90,61 @@ enum Command {
         /// Machine configuration [default: config/machine.toml, then /etc/hob/machine.toml].
         #[arg(long, value_name = "FILE")]
         machine: Option<PathBuf>,
+    },
+}
+
+#[derive(Debug, Subcommand)]
+enum CanCommand {
+    /// The nodes that answer: NMT state, device type, identity, name, CSP support.
+    Scan,
+    /// SDO upload and download (expedited and segmented); aborts in words.
+    Sdo {
+        #[command(subcommand)]
+        op: SdoOp,
+    },
+    /// Live decoded view of the bus, or of a `candump -L` file.
+    Dump {
+        /// Decode this capture instead of the live bus.
+        #[arg(long, value_name = "FILE")]
+        file: Option<PathBuf>,
+        /// Stop after this many frames.
+        #[arg(long)]
+        count: Option<usize>,
+    },
+    /// Check a `candump -L` capture against the bus schedule.
+    CheckCapture { file: PathBuf },
+    /// Boot the bus, power up, jog, and run a program over it (lockstep with the drives).
+    Run {
+        /// Program to cut after the jogs.
+        program: Option<PathBuf>,
+        /// Jog before the program: AXIS=DISTANCE (x, y in mm; b in deg). Repeatable.
+        #[arg(long, value_name = "AXIS=DISTANCE")]
+        jog: Vec<String>,
+        /// The single-mode pass instead of the automatic cycle.
+        #[arg(long)]
+        single: bool,
+        /// Give up after this much machine time, s.
+        #[arg(long, default_value_t = 600.0)]
+        max_s: f64,
+    },
+}
+
+#[derive(Debug, Subcommand)]
+enum SdoOp {
+    Read {
+        node: u8,
+        index: String,
+        sub: String,
+        #[arg(long = "type", value_enum, default_value = "hex")]
+        ty: can::SdoType,
+    },
+    Write {
+        node: u8,
+        index: String,
+        sub: String,
+        value: String,
+        #[arg(long = "type", value_enum, default_value = "u32")]
+        ty: can::SdoType,
     },
 }
 
@@ -149,6 +225,68 @@ fn run(command: Command) -> Result<(), Failure> {
                 Err((false, e)) => Err(Failure::Other(e)),
             }
         }
+        Command::BusLoad { machine } => {
+            let machine = load_machine(machine.as_deref())?;
+            match can::bus_load(&machine) {
+                Ok(text) => emit(&text),
+                Err(text) => {
+                    eprintln!("hob: refused: {text}");
+                    Err(Failure::Exit(2))
+                }
+            }
+        }
+        Command::Can {
+            command,
+            iface,
+            machine,
+            timeout_ms,
+        } => {
+            let machine = load_machine(machine.as_deref())?;
+            let iface = iface.unwrap_or_else(|| machine.can.interface.clone());
+            let timeout = std::time::Duration::from_millis(timeout_ms);
+            let result = match command {
+                CanCommand::Scan => can::scan(&iface, timeout).map_err(|e| (1, e)),
+                CanCommand::Sdo { op } => sdo(&iface, op, timeout),
+                CanCommand::Dump { file, count } => {
+                    let live = file.is_none().then_some(iface.as_str());
+                    can::dump(&machine, live, file.as_deref(), count).map_err(|e| (1, e))
+                }
+                CanCommand::CheckCapture { file } => can::check_capture(&machine, &file).map_err(|e| (1, e)),
+                CanCommand::Run {
+                    program,
+                    jog,
+                    single,
+                    max_s,
+                } => {
+                    let jogs = jog
+                        .iter()
+                        .map(|j| parse_jog(j))
+                        .collect::<Result<Vec<_>, _>>()
+                        .map_err(|e| (2, e));
+                    match jogs {
+                        Ok(jogs) => can::run(
+                            &machine,
+                            &can::RunArgs {
+                                iface: &iface,
+                                program: program.as_deref(),
+                                jogs: &jogs,
+                                single,
+                                max_s,
+                            },
+                        ),
+                        Err(e) => Err(e),
+                    }
+                }
+            };
+            match result {
+                Ok(text) => emit(&text),
+                Err((code, text)) => {
+                    let _ = emit(&text);
+                    eprintln!("hob: {}", text.lines().last().unwrap_or("failed"));
+                    Err(Failure::Exit(code))
+                }
+            }
+        }
         Command::Check { program, machine } => {
             let machine_file = machine_path(machine.as_deref())?;
             let machine = MachineConfig::load(&machine_file).map_err(Failure::Refused)?;
@@ -176,6 +314,47 @@ fn run(command: Command) -> Result<(), Failure> {
             }
         }
     }
+}
+
+fn sdo(iface: &str, op: SdoOp, timeout: std::time::Duration) -> Result<String, (u8, String)> {
+    let bad = |e: String| (2, e);
+    match op {
+        SdoOp::Read { node, index, sub, ty } => {
+            let (index, sub) = (
+                can::parse_u16(&index).map_err(bad)?,
+                can::parse_u16(&sub).map_err(bad)?,
+            );
+            can::sdo_read_cmd(iface, node, index, sub as u8, ty, timeout).map_err(|e| (1, e))
+        }
+        SdoOp::Write {
+            node,
+            index,
+            sub,
+            value,
+            ty,
+        } => {
+            let (index, sub) = (
+                can::parse_u16(&index).map_err(bad)?,
+                can::parse_u16(&sub).map_err(bad)?,
+            );
+            can::sdo_write_cmd(iface, node, index, sub as u8, &value, ty, timeout).map_err(|e| (1, e))
+        }
+    }
+}
+
+fn parse_jog(s: &str) -> Result<(hob_rt_core::control::fault::Axis, f64), String> {
+    use hob_rt_core::control::fault::Axis;
+    let (axis, d) = s
+        .split_once('=')
+        .ok_or_else(|| format!("--jog {s}: expected AXIS=DISTANCE"))?;
+    let axis = match axis.to_ascii_lowercase().as_str() {
+        "x" => Axis::X,
+        "y" => Axis::Y,
+        "b" => Axis::B,
+        other => return Err(format!("--jog {s}: axis {other} is not x, y or b")),
+    };
+    let d: f64 = d.parse().map_err(|e| format!("--jog {s}: {e}"))?;
+    Ok((axis, d))
 }
 
 /// Writes to stdout; a reader that went away (`hob plan ... | head`) is not an error.

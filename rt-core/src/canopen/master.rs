@@ -533,9 +533,11 @@ impl Cyclic {
             };
             self.controlword_age[i] = self.controlword_age[i].saturating_add(1);
             let changed = self.last_controlword[i] != Some(cw);
-            // Repeat a step towards "enabled" after the spacing if the drive has not moved.
-            let repeat = self.controlword_age[i] >= spacing * 4;
-            if (changed && self.controlword_age[i] >= spacing.min(2)) || repeat {
+            // Steps towards "enabled" at most once per spacing (the bus-load figure counts
+            // on it); disabling and quick stop go at once. An unanswered step is repeated.
+            let stopping = cw == cia402::command::DISABLE_VOLTAGE || cw == cia402::command::QUICK_STOP;
+            let due = self.controlword_age[i] >= spacing;
+            if (changed && (due || stopping)) || self.controlword_age[i] >= spacing * 4 {
                 send(bus, &d.control.pack(&[u64::from(cw)]), &mut first_error);
                 self.last_controlword[i] = Some(cw);
                 self.controlword_age[i] = 0;
@@ -544,7 +546,12 @@ impl Cyclic {
         let io = self.plan.io;
         let dout = [out.digital_outputs as u8, (out.digital_outputs >> 8) as u8];
         self.outputs_age = self.outputs_age.saturating_add(1);
-        if self.last_outputs != Some(dout) && self.outputs_age >= spacing.min(2) {
+        // Outputs switching on wait for the spacing; switching off (PC-OK, spindle, coolant)
+        // goes at once.
+        let only_off = self
+            .last_outputs
+            .is_some_and(|old| (dout[0] & !old[0]) | (dout[1] & !old[1]) == 0);
+        if self.last_outputs != Some(dout) && (self.outputs_age >= spacing || only_off) {
             send(
                 bus,
                 &io.outputs.pack(&[u64::from(dout[0]), u64::from(dout[1])]),

@@ -5,7 +5,9 @@
 
 pub mod bus;
 pub mod busload;
+pub mod capture;
 pub mod cia402;
+pub mod describe;
 pub mod emcy;
 pub mod frame;
 pub mod master;

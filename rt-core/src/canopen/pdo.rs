@@ -53,6 +53,9 @@ pub struct Pdo {
     pub transmission_type: u8,
     /// Minimum time between two transmissions, 100 us units (TPDO sub 3).
     pub inhibit_100us: u16,
+    /// Event timer (TPDO sub 5), ms: an event-driven TPDO is sent again after this long
+    /// even without a change, so a lost frame is recovered. 0 = off.
+    pub event_timer_ms: u16,
     entries: [MapEntry; MAX_ENTRIES],
     count: usize,
 }
@@ -90,6 +93,7 @@ impl Pdo {
             cob_id,
             transmission_type,
             inhibit_100us: 0,
+            event_timer_ms: 0,
             entries: e,
             count,
         }
@@ -97,6 +101,11 @@ impl Pdo {
 
     pub fn with_inhibit_100us(mut self, inhibit: u16) -> Self {
         self.inhibit_100us = inhibit;
+        self
+    }
+
+    pub fn with_event_timer_ms(mut self, ms: u16) -> Self {
+        self.event_timer_ms = ms;
         self
     }
 
@@ -140,6 +149,7 @@ impl Pdo {
         ];
         if self.direction == Direction::Tpdo {
             out.push(w(comm, 3, u32::from(self.inhibit_100us), 2));
+            out.push(w(comm, 5, u32::from(self.event_timer_ms), 2));
         }
         out.push(w(map, 0, 0, 1));
         for (i, e) in self.entries().iter().enumerate() {
@@ -222,6 +232,7 @@ mod tests {
                 (0x1800, 1, 0x8000_0182),
                 (0x1800, 2, 1),
                 (0x1800, 3, 0),
+                (0x1800, 5, 0),
                 (0x1A00, 0, 0),
                 (0x1A00, 1, 0x6064_0020),
                 (0x1A00, 2, 0x2112_0020),

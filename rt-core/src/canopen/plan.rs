@@ -21,6 +21,10 @@ pub const MASTER_NODE: u8 = 0x7F;
 pub const DIGITAL_INPUTS: u16 = 0x6000;
 pub const DIGITAL_OUTPUTS: u16 = 0x6200;
 pub const ANALOG_OUTPUTS: u16 = 0x6411;
+/// Event timer of the event-driven TPDOs (statusword, inputs): sent again after this
+/// long without a change, so a lost frame cannot leave the master with a stale state.
+/// Below the inhibit-time rate, so the worst case per cycle stays 1 / inhibit time.
+pub const EVENT_TIMER_MS: u16 = 100;
 /// Device profile numbers in the low 16 bits of 0x1000.
 pub const PROFILE_DRIVE: u32 = 402;
 pub const PROFILE_IO: u32 = 401;
@@ -127,7 +131,8 @@ impl BusPlan {
                         MapEntry::new(DIGITAL_INPUTS, 3, 8),
                     ],
                 )
-                .with_inhibit_100us(c.inputs_inhibit_ms * 10),
+                .with_inhibit_100us(c.inputs_inhibit_ms * 10)
+                .with_event_timer_ms(EVENT_TIMER_MS),
                 outputs: Pdo::new(
                     Direction::Rpdo,
                     1,

@@ -59,6 +59,8 @@ pub enum Fault {
     FeedbackLost { axis: Axis },
     /// The I/O coupler's inputs are not current (its heartbeat is lost).
     IoLost,
+    /// A drive did not reach, or left, "operation enabled" while it should be enabled.
+    DriveNotEnabled { axis: Axis },
 }
 
 impl Fault {
@@ -67,6 +69,7 @@ impl Fault {
         !matches!(
             self,
             Fault::DriveFault { axis: Axis::X }
+                | Fault::DriveNotEnabled { axis: Axis::X }
                 | Fault::FollowingError { axis: Axis::X, .. }
                 | Fault::FeedbackLost { axis: Axis::X }
                 | Fault::HardwareLimit {
@@ -82,6 +85,7 @@ impl Fault {
         !matches!(
             self,
             Fault::DriveFault { axis: Axis::B }
+                | Fault::DriveNotEnabled { axis: Axis::B }
                 | Fault::FollowingError { axis: Axis::B, .. }
                 | Fault::FeedbackLost { axis: Axis::B }
                 | Fault::SyncLost { .. }
@@ -110,4 +114,6 @@ pub enum Refusal {
     BadValue,
     /// The safety chain is open: close it (reset button) first.
     SafetyChainOpen,
+    /// Not every drive reports "operation enabled" yet.
+    DrivesNotEnabled,
 }

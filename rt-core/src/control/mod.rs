@@ -37,6 +37,8 @@ use program::CycleProgram;
 const SPINDLE_TRIM_PER_S: f64 = 0.5;
 /// Bounds of the trim factor on the VFD reference.
 const SPINDLE_TRIM_RANGE: (f64, f64) = (0.8, 1.25);
+/// Time the drives may take to reach "operation enabled" once asked to.
+pub const DRIVE_ENABLE_TIMEOUT_S: f64 = 2.0;
 /// The spindle must hold its speed this long before the gearbox engages.
 pub const SPINDLE_SETTLE_S: f64 = 0.5;
 
@@ -250,6 +252,11 @@ pub struct Status {
     pub fault: Option<Fault>,
     pub inputs: Inputs,
     pub outputs: Outputs,
+    /// Drives (B, X, Y) reporting "operation enabled".
+    pub drives_enabled: [bool; 3],
+    /// Drives whose feedback has been missing long enough to be a fault (their state is
+    /// unknown).
+    pub drives_silent: [bool; 3],
 }
 
 /// Measured values of one cycle, in units.
@@ -263,6 +270,7 @@ struct Measured {
     x_mm: f64,
     y_mm: f64,
     inputs: Inputs,
+    drives_enabled: [bool; 3],
 }
 
 /// The control core.
@@ -290,6 +298,8 @@ pub struct Controller {
     spindle_trim: f64,
     /// Time the spindle has been within tolerance of its set speed.
     spindle_at_speed_s: f64,
+    /// Time the drives have been asked to be enabled.
+    enable_age_s: f64,
     events: EventRing,
     cycle: u64,
     started: bool,
@@ -318,6 +328,7 @@ impl Controller {
             outputs: Outputs::default(),
             spindle_trim: 1.0,
             spindle_at_speed_s: 0.0,
+            enable_age_s: 0.0,
             events: EventRing::new(),
             cycle: 0,
             started: false,
@@ -427,6 +438,7 @@ impl Controller {
                 .to_units(self.unwrap[1].update(input.table.position_counts)),
             x_mm: self.p.x.to_units(self.unwrap[2].update(input.x.position_counts)),
             y_mm: self.p.y.to_units(self.unwrap[3].update(input.y.position_counts)),
+            drives_enabled: [input.table.enabled, input.x.enabled, input.y.enabled],
             inputs: if input.io_valid {
                 self.p.io.decode(input.digital_inputs)
             } else {
@@ -471,6 +483,18 @@ impl Controller {
             self.misses[k] = if fb.fresh { 0 } else { self.misses[k] + 1 };
             if self.misses[k] >= self.p.feedback_misses_to_fault {
                 self.raise(Fault::FeedbackLost { axis });
+            }
+        }
+        self.enable_age_s = if active {
+            self.enable_age_s + self.p.period_s
+        } else {
+            0.0
+        };
+        if active && self.enable_age_s > DRIVE_ENABLE_TIMEOUT_S {
+            for (enabled, axis) in self.m.drives_enabled.into_iter().zip([Axis::B, Axis::X, Axis::Y]) {
+                if !enabled {
+                    self.raise(Fault::DriveNotEnabled { axis });
+                }
             }
         }
         if active && self.cycle > 3 {
@@ -584,12 +608,19 @@ impl Controller {
             fault: self.fault,
             inputs: self.m.inputs,
             outputs: self.outputs,
+            drives_enabled: self.m.drives_enabled,
+            drives_silent: self.misses.map(|m| m >= self.p.feedback_misses_to_fault),
         }
     }
 
     /// The gearbox (for its recorded phase and parameters).
     pub fn gearbox(&self) -> &Gearbox {
         &self.gearbox
+    }
+
+    /// Whether every drive reports "operation enabled".
+    pub fn drives_ready(&self) -> bool {
+        self.m.drives_enabled.iter().all(|e| *e)
     }
 
     /// Lubrication cycles completed since power-up.

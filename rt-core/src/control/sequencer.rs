@@ -147,6 +147,8 @@ pub(super) struct Sequencer {
     rev_start_deg: f64,
     jog_target: f64,
     jog_axis: Option<Axis>,
+    /// Power-up conditions met (chain closed, lubricated, no fault): enable the drives.
+    init_ready: bool,
 }
 
 impl Sequencer {
@@ -158,8 +160,14 @@ impl Sequencer {
         }
     }
 
+    /// Drives are asked to be enabled once power-up is through (safety chain closed,
+    /// first lubrication done) and until the fault reaction has stopped the machine.
     pub fn drives_should_be_enabled(&self) -> bool {
-        !matches!(self.state, State::Init | State::Faulted)
+        match self.state {
+            State::Faulted => false,
+            State::Init => self.init_ready,
+            _ => true,
+        }
     }
 
     pub fn pc_ok(&self, fault: Option<Fault>) -> bool {
@@ -236,6 +244,9 @@ impl Controller {
                 if !self.m.inputs.safety_chain_closed {
                     return Err(Refusal::SafetyChainOpen);
                 }
+                if !self.drives_ready() {
+                    return Err(Refusal::DrivesNotEnabled);
+                }
                 self.seq.single = single;
                 self.seq.pass_index = 0;
                 self.seq.tooth = 0;
@@ -283,6 +294,9 @@ impl Controller {
                 }
                 if !distance.is_finite() {
                     return Err(Refusal::BadValue);
+                }
+                if !self.drives_ready() {
+                    return Err(Refusal::DrivesNotEnabled);
                 }
                 let target = match axis {
                     Axis::X => self.x.position + distance,
@@ -709,22 +723,24 @@ impl Controller {
             State::Init | State::Faulted => {
                 self.seq.clamp = false;
                 self.seq.spindle_set_rpm = 0.0;
-                // Drives are off: the commands follow the machine, so enabling never jumps.
-                self.x = super::profile::Profile::at(self.m.x_mm);
-                self.y = super::profile::Profile::at(self.m.y_mm);
-                self.gearbox.disengage();
-                let table = self.m.table_deg;
-                let g = *self.gearbox.params();
-                let recorded = self.gearbox.recorded_phase_deg();
-                self.gearbox = super::egb::Gearbox::new(g, table);
-                if let Some(r) = recorded {
-                    self.gearbox.restore_recorded_phase(r);
+                if !self.seq.drives_should_be_enabled() {
+                    // Drives are off: the commands follow the machine, so enabling never
+                    // jumps. Once they are being enabled the commands hold still.
+                    self.x = super::profile::Profile::at(self.m.x_mm);
+                    self.y = super::profile::Profile::at(self.m.y_mm);
+                    let table = self.m.table_deg;
+                    let g = *self.gearbox.params();
+                    let recorded = self.gearbox.recorded_phase_deg();
+                    self.gearbox = super::egb::Gearbox::new(g, table);
+                    if let Some(r) = recorded {
+                        self.gearbox.restore_recorded_phase(r);
+                    }
                 }
-                let ready = self.seq.state == State::Init
+                self.seq.init_ready = self.seq.state == State::Init
                     && self.m.inputs.safety_chain_closed
                     && self.lube.cycles_done() > 0
                     && self.fault.is_none();
-                if ready {
+                if self.seq.init_ready && self.drives_ready() {
                     self.enter(State::Idle);
                 }
             }

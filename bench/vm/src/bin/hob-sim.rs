@@ -1,0 +1,175 @@
+//! `hob-sim`: the virtual hobbing machine as its own process on a CAN interface.
+//!
+//! Emulates the three drives and the I/O coupler of `config/machine.toml` around the
+//! physics of `config/plant.toml`, in lockstep with the master's SYNC. Faults are injected
+//! from the command line (`--fault`, `--fault-in-cut`) or, with `--control`, one per line
+//! on standard input: `drive-fault x`, `estop`, `chain-open`, `limit y min`, `no-lube`,
+//! `obstruct y`, `vfd-fault`, `drop 0.2`, `delay 3`, `silent 2`, `garbage 4`.
+
+use clap::Parser;
+use hob_plant::config::PlantConfig;
+use hob_plant::machine::Start;
+use hob_rt_core::canopen::bus::{CanBus, SocketCan};
+use hob_rt_core::canopen::frame::Frame;
+use hob_rt_core::config::Problems;
+use hob_rt_core::config::machine::MachineConfig;
+use hob_rt_core::control::program::CycleProgram;
+use hob_rt_core::job::Program;
+use hob_rt_core::planner;
+use hob_vm::machine::{VirtualMachine, VmFault};
+use hob_vm::runner::SYNC_SILENCE;
+use std::path::PathBuf;
+use std::process::ExitCode;
+use std::time::{Duration, Instant};
+
+#[derive(Debug, Parser)]
+#[command(name = "hob-sim", about = "the virtual hobbing machine on a CAN bus")]
+struct Args {
+    /// SocketCAN interface.
+    #[arg(long, default_value = "vcan0")]
+    iface: String,
+    #[arg(long, default_value = "config/machine.toml")]
+    machine: PathBuf,
+    #[arg(long, default_value = "config/plant.toml")]
+    plant: PathBuf,
+    /// The program whose blank is on the table (cutting load, start position, hob gashes).
+    #[arg(long)]
+    program: Option<PathBuf>,
+    /// Inject a fault at once. Repeatable.
+    #[arg(long)]
+    fault: Vec<String>,
+    /// Inject a fault once the tool has been in the work for 2000 SYNCs.
+    #[arg(long)]
+    fault_in_cut: Option<String>,
+    /// Read faults from standard input, one per line.
+    #[arg(long)]
+    control: bool,
+    /// Exit after this many seconds without any frame (0: never).
+    #[arg(long, default_value_t = 0.0)]
+    idle_exit_s: f64,
+}
+
+fn main() -> ExitCode {
+    match run(Args::parse()) {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("hob-sim: {e}");
+            ExitCode::from(2)
+        }
+    }
+}
+
+fn run(a: Args) -> Result<(), String> {
+    let machine = MachineConfig::load(&a.machine).map_err(|e| e.to_string())?;
+    let plant = PlantConfig::load(&a.plant).map_err(|e| e.to_string())?;
+    let mut start = Start {
+        x_mm: 150.0,
+        y_mm: 150.0,
+        table_deg: 0.0,
+    };
+    let mut gashes = 10;
+    let mut workpiece = None;
+    if let Some(p) = &a.program {
+        let (job, src) = Program::read(p).map_err(|e| e.to_string())?;
+        let mut problems = Problems::new();
+        let cycle = CycleProgram::build(&job, &machine, &mut problems);
+        let plan = planner::plan(&job, &machine, &mut problems);
+        let (Some(cycle), Some(plan)) = (cycle, plan) else {
+            return Err(problems
+                .into_result(p, &src)
+                .err()
+                .map_or_else(|| "program refused".into(), |e| e.to_string()));
+        };
+        start = hob_plant::sim::start_for(&cycle);
+        gashes = job.tool.gashes.max(1) as u32;
+        workpiece = Some(hob_plant::sim::workpiece_for(
+            &cycle,
+            &plan,
+            job.workpiece.face_width_mm,
+            job.tool.outside_diameter_mm,
+        ));
+    }
+    let mut faults = a
+        .fault
+        .iter()
+        .map(|f| VmFault::parse(f))
+        .collect::<Result<Vec<_>, _>>()?;
+    let in_cut = a.fault_in_cut.as_deref().map(VmFault::parse).transpose()?;
+    let mut vm = VirtualMachine::new(&machine, &plant, start, gashes);
+    if let Some(w) = workpiece {
+        vm.plant.set_workpiece(w);
+    }
+    for f in faults.drain(..) {
+        vm.inject(f);
+    }
+    let mut bus = SocketCan::open(&a.iface).map_err(|e| e.to_string())?;
+    let (tx, rx) = std::sync::mpsc::channel::<String>();
+    if a.control {
+        std::thread::spawn(move || {
+            for line in std::io::stdin().lines().map_while(Result::ok) {
+                if tx.send(line).is_err() {
+                    break;
+                }
+            }
+        });
+    }
+    eprintln!(
+        "hob-sim: nodes {:?} on {}",
+        hob_rt_core::canopen::plan::BusPlan::from_machine(&machine).nodes(),
+        a.iface
+    );
+    let mut last_idle = Instant::now();
+    let mut last_frame = Instant::now();
+    let mut last_sync = (vm.syncs(), Instant::now());
+    let mut out: Vec<Frame> = Vec::new();
+    let mut in_cut = in_cut;
+    vm.power_on(&mut out);
+    loop {
+        while let Ok(line) = rx.try_recv() {
+            match VmFault::parse(&line) {
+                Ok(f) => {
+                    eprintln!("hob-sim: injecting {f:?}");
+                    vm.inject(f);
+                }
+                Err(e) => eprintln!("hob-sim: {e}"),
+            }
+        }
+        if let Some(f) = in_cut
+            && vm.cutting_syncs() >= 2000
+        {
+            eprintln!("hob-sim: injecting {f:?} in the cut after {} SYNCs", vm.syncs());
+            vm.inject(f);
+            in_cut = None;
+        }
+        let mut busy = false;
+        while let Some(f) = bus.try_recv().map_err(|e| e.to_string())? {
+            busy = true;
+            last_frame = Instant::now();
+            vm.on_frame(&f, &mut out);
+            for f in out.drain(..) {
+                let _ = bus.send(&f);
+            }
+        }
+        if vm.syncs() != last_sync.0 {
+            last_sync = (vm.syncs(), Instant::now());
+            last_idle = Instant::now();
+        } else if last_sync.1.elapsed() > SYNC_SILENCE {
+            vm.idle(last_idle.elapsed().as_secs_f64(), &mut out);
+            last_idle = Instant::now();
+        }
+        for f in out.drain(..) {
+            let _ = bus.send(&f);
+        }
+        if a.idle_exit_s > 0.0 && last_frame.elapsed().as_secs_f64() > a.idle_exit_s {
+            eprintln!(
+                "hob-sim: no frame for {} s, exiting after {} SYNCs",
+                a.idle_exit_s,
+                vm.syncs()
+            );
+            return Ok(());
+        }
+        if !busy {
+            std::thread::sleep(Duration::from_micros(50));
+        }
+    }
+}

@@ -1,0 +1,490 @@
+//! `hob bus-load` and the commissioning tools `hob can ...` (in the style of can-utils).
+
+use hob_rt_core::canopen::capture::{check_schedule, parse_candump};
+use hob_rt_core::canopen::describe::describe;
+use hob_rt_core::canopen::master::{Cyclic, boot, identify, sdo_read, sdo_write};
+use hob_rt_core::canopen::nmt::NmtState;
+use hob_rt_core::canopen::plan::BusPlan;
+use hob_rt_core::config::Problems;
+use hob_rt_core::config::machine::MachineConfig;
+use hob_rt_core::control::fault::Axis;
+use hob_rt_core::control::program::CycleProgram;
+use hob_rt_core::control::{Command, ControlParams, Controller, State};
+use hob_rt_core::job::Program;
+use std::fmt::Write as _;
+use std::path::Path;
+use std::time::{Duration, Instant};
+
+/// Value types of `hob can sdo`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum SdoType {
+    U8,
+    U16,
+    U32,
+    I8,
+    I16,
+    I32,
+    Str,
+    Hex,
+}
+
+/// `hob bus-load`: the worst-case bits per cycle; `Err` (refused) above the limit.
+pub fn bus_load(machine: &MachineConfig) -> Result<String, String> {
+    let plan = BusPlan::from_machine(machine);
+    let load = plan.load();
+    let mut o = String::new();
+    let _ = writeln!(
+        o,
+        "bus load, worst case per {:.0} us cycle at {} bit/s (frame bits with stuffing: 8n + 47 + floor((34 + 8n - 1)/4))",
+        plan.cycle_s * 1e6,
+        plan.bitrate_bit_s
+    );
+    let _ = writeln!(
+        o,
+        "{:<34} {:>5} {:>10} {:>12}",
+        "traffic", "bytes", "per cycle", "bits/cycle"
+    );
+    for t in &load.traffic {
+        let _ = writeln!(
+            o,
+            "{:<34} {:>5} {:>10.3} {:>12.1}",
+            t.name,
+            t.bytes,
+            t.per_cycle,
+            t.bits_per_cycle()
+        );
+    }
+    let _ = writeln!(
+        o,
+        "total {:.1} of {:.0} bits per cycle: {:.1} % (limit {:.0} %)",
+        load.bits_per_cycle,
+        load.capacity_bits,
+        load.load * 100.0,
+        plan.bus_load_limit * 100.0
+    );
+    if load.load > plan.bus_load_limit {
+        return Err(format!(
+            "{o}bus load {:.1} % is above can.bus_load_limit = {:.0} %: lengthen inhibit times or take 0x60B1 out of the RPDO",
+            load.load * 100.0,
+            plan.bus_load_limit * 100.0
+        ));
+    }
+    Ok(o)
+}
+
+fn open(iface: &str) -> Result<hob_rt_core::canopen::bus::SocketCan, String> {
+    hob_rt_core::canopen::bus::SocketCan::open(iface).map_err(|e| e.to_string())
+}
+
+fn profile_name(device_type: u32) -> &'static str {
+    match device_type & 0xFFFF {
+        401 => "CiA 401 I/O",
+        402 => "CiA 402 drive",
+        0 => "no profile",
+        _ => "other profile",
+    }
+}
+
+/// `hob can scan`.
+pub fn scan(iface: &str, timeout: Duration) -> Result<String, String> {
+    let mut bus = open(iface)?;
+    let mut states = [None; 128];
+    let listen_until = Instant::now() + timeout * 4;
+    while Instant::now() < listen_until {
+        if let Ok(Some(f)) = bus.recv_timeout(Duration::from_millis(5))
+            && let Some((node, s)) = NmtState::parse_heartbeat(&f)
+        {
+            states[usize::from(node)] = Some(s);
+        }
+    }
+    let mut o = String::new();
+    let mut found = 0;
+    for node in 1..=127u8 {
+        let Ok(b) = sdo_read(&mut bus, node, 0x1000, 0, timeout) else {
+            continue;
+        };
+        found += 1;
+        let device_type = u32::from_le_bytes([
+            b.first().copied().unwrap_or(0),
+            b.get(1).copied().unwrap_or(0),
+            b.get(2).copied().unwrap_or(0),
+            b.get(3).copied().unwrap_or(0),
+        ]);
+        let info = identify(&mut bus, node, timeout).ok();
+        let state = states[usize::from(node)].map_or("no heartbeat seen", NmtState::name);
+        let _ = write!(
+            o,
+            "node {node:3}: {state}, device type 0x{device_type:08X} ({})",
+            profile_name(device_type)
+        );
+        if let Some(i) = info {
+            let _ = write!(
+                o,
+                ", \"{}\", vendor 0x{:08X} product 0x{:08X} revision 0x{:08X} serial 0x{:08X}",
+                i.name, i.vendor_id, i.product_code, i.revision, i.serial
+            );
+            if let Some(m) = i.supported_modes {
+                let _ = write!(
+                    o,
+                    ", CSP {} (0x6502 = 0x{m:08X})",
+                    if i.csp() { "yes" } else { "NO" }
+                );
+            }
+        }
+        o.push('\n');
+    }
+    let _ = writeln!(o, "{found} node(s) answered on {iface}");
+    Ok(o)
+}
+
+fn parse_number(s: &str) -> Result<i64, String> {
+    let t = s.trim();
+    let (neg, t) = t.strip_prefix('-').map_or((false, t), |r| (true, r));
+    let v = if let Some(h) = t.strip_prefix("0x").or_else(|| t.strip_prefix("0X")) {
+        i64::from_str_radix(h, 16)
+    } else {
+        t.parse()
+    }
+    .map_err(|e| format!("{s:?}: {e}"))?;
+    Ok(if neg { -v } else { v })
+}
+
+/// Parses an object index or sub-index (hex with 0x, or decimal).
+pub fn parse_u16(s: &str) -> Result<u16, String> {
+    u16::try_from(parse_number(s)?).map_err(|_| format!("{s}: out of range 0 .. 0xFFFF"))
+}
+
+fn encode(value: &str, ty: SdoType) -> Result<Vec<u8>, String> {
+    let n = || parse_number(value);
+    let range = |lo: i64, hi: i64| -> Result<i64, String> {
+        let v = n()?;
+        if (lo..=hi).contains(&v) {
+            Ok(v)
+        } else {
+            Err(format!("{value} is out of range {lo} .. {hi} for {ty:?}"))
+        }
+    };
+    Ok(match ty {
+        SdoType::U8 => vec![range(0, 0xFF)? as u8],
+        SdoType::U16 => (range(0, 0xFFFF)? as u16).to_le_bytes().to_vec(),
+        SdoType::U32 => (range(0, 0xFFFF_FFFF)? as u32).to_le_bytes().to_vec(),
+        SdoType::I8 => vec![range(-128, 127)? as i8 as u8],
+        SdoType::I16 => (range(-32768, 32767)? as i16).to_le_bytes().to_vec(),
+        SdoType::I32 => (range(i64::from(i32::MIN), i64::from(i32::MAX))? as i32)
+            .to_le_bytes()
+            .to_vec(),
+        SdoType::Str => value.as_bytes().to_vec(),
+        SdoType::Hex => {
+            let t: String = value.chars().filter(|c| !c.is_whitespace()).collect();
+            if !t.len().is_multiple_of(2) {
+                return Err(format!("{value:?}: hex needs an even number of digits"));
+            }
+            (0..t.len() / 2)
+                .map(|i| u8::from_str_radix(&t[2 * i..2 * i + 2], 16).map_err(|e| e.to_string()))
+                .collect::<Result<_, _>>()?
+        }
+    })
+}
+
+fn decode(b: &[u8], ty: SdoType) -> String {
+    let mut w = [0u8; 8];
+    let n = b.len().min(8);
+    w[..n].copy_from_slice(&b[..n]);
+    let u = u64::from_le_bytes(w);
+    match ty {
+        SdoType::U8 | SdoType::U16 | SdoType::U32 => format!("{u} (0x{u:X})"),
+        SdoType::I8 => (u as u8 as i8).to_string(),
+        SdoType::I16 => (u as u16 as i16).to_string(),
+        SdoType::I32 => (u as u32 as i32).to_string(),
+        SdoType::Str => String::from_utf8_lossy(b).into_owned(),
+        SdoType::Hex => b.iter().map(|x| format!("{x:02X}")).collect::<Vec<_>>().join(" "),
+    }
+}
+
+/// `hob can sdo read`.
+pub fn sdo_read_cmd(
+    iface: &str,
+    node: u8,
+    index: u16,
+    sub: u8,
+    ty: SdoType,
+    timeout: Duration,
+) -> Result<String, String> {
+    let mut bus = open(iface)?;
+    let b = sdo_read(&mut bus, node, index, sub, timeout).map_err(|e| format!("node {node}: {e}"))?;
+    Ok(format!("{}\n", decode(&b, ty)))
+}
+
+/// `hob can sdo write`.
+pub fn sdo_write_cmd(
+    iface: &str,
+    node: u8,
+    index: u16,
+    sub: u8,
+    value: &str,
+    ty: SdoType,
+    timeout: Duration,
+) -> Result<String, String> {
+    let data = encode(value, ty)?;
+    let mut bus = open(iface)?;
+    sdo_write(&mut bus, node, index, sub, &data, timeout).map_err(|e| format!("node {node}: {e}"))?;
+    Ok(format!(
+        "node {node} 0x{index:04X}:{sub:02X} <- {} ({} bytes)\n",
+        decode(&data, ty),
+        data.len()
+    ))
+}
+
+/// `hob can dump`: live from an interface, or a `candump -L` file.
+pub fn dump(
+    machine: &MachineConfig,
+    iface: Option<&str>,
+    file: Option<&Path>,
+    count: Option<usize>,
+) -> Result<String, String> {
+    let plan = BusPlan::from_machine(machine);
+    if let Some(path) = file {
+        let text = std::fs::read_to_string(path).map_err(|e| format!("{}: {e}", path.display()))?;
+        let mut o = String::new();
+        for c in parse_candump(&text).iter().take(count.unwrap_or(usize::MAX)) {
+            let t = c.t_s.map_or(String::new(), |t| format!("({t:.6}) "));
+            let _ = writeln!(
+                o,
+                "{t}{:<20} {}",
+                c.frame.to_candump(),
+                describe(&c.frame, Some(&plan))
+            );
+        }
+        return Ok(o);
+    }
+    let iface = iface.ok_or("give --iface or --file")?;
+    let mut bus = open(iface)?;
+    let start = Instant::now();
+    let mut n = 0;
+    use std::io::Write;
+    let stdout = std::io::stdout();
+    while count.is_none_or(|c| n < c) {
+        if let Ok(Some(f)) = bus.recv_timeout(Duration::from_millis(100)) {
+            n += 1;
+            let line = format!(
+                "({:.6}) {:<20} {}\n",
+                start.elapsed().as_secs_f64(),
+                f.to_candump(),
+                describe(&f, Some(&plan))
+            );
+            if stdout.lock().write_all(line.as_bytes()).is_err() {
+                break;
+            }
+        }
+    }
+    Ok(String::new())
+}
+
+/// `hob can check-capture`.
+pub fn check_capture(machine: &MachineConfig, file: &Path) -> Result<String, String> {
+    let plan = BusPlan::from_machine(machine);
+    let text = std::fs::read_to_string(file).map_err(|e| format!("{}: {e}", file.display()))?;
+    let r = check_schedule(&parse_candump(&text), &plan);
+    let mut o = format!(
+        "{}: {} frames, {} SYNCs, {} cycles with exactly one target RPDO and one position TPDO per drive",
+        file.display(),
+        r.frames,
+        r.syncs,
+        r.cycles_checked
+    );
+    if let (Some(m), Some(x)) = (r.sync_interval_median_s, r.sync_interval_max_s) {
+        let _ = write!(
+            o,
+            "; SYNC interval median {:.3} ms, max {:.3} ms (timestamps of the capturing host)",
+            m * 1e3,
+            x * 1e3
+        );
+    }
+    o.push('\n');
+    if r.syncs == 0 || !r.violations.is_empty() {
+        for v in r.violations.iter().take(20) {
+            let _ = writeln!(o, "  {v}");
+        }
+        return Err(format!("{o}the capture does not keep to the schedule"));
+    }
+    Ok(o)
+}
+
+/// What `hob can run` does.
+pub struct RunArgs<'a> {
+    pub iface: &'a str,
+    pub program: Option<&'a Path>,
+    pub jogs: &'a [(Axis, f64)],
+    pub single: bool,
+    pub max_s: f64,
+}
+
+/// `hob can run`: the master over SocketCAN in lockstep with the drives: boot, power-up,
+/// jogs, then the program; prints what happened. `Err((exit code, text))`.
+pub fn run(machine: &MachineConfig, a: &RunArgs<'_>) -> Result<String, (u8, String)> {
+    let program = match a.program {
+        Some(p) => {
+            let (job, src) = Program::read(p).map_err(|e| (2, e.to_string()))?;
+            let mut problems = Problems::new();
+            match CycleProgram::build(&job, machine, &mut problems) {
+                Some(c) => Some(c),
+                None => {
+                    return Err((
+                        2,
+                        problems
+                            .into_result(p, &src)
+                            .err()
+                            .map_or_else(|| "refused".into(), |e| e.to_string()),
+                    ));
+                }
+            }
+        }
+        None => None,
+    };
+    let mut bus = open(a.iface).map_err(|e| (1, e))?;
+    let plan = BusPlan::from_machine(machine);
+    let infos = boot(&plan, &mut bus, Duration::from_millis(500)).map_err(|e| (1, format!("boot: {e}")))?;
+    let mut o = String::new();
+    for i in &infos {
+        let _ = writeln!(
+            o,
+            "node {}: \"{}\" 0x{:08X} operational{}",
+            i.node,
+            i.name,
+            i.device_type,
+            if i.csp() { ", CSP" } else { "" }
+        );
+    }
+    let controller = Controller::new(ControlParams::from_machine(machine));
+    let mut r = Runner {
+        m: hob_vm::runner::MasterLoop::new(controller, Cyclic::new(plan), bus),
+        states: Vec::new(),
+        cycles: 0,
+        max_cycles: (a.max_s / plan.cycle_s) as u64,
+    };
+    while r.step() != State::Idle {
+        if r.out_of_time() || r.m.controller.status().state == State::Faulted {
+            return Err((
+                3,
+                format!("{o}power-up did not finish: {:?}", r.m.controller.status().fault),
+            ));
+        }
+    }
+    r.settle();
+    let _ = writeln!(o, "power-up done");
+    for &(axis, distance) in a.jogs {
+        let before = r.m.controller.status();
+        r.m.controller
+            .command(Command::Jog { axis, distance })
+            .map_err(|e| (2, format!("{o}jog refused: {e:?}")))?;
+        while r.step() != State::Idle && !r.out_of_time() {}
+        r.settle();
+        let after = r.m.controller.status();
+        let (b, c) = match axis {
+            Axis::X => (before.x_mm, after.x_mm),
+            Axis::Y => (before.y_mm, after.y_mm),
+            Axis::B => (before.table_deg, after.table_deg),
+        };
+        let _ = writeln!(
+            o,
+            "jog {} {distance:+.3}: the drive reports {:+.4} ({b:.4} -> {c:.4})",
+            axis.name(),
+            c - b
+        );
+    }
+    let mut result = Ok(());
+    if let Some(p) = program {
+        r.m.controller
+            .load(p)
+            .map_err(|e| (2, format!("{o}load refused: {e:?}")))?;
+        r.m.controller
+            .command(Command::Start { single: a.single })
+            .map_err(|e| (2, format!("{o}start refused: {e:?}")))?;
+        r.states.clear();
+        loop {
+            let s = r.step();
+            if s == State::Idle || s == State::Faulted || r.out_of_time() {
+                break;
+            }
+        }
+        r.settle();
+        let names: Vec<&str> = r.states.iter().map(|s| s.name()).collect();
+        let _ = writeln!(o, "states: {}", names.join(" "));
+        let status = r.m.controller.status();
+        match status.fault {
+            Some(f) => {
+                let _ = writeln!(o, "fault: {f:?}");
+                result = Err(3);
+            }
+            None if status.state == State::Idle => {
+                let _ = writeln!(o, "cycle done");
+            }
+            None => {
+                let _ = writeln!(o, "cycle not finished in {} s", a.max_s);
+                result = Err(3);
+            }
+        }
+    }
+    let s = r.m.controller.status();
+    let axes = [Axis::B, Axis::X, Axis::Y];
+    let pick = |flags: [bool; 3], silent: bool| -> String {
+        let names: Vec<&str> = axes
+            .iter()
+            .zip(flags)
+            .zip(s.drives_silent)
+            .filter(|((_, f), q)| *f && *q == silent)
+            .map(|((a, _), _)| a.name())
+            .collect();
+        if names.is_empty() {
+            "none".to_string()
+        } else {
+            names.join(" ")
+        }
+    };
+    let _ = writeln!(
+        o,
+        "outputs: pc_ok {} spindle {} coolant {}; drives in operation enabled: {}; silent (state unknown, power removed by the open safety chain): {}",
+        s.outputs.pc_ok_relay,
+        s.outputs.spindle_run_forward || s.outputs.spindle_run_reverse,
+        s.outputs.coolant_pump,
+        pick(s.drives_enabled, false),
+        pick([true; 3], true)
+    );
+    let cycles = r.cycles;
+    let _ = writeln!(o, "cycles: {cycles}");
+    match result {
+        Ok(()) => Ok(o),
+        Err(code) => Err((code, o)),
+    }
+}
+
+/// The lockstep loop of `hob can run`, with the states it passed.
+struct Runner {
+    m: hob_vm::runner::MasterLoop<hob_rt_core::canopen::bus::SocketCan>,
+    states: Vec<State>,
+    cycles: u64,
+    max_cycles: u64,
+}
+
+impl Runner {
+    fn step(&mut self) -> State {
+        self.m.cycle();
+        self.cycles += 1;
+        let s = self.m.controller.status().state;
+        if self.states.last() != Some(&s) {
+            self.states.push(s);
+        }
+        s
+    }
+
+    fn out_of_time(&self) -> bool {
+        self.cycles > self.max_cycles
+    }
+
+    /// A few hundred cycles for the drives to follow the last commands.
+    fn settle(&mut self) {
+        for _ in 0..500 {
+            self.step();
+        }
+    }
+}

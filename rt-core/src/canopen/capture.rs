@@ -1,0 +1,175 @@
+//! `candump -L` captures: reading them, and checking that a run kept to the bus schedule
+//! (SYNC each cycle; between two SYNCs exactly one target RPDO and one actual-position
+//! TPDO per drive; no frame outside the schedule; no SDO once the cycle runs).
+
+use super::frame::{Cob, Frame};
+use super::plan::BusPlan;
+
+/// One captured frame and its timestamp (s), if the capture has one.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Captured {
+    pub t_s: Option<f64>,
+    pub frame: Frame,
+}
+
+/// Parses `candump -L` lines (`(1700000000.123456) vcan0 080#`) or bare `ID#DATA`.
+pub fn parse_candump(text: &str) -> Vec<Captured> {
+    text.lines()
+        .filter_map(|line| {
+            let mut t_s = None;
+            let mut rest = line.trim();
+            if let Some(r) = rest.strip_prefix('(') {
+                let (t, after) = r.split_once(')')?;
+                t_s = t.trim().parse().ok();
+                rest = after.trim();
+            }
+            let frame_text = rest.split_whitespace().last()?;
+            Frame::from_candump(frame_text).map(|frame| Captured { t_s, frame })
+        })
+        .collect()
+}
+
+/// A `candump -L` line for a frame.
+pub fn candump_line(t_s: f64, iface: &str, f: &Frame) -> String {
+    format!("({t_s:.6}) {iface} {}", f.to_candump())
+}
+
+/// What a capture shows.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct ScheduleReport {
+    pub frames: usize,
+    pub syncs: usize,
+    /// Intervals between SYNCs checked for the cyclic PDO set.
+    pub cycles_checked: usize,
+    pub violations: Vec<String>,
+    /// Intervals between SYNCs from the timestamps (s): median and maximum.
+    pub sync_interval_median_s: Option<f64>,
+    pub sync_interval_max_s: Option<f64>,
+}
+
+/// Checks a capture against the bus plan.
+pub fn check_schedule(frames: &[Captured], plan: &BusPlan) -> ScheduleReport {
+    let mut r = ScheduleReport {
+        frames: frames.len(),
+        ..ScheduleReport::default()
+    };
+    let nodes = plan.nodes();
+    let mut in_cycle = false;
+    let mut counts: Option<[[u32; 2]; 3]> = None;
+    let mut sync_times = Vec::new();
+    for (i, c) in frames.iter().enumerate() {
+        let f = &c.frame;
+        let cob = Cob::of(f.id);
+        let known = match cob {
+            Cob::Nmt | Cob::Sync => true,
+            Cob::Emcy(n) | Cob::Heartbeat(n) => nodes.contains(&n) || n == super::plan::MASTER_NODE,
+            Cob::SdoRx(n) | Cob::SdoTx(n) => {
+                if in_cycle {
+                    r.violations
+                        .push(format!("frame {i}: SDO to node {n} while the cycle runs"));
+                }
+                nodes.contains(&n)
+            }
+            Cob::Tpdo(_, _) | Cob::Rpdo(_, _) => plan
+                .drives
+                .iter()
+                .flat_map(|d| [d.target, d.control, d.actual, d.status])
+                .chain([plan.io.inputs, plan.io.outputs, plan.io.analog])
+                .any(|p| p.cob_id == f.id && usize::from(f.len) == p.len_bytes()),
+            _ => false,
+        };
+        if !known {
+            r.violations
+                .push(format!("frame {i}: {} is not in the schedule", f.to_candump()));
+        }
+        if cob == Cob::Sync {
+            r.syncs += 1;
+            in_cycle = true;
+            if let Some(t) = c.t_s {
+                sync_times.push(t);
+            }
+            if let Some(k) = counts.take() {
+                r.cycles_checked += 1;
+                for (d, [rpdo, tpdo]) in plan.drives.iter().zip(k) {
+                    if rpdo != 1 || tpdo != 1 {
+                        r.violations.push(format!(
+                            "frame {i}: before this SYNC drive {} had {rpdo} target RPDOs and {tpdo} position TPDOs (1 each expected)",
+                            d.node
+                        ));
+                    }
+                }
+            }
+            counts = Some([[0; 2]; 3]);
+            continue;
+        }
+        if let Some(k) = counts.as_mut() {
+            for (j, d) in plan.drives.iter().enumerate() {
+                if f.id == d.target.cob_id {
+                    k[j][0] += 1;
+                } else if f.id == d.actual.cob_id {
+                    k[j][1] += 1;
+                }
+            }
+        }
+    }
+    let mut gaps: Vec<f64> = sync_times.windows(2).map(|w| w[1] - w[0]).collect();
+    gaps.sort_by(f64::total_cmp);
+    r.sync_interval_median_s = gaps.get(gaps.len() / 2).copied();
+    r.sync_interval_max_s = gaps.last().copied();
+    r
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::config::machine::MachineConfig;
+    use std::path::Path;
+
+    fn plan() -> BusPlan {
+        let m = MachineConfig::load(&Path::new(env!("CARGO_MANIFEST_DIR")).join("../config/machine.toml"))
+            .expect("machine");
+        BusPlan::from_machine(&m)
+    }
+
+    const GOOD: &str = "\
+(1.000000) vcan0 202#00000000
+(1.000010) vcan0 203#00000000
+(1.000020) vcan0 204#00000000
+(1.000030) vcan0 080#
+(1.000100) vcan0 182#0000000000000000
+(1.000110) vcan0 183#00000000
+(1.000120) vcan0 184#00000000
+(1.000200) vcan0 202#01000000
+(1.000210) vcan0 203#00000000
+(1.000220) vcan0 204#00000000
+(1.001030) vcan0 080#
+";
+
+    #[test]
+    fn a_run_on_schedule_passes() {
+        let frames = parse_candump(GOOD);
+        assert_eq!(frames.len(), 11);
+        let r = check_schedule(&frames, &plan());
+        assert_eq!(r.syncs, 2);
+        assert_eq!(r.cycles_checked, 1);
+        assert!(r.violations.is_empty(), "{:?}", r.violations);
+        assert!((r.sync_interval_median_s.unwrap() - 0.001).abs() < 1e-9);
+    }
+
+    #[test]
+    fn missing_pdos_and_strangers_are_reported() {
+        let text = GOOD.replace("(1.000110) vcan0 183#00000000\n", "(1.000110) vcan0 6E3#01\n");
+        let r = check_schedule(&parse_candump(&text), &plan());
+        assert_eq!(r.violations.len(), 2, "{:?}", r.violations);
+        assert!(r.violations[0].contains("6E3#01 is not in the schedule"));
+        assert!(r.violations[1].contains("drive 3 had 1 target RPDOs and 0 position TPDOs"));
+    }
+
+    #[test]
+    fn candump_lines_round_trip() {
+        let f = Frame::new(0x182, &[1, 2]);
+        let line = candump_line(12.5, "vcan0", &f);
+        assert_eq!(line, "(12.500000) vcan0 182#0102");
+        assert_eq!(parse_candump(&line)[0].frame, f);
+    }
+}
