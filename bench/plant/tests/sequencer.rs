@@ -14,6 +14,17 @@ use hob_rt_core::control::{Command, State};
 
 use State::*;
 
+/// Starts the automatic cycle and runs until the cut has gone on for `cycles` cycles.
+fn start_and_cut(sim: &mut hob_plant::sim::Simulation, cycles: u32) {
+    sim.command(Command::Start { single: false }).unwrap();
+    let mut cut_seen = 0;
+    run(sim, 300.0, |r| {
+        cut_seen += u32::from(r.state == Cut);
+        cut_seen > cycles
+    });
+    assert_eq!(sim.controller.status().state, Cut);
+}
+
 fn cycle_done(r: &Run) -> bool {
     r.events.iter().any(|e| e.kind == EventKind::CycleDone)
 }
@@ -144,12 +155,7 @@ fn tooth_by_tooth_indexes_every_tooth() {
 fn feed_hold_stops_y_in_the_cut_with_the_gearbox_engaged_and_resume_finishes() {
     let (job, cycle, plan) = short_spur(&[]);
     let mut sim = powered_up(&job, &cycle, &plan);
-    sim.command(Command::Start { single: false }).unwrap();
-    let mut cut_seen = 0;
-    run(&mut sim, 300.0, |r| {
-        cut_seen += (r.state == Cut) as u32;
-        cut_seen > 2000
-    });
+    start_and_cut(&mut sim, 2000);
     sim.command(Command::FeedHold).unwrap();
     let held = run(&mut sim, 3.0, |_| false);
     let tail = &held.rows[held.rows.len() - 1000..];
@@ -178,12 +184,7 @@ fn feed_hold_stops_y_in_the_cut_with_the_gearbox_engaged_and_resume_finishes() {
 fn stop_in_the_cut_retracts_then_stops_and_a_restart_finds_the_same_tooth_gap() {
     let (job, cycle, plan) = short_spur(&[]);
     let mut sim = powered_up(&job, &cycle, &plan);
-    sim.command(Command::Start { single: false }).unwrap();
-    let mut cut_seen = 0;
-    run(&mut sim, 300.0, |r| {
-        cut_seen += (r.state == Cut) as u32;
-        cut_seen > 3000
-    });
+    start_and_cut(&mut sim, 3000);
     let recorded = sim.controller.gearbox().recorded_phase_deg().unwrap();
     sim.command(Command::Stop).unwrap();
     let stopped = run(&mut sim, 60.0, |r| r.state == Idle);
@@ -302,12 +303,7 @@ fn start_without_a_program_is_refused() {
 fn fault_in_cut(injection: Injection) -> (Run, f64) {
     let (job, cycle, plan) = short_spur(&[]);
     let mut sim = powered_up(&job, &cycle, &plan);
-    sim.command(Command::Start { single: false }).unwrap();
-    let mut cut_seen = 0;
-    run(&mut sim, 300.0, |r| {
-        cut_seen += (r.state == Cut) as u32;
-        cut_seen > 3000
-    });
+    start_and_cut(&mut sim, 3000);
     sim.inject(injection);
     let r = run(&mut sim, 60.0, |r| r.state == Faulted);
     (r, plan.x_safe_mm)

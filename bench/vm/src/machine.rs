@@ -309,18 +309,21 @@ impl VirtualMachine {
             if servo.fault {
                 next = PowerState::Fault;
             } else {
-                out.push(
-                    Emcy {
-                        node: self.drives[i].id,
-                        code: 0x0000,
-                        register: 0,
-                        vendor: [0; 5],
-                    }
-                    .frame(),
-                );
+                out.push(self.emcy(i, 0x0000, 0));
             }
         }
         self.set_state(i, next);
+    }
+
+    /// An EMCY of drive `i`.
+    fn emcy(&self, i: usize, code: u16, register: u8) -> Frame {
+        Emcy {
+            node: self.drives[i].id,
+            code,
+            register,
+            vendor: [0; 5],
+        }
+        .frame()
     }
 
     fn set_state(&mut self, i: usize, s: PowerState) {
@@ -335,15 +338,7 @@ impl VirtualMachine {
     fn fault(&mut self, i: usize, code: u16, out: &mut Vec<Frame>) {
         if self.state[i] != PowerState::Fault {
             self.set_state(i, PowerState::Fault);
-            out.push(
-                Emcy {
-                    node: self.drives[i].id,
-                    code,
-                    register: 0x01,
-                    vendor: [0; 5],
-                }
-                .frame(),
-            );
+            out.push(self.emcy(i, code, 0x01));
         }
     }
 
@@ -393,29 +388,13 @@ impl VirtualMachine {
             {
                 // Safe torque off by the safety relay.
                 self.set_state(i, PowerState::SwitchOnDisabled);
-                out.push(
-                    Emcy {
-                        node: self.drives[i].id,
-                        code: 0x5441,
-                        register: 0x01,
-                        vendor: [0; 5],
-                    }
-                    .frame(),
-                );
+                out.push(self.emcy(i, 0x5441, 0x01));
             }
             if self.drives[i].master_lost(self.node_clock_s) && self.state[i] == PowerState::OperationEnabled
             {
                 // Communication error reaction: quick stop.
                 self.set_state(i, PowerState::QuickStopActive);
-                out.push(
-                    Emcy {
-                        node: self.drives[i].id,
-                        code: 0x8130,
-                        register: 0x11,
-                        vendor: [0; 5],
-                    }
-                    .frame(),
-                );
+                out.push(self.emcy(i, 0x8130, 0x11));
             }
         }
         self.powered_before = powered;

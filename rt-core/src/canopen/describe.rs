@@ -183,13 +183,9 @@ pub fn describe(f: &Frame, plan: Option<&BusPlan>) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::config::machine::MachineConfig;
-    use std::path::Path;
 
     fn plan() -> BusPlan {
-        let m = MachineConfig::load(&Path::new(env!("CARGO_MANIFEST_DIR")).join("../config/machine.toml"))
-            .expect("machine");
-        BusPlan::from_machine(&m)
+        BusPlan::from_machine(&crate::config::machine::shipped_for_tests())
     }
 
     #[test]

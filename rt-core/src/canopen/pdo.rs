@@ -71,6 +71,15 @@ pub struct SdoWrite {
 }
 
 impl SdoWrite {
+    pub const fn new(index: u16, sub: u8, value: u32, size: u8) -> Self {
+        Self {
+            index,
+            sub,
+            value,
+            size,
+        }
+    }
+
     pub fn bytes(&self) -> [u8; 4] {
         self.value.to_le_bytes()
     }
@@ -137,12 +146,7 @@ impl Pdo {
     pub fn configuration(&self) -> Vec<SdoWrite> {
         let comm = self.comm_index();
         let map = self.map_index();
-        let w = |index, sub, value, size| SdoWrite {
-            index,
-            sub,
-            value,
-            size,
-        };
+        let w = SdoWrite::new;
         let mut out = vec![
             w(comm, 1, 0x8000_0000 | u32::from(self.cob_id), 4),
             w(comm, 2, u32::from(self.transmission_type), 1),

@@ -184,12 +184,7 @@ impl BusPlan {
 
     /// The SDO writes that configure `node` at start-up (in pre-operational).
     pub fn node_configuration(&self, node: u8) -> Vec<SdoWrite> {
-        let w = |index, sub, value, size| SdoWrite {
-            index,
-            sub,
-            value,
-            size,
-        };
+        let w = SdoWrite::new;
         let mut out = vec![
             // Heartbeat producer, and consumer of the master's heartbeat.
             w(0x1017, 0, u32::from(self.heartbeat_ms), 2),
@@ -301,11 +296,9 @@ fn interpolation_period(cycle_s: f64) -> (u8, i8) {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use std::path::Path;
 
     fn shipped() -> MachineConfig {
-        MachineConfig::load(&Path::new(env!("CARGO_MANIFEST_DIR")).join("../config/machine.toml"))
-            .expect("machine")
+        crate::config::machine::shipped_for_tests()
     }
 
     #[test]

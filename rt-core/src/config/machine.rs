@@ -650,5 +650,12 @@ fn check_bits(p: &mut Problems, table: &str, bindings: &[(&str, DigitalBinding)]
     }
 }
 
+/// The shipped `config/machine.toml`, for the library's own tests.
+#[cfg(test)]
+pub(crate) fn shipped_for_tests() -> MachineConfig {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../config/machine.toml");
+    MachineConfig::load(&path).unwrap_or_else(|e| panic!("{e}"))
+}
+
 #[cfg(test)]
 mod tests;

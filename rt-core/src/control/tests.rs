@@ -1,10 +1,8 @@
 use super::io::{Inputs, Outputs};
 use super::*;
-use std::path::Path;
 
 fn shipped() -> MachineConfig {
-    MachineConfig::load(&Path::new(env!("CARGO_MANIFEST_DIR")).join("../config/machine.toml"))
-        .expect("machine")
+    crate::config::machine::shipped_for_tests()
 }
 
 #[test]
