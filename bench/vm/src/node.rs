@@ -44,6 +44,7 @@ pub fn communication_objects(
     od.set(0x1000, 0, Access::Ro, &device_type.to_le_bytes())
         .set(0x1001, 0, Access::Ro, &[0])
         .set_str(0x1008, 0, name)
+        .set(0x1006, 0, Access::Rw, &0u32.to_le_bytes())
         .set(0x1017, 0, Access::Rw, &0u16.to_le_bytes())
         .set(0x1016, 0, Access::Ro, &[1])
         .set(0x1016, 1, Access::Rw, &0u32.to_le_bytes())

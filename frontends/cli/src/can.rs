@@ -280,11 +280,46 @@ pub fn dump(
     Ok(String::new())
 }
 
-/// `hob can check-capture`.
-pub fn check_capture(machine: &MachineConfig, file: &Path) -> Result<String, String> {
+/// `hob can check-capture`; with a program, also the gearbox law in its cut.
+pub fn check_capture(machine: &MachineConfig, file: &Path, program: Option<&Path>) -> Result<String, String> {
     let plan = BusPlan::from_machine(machine);
     let text = std::fs::read_to_string(file).map_err(|e| format!("{}: {e}", file.display()))?;
-    let r = check_schedule(&parse_candump(&text), &plan);
+    let frames = parse_candump(&text);
+    let gearbox = match program {
+        None => None,
+        Some(p) => {
+            let (job, src) = Program::read(p).map_err(|e| e.to_string())?;
+            let mut problems = Problems::new();
+            let cycle = CycleProgram::build(&job, machine, &mut problems).ok_or_else(|| {
+                problems
+                    .into_result(p, &src)
+                    .err()
+                    .map_or_else(|| "refused".into(), |e| e.to_string())
+            })?;
+            let params = ControlParams::from_machine(machine);
+            let cut_x: Vec<f64> = cycle
+                .passes()
+                .iter()
+                .chain(cycle.single().iter())
+                .map(|p| p.x_mm)
+                .collect();
+            let scales = [
+                params.spindle.counts_per_unit,
+                params.table.counts_per_unit,
+                params.x.counts_per_unit,
+                params.y.counts_per_unit,
+            ];
+            Some(hob_rt_core::canopen::capture::check_gearbox(
+                &frames,
+                &plan,
+                cycle.ratio_signed,
+                scales,
+                &cut_x,
+                1000,
+            ))
+        }
+    };
+    let r = check_schedule(&frames, &plan);
     let mut o = format!(
         "{}: {} frames, {} SYNCs, {} cycles with exactly one target RPDO and one position TPDO per drive",
         file.display(),
@@ -306,6 +341,18 @@ pub fn check_capture(machine: &MachineConfig, file: &Path) -> Result<String, Str
             let _ = writeln!(o, "  {v}");
         }
         return Err(format!("{o}the capture does not keep to the schedule"));
+    }
+    if let Some(g) = gearbox {
+        let _ = writeln!(
+            o,
+            "gearbox in the cut: {} stretches of 1000 cycles, table targets against received spindle angles off the ratio by at most {:.2e} (relative)",
+            g.windows, g.worst_relative_error
+        );
+        if g.windows < 5 || g.worst_relative_error > 1e-4 {
+            return Err(format!(
+                "{o}the table targets do not follow the gearbox law closely enough (bound 1e-4, at least 5 stretches)"
+            ));
+        }
     }
     Ok(o)
 }
@@ -361,6 +408,7 @@ pub fn run(machine: &MachineConfig, a: &RunArgs<'_>) -> Result<String, (u8, Stri
         states: Vec::new(),
         cycles: 0,
         max_cycles: (a.max_s / plan.cycle_s) as u64,
+        emcy: Vec::new(),
     };
     while r.step() != State::Idle {
         if r.out_of_time() || r.m.controller.status().state == State::Faulted {
@@ -451,6 +499,9 @@ pub fn run(machine: &MachineConfig, a: &RunArgs<'_>) -> Result<String, (u8, Stri
         pick([true; 3], true)
     );
     let cycles = r.cycles;
+    for e in &r.emcy {
+        let _ = writeln!(o, "{e}");
+    }
     let _ = writeln!(o, "cycles: {cycles}");
     match result {
         Ok(()) => Ok(o),
@@ -464,12 +515,22 @@ struct Runner {
     states: Vec<State>,
     cycles: u64,
     max_cycles: u64,
+    emcy: Vec<String>,
 }
 
 impl Runner {
     fn step(&mut self) -> State {
         self.m.cycle();
         self.cycles += 1;
+        // EMCYs are shown to the operator with the error code's meaning.
+        let mut events = [None; hob_rt_core::canopen::master::BUS_EVENTS];
+        let n = self.m.cyclic.take_events(&mut events);
+        for e in events[..n].iter().flatten() {
+            if let hob_rt_core::canopen::master::BusEvent::Emcy(e) = e {
+                self.emcy
+                    .push(format!("EMCY node {}: 0x{:04X} {}", e.node, e.code, e.text()));
+            }
+        }
         let s = self.m.controller.status().state;
         if self.states.last() != Some(&s) {
             self.states.push(s);

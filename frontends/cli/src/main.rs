@@ -111,8 +111,13 @@ enum CanCommand {
         #[arg(long)]
         count: Option<usize>,
     },
-    /// Check a `candump -L` capture against the bus schedule.
-    CheckCapture { file: PathBuf },
+    /// Check a `candump -L` capture against the bus schedule (and, given the program that
+    /// was cut, the gearbox law from its frames).
+    CheckCapture {
+        file: PathBuf,
+        #[arg(long)]
+        program: Option<PathBuf>,
+    },
     /// Boot the bus, power up, jog, and run a program over it (lockstep with the drives).
     Run {
         /// Program to cut after the jogs.
@@ -251,7 +256,9 @@ fn run(command: Command) -> Result<(), Failure> {
                     let live = file.is_none().then_some(iface.as_str());
                     can::dump(&machine, live, file.as_deref(), count).map_err(|e| (1, e))
                 }
-                CanCommand::CheckCapture { file } => can::check_capture(&machine, &file).map_err(|e| (1, e)),
+                CanCommand::CheckCapture { file, program } => {
+                    can::check_capture(&machine, &file, program.as_deref()).map_err(|e| (1, e))
+                }
                 CanCommand::Run {
                     program,
                     jog,

@@ -119,6 +119,85 @@ pub fn check_schedule(frames: &[Captured], plan: &BusPlan) -> ScheduleReport {
     r
 }
 
+/// What the frames show about the gearbox in the cut.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct GearboxReport {
+    /// Stretches of `window` cycles found entirely in a cut.
+    pub windows: usize,
+    /// Largest relative difference between the table targets' advance and z0/z times
+    /// the received spindle angles' advance.
+    pub worst_relative_error: f64,
+}
+
+/// Checks, from the frames alone, that in the cut the table targets the master sent
+/// advance by the gearbox ratio of the spindle angles it received (timing plays no part).
+///
+/// A cycle is in the cut when the X target is at one of `cut_x_mm` (within 0.1 mm:
+/// crowning and contour stay well inside) and the Y target moves. Per cycle the pair is
+/// (spindle counts in the table drive's TPDO1 after SYNC k, table target in the RPDO1
+/// sent next).
+pub fn check_gearbox(
+    frames: &[Captured],
+    plan: &BusPlan,
+    ratio_signed: f64,
+    scales: [f64; 4],
+    cut_x_mm: &[f64],
+    window: usize,
+) -> GearboxReport {
+    let [
+        spindle_counts_per_deg,
+        table_counts_per_deg,
+        x_counts_per_mm,
+        y_counts_per_mm,
+    ] = scales;
+    let (b, x, y) = (&plan.drives[0], &plan.drives[1], &plan.drives[2]);
+    let mut spindle = None;
+    let (mut x_target, mut y_target, mut last_y) = (f64::NAN, f64::NAN, f64::NAN);
+    let mut pairs: Vec<(f64, f64, bool)> = Vec::new();
+    for c in frames {
+        let f = &c.frame;
+        if f.id == b.actual.cob_id
+            && let Some(v) = b.actual.unpack(f)
+        {
+            spindle = Some(f64::from(v[1] as u32 as i32) / spindle_counts_per_deg);
+        } else if f.id == x.target.cob_id
+            && let Some(v) = x.target.unpack(f)
+        {
+            x_target = f64::from(v[0] as u32 as i32) / x_counts_per_mm;
+        } else if f.id == y.target.cob_id
+            && let Some(v) = y.target.unpack(f)
+        {
+            y_target = f64::from(v[0] as u32 as i32) / y_counts_per_mm;
+        } else if f.id == b.target.cob_id
+            && let Some(v) = b.target.unpack(f)
+            && let Some(s) = spindle.take()
+        {
+            let table = f64::from(v[0] as u32 as i32) / table_counts_per_deg;
+            let feeding = y_target != last_y && last_y.is_finite();
+            let at_depth = cut_x_mm.iter().any(|cx| (x_target - cx).abs() < 0.1);
+            pairs.push((s, table, feeding && at_depth));
+            last_y = y_target;
+        }
+    }
+    let mut r = GearboxReport::default();
+    let mut i = 0;
+    while i + window < pairs.len() {
+        if pairs[i..=i + window].iter().all(|p| p.2) {
+            let (s0, t0, _) = pairs[i];
+            let (s1, t1, _) = pairs[i + window];
+            let slope = (t1 - t0) / (s1 - s0);
+            r.windows += 1;
+            r.worst_relative_error = r
+                .worst_relative_error
+                .max(((slope - ratio_signed) / ratio_signed).abs());
+            i += window;
+        } else {
+            i += 1;
+        }
+    }
+    r
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

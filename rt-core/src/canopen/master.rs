@@ -308,7 +308,7 @@ pub enum BusEvent {
 }
 
 /// Capacity of the bus event ring.
-const BUS_EVENTS: usize = 64;
+pub const BUS_EVENTS: usize = 64;
 
 /// The cyclic part of the master: no allocation, never blocks.
 #[derive(Debug, Clone)]

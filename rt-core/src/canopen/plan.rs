@@ -186,6 +186,8 @@ impl BusPlan {
     pub fn node_configuration(&self, node: u8) -> Vec<SdoWrite> {
         let w = SdoWrite::new;
         let mut out = vec![
+            // The SYNC period (us), for the nodes' own SYNC monitoring.
+            w(0x1006, 0, (self.cycle_s * 1e6).round() as u32, 4),
             // Heartbeat producer, and consumer of the master's heartbeat.
             w(0x1017, 0, u32::from(self.heartbeat_ms), 2),
             w(
