@@ -85,7 +85,7 @@ impl<B: CanBus> MasterLoop<B> {
             cyclic,
             bus,
             outputs: None,
-            tpdo_timeout: Duration::from_millis(200),
+            tpdo_timeout: Duration::from_millis(1000),
         }
     }
 

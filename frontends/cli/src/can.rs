@@ -321,11 +321,12 @@ pub fn check_capture(machine: &MachineConfig, file: &Path, program: Option<&Path
     };
     let r = check_schedule(&frames, &plan);
     let mut o = format!(
-        "{}: {} frames, {} SYNCs, {} cycles with exactly one target RPDO and one position TPDO per drive",
+        "{}: {} frames, {} SYNCs, {} cycles checked: one target RPDO and one position TPDO per drive and cycle ({} TPDOs one SYNC late)",
         file.display(),
         r.frames,
         r.syncs,
-        r.cycles_checked
+        r.cycles_checked,
+        r.late_tpdos
     );
     if let (Some(m), Some(x)) = (r.sync_interval_median_s, r.sync_interval_max_s) {
         let _ = write!(
