@@ -17,8 +17,9 @@ use std::sync::mpsc::Receiver;
 use std::time::{Duration, Instant};
 
 /// Without a SYNC for this long the nodes' clock runs on wall time (boot, a dead master).
-/// Longer than any lockstep wait of the master, so a live master never looks dead.
-pub const SYNC_SILENCE: Duration = Duration::from_secs(1);
+/// Several times any lockstep wait of the master (`MasterLoop::tpdo_timeout`), so a live
+/// master never looks dead.
+pub const SYNC_SILENCE: Duration = Duration::from_secs(3);
 
 /// Runs the virtual machine on `bus` until `stop`; faults arrive on `faults`.
 pub fn serve(
@@ -85,7 +86,7 @@ impl<B: CanBus> MasterLoop<B> {
             cyclic,
             bus,
             outputs: None,
-            tpdo_timeout: Duration::from_millis(1000),
+            tpdo_timeout: Duration::from_millis(500),
         }
     }
 
