@@ -337,10 +337,21 @@ pub fn check_capture(machine: &MachineConfig, file: &Path, program: Option<&Path
         );
     }
     o.push('\n');
-    if r.syncs == 0 || !r.violations.is_empty() {
-        for v in r.violations.iter().take(20) {
-            let _ = writeln!(o, "  {v}");
-        }
+    // Frames outside the schedule or SDOs in the cycle fail at once; PDO counts off in a
+    // cycle are tolerated up to one cycle in 10 000 (a capture by candump on an emulated
+    // machine under load), and always listed.
+    let tolerated = r.cycles_checked / 10_000;
+    for v in r.violations.iter().chain(&r.count_anomalies).take(20) {
+        let _ = writeln!(o, "  {v}");
+    }
+    if !r.count_anomalies.is_empty() {
+        let _ = writeln!(
+            o,
+            "{} cycle(s) with a PDO count off (tolerated: {tolerated}, one in 10 000 cycles)",
+            r.count_anomalies.len()
+        );
+    }
+    if r.syncs == 0 || !r.violations.is_empty() || r.count_anomalies.len() > tolerated {
         return Err(format!("{o}the capture does not keep to the schedule"));
     }
     if let Some(g) = gearbox {
