@@ -1,7 +1,7 @@
 //! Transports behind one small trait: SocketCAN (raw `CAN_RAW`, non-blocking, usable
 //! from the real-time thread) and an in-memory bus for tests and simulation. The same
-//! behaviour tests run against both (`tests/bus_conformance.rs`, and on vcan in the
-//! RT guest).
+//! scenarios run on both: `bench/vm/tests/bus_loop.rs` on the memory bus, `ci/vcan/run`
+//! on vcan in the PREEMPT_RT guest.
 
 use super::frame::Frame;
 use std::collections::VecDeque;
