@@ -317,17 +317,7 @@ fn assert_retract_first(r: &Run, x_safe_mm: f64, expected: Fault) {
         in_order(&states, &[FaultRetract, FaultStop, Faulted]),
         "{states:?}"
     );
-    let faults: Vec<Fault> = r
-        .events
-        .iter()
-        .filter_map(|e| {
-            if let EventKind::Fault(f) = e.kind {
-                Some(f)
-            } else {
-                None
-            }
-        })
-        .collect();
+    let faults = r.faults();
     assert_eq!(
         faults.first().map(std::mem::discriminant),
         Some(std::mem::discriminant(&expected)),
@@ -506,17 +496,7 @@ fn leaving_the_coarse_window_in_the_cut_is_a_fault_with_retract_first() {
     sim.controller
         .set_angle_source(hob_rt_core::control::SpindleAngleSource::LastMeasured);
     let r = run_cycle(&mut sim, false, 300.0);
-    let faults: Vec<_> = r
-        .events
-        .iter()
-        .filter_map(|e| {
-            if let EventKind::Fault(f) = e.kind {
-                Some(f)
-            } else {
-                None
-            }
-        })
-        .collect();
+    let faults = r.faults();
     assert!(
         matches!(faults.first(), Some(Fault::SyncLost { .. })),
         "{faults:?}"

@@ -89,6 +89,17 @@ impl Run {
         out
     }
 
+    /// The faults raised during the stretch, in order.
+    pub fn faults(&self) -> Vec<hob_rt_core::control::fault::Fault> {
+        self.events
+            .iter()
+            .filter_map(|e| match e.kind {
+                hob_rt_core::control::events::EventKind::Fault(f) => Some(f),
+                _ => None,
+            })
+            .collect()
+    }
+
     /// Index of the first row in `state`.
     pub fn first(&self, state: State) -> Option<usize> {
         self.rows.iter().position(|r| r.state == state)
