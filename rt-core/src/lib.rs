@@ -23,4 +23,5 @@ pub mod control;
 pub mod gearing;
 pub mod job;
 pub mod planner;
+pub mod service;
 pub mod units;

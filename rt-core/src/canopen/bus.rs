@@ -37,6 +37,16 @@ pub trait CanBus {
     fn try_recv(&mut self) -> Result<Option<Frame>, BusError>;
 }
 
+impl<B: CanBus + ?Sized> CanBus for Box<B> {
+    fn send(&mut self, f: &Frame) -> Result<(), BusError> {
+        (**self).send(f)
+    }
+
+    fn try_recv(&mut self) -> Result<Option<Frame>, BusError> {
+        (**self).try_recv()
+    }
+}
+
 #[derive(Debug, Default)]
 struct Hub {
     queues: Vec<VecDeque<Frame>>,

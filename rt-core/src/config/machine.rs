@@ -41,6 +41,7 @@ pub struct MachineConfig {
     pub control: ControlConfig,
     pub gearbox: GearboxConfig,
     pub can: CanConfig,
+    pub service: ServiceConfig,
     pub spindle: SpindleConfig,
     pub table: TableConfig,
     pub x: LinearAxisConfig,
@@ -48,6 +49,20 @@ pub struct MachineConfig {
     pub process: ProcessLimits,
     pub lube: LubeConfig,
     pub io: IoMap,
+}
+
+/// The real-time service `hob-rt` and its safety watchdog on the machine PC.
+#[derive(Debug, Clone, PartialEq, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct ServiceConfig {
+    /// CPU core the 1 kHz loop is pinned to (isolate it: `isolcpus`, `nohz_full`).
+    pub loop_core: u32,
+    /// SCHED_FIFO priority of the loop (1 .. 98; the kernel's IRQ threads run at 50).
+    pub loop_priority: u32,
+    /// SCHED_FIFO priority of the safety watchdog (below the loop's).
+    pub watchdog_priority: u32,
+    /// The watchdog acts when the loop's state stream is missing for this long.
+    pub watchdog_deadline_ms: u32,
 }
 
 #[derive(Debug, Clone, PartialEq, Deserialize, Serialize)]
@@ -511,6 +526,37 @@ impl MachineConfig {
                 format!(
                     "must be a CiA 301 bit rate of 125000 .. 1000000 (is {})",
                     self.can.bitrate_bit_s
+                )
+            },
+        );
+        let sv = &self.service;
+        p.require(
+            (1..=98).contains(&sv.loop_priority),
+            "service.loop_priority",
+            || format!("must be a SCHED_FIFO priority 1 .. 98 (is {})", sv.loop_priority),
+        );
+        p.require(
+            (1..=98).contains(&sv.watchdog_priority) && sv.watchdog_priority < sv.loop_priority,
+            "service.watchdog_priority",
+            || {
+                format!(
+                    "must be 1 .. 98 and below service.loop_priority {} (is {})",
+                    sv.loop_priority, sv.watchdog_priority
+                )
+            },
+        );
+        p.require(sv.loop_core < 1024, "service.loop_core", || {
+            format!("must be a CPU number (is {})", sv.loop_core)
+        });
+        let period_ms = self.control.cycle_period_us.div_ceil(1000);
+        p.require(
+            (2 * period_ms..=1000).contains(&sv.watchdog_deadline_ms),
+            "service.watchdog_deadline_ms",
+            || {
+                format!(
+                    "must be 2 cycles .. 1000 ms ({} .. 1000, is {})",
+                    2 * period_ms,
+                    sv.watchdog_deadline_ms
                 )
             },
         );

@@ -56,6 +56,9 @@ pub struct CycleProgram {
     pub face_bottom_mm: f64,
     pub shape: XShape,
     pub plunge_feed_mm_min: f64,
+    /// The gear's pitch diameter and normal module (to express errors at the pitch circle).
+    pub pitch_diameter_mm: f64,
+    pub normal_module_mm: f64,
     passes: [PassSetpoint; MAX_PASSES],
     pass_count: usize,
     single: Option<PassSetpoint>,
@@ -113,6 +116,8 @@ impl CycleProgram {
             face_bottom_mm: program.workpiece.height_above_table_mm,
             shape,
             plunge_feed_mm_min: program.strategy.plunge_feed_mm_min.unwrap_or(0.0),
+            pitch_diameter_mm: plan.pitch_diameter_mm,
+            normal_module_mm: plan.normal_module_mm,
             passes,
             pass_count: plan.passes.len(),
             single,

@@ -9,7 +9,7 @@
 use clap::Parser;
 use hob_plant::config::PlantConfig;
 use hob_plant::machine::Start;
-use hob_rt_core::canopen::bus::{CanBus, SocketCan};
+use hob_rt_core::canopen::bus::CanBus;
 use hob_rt_core::canopen::frame::Frame;
 use hob_rt_core::config::Problems;
 use hob_rt_core::config::machine::MachineConfig;
@@ -25,7 +25,7 @@ use std::time::{Duration, Instant};
 #[derive(Debug, Parser)]
 #[command(name = "hob-sim", about = "the virtual hobbing machine on a CAN bus")]
 struct Args {
-    /// SocketCAN interface.
+    /// SocketCAN interface, or `shm` for the shared-memory virtual CAN bus.
     #[arg(long, default_value = "vcan0")]
     iface: String,
     #[arg(long, default_value = "config/machine.toml")]
@@ -102,7 +102,7 @@ fn run(a: Args) -> Result<(), String> {
     for f in faults.drain(..) {
         vm.inject(f);
     }
-    let mut bus = SocketCan::open(&a.iface).map_err(|e| e.to_string())?;
+    let mut bus = hob_rt_core::service::shm_can::open_bus(&a.iface, "hob-sim-can")?;
     let (tx, rx) = std::sync::mpsc::channel::<String>();
     if a.control {
         std::thread::spawn(move || {

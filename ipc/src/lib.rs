@@ -1,0 +1,35 @@
+//! hob's shared-memory bus: the message types and service names that `hob-rt` and every
+//! frontend (HMI, CLI, logger, safety watchdog) share, and how each service is opened so
+//! that every process uses the same settings.
+//!
+//! Services (all under `hob/<instance>/`, instance from `HOB_INSTANCE`, default `main`):
+//!
+//! | service   | pattern           | payload                           | who writes          |
+//! |-----------|-------------------|-----------------------------------|---------------------|
+//! | `state`   | publish-subscribe | [`StateSample`], one per cycle    | the 1 kHz loop      |
+//! | `events`  | publish-subscribe | [`EventSample`], history kept     | the 1 kHz loop      |
+//! | `stats`   | publish-subscribe | [`StatsSample`], twice a second   | `hob-rt`'s stats thread |
+//! | `command` | request-response  | [`CommandRequest`] → [`CommandResponse`] | frontends → `hob-rt` |
+//! | `can`     | publish-subscribe | [`CanFrameSample`]                | the shared-memory virtual CAN bus |
+//!
+//! The liveness signal is the `state` stream itself: a new sample every millisecond. The
+//! watchdog waits on it with its own deadline, so the loop never calls `notify()` (a
+//! syscall per cycle) for anybody.
+//!
+//! The types here are plain numbers: what the codes mean (states, alarms, refusals) is
+//! defined next to the code that produces them, in `hob_rt_core::service::wire`.
+
+mod ports;
+mod types;
+
+pub use ports::{
+    BusError, CanPort, Client, Ports, command_server, instance, node, open_can, open_can_port, open_command,
+    open_events, open_state, open_stats, service_name,
+};
+pub use types::*;
+
+/// The exact iceoryx2 every process must use (re-exported so nobody depends on another).
+pub use iceoryx2;
+
+/// iceoryx2's service type used by every process (inter-process, not thread-safe ports).
+pub type Svc = iceoryx2::prelude::ipc::Service;

@@ -1,0 +1,331 @@
+//! Opening the services with the same settings in every process (iceoryx2 refuses to open
+//! a service whose settings differ from its creator's, and a subscriber's buffer can only
+//! be as large as the service allows).
+
+use crate::Svc;
+use crate::types::{CanFrameSample, CommandRequest, CommandResponse, EventSample, StateSample, StatsSample};
+use iceoryx2::node::Node;
+use iceoryx2::port::client::Client as IoxClient;
+use iceoryx2::port::publisher::Publisher;
+use iceoryx2::port::server::Server;
+use iceoryx2::port::subscriber::Subscriber;
+use iceoryx2::port::update_connections::UpdateConnections;
+use iceoryx2::prelude::{NodeBuilder, NodeName, ServiceName, SignalHandlingMode};
+use std::time::{Duration, Instant};
+
+/// State samples a subscriber may buffer: 2 s of cycles, so a logger that is descheduled
+/// for a while loses nothing (its own `buffer_size` must be raised to this too).
+pub const STATE_BUFFER: usize = 2048;
+/// Events kept for late subscribers (a freshly started HMI sees the recent ones).
+pub const EVENT_HISTORY: usize = 256;
+pub const EVENT_BUFFER: usize = 1024;
+/// Frames an endpoint of the virtual CAN bus may buffer (about 0.5 s of traffic).
+pub const CAN_BUFFER: usize = 2048;
+const MAX_PORTS: usize = 8;
+
+/// A failure to set up a port: start-up only, with iceoryx2's reason.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct BusError(pub String);
+
+impl std::fmt::Display for BusError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "shared-memory bus: {}", self.0)
+    }
+}
+
+impl std::error::Error for BusError {}
+
+fn err<E: std::fmt::Debug>(what: &str) -> impl FnOnce(E) -> BusError + '_ {
+    move |e| BusError(format!("{what}: {e:?}"))
+}
+
+/// The instance name (`HOB_INSTANCE`, default `main`): separates several controllers or
+/// parallel tests on one PC.
+pub fn instance() -> String {
+    std::env::var("HOB_INSTANCE")
+        .ok()
+        .filter(|s| !s.is_empty())
+        .unwrap_or_else(|| "main".into())
+}
+
+/// `hob/<instance>/<what>`.
+pub fn service_name(what: &str) -> Result<ServiceName, BusError> {
+    let s = format!("hob/{}/{what}", instance());
+    ServiceName::new(&s).map_err(err("service name"))
+}
+
+/// A node named `name`, after removing what processes killed earlier left behind.
+/// Signals are left to the process (iceoryx2 installs no handler).
+pub fn node(name: &str) -> Result<Node<Svc>, BusError> {
+    // iceoryx2 warns on stderr when it finds no iceoryx2.toml; its defaults are ours.
+    iceoryx2::prelude::set_log_level(iceoryx2::prelude::LogLevel::Error);
+    let node_name = NodeName::new(name).map_err(err("node name"))?;
+    let node = NodeBuilder::new()
+        .name(&node_name)
+        .signal_handling_mode(SignalHandlingMode::Disabled)
+        .create::<Svc>()
+        .map_err(err("node"))?;
+    // Resources of nodes killed with `kill -9` (their ports still count against the
+    // services' limits until removed).
+    let _ = node.try_cleanup_dead_nodes();
+    Ok(node)
+}
+
+type PubSub<T> = iceoryx2::service::port_factory::publish_subscribe::PortFactory<Svc, T, ()>;
+
+fn pub_sub<T>(node: &Node<Svc>, what: &str, buffer: usize, history: usize) -> Result<PubSub<T>, BusError>
+where
+    T: std::fmt::Debug + iceoryx2::prelude::ZeroCopySend + 'static,
+{
+    node.service_builder(&service_name(what)?)
+        .publish_subscribe::<T>()
+        .subscriber_max_buffer_size(buffer)
+        .history_size(history)
+        .max_subscribers(MAX_PORTS)
+        .max_publishers(MAX_PORTS)
+        .max_nodes(MAX_PORTS * 2)
+        .open_or_create()
+        .map_err(err(what))
+}
+
+pub fn open_state(node: &Node<Svc>) -> Result<PubSub<StateSample>, BusError> {
+    pub_sub(node, "state", STATE_BUFFER, 0)
+}
+
+pub fn open_events(node: &Node<Svc>) -> Result<PubSub<EventSample>, BusError> {
+    pub_sub(node, "events", EVENT_BUFFER, EVENT_HISTORY)
+}
+
+pub fn open_stats(node: &Node<Svc>) -> Result<PubSub<StatsSample>, BusError> {
+    pub_sub(node, "stats", 16, 1)
+}
+
+pub fn open_can(node: &Node<Svc>) -> Result<PubSub<CanFrameSample>, BusError> {
+    pub_sub(node, "can", CAN_BUFFER, 0)
+}
+
+type ReqRes = iceoryx2::service::port_factory::request_response::PortFactory<
+    Svc,
+    CommandRequest,
+    (),
+    CommandResponse,
+    (),
+>;
+
+pub fn open_command(node: &Node<Svc>) -> Result<ReqRes, BusError> {
+    node.service_builder(&service_name("command")?)
+        .request_response::<CommandRequest, CommandResponse>()
+        .max_clients(MAX_PORTS)
+        .max_servers(2)
+        .max_active_requests_per_client(2)
+        .max_response_buffer_size(2)
+        .max_nodes(MAX_PORTS * 2)
+        .open_or_create()
+        .map_err(err("command"))
+}
+
+/// The ports of a process that follows the loop (HMI, CLI, logger, watchdog): subscribers
+/// with buffers as large as the services allow.
+#[derive(Debug)]
+pub struct Ports {
+    pub node: Node<Svc>,
+    pub state: Subscriber<Svc, StateSample, ()>,
+    pub events: Subscriber<Svc, EventSample, ()>,
+    pub stats: Subscriber<Svc, StatsSample, ()>,
+}
+
+impl Ports {
+    pub fn subscribe(name: &str) -> Result<Self, BusError> {
+        let node = node(name)?;
+        let state = open_state(&node)?
+            .subscriber_builder()
+            .buffer_size(STATE_BUFFER)
+            .create()
+            .map_err(err("state subscriber"))?;
+        let events = open_events(&node)?
+            .subscriber_builder()
+            .buffer_size(EVENT_BUFFER)
+            .create()
+            .map_err(err("events subscriber"))?;
+        let stats = open_stats(&node)?
+            .subscriber_builder()
+            .create()
+            .map_err(err("stats subscriber"))?;
+        let _ = state.update_connections();
+        let _ = events.update_connections();
+        let _ = stats.update_connections();
+        Ok(Self {
+            node,
+            state,
+            events,
+            stats,
+        })
+    }
+
+    /// The next state sample, if one is waiting.
+    pub fn next_state(&self) -> Option<StateSample> {
+        self.state.receive().ok().flatten().map(|s| *s)
+    }
+
+    pub fn next_event(&self) -> Option<EventSample> {
+        self.events.receive().ok().flatten().map(|s| *s)
+    }
+
+    /// The newest stats sample waiting, if any.
+    pub fn latest_stats(&self) -> Option<StatsSample> {
+        let mut last = None;
+        while let Ok(Some(s)) = self.stats.receive() {
+            last = Some(*s);
+        }
+        last
+    }
+
+    /// Waits up to `timeout` for a state sample; returns the newest one waiting.
+    pub fn wait_state(&self, timeout: Duration) -> Option<StateSample> {
+        let end = Instant::now() + timeout;
+        loop {
+            let mut last = None;
+            while let Some(s) = self.next_state() {
+                last = Some(s);
+            }
+            if last.is_some() {
+                return last;
+            }
+            if Instant::now() >= end {
+                return None;
+            }
+            std::thread::sleep(Duration::from_millis(2));
+        }
+    }
+}
+
+/// A frontend's command channel to the loop.
+#[derive(Debug)]
+pub struct Client {
+    _node: Node<Svc>,
+    client: IoxClient<Svc, CommandRequest, (), CommandResponse, ()>,
+}
+
+impl Client {
+    pub fn connect(name: &str) -> Result<Self, BusError> {
+        let node = node(name)?;
+        let client = open_command(&node)?
+            .client_builder()
+            .create()
+            .map_err(err("command client"))?;
+        let _ = client.update_connections();
+        Ok(Self { _node: node, client })
+    }
+
+    /// Sends `req` and waits up to `timeout` for the answer.
+    pub fn request(&self, req: &CommandRequest, timeout: Duration) -> Result<CommandResponse, BusError> {
+        let end = Instant::now() + timeout;
+        let pending = self.client.send_copy(*req).map_err(err("send request"))?;
+        loop {
+            if let Some(r) = pending.receive().map_err(err("receive response"))? {
+                return Ok(*r);
+            }
+            if Instant::now() >= end {
+                return Err(BusError(format!(
+                    "no answer from hob-rt within {} ms (is it running? HOB_INSTANCE={})",
+                    timeout.as_millis(),
+                    instance()
+                )));
+            }
+            std::thread::sleep(Duration::from_millis(1));
+        }
+    }
+}
+
+/// The server side of the command service (`hob-rt`'s command thread).
+pub fn command_server(
+    node: &Node<Svc>,
+) -> Result<Server<Svc, CommandRequest, (), CommandResponse, ()>, BusError> {
+    let server = open_command(node)?
+        .server_builder()
+        .create()
+        .map_err(err("command server"))?;
+    let _ = server.update_connections();
+    Ok(server)
+}
+
+/// One endpoint of the shared-memory virtual CAN bus: every frame published reaches every
+/// other endpoint; an endpoint never receives its own frames. Used where the kernel has
+/// no CAN (no vcan): the same CANopen code runs on top of it.
+#[derive(Debug)]
+pub struct CanPort {
+    _node: Node<Svc>,
+    origin: u64,
+    publisher: Publisher<Svc, CanFrameSample, ()>,
+    subscriber: Subscriber<Svc, CanFrameSample, ()>,
+    start: Instant,
+}
+
+/// Opens an endpoint of the virtual CAN bus.
+pub fn open_can_port(name: &str) -> Result<CanPort, BusError> {
+    let node = node(name)?;
+    let service = open_can(&node)?;
+    let publisher = service
+        .publisher_builder()
+        .max_loaned_samples(4)
+        .create()
+        .map_err(err("can publisher"))?;
+    let subscriber = service
+        .subscriber_builder()
+        .buffer_size(CAN_BUFFER)
+        .create()
+        .map_err(err("can subscriber"))?;
+    let _ = publisher.update_connections();
+    let _ = subscriber.update_connections();
+    // Unique per endpoint: process id and a per-process counter.
+    static NEXT: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(1);
+    let origin =
+        (u64::from(std::process::id()) << 16) | NEXT.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+    Ok(CanPort {
+        _node: node,
+        origin,
+        publisher,
+        subscriber,
+        start: Instant::now(),
+    })
+}
+
+impl CanPort {
+    /// Publishes one frame; never blocks (a slow endpoint loses its oldest frames).
+    pub fn send(&self, id: u16, data: &[u8]) -> Result<(), BusError> {
+        let len = data.len().min(8);
+        let mut d = [0u8; 8];
+        d[..len].copy_from_slice(&data[..len]);
+        let s = CanFrameSample {
+            origin: self.origin,
+            time_ns: self.start.elapsed().as_nanos() as u64,
+            id,
+            len: len as u8,
+            _pad: [0; 5],
+            data: d,
+        };
+        self.publisher
+            .send_copy(s)
+            .map(|_| ())
+            .map_err(|_| BusError("virtual CAN send".into()))
+    }
+
+    /// The next frame from another endpoint, if one is waiting.
+    pub fn try_recv(&self) -> Result<Option<CanFrameSample>, BusError> {
+        loop {
+            match self.subscriber.receive() {
+                Ok(Some(s)) if s.origin == self.origin => continue,
+                Ok(Some(s)) => return Ok(Some(*s)),
+                Ok(None) => return Ok(None),
+                Err(_) => return Err(BusError("virtual CAN receive".into())),
+            }
+        }
+    }
+
+    /// Makes ports that appeared since the last call known (new endpoints): outside the
+    /// cycle, from time to time.
+    pub fn update_connections(&self) {
+        let _ = self.publisher.update_connections();
+        let _ = self.subscriber.update_connections();
+    }
+}

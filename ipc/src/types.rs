@@ -1,0 +1,341 @@
+//! `#[repr(C)]`, fixed-size message types. Flags are `u8`/`u32` and enums are codes, so
+//! the layout is the same in every process built from this crate.
+
+use iceoryx2::prelude::ZeroCopySend;
+
+/// Capacity of the text of a command request (a program file's TOML).
+pub const REQUEST_TEXT_BYTES: usize = 16 * 1024;
+/// Capacity of the text of a command response (the reasons of a refusal).
+pub const RESPONSE_TEXT_BYTES: usize = 4 * 1024;
+/// Capacity of an event's message text.
+pub const EVENT_TEXT_BYTES: usize = 120;
+
+/// Copies `s` into `buf` (cut at a character boundary if too long); returns the length.
+pub fn write_text(buf: &mut [u8], s: &str) -> u32 {
+    let mut n = s.len().min(buf.len());
+    while !s.is_char_boundary(n) {
+        n -= 1;
+    }
+    buf[..n].copy_from_slice(&s.as_bytes()[..n]);
+    n as u32
+}
+
+/// The text of `buf[..len]` (lossy: bad bytes from a foreign writer become U+FFFD).
+pub fn read_text(buf: &[u8], len: u32) -> String {
+    let n = (len as usize).min(buf.len());
+    String::from_utf8_lossy(&buf[..n]).into_owned()
+}
+
+/// One axis: actual and commanded position (mm, or deg for B).
+#[derive(Debug, Clone, Copy, Default, PartialEq, ZeroCopySend)]
+#[repr(C)]
+pub struct AxisSample {
+    pub actual: f64,
+    pub command: f64,
+}
+
+/// An alarm: code 0 is none; axis/end/values depend on the code.
+#[derive(Debug, Clone, Copy, Default, PartialEq, ZeroCopySend)]
+#[repr(C)]
+pub struct AlarmCode {
+    pub code: u32,
+    /// 0 none, 1 B, 2 X, 3 Y.
+    pub axis: u8,
+    /// 0 none, 1 min, 2 max.
+    pub end: u8,
+    pub _pad: [u8; 2],
+    pub value_a: f64,
+    pub value_b: f64,
+}
+
+/// One sample per control cycle.
+#[derive(Debug, Clone, Copy, Default, PartialEq, ZeroCopySend)]
+#[repr(C)]
+pub struct StateSample {
+    /// The loop's cycle counter (consecutive: a gap is a lost sample).
+    pub cycle: u64,
+    /// CLOCK_MONOTONIC when this cycle's SYNC went out, ns.
+    pub sync_time_ns: u64,
+    /// Sequencer state code.
+    pub state: u32,
+    pub hold: u8,
+    /// A program is loaded.
+    pub program_loaded: u8,
+    /// Drives reporting "operation enabled", bit 0 B, 1 X, 2 Y.
+    pub drives_enabled: u8,
+    /// Drives whose feedback is missing, same bits.
+    pub drives_silent: u8,
+    /// 1-based pass, 0 outside a cycle.
+    pub pass: u32,
+    /// Passes of the loaded program.
+    pub passes_total: u32,
+    pub tooth: u32,
+    /// Gearbox coupling code.
+    pub coupling: u32,
+    pub table_deg: AxisSample,
+    pub x_mm: AxisSample,
+    pub y_mm: AxisSample,
+    pub spindle_deg: f64,
+    pub spindle_rpm: f64,
+    pub spindle_set_rpm: f64,
+    pub sync_error_arcsec: f64,
+    pub ccc_arcsec: f64,
+    /// The latched alarm (code 0: none).
+    pub alarm: AlarmCode,
+    /// Raw I/O image of the coupler.
+    pub digital_inputs: u32,
+    pub digital_outputs: u32,
+    /// The coupler's input image is current.
+    pub io_valid: u8,
+    pub _pad: [u8; 3],
+    /// This cycle's wake-up latency (after its deadline) and compute time, ns.
+    pub wake_latency_ns: u32,
+    pub compute_ns: u32,
+    /// Cycles whose deadline had already passed when the previous one ended (since start).
+    pub overruns: u64,
+    /// Events overwritten in the loop's ring before they were published (since start).
+    pub events_lost: u64,
+    /// The loaded gear's pitch radius and normal module (0 without a program): errors at
+    /// the pitch circle and the ISO 1328 tolerance follow from them.
+    pub pitch_radius_mm: f64,
+    pub normal_module_mm: f64,
+}
+
+/// Event kinds ([`EventSample::kind`]).
+pub mod event_kind {
+    pub const STATE_CHANGED: u32 = 1;
+    pub const ALARM: u32 = 2;
+    pub const ALARM_CLEARED: u32 = 3;
+    pub const PASS_STARTED: u32 = 4;
+    pub const PHASE_RECORDED: u32 = 5;
+    pub const ACCEPTED: u32 = 6;
+    pub const REFUSED: u32 = 7;
+    pub const PROGRAM_LOADED: u32 = 8;
+    pub const CYCLE_DONE: u32 = 9;
+    /// A message of the service (start-up, privileges, shutdown).
+    pub const MESSAGE: u32 = 10;
+    /// The service's CANopen master saw something (EMCY, heartbeat lost/back).
+    pub const BUS: u32 = 11;
+}
+
+/// An event of the loop. `a`, `b`, `value` depend on `kind`.
+#[derive(Debug, Clone, Copy, PartialEq, ZeroCopySend)]
+#[repr(C)]
+pub struct EventSample {
+    /// Consecutive event number (a gap is a lost event).
+    pub seq: u64,
+    /// The cycle it happened in.
+    pub cycle: u64,
+    pub kind: u32,
+    pub a: u32,
+    pub b: u32,
+    pub text_len: u32,
+    pub alarm: AlarmCode,
+    pub value: f64,
+    pub text: [u8; EVENT_TEXT_BYTES],
+}
+
+impl Default for EventSample {
+    fn default() -> Self {
+        Self {
+            seq: 0,
+            cycle: 0,
+            kind: 0,
+            a: 0,
+            b: 0,
+            text_len: 0,
+            alarm: AlarmCode::default(),
+            value: 0.0,
+            text: [0; EVENT_TEXT_BYTES],
+        }
+    }
+}
+
+impl EventSample {
+    pub fn text(&self) -> String {
+        read_text(&self.text, self.text_len)
+    }
+}
+
+/// A latency distribution summary, ns.
+#[derive(Debug, Clone, Copy, Default, PartialEq, ZeroCopySend)]
+#[repr(C)]
+pub struct Percentiles {
+    pub count: u64,
+    pub min_ns: u64,
+    pub p50_ns: u64,
+    pub p90_ns: u64,
+    pub p99_ns: u64,
+    pub p999_ns: u64,
+    pub p9999_ns: u64,
+    pub max_ns: u64,
+}
+
+/// The loop's own timing since it started, published by `hob-rt` twice a second.
+#[derive(Debug, Clone, Copy, Default, PartialEq, ZeroCopySend)]
+#[repr(C)]
+pub struct StatsSample {
+    pub cycle: u64,
+    pub period_ns: u64,
+    pub overruns: u64,
+    pub wake_latency: Percentiles,
+    pub compute: Percentiles,
+    /// Allocations and frees on the system heap inside cycles (the target is 0; u64::MAX:
+    /// not counted).
+    pub system_allocations_in_cycle: u64,
+    /// Small blocks taken from the loop's preallocated pool inside cycles (iceoryx2 takes
+    /// one per published sample).
+    pub pool_allocations_in_cycle: u64,
+    /// Real-time set-up that took effect: SCHED_FIFO priority (0: not), pinned core (-1: not).
+    pub fifo_priority: i32,
+    pub core: i32,
+    pub memory_locked: u8,
+    /// Frames on the CAN bus: 0 SocketCAN, 1 shared-memory virtual CAN.
+    pub bus_kind: u8,
+    pub _pad: [u8; 6],
+    /// Frames the loop could not send (queue full, interface down).
+    pub tx_errors: u64,
+}
+
+/// Command codes ([`CommandRequest::command`]).
+pub mod command {
+    pub const LOAD_PROGRAM: u32 = 1;
+    pub const START: u32 = 2;
+    pub const FEED_HOLD: u32 = 3;
+    pub const RESUME: u32 = 4;
+    pub const STOP: u32 = 5;
+    pub const RESET: u32 = 6;
+    pub const JOG: u32 = 7;
+    pub const SPINDLE_ON: u32 = 8;
+    pub const SPINDLE_OFF: u32 = 9;
+    pub const NEW_BLANK: u32 = 10;
+}
+
+/// A request from a frontend.
+#[derive(Debug, Clone, Copy, PartialEq, ZeroCopySend)]
+#[repr(C)]
+pub struct CommandRequest {
+    pub command: u32,
+    /// START: 1 for single mode.
+    pub single: u8,
+    /// JOG: 1 B, 2 X, 3 Y.
+    pub axis: u8,
+    pub _pad: [u8; 2],
+    /// JOG: distance (mm, or deg for B); SPINDLE_ON: rpm.
+    pub value: f64,
+    /// LOAD_PROGRAM: the program file's name (for messages) and its TOML text.
+    pub name_len: u32,
+    pub text_len: u32,
+    pub name: [u8; 256],
+    pub text: [u8; REQUEST_TEXT_BYTES],
+}
+
+impl CommandRequest {
+    pub fn new(command: u32) -> Self {
+        Self {
+            command,
+            single: 0,
+            axis: 0,
+            _pad: [0; 2],
+            value: 0.0,
+            name_len: 0,
+            text_len: 0,
+            name: [0; 256],
+            text: [0; REQUEST_TEXT_BYTES],
+        }
+    }
+
+    /// A LOAD_PROGRAM request; refuses a text that does not fit.
+    pub fn load_program(name: &str, toml: &str) -> Result<Self, String> {
+        if toml.len() > REQUEST_TEXT_BYTES {
+            return Err(format!(
+                "{name}: {} bytes, a program file may have at most {REQUEST_TEXT_BYTES}",
+                toml.len()
+            ));
+        }
+        let mut r = Self::new(command::LOAD_PROGRAM);
+        r.name_len = write_text(&mut r.name, name);
+        r.text_len = write_text(&mut r.text, toml);
+        Ok(r)
+    }
+
+    pub fn name(&self) -> String {
+        read_text(&self.name, self.name_len)
+    }
+
+    pub fn text(&self) -> String {
+        read_text(&self.text, self.text_len)
+    }
+}
+
+/// The loop's answer.
+#[derive(Debug, Clone, Copy, PartialEq, ZeroCopySend)]
+#[repr(C)]
+pub struct CommandResponse {
+    pub accepted: u8,
+    pub _pad: [u8; 3],
+    /// Refusal code when refused (0 when the request itself was malformed).
+    pub refusal: u32,
+    pub text_len: u32,
+    pub text: [u8; RESPONSE_TEXT_BYTES],
+}
+
+impl CommandResponse {
+    pub fn new(accepted: bool, refusal: u32, text: &str) -> Self {
+        let mut r = Self {
+            accepted: accepted as u8,
+            _pad: [0; 3],
+            refusal,
+            text_len: 0,
+            text: [0; RESPONSE_TEXT_BYTES],
+        };
+        r.text_len = write_text(&mut r.text, text);
+        r
+    }
+
+    pub fn text(&self) -> String {
+        read_text(&self.text, self.text_len)
+    }
+}
+
+/// A CAN frame on the shared-memory virtual CAN bus.
+#[derive(Debug, Clone, Copy, Default, PartialEq, ZeroCopySend)]
+#[repr(C)]
+pub struct CanFrameSample {
+    /// The endpoint that sent it (endpoints skip their own frames, as a CAN controller does).
+    pub origin: u64,
+    /// CLOCK_MONOTONIC when sent, ns.
+    pub time_ns: u64,
+    pub id: u16,
+    pub len: u8,
+    pub _pad: [u8; 5],
+    pub data: [u8; 8],
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn text_is_cut_at_a_character_boundary() {
+        let mut buf = [0u8; 4];
+        let n = write_text(&mut buf, "abcé");
+        assert_eq!(n, 3);
+        assert_eq!(read_text(&buf, n), "abc");
+    }
+
+    #[test]
+    fn a_program_too_long_is_refused() {
+        let long = "x".repeat(REQUEST_TEXT_BYTES + 1);
+        assert!(CommandRequest::load_program("p.toml", &long).is_err());
+        let r = CommandRequest::load_program("p.toml", "[gear]").unwrap();
+        assert_eq!(r.text(), "[gear]");
+        assert_eq!(r.name(), "p.toml");
+    }
+
+    #[test]
+    fn read_text_never_reads_past_the_buffer() {
+        let buf = [b'a'; 4];
+        assert_eq!(read_text(&buf, 99), "aaaa");
+    }
+}

@@ -1,0 +1,164 @@
+//! The real-time set-up of the loop thread and its clock: memory lock, stack pre-fault,
+//! core pinning, SCHED_FIFO, absolute sleeps on CLOCK_MONOTONIC. Start-up only, except
+//! [`now_ns`] and [`sleep_until_ns`] which the loop calls once per cycle.
+//!
+//! What the service needs (never root): `CAP_SYS_NICE` or `RLIMIT_RTPRIO` >= the loop's
+//! priority for SCHED_FIFO, and `RLIMIT_MEMLOCK` unlimited (or `CAP_IPC_LOCK`) for
+//! `mlockall`. `deploy/systemd/hob-rt.service` grants both.
+
+use nix::sys::mman::{MlockAllFlags, mlockall};
+use nix::sys::resource::{Resource, getrlimit};
+use nix::sys::signal::{SaFlags, SigAction, SigHandler, SigSet, Signal, sigaction};
+use nix::sys::time::TimeSpec;
+use nix::time::{ClockId, ClockNanosleepFlags, clock_gettime, clock_nanosleep};
+use std::sync::atomic::{AtomicBool, Ordering};
+
+/// What the set-up achieved; each failure says why and how to fix it.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct RtReport {
+    pub memory_locked: bool,
+    pub core: Option<u32>,
+    pub fifo_priority: Option<u32>,
+    pub problems: Vec<String>,
+}
+
+impl RtReport {
+    pub fn is_complete(&self) -> bool {
+        self.problems.is_empty()
+    }
+}
+
+fn limit(r: Resource) -> String {
+    match getrlimit(r) {
+        Ok((soft, _)) if soft == libc::RLIM_INFINITY => "unlimited".into(),
+        Ok((soft, _)) => soft.to_string(),
+        Err(e) => format!("unknown ({e})"),
+    }
+}
+
+/// Locks current and future memory. Call after the shared-memory ports exist: under a
+/// small `RLIMIT_MEMLOCK`, `MCL_FUTURE` makes later mappings fail.
+pub fn lock_memory(report: &mut RtReport) {
+    match mlockall(MlockAllFlags::MCL_CURRENT | MlockAllFlags::MCL_FUTURE) {
+        Ok(()) => report.memory_locked = true,
+        Err(e) => report.problems.push(format!(
+            "mlockall failed ({e}): RLIMIT_MEMLOCK is {} bytes; give the service LimitMEMLOCK=infinity \
+             or CAP_IPC_LOCK (the systemd unit does)",
+            limit(Resource::RLIMIT_MEMLOCK)
+        )),
+    }
+}
+
+/// Touches `bytes` of stack so the loop never page-faults on it.
+pub fn prefault_stack(bytes: usize) {
+    fn touch<const N: usize>() {
+        let buf = [0u8; N];
+        std::hint::black_box(&buf);
+    }
+    // In 64 KiB steps so the frames really are that deep.
+    fn rec(left: usize) {
+        touch::<65536>();
+        if left > 65536 {
+            rec(left - 65536);
+        }
+    }
+    rec(bytes);
+}
+
+/// Pins the calling thread to `core`.
+pub fn pin(core: u32, report: &mut RtReport) {
+    let ids = core_affinity::get_core_ids().unwrap_or_default();
+    match ids.iter().find(|c| c.id == core as usize) {
+        Some(&id) if core_affinity::set_for_current(id) => report.core = Some(core),
+        Some(_) => report.problems.push(format!(
+            "could not pin the loop to core {core} (sched_setaffinity refused)"
+        )),
+        None => report.problems.push(format!(
+            "core {core} does not exist or is not allowed for this process ({} usable): \
+             set service.loop_core",
+            ids.len()
+        )),
+    }
+}
+
+/// Makes the calling thread SCHED_FIFO at `priority`.
+#[allow(unsafe_code)]
+pub fn set_fifo(priority: u32, report: &mut RtReport) {
+    let param = libc::sched_param {
+        sched_priority: priority as libc::c_int,
+    };
+    // SAFETY: plain FFI call on the current thread with a valid, initialised parameter.
+    let rc = unsafe { libc::pthread_setschedparam(libc::pthread_self(), libc::SCHED_FIFO, &param) };
+    if rc == 0 {
+        report.fifo_priority = Some(priority);
+    } else {
+        report.problems.push(format!(
+            "SCHED_FIFO {priority} refused ({}): RLIMIT_RTPRIO is {}; give the service \
+             CAP_SYS_NICE or LimitRTPRIO={priority} (the systemd unit does)",
+            std::io::Error::from_raw_os_error(rc),
+            limit(Resource::RLIMIT_RTPRIO)
+        ));
+    }
+}
+
+static TERMINATION: AtomicBool = AtomicBool::new(false);
+
+extern "C" fn on_signal(_: libc::c_int) {
+    TERMINATION.store(true, Ordering::Relaxed);
+}
+
+/// Turns SIGTERM and SIGINT into a flag the loop reads (for a controlled stop).
+#[allow(unsafe_code)]
+pub fn termination_flag() -> &'static AtomicBool {
+    let action = SigAction::new(
+        SigHandler::Handler(on_signal),
+        SaFlags::SA_RESTART,
+        SigSet::empty(),
+    );
+    for sig in [Signal::SIGTERM, Signal::SIGINT] {
+        // SAFETY: the handler only stores into an atomic (async-signal-safe).
+        let _ = unsafe { sigaction(sig, &action) };
+    }
+    &TERMINATION
+}
+
+/// Whether the running kernel is PREEMPT_RT.
+pub fn kernel_is_preempt_rt() -> bool {
+    std::fs::read_to_string("/sys/kernel/realtime").is_ok_and(|s| s.trim() == "1")
+}
+
+/// CLOCK_MONOTONIC now, ns.
+pub fn now_ns() -> u64 {
+    clock_gettime(ClockId::CLOCK_MONOTONIC).map_or(0, |t| {
+        (t.tv_sec() as u64)
+            .wrapping_mul(1_000_000_000)
+            .wrapping_add(t.tv_nsec() as u64)
+    })
+}
+
+/// Sleeps until the absolute CLOCK_MONOTONIC time `t_ns` (returns at once if it passed;
+/// an interruption by a signal just returns early).
+pub fn sleep_until_ns(t_ns: u64) {
+    let ts = TimeSpec::new((t_ns / 1_000_000_000) as _, (t_ns % 1_000_000_000) as _);
+    let _ = clock_nanosleep(ClockId::CLOCK_MONOTONIC, ClockNanosleepFlags::TIMER_ABSTIME, &ts);
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn an_absolute_sleep_never_returns_before_its_deadline() {
+        let t = now_ns() + 2_000_000;
+        sleep_until_ns(t);
+        assert!(now_ns() >= t);
+    }
+
+    #[test]
+    fn a_missing_core_is_reported_not_panicked() {
+        let mut r = RtReport::default();
+        pin(100_000, &mut r);
+        assert_eq!(r.core, None);
+        assert!(r.problems[0].contains("service.loop_core"), "{:?}", r.problems);
+    }
+}
