@@ -24,7 +24,7 @@ mod types;
 
 pub use ports::{
     BusError, CanPort, Client, Ports, command_server, instance, node, open_can, open_can_port, open_command,
-    open_events, open_state, open_stats, service_name,
+    open_events, open_state, open_stats, service_name, use_instance,
 };
 pub use types::*;
 

@@ -39,9 +39,19 @@ fn err<E: std::fmt::Debug>(what: &str) -> impl FnOnce(E) -> BusError + '_ {
     move |e| BusError(format!("{what}: {e:?}"))
 }
 
-/// The instance name (`HOB_INSTANCE`, default `main`): separates several controllers or
-/// parallel tests on one PC.
+static INSTANCE: std::sync::OnceLock<String> = std::sync::OnceLock::new();
+
+/// Sets this process's instance name (before any port is opened; later calls are ignored).
+pub fn use_instance(name: &str) {
+    let _ = INSTANCE.set(name.to_string());
+}
+
+/// The instance name (`use_instance`, else `HOB_INSTANCE`, default `main`): separates
+/// several controllers or parallel tests on one PC.
 pub fn instance() -> String {
+    if let Some(i) = INSTANCE.get() {
+        return i.clone();
+    }
     std::env::var("HOB_INSTANCE")
         .ok()
         .filter(|s| !s.is_empty())

@@ -312,11 +312,38 @@ pub struct SummaryBuilder {
 
 impl SummaryBuilder {
     pub fn new(plan: &Plan) -> Self {
+        Self::for_gear(plan.pitch_diameter_mm / 2.0, plan.normal_module_mm)
+    }
+
+    /// For a gear known by its pitch radius and normal module (a recorded log).
+    pub fn for_gear(pitch_radius_mm: f64, normal_module_mm: f64) -> Self {
         Self {
             passes: Vec::new(),
-            pitch_radius_mm: plan.pitch_diameter_mm / 2.0,
-            normal_module_mm: plan.normal_module_mm,
+            pitch_radius_mm,
+            normal_module_mm,
         }
+    }
+
+    /// The per-pass statistics, and the ISO 1328-1 grade-5 single pitch tolerance (um).
+    pub fn passes(mut self) -> (Vec<PassSummary>, f64) {
+        let r = self.pitch_radius_mm;
+        for p in &mut self.passes {
+            if p.samples == 0 {
+                continue;
+            }
+            let n = p.samples as f64;
+            let mean = p.sum / n;
+            p.sync_err_rms_arcsec = (p.sum_sq / n).sqrt();
+            p.sync_err_max_arcsec = p.max.abs().max(p.min.abs());
+            p.sync_err_mean_arcsec = mean;
+            p.sync_err_max_dev_arcsec = (p.max - mean).abs().max((p.min - mean).abs());
+            p.sync_err_rms_um = arcsec_to_um_at_radius(p.sync_err_rms_arcsec, r);
+            p.sync_err_max_um = arcsec_to_um_at_radius(p.sync_err_max_arcsec, r);
+            p.sync_err_max_dev_um = arcsec_to_um_at_radius(p.sync_err_max_dev_arcsec, r);
+            p.work_twist_max_um = arcsec_to_um_at_radius(p.work_twist_max_arcsec, r);
+        }
+        let tol = single_pitch_tolerance_um(2.0 * r, self.normal_module_mm, 5);
+        (self.passes, tol)
     }
 
     pub fn add(&mut self, row: &TraceRow, period_s: f64) {
@@ -349,34 +376,15 @@ impl SummaryBuilder {
     }
 
     pub fn finish(
-        mut self,
+        self,
         options: &SimOptions,
         total_time_s: f64,
         completed: bool,
         fault: Option<String>,
     ) -> Summary {
         let r = self.pitch_radius_mm;
-        for p in &mut self.passes {
-            if p.samples == 0 {
-                continue;
-            }
-            let n = p.samples as f64;
-            let mean = p.sum / n;
-            p.sync_err_rms_arcsec = (p.sum_sq / n).sqrt();
-            p.sync_err_max_arcsec = p.max.abs().max(p.min.abs());
-            p.sync_err_mean_arcsec = mean;
-            p.sync_err_max_dev_arcsec = (p.max - mean).abs().max((p.min - mean).abs());
-            p.sync_err_rms_um = arcsec_to_um_at_radius(p.sync_err_rms_arcsec, r);
-            p.sync_err_max_um = arcsec_to_um_at_radius(p.sync_err_max_arcsec, r);
-            p.sync_err_max_dev_um = arcsec_to_um_at_radius(p.sync_err_max_dev_arcsec, r);
-            p.work_twist_max_um = arcsec_to_um_at_radius(p.work_twist_max_arcsec, r);
-        }
-        let tol = single_pitch_tolerance_um(2.0 * r, self.normal_module_mm, 5);
-        let max_arcsec = self
-            .passes
-            .iter()
-            .map(|p| p.sync_err_max_arcsec)
-            .fold(0.0, f64::max);
+        let (passes, tol) = self.passes();
+        let max_arcsec = passes.iter().map(|p| p.sync_err_max_arcsec).fold(0.0, f64::max);
         Summary {
             cross_coupling: options.cross_coupling,
             predictor: options.angle_source == SpindleAngleSource::Predicted,
@@ -385,7 +393,7 @@ impl SummaryBuilder {
             bound_um: tol / 4.0,
             max_sync_err_arcsec: max_arcsec,
             max_sync_err_um: arcsec_to_um_at_radius(max_arcsec, r),
-            passes: self.passes,
+            passes,
             total_time_s,
             completed,
             fault,

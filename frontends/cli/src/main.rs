@@ -4,7 +4,10 @@
 //! arguments: the message names the file, position, key and limit); 1 anything else.
 
 mod can;
+mod demo;
+mod log;
 mod render;
+mod service;
 mod simulate;
 
 use clap::{Parser, Subcommand};
@@ -26,6 +29,68 @@ struct Cli {
 
 #[derive(Debug, Subcommand)]
 enum Command {
+    /// Cut a program on the virtual machine with the real-time service, logger and
+    /// watchdog as separate processes; prints the summary, last line `log: PATH`.
+    Demo {
+        /// Program file [default: config/programs/demo-short-spur-z17-m5.toml].
+        program: Option<PathBuf>,
+        /// Machine configuration [default: config/machine.toml, then /etc/hob/machine.toml].
+        #[arg(long, value_name = "FILE")]
+        machine: Option<PathBuf>,
+        #[arg(long, value_name = "FILE", default_value = "config/plant.toml")]
+        plant: PathBuf,
+        /// CAN interface, or `shm` [default: vcan0 if it exists, else shm].
+        #[arg(long)]
+        iface: Option<String>,
+        /// Log directory [default: hob-logs/demo-UNIXTIME].
+        #[arg(long, value_name = "DIR")]
+        log: Option<PathBuf>,
+        /// No progress bar.
+        #[arg(long)]
+        quiet: bool,
+        /// Bus and watchdog timing exactly as configured (for a PREEMPT_RT PC; a virtual
+        /// machine's stalls trip them).
+        #[arg(long)]
+        strict: bool,
+        /// Without --strict: bus silence tolerated before a fault, ms.
+        #[arg(long, default_value_t = 25)]
+        tolerance_ms: u32,
+    },
+    /// The running service's state, alarms, loop timing and recent events.
+    Status {
+        /// Keep printing a line every half second, and every event.
+        #[arg(long)]
+        watch: bool,
+        #[arg(long)]
+        json: bool,
+    },
+    /// Load a program into the running service (checked there against its machine).
+    Load { program: PathBuf },
+    /// Start the loaded program.
+    Start {
+        /// Only the single-mode pass.
+        #[arg(long)]
+        single: bool,
+    },
+    /// Feed hold.
+    Hold,
+    /// Resume after feed hold.
+    Resume,
+    /// Cycle stop: out of the cut, gearbox out, spindle off.
+    Stop,
+    /// Clear a fault whose cause is gone.
+    Reset,
+    /// Move an axis by a distance (mm, or deg for B) while idle.
+    Jog {
+        axis: String,
+        #[arg(allow_hyphen_values = true)]
+        distance: f64,
+    },
+    /// Read recorded logs of hob-logger.
+    Log {
+        #[command(subcommand)]
+        command: LogCommand,
+    },
     /// Plan a program: gearbox ratio, differential, hob swivel, passes, speeds, times.
     Plan {
         /// Program file (TOML).
@@ -135,6 +200,23 @@ enum CanCommand {
 }
 
 #[derive(Debug, Subcommand)]
+enum LogCommand {
+    /// Write a recorded log as CSV: the columns of `hob simulate`'s trace.csv up to
+    /// sync_err_arcsec, then the cycle counter and the other recorded values.
+    Export {
+        dir: PathBuf,
+        /// CSV (the only format; required for clarity).
+        #[arg(long)]
+        csv: bool,
+        /// Output file [default: standard output].
+        #[arg(long, value_name = "FILE")]
+        out: Option<PathBuf>,
+    },
+    /// Per-pass synchronisation error statistics of a recorded cut.
+    Report { dir: PathBuf },
+}
+
+#[derive(Debug, Subcommand)]
 enum SdoOp {
     Read {
         node: u8,
@@ -177,8 +259,84 @@ fn main() -> ExitCode {
     }
 }
 
+fn service_result(r: Result<String, (u8, String)>) -> Result<(), Failure> {
+    match r {
+        Ok(text) => emit(&format!("{}\n", text.trim_end())),
+        Err((2, text)) => {
+            eprintln!("hob: refused: {text}");
+            Err(Failure::Exit(2))
+        }
+        Err((code, text)) => {
+            eprintln!("hob: {text}");
+            Err(Failure::Exit(code))
+        }
+    }
+}
+
 fn run(command: Command) -> Result<(), Failure> {
+    use hob_ipc::command as code;
     match command {
+        Command::Demo {
+            program,
+            machine,
+            plant,
+            iface,
+            log,
+            quiet,
+            strict,
+            tolerance_ms,
+        } => {
+            let machine_file = machine_path(machine.as_deref())?;
+            let machine = MachineConfig::load(&machine_file).map_err(Failure::Refused)?;
+            let program = program.unwrap_or_else(|| PathBuf::from(demo::DEMO_PROGRAM));
+            let args = demo::DemoArgs {
+                program: &program,
+                machine_file: &machine_file,
+                plant: &plant,
+                iface: iface.as_deref(),
+                log_dir: log.as_deref(),
+                quiet,
+                strict,
+                tolerance_ms,
+            };
+            match demo::run(&machine, &args) {
+                Ok(text) => emit(&text),
+                Err((code, text)) => {
+                    let _ = emit(&text);
+                    eprintln!("hob: demo: {}", text.lines().next().unwrap_or("failed"));
+                    Err(Failure::Exit(code))
+                }
+            }
+        }
+        Command::Status { watch, json } => service_result(service::status(watch, json)),
+        Command::Load { program } => service_result(service::load(&program)),
+        Command::Start { single } => service_result(service::request(&service::start(single))),
+        Command::Hold => service_result(service::request(&service::simple(code::FEED_HOLD))),
+        Command::Resume => service_result(service::request(&service::simple(code::RESUME))),
+        Command::Stop => service_result(service::request(&service::simple(code::STOP))),
+        Command::Reset => service_result(service::request(&service::simple(code::RESET))),
+        Command::Jog { axis, distance } => {
+            service_result(service::jog(&axis, distance).and_then(|r| service::request(&r)))
+        }
+        Command::Log { command } => match command {
+            LogCommand::Export { dir, csv, out } => {
+                if !csv {
+                    eprintln!("hob: refused: log export: give --csv (the only format)");
+                    return Err(Failure::Exit(2));
+                }
+                let text = log::export_csv(&dir).map_err(Failure::Other)?;
+                match out {
+                    Some(f) => {
+                        std::fs::write(&f, text).map_err(|e| Failure::Other(format!("{}: {e}", f.display())))
+                    }
+                    None => emit(&text),
+                }
+            }
+            LogCommand::Report { dir } => {
+                let r = log::report(&dir).map_err(Failure::Other)?;
+                emit(&log::report_text(&dir, &r))
+            }
+        },
         Command::Plan {
             program,
             machine,

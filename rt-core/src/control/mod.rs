@@ -419,11 +419,18 @@ impl Controller {
     }
 
     fn measure(&mut self, input: &CycleInputs) {
+        let prev = self.m;
         let spindle = self
             .p
             .spindle
             .to_units(self.unwrap[0].update(input.spindle_counts));
-        let est = self.observer.update(spindle);
+        // The spindle encoder rides on the B drive's TPDO: without it this cycle the
+        // observer coasts instead of taking the held value as a measurement.
+        let est = if input.table.fresh || !self.started {
+            self.observer.update(spindle)
+        } else {
+            self.observer.coast()
+        };
         let for_gearbox = match self.angle_source {
             SpindleAngleSource::Predicted => est.predict_deg(self.p.horizon_s),
             SpindleAngleSource::LastMeasured => spindle,
@@ -445,6 +452,22 @@ impl Controller {
                 Inputs::default()
             },
         };
+        // A drive's feedback that did not arrive this cycle (a late frame, a bus hiccup)
+        // is not a measurement: assume the axis moved as commanded, its following error
+        // unchanged, until `feedback_misses_to_fault` cycles make it a fault.
+        if self.started {
+            let [h0, h1] = self.history;
+            let moved = |k: usize| h1[k] - h0[k];
+            if !input.table.fresh {
+                self.m.table_deg = prev.table_deg + moved(0);
+            }
+            if !input.x.fresh {
+                self.m.x_mm = prev.x_mm + moved(1);
+            }
+            if !input.y.fresh {
+                self.m.y_mm = prev.y_mm + moved(2);
+            }
+        }
     }
 
     /// Supervision: safety chain, limits, drives, feedback, following errors.

@@ -94,6 +94,21 @@ impl SpindleObserver {
         est
     }
 
+    /// No measurement this cycle (its frame was late): the estimate moves on by its own
+    /// speed and acceleration.
+    pub fn coast(&mut self) -> SpindleEstimate {
+        let t = self.period_s;
+        let est = self
+            .state
+            .map_or_else(SpindleEstimate::default, |s| SpindleEstimate {
+                angle_deg: s.predict_deg(t),
+                speed_deg_s: s.speed_deg_s + s.accel_deg_s2 * t,
+                accel_deg_s2: s.accel_deg_s2,
+            });
+        self.state = Some(est);
+        est
+    }
+
     pub fn estimate(&self) -> SpindleEstimate {
         self.state.unwrap_or_default()
     }
@@ -103,6 +118,21 @@ impl SpindleObserver {
 mod tests {
     use super::*;
     use proptest::prelude::*;
+
+    #[test]
+    fn coasting_continues_a_steady_rotation() {
+        let mut o = SpindleObserver::new(0.001, 10.0);
+        for k in 0..3000 {
+            o.update(k as f64 * 0.7);
+        }
+        let before = o.estimate();
+        let after = o.coast();
+        assert!(
+            (after.angle_deg - (before.angle_deg + 0.7)).abs() < 1e-6,
+            "{before:?} {after:?}"
+        );
+        assert!((after.speed_deg_s - 700.0).abs() < 1e-3);
+    }
 
     #[test]
     fn unwraps_across_the_32_bit_boundary() {

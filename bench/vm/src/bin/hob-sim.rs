@@ -44,6 +44,11 @@ struct Args {
     /// Read faults from standard input, one per line.
     #[arg(long)]
     control: bool,
+    /// SCHED_FIFO priority (0: normal scheduling). Real drives answer every SYNC within
+    /// microseconds; a simulator that the OS schedules late looks like lost TPDOs to a
+    /// real-time master (`hob demo` runs it at 75, below `hob-rt`).
+    #[arg(long, default_value_t = 0)]
+    rt_priority: u32,
     /// Exit after this many seconds without any frame (0: never).
     #[arg(long, default_value_t = 0.0)]
     idle_exit_s: f64,
@@ -101,6 +106,13 @@ fn run(a: Args) -> Result<(), String> {
     }
     for f in faults.drain(..) {
         vm.inject(f);
+    }
+    if a.rt_priority > 0 {
+        let mut r = hob_rt_core::service::rt::RtReport::default();
+        hob_rt_core::service::rt::set_fifo(a.rt_priority, &mut r);
+        for p in &r.problems {
+            eprintln!("hob-sim: {p}");
+        }
     }
     let mut bus = hob_rt_core::service::shm_can::open_bus(&a.iface, "hob-sim-can")?;
     let (tx, rx) = std::sync::mpsc::channel::<String>();

@@ -1,0 +1,288 @@
+//! `hob status|load|start|hold|resume|stop|reset|jog`: the running service, through the
+//! same shared-memory interfaces as every frontend (the HMI included): the `state`,
+//! `events` and `stats` streams, and the `command` request-response service.
+
+use hob_ipc::{CommandRequest, CommandResponse, EventSample, Ports, StateSample, StatsSample, command};
+use hob_rt_core::control::fault::Axis;
+use hob_rt_core::service::wire;
+use std::fmt::Write as _;
+use std::path::Path;
+use std::time::{Duration, Instant};
+
+/// How long a command may wait for the loop's answer.
+const ANSWER: Duration = Duration::from_secs(3);
+
+/// Sends a request; Ok(text) when accepted, Err((exit code, text)) otherwise: 2 refused,
+/// 1 no answer.
+pub fn request(req: &CommandRequest) -> Result<String, (u8, String)> {
+    let client = hob_ipc::Client::connect(&format!("hob-cli-{}", std::process::id()))
+        .map_err(|e| (1, e.to_string()))?;
+    let r: CommandResponse = client.request(req, ANSWER).map_err(|e| (1, e.to_string()))?;
+    if r.accepted != 0 {
+        Ok(r.text())
+    } else {
+        Err((2, r.text()))
+    }
+}
+
+pub fn load(program: &Path) -> Result<String, (u8, String)> {
+    let text = std::fs::read_to_string(program).map_err(|e| (2, format!("{}: {e}", program.display())))?;
+    let name = program.display().to_string();
+    let req = CommandRequest::load_program(&name, &text).map_err(|e| (2, e))?;
+    request(&req)
+}
+
+pub fn simple(code: u32) -> CommandRequest {
+    CommandRequest::new(code)
+}
+
+pub fn start(single: bool) -> CommandRequest {
+    let mut r = CommandRequest::new(command::START);
+    r.single = u8::from(single);
+    r
+}
+
+pub fn jog(axis: &str, distance: f64) -> Result<CommandRequest, (u8, String)> {
+    let axis = match axis.to_ascii_lowercase().as_str() {
+        "x" => Axis::X,
+        "y" => Axis::Y,
+        "b" => Axis::B,
+        other => return Err((2, format!("jog: axis {other} is not x, y or b"))),
+    };
+    let (code, single, axis, value) =
+        wire::command_code(hob_rt_core::control::Command::Jog { axis, distance });
+    let mut r = CommandRequest::new(code);
+    r.single = single;
+    r.axis = axis;
+    r.value = value;
+    Ok(r)
+}
+
+/// What `hob status` shows.
+#[derive(Debug, Clone)]
+pub struct Snapshot {
+    pub state: StateSample,
+    pub stats: Option<StatsSample>,
+    pub events: Vec<EventSample>,
+}
+
+/// Reads the newest state, the loop's stats and the recent events.
+pub fn snapshot(ports: &Ports) -> Result<Snapshot, String> {
+    let state = ports.wait_state(Duration::from_secs(2)).ok_or_else(|| {
+        format!(
+            "no state from hob-rt within 2 s (is it running? HOB_INSTANCE={})",
+            hob_ipc::instance()
+        )
+    })?;
+    // Stats come twice a second (the newest is kept for late subscribers).
+    let end = Instant::now() + Duration::from_millis(1200);
+    let mut stats = ports.latest_stats();
+    while stats.is_none() && Instant::now() < end {
+        std::thread::sleep(Duration::from_millis(20));
+        stats = ports.latest_stats();
+    }
+    let mut events = Vec::new();
+    while let Some(e) = ports.next_event() {
+        events.push(e);
+    }
+    Ok(Snapshot { state, stats, events })
+}
+
+fn us(ns: u64) -> f64 {
+    ns as f64 / 1e3
+}
+
+pub fn status_text(s: &Snapshot) -> String {
+    let st = &s.state;
+    let mut o = String::new();
+    let hold = if st.hold != 0 { " (feed hold)" } else { "" };
+    let _ = writeln!(
+        o,
+        "state    {}{hold}   cycle {}   pass {}/{}   program {}",
+        wire::state_name(st.state),
+        st.cycle,
+        st.pass,
+        st.passes_total,
+        if st.program_loaded != 0 { "loaded" } else { "none" }
+    );
+    let alarm = wire::alarm_text(&st.alarm);
+    let _ = writeln!(
+        o,
+        "alarm    {}",
+        if alarm.is_empty() { "none".into() } else { alarm }
+    );
+    let _ = writeln!(
+        o,
+        "axes     X {:9.3} mm (cmd {:9.3})  Y {:9.3} mm (cmd {:9.3})  B {:10.4} deg",
+        st.x_mm.actual, st.x_mm.command, st.y_mm.actual, st.y_mm.command, st.table_deg.actual
+    );
+    let _ = writeln!(
+        o,
+        "spindle  {:7.2} rpm (set {:7.2})   gearbox {}   sync error {:7.3} arcsec   CCC {:6.3} arcsec",
+        st.spindle_rpm,
+        st.spindle_set_rpm,
+        wire::coupling_name(st.coupling),
+        st.sync_error_arcsec,
+        st.ccc_arcsec
+    );
+    let drives: Vec<&str> = ["B", "X", "Y"]
+        .iter()
+        .enumerate()
+        .filter(|(i, _)| st.drives_enabled & (1 << i) != 0)
+        .map(|(_, n)| *n)
+        .collect();
+    let _ = writeln!(
+        o,
+        "drives   enabled [{}]   I/O {}   inputs 0x{:06X}   outputs 0x{:04X}",
+        drives.join(" "),
+        if st.io_valid != 0 { "valid" } else { "NOT VALID" },
+        st.digital_inputs,
+        st.digital_outputs
+    );
+    match &s.stats {
+        Some(x) => {
+            let _ = writeln!(
+                o,
+                "loop     {}   {}   {}   bus {}   period {} us",
+                if x.fifo_priority > 0 {
+                    format!("SCHED_FIFO {}", x.fifo_priority)
+                } else {
+                    "NOT SCHED_FIFO".into()
+                },
+                if x.core >= 0 {
+                    format!("core {}", x.core)
+                } else {
+                    "not pinned".into()
+                },
+                if x.memory_locked != 0 {
+                    "memory locked"
+                } else {
+                    "memory NOT locked"
+                },
+                if x.bus_kind == 1 {
+                    "shared-memory virtual CAN"
+                } else {
+                    "SocketCAN"
+                },
+                x.period_ns / 1000
+            );
+            for (name, p) in [("wake us ", &x.wake_latency), ("compute ", &x.compute)] {
+                let _ = writeln!(
+                    o,
+                    "{name} min {:7.1}  p50 {:7.1}  p90 {:7.1}  p99 {:7.1}  p99.9 {:7.1}  p99.99 {:7.1}  max {:8.1}  ({} cycles)",
+                    us(p.min_ns),
+                    us(p.p50_ns),
+                    us(p.p90_ns),
+                    us(p.p99_ns),
+                    us(p.p999_ns),
+                    us(p.p9999_ns),
+                    us(p.max_ns),
+                    p.count
+                );
+            }
+            let _ = writeln!(
+                o,
+                "         overruns {}   CAN send errors {}   in cycles: system heap allocations {}, pool blocks {}",
+                x.overruns,
+                x.tx_errors,
+                if x.system_allocations_in_cycle == u64::MAX {
+                    "not counted".into()
+                } else {
+                    x.system_allocations_in_cycle.to_string()
+                },
+                x.pool_allocations_in_cycle
+            );
+        }
+        None => {
+            let _ = writeln!(o, "loop     no stats from hob-rt yet");
+        }
+    }
+    if !s.events.is_empty() {
+        let _ = writeln!(o, "events   (newest last)");
+        for e in s.events.iter().rev().take(10).rev() {
+            let _ = writeln!(o, "  #{:<6} cycle {:<9} {}", e.seq, e.cycle, wire::event_text(e));
+        }
+    }
+    o
+}
+
+pub fn status_json(s: &Snapshot) -> String {
+    let st = &s.state;
+    let p = |p: &hob_ipc::Percentiles| {
+        serde_json::json!({"count": p.count, "min_ns": p.min_ns, "p50_ns": p.p50_ns, "p90_ns": p.p90_ns,
+            "p99_ns": p.p99_ns, "p999_ns": p.p999_ns, "p9999_ns": p.p9999_ns, "max_ns": p.max_ns})
+    };
+    let stats = s.stats.as_ref().map(|x| {
+        serde_json::json!({
+            "cycle": x.cycle, "period_ns": x.period_ns, "overruns": x.overruns, "tx_errors": x.tx_errors,
+            "wake_latency": p(&x.wake_latency), "compute": p(&x.compute),
+            "system_allocations_in_cycle": x.system_allocations_in_cycle,
+            "pool_allocations_in_cycle": x.pool_allocations_in_cycle,
+            "fifo_priority": x.fifo_priority, "core": x.core, "memory_locked": x.memory_locked != 0,
+            "bus": if x.bus_kind == 1 { "shm" } else { "socketcan" },
+        })
+    });
+    let events: Vec<serde_json::Value> = s
+        .events
+        .iter()
+        .map(|e| serde_json::json!({"seq": e.seq, "cycle": e.cycle, "text": wire::event_text(e)}))
+        .collect();
+    let j = serde_json::json!({
+        "cycle": st.cycle,
+        "state": wire::state_name(st.state),
+        "hold": st.hold != 0,
+        "pass": st.pass,
+        "passes_total": st.passes_total,
+        "program_loaded": st.program_loaded != 0,
+        "alarm": wire::alarm_text(&st.alarm),
+        "x_mm": st.x_mm.actual,
+        "y_mm": st.y_mm.actual,
+        "table_deg": st.table_deg.actual,
+        "spindle_rpm": st.spindle_rpm,
+        "sync_error_arcsec": st.sync_error_arcsec,
+        "coupling": wire::coupling_name(st.coupling),
+        "io_valid": st.io_valid != 0,
+        "digital_outputs": st.digital_outputs,
+        "stats": stats,
+        "events": events,
+    });
+    format!("{j:#}\n")
+}
+
+/// `hob status`: once, or `--watch` (a line per half second until interrupted).
+pub fn status(watch: bool, json: bool) -> Result<String, (u8, String)> {
+    let ports =
+        Ports::subscribe(&format!("hob-status-{}", std::process::id())).map_err(|e| (1, e.to_string()))?;
+    let snap = snapshot(&ports).map_err(|e| (1, e))?;
+    if !watch {
+        return Ok(if json {
+            status_json(&snap)
+        } else {
+            status_text(&snap)
+        });
+    }
+    print!("{}", status_text(&snap));
+    loop {
+        std::thread::sleep(Duration::from_millis(500));
+        while let Some(e) = ports.next_event() {
+            println!("  #{:<6} cycle {:<9} {}", e.seq, e.cycle, wire::event_text(&e));
+        }
+        let Some(st) = ports.wait_state(Duration::from_secs(1)) else {
+            return Err((1, "hob-rt stopped publishing".into()));
+        };
+        let alarm = wire::alarm_text(&st.alarm);
+        println!(
+            "cycle {:>9}  {:<12} pass {}/{}  X {:8.3}  Y {:8.3}  spindle {:6.1} rpm  sync {:7.3} arcsec  wake {:6.1} us  {}",
+            st.cycle,
+            wire::state_name(st.state),
+            st.pass,
+            st.passes_total,
+            st.x_mm.actual,
+            st.y_mm.actual,
+            st.spindle_rpm,
+            st.sync_error_arcsec,
+            f64::from(st.wake_latency_ns) / 1e3,
+            alarm
+        );
+    }
+}

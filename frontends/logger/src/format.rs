@@ -1,0 +1,285 @@
+//! State records: the field list (names and types, written into every file's header) and
+//! the encoder and decoder, which must follow it.
+
+use hob_ipc::{AlarmCode, AxisSample, StateSample};
+use std::path::{Path, PathBuf};
+
+/// Field names and types in record order.
+pub const FIELDS: [(&str, &str); 42] = [
+    ("cycle", "u64"),
+    ("sync_time_ns", "u64"),
+    ("state", "u32"),
+    ("hold", "u8"),
+    ("program_loaded", "u8"),
+    ("drives_enabled", "u8"),
+    ("drives_silent", "u8"),
+    ("pass", "u32"),
+    ("passes_total", "u32"),
+    ("tooth", "u32"),
+    ("coupling", "u32"),
+    ("table_deg", "f64"),
+    ("table_cmd_deg", "f64"),
+    ("x_mm", "f64"),
+    ("x_cmd_mm", "f64"),
+    ("y_mm", "f64"),
+    ("y_cmd_mm", "f64"),
+    ("spindle_deg", "f64"),
+    ("spindle_rpm", "f64"),
+    ("spindle_set_rpm", "f64"),
+    ("sync_err_arcsec", "f64"),
+    ("ccc_arcsec", "f64"),
+    ("alarm_code", "u32"),
+    ("alarm_axis", "u8"),
+    ("alarm_end", "u8"),
+    ("alarm_value_a", "f64"),
+    ("alarm_value_b", "f64"),
+    ("digital_inputs", "u32"),
+    ("digital_outputs", "u32"),
+    ("io_valid", "u8"),
+    ("wake_latency_ns", "u32"),
+    ("compute_ns", "u32"),
+    ("overruns", "u64"),
+    ("events_lost", "u64"),
+    ("pitch_radius_mm", "f64"),
+    ("normal_module_mm", "f64"),
+    ("reserved0", "u64"),
+    ("reserved1", "u64"),
+    ("reserved2", "u64"),
+    ("reserved3", "u64"),
+    ("reserved4", "u64"),
+    ("reserved5", "u64"),
+];
+
+fn width(t: &str) -> usize {
+    match t {
+        "u8" => 1,
+        "u32" => 4,
+        _ => 8,
+    }
+}
+
+/// Bytes of one record.
+pub fn record_bytes() -> usize {
+    FIELDS.iter().map(|(_, t)| width(t)).sum()
+}
+
+/// Appends one record.
+pub fn encode(s: &StateSample, out: &mut Vec<u8>) {
+    let u8s = |o: &mut Vec<u8>, v: u8| o.push(v);
+    let u32s = |o: &mut Vec<u8>, v: u32| o.extend_from_slice(&v.to_le_bytes());
+    let u64s = |o: &mut Vec<u8>, v: u64| o.extend_from_slice(&v.to_le_bytes());
+    let f64s = |o: &mut Vec<u8>, v: f64| o.extend_from_slice(&v.to_le_bytes());
+    u64s(out, s.cycle);
+    u64s(out, s.sync_time_ns);
+    u32s(out, s.state);
+    u8s(out, s.hold);
+    u8s(out, s.program_loaded);
+    u8s(out, s.drives_enabled);
+    u8s(out, s.drives_silent);
+    u32s(out, s.pass);
+    u32s(out, s.passes_total);
+    u32s(out, s.tooth);
+    u32s(out, s.coupling);
+    for a in [s.table_deg, s.x_mm, s.y_mm] {
+        f64s(out, a.actual);
+        f64s(out, a.command);
+    }
+    f64s(out, s.spindle_deg);
+    f64s(out, s.spindle_rpm);
+    f64s(out, s.spindle_set_rpm);
+    f64s(out, s.sync_error_arcsec);
+    f64s(out, s.ccc_arcsec);
+    u32s(out, s.alarm.code);
+    u8s(out, s.alarm.axis);
+    u8s(out, s.alarm.end);
+    f64s(out, s.alarm.value_a);
+    f64s(out, s.alarm.value_b);
+    u32s(out, s.digital_inputs);
+    u32s(out, s.digital_outputs);
+    u8s(out, s.io_valid);
+    u32s(out, s.wake_latency_ns);
+    u32s(out, s.compute_ns);
+    u64s(out, s.overruns);
+    u64s(out, s.events_lost);
+    f64s(out, s.pitch_radius_mm);
+    f64s(out, s.normal_module_mm);
+    for _ in 0..6 {
+        u64s(out, 0);
+    }
+}
+
+struct Cursor<'a> {
+    b: &'a [u8],
+    at: usize,
+}
+
+impl Cursor<'_> {
+    fn take<const N: usize>(&mut self) -> [u8; N] {
+        let mut a = [0u8; N];
+        a.copy_from_slice(&self.b[self.at..self.at + N]);
+        self.at += N;
+        a
+    }
+    fn u8(&mut self) -> u8 {
+        self.take::<1>()[0]
+    }
+    fn u32(&mut self) -> u32 {
+        u32::from_le_bytes(self.take())
+    }
+    fn u64(&mut self) -> u64 {
+        u64::from_le_bytes(self.take())
+    }
+    fn f64(&mut self) -> f64 {
+        f64::from_le_bytes(self.take())
+    }
+    fn axis(&mut self) -> AxisSample {
+        AxisSample {
+            actual: self.f64(),
+            command: self.f64(),
+        }
+    }
+}
+
+/// Decodes one record (`None` if `b` is shorter than a record).
+pub fn decode(b: &[u8]) -> Option<StateSample> {
+    if b.len() < record_bytes() {
+        return None;
+    }
+    let mut c = Cursor { b, at: 0 };
+    let mut s = StateSample {
+        cycle: c.u64(),
+        sync_time_ns: c.u64(),
+        state: c.u32(),
+        hold: c.u8(),
+        program_loaded: c.u8(),
+        drives_enabled: c.u8(),
+        drives_silent: c.u8(),
+        pass: c.u32(),
+        passes_total: c.u32(),
+        tooth: c.u32(),
+        coupling: c.u32(),
+        table_deg: c.axis(),
+        x_mm: c.axis(),
+        y_mm: c.axis(),
+        spindle_deg: c.f64(),
+        spindle_rpm: c.f64(),
+        spindle_set_rpm: c.f64(),
+        sync_error_arcsec: c.f64(),
+        ccc_arcsec: c.f64(),
+        ..StateSample::default()
+    };
+    s.alarm = AlarmCode {
+        code: c.u32(),
+        axis: c.u8(),
+        end: c.u8(),
+        _pad: [0; 2],
+        value_a: c.f64(),
+        value_b: c.f64(),
+    };
+    s.digital_inputs = c.u32();
+    s.digital_outputs = c.u32();
+    s.io_valid = c.u8();
+    s.wake_latency_ns = c.u32();
+    s.compute_ns = c.u32();
+    s.overruns = c.u64();
+    s.events_lost = c.u64();
+    s.pitch_radius_mm = c.f64();
+    s.normal_module_mm = c.f64();
+    Some(s)
+}
+
+/// The header line of a state file.
+pub fn header(instance: &str, started_unix_s: u64) -> String {
+    let fields: Vec<[&str; 2]> = FIELDS.iter().map(|&(n, t)| [n, t]).collect();
+    let h = serde_json::json!({
+        "format": "hob-state-log",
+        "version": 1,
+        "record_bytes": record_bytes(),
+        "fields": fields,
+        "instance": instance,
+        "started_unix_s": started_unix_s,
+    });
+    format!("{h}\n")
+}
+
+/// The state files of a log directory, in order.
+pub fn state_files(dir: &Path) -> std::io::Result<Vec<PathBuf>> {
+    let mut files: Vec<PathBuf> = std::fs::read_dir(dir)?
+        .filter_map(|e| e.ok().map(|e| e.path()))
+        .filter(|p| {
+            p.file_name()
+                .and_then(|n| n.to_str())
+                .is_some_and(|n| n.starts_with("state-") && n.ends_with(".hoblog"))
+        })
+        .collect();
+    files.sort();
+    Ok(files)
+}
+
+/// Every state sample of a log directory, in order. Refuses files whose header does not
+/// describe this reader's records.
+pub fn read_dir_states(dir: &Path) -> Result<Vec<StateSample>, String> {
+    let files = state_files(dir).map_err(|e| format!("{}: {e}", dir.display()))?;
+    if files.is_empty() {
+        return Err(format!(
+            "{}: no state-*.hoblog files: not a hob log",
+            dir.display()
+        ));
+    }
+    let mut out = Vec::new();
+    for f in files {
+        let bytes = std::fs::read(&f).map_err(|e| format!("{}: {e}", f.display()))?;
+        let nl = bytes
+            .iter()
+            .position(|&b| b == b'\n')
+            .ok_or_else(|| format!("{}: no header line", f.display()))?;
+        let h: serde_json::Value = serde_json::from_slice(&bytes[..nl])
+            .map_err(|e| format!("{}: header is not JSON: {e}", f.display()))?;
+        if h["format"] != "hob-state-log" || h["version"] != 1 || h["record_bytes"] != record_bytes() {
+            return Err(format!(
+                "{}: header says {} version {} with {} bytes per record; this reader knows hob-state-log version 1 with {}",
+                f.display(),
+                h["format"],
+                h["version"],
+                h["record_bytes"],
+                record_bytes()
+            ));
+        }
+        // A file cut short by a killed logger ends in a partial record: dropped.
+        for rec in bytes[nl + 1..].chunks_exact(record_bytes()) {
+            if let Some(s) = decode(rec) {
+                out.push(s);
+            }
+        }
+    }
+    Ok(out)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn records_round_trip_and_match_the_header() {
+        let mut s = StateSample {
+            cycle: 42,
+            sync_time_ns: 7,
+            state: 11,
+            hold: 1,
+            pass: 2,
+            sync_error_arcsec: -1.25,
+            wake_latency_ns: 33,
+            pitch_radius_mm: 44.5,
+            ..StateSample::default()
+        };
+        s.alarm.code = 5;
+        s.alarm.axis = 2;
+        s.alarm.value_a = 0.3;
+        s.y_mm.command = 12.5;
+        let mut b = Vec::new();
+        encode(&s, &mut b);
+        assert_eq!(b.len(), record_bytes());
+        assert_eq!(decode(&b), Some(s));
+        assert_eq!(decode(&b[1..]), None);
+    }
+}

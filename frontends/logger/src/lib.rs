@@ -1,0 +1,18 @@
+//! The log format of `hob-logger` and its reader (used by `hob log export|report`).
+//!
+//! A log is a directory:
+//! - `state-NNNNNN.hoblog`: state samples. The first line is a header, one line of JSON
+//!   ending in `\n`: `{"format":"hob-state-log","version":1,"record_bytes":N,
+//!   "fields":[["cycle","u64"],...],"instance":..,"started_unix_s":..}`; then fixed-size
+//!   records, little-endian, fields in the header's order. A new file is started every
+//!   [`ROTATE_RECORDS`] records (and at every start of the logger).
+//! - `events.log`: one line per event: `seq cycle kind text`.
+//! - `gaps.log`: one line per run of samples the logger missed: `first_cycle last_cycle count`.
+//! - `logger.json`: written at exit and every second: samples recorded, samples lost,
+//!   events recorded, events lost, files.
+
+pub mod format;
+pub mod writer;
+
+pub use format::{FIELDS, decode, encode, read_dir_states, record_bytes};
+pub use writer::{LogStats, LogWriter};

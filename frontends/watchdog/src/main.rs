@@ -1,0 +1,249 @@
+//! `hob-watchdog`: the independent safety channel. It follows the loop's `state` stream
+//! (one sample per millisecond: the loop's liveness) and has its own CAN socket. When the
+//! stream is missing for longer than its deadline (`service.watchdog_deadline_ms`, 10 ms),
+//! or the loop reports that it lost the machine (faulted with a drive or the I/O coupler
+//! gone from the bus), it
+//! 1. switches every digital output of the I/O coupler off by SDO, PC-OK among them: the
+//!    safety relay chain opens (domain.md section 6), the drives lose power (STO), the VFD
+//!    stops; the spindle reference goes to 0 V;
+//! 2. sends quick stop (controlword 0x0002) to every drive by SDO;
+//! and reports what it did (stderr, and one JSON line on stdout). It re-arms when a new
+//! loop starts publishing.
+//!
+//! usage: hob-watchdog [--machine FILE] [--iface IFACE|shm] [--deadline-ms N]
+
+use hob_ipc::StateSample;
+use hob_rt_core::canopen::bus::CanBus;
+use hob_rt_core::canopen::frame::Frame;
+use hob_rt_core::canopen::plan::{ANALOG_OUTPUTS, BusPlan, DIGITAL_OUTPUTS};
+use hob_rt_core::canopen::sdo::SdoClient;
+use hob_rt_core::config::machine::MachineConfig;
+use hob_rt_core::control::State;
+use hob_rt_core::control::fault::Fault;
+use hob_rt_core::service::rt::{self, RtReport, now_ns, sleep_until_ns};
+use hob_rt_core::service::shm_can::open_bus;
+use hob_rt_core::service::wire;
+use std::path::PathBuf;
+use std::process::ExitCode;
+use std::sync::atomic::Ordering;
+
+const CONTROLWORD: u16 = 0x6040;
+const QUICK_STOP: u16 = 0x0002;
+const POLL_NS: u64 = 1_000_000;
+
+#[derive(Debug)]
+struct Args {
+    machine: PathBuf,
+    iface: Option<String>,
+    deadline_ms: Option<u32>,
+}
+
+fn parse_args() -> Result<Args, String> {
+    let mut a = Args {
+        machine: PathBuf::from("config/machine.toml"),
+        iface: None,
+        deadline_ms: None,
+    };
+    let mut it = std::env::args().skip(1);
+    while let Some(arg) = it.next() {
+        let mut value = || it.next().ok_or_else(|| format!("{arg} needs a value"));
+        match arg.as_str() {
+            "--machine" => a.machine = value()?.into(),
+            "--iface" => a.iface = Some(value()?),
+            "--deadline-ms" => {
+                let v = value()?;
+                a.deadline_ms = Some(
+                    v.parse()
+                        .map_err(|_| format!("--deadline-ms: not a number: {v}"))?,
+                );
+            }
+            other => return Err(format!("unknown argument {other}")),
+        }
+    }
+    Ok(a)
+}
+
+/// Why the watchdog acted.
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum Trip {
+    Silent { silence_ms: f64 },
+    LoopLostMachine(Fault),
+}
+
+/// The loop reports that it lost the machine: faulted with a drive's feedback or the I/O
+/// coupler gone (it can no longer make the machine safe by itself).
+fn lost_machine(s: &StateSample) -> Option<Fault> {
+    if wire::state_from_code(s.state) != Some(State::Faulted) {
+        return None;
+    }
+    match wire::fault_from_alarm(&s.alarm)? {
+        f @ (Fault::FeedbackLost { .. } | Fault::IoLost) => Some(f),
+        _ => None,
+    }
+}
+
+/// The frames of the reaction, in order: outputs off, spindle reference 0, quick stops.
+fn reaction(plan: &BusPlan) -> Vec<Frame> {
+    let mut frames = Vec::new();
+    let io = plan.io.node;
+    for sub in 1..=2u8 {
+        if let Ok(f) = SdoClient::new(io).download(DIGITAL_OUTPUTS, sub, &[0]) {
+            frames.push(f);
+        }
+    }
+    let ch = 1 + plan.spindle_analog_channel;
+    if let Ok(f) = SdoClient::new(io).download(ANALOG_OUTPUTS, ch, &0i16.to_le_bytes()) {
+        frames.push(f);
+    }
+    for node in plan.drives.map(|d| d.node) {
+        if let Ok(f) = SdoClient::new(node).download(CONTROLWORD, 0, &QUICK_STOP.to_le_bytes()) {
+            frames.push(f);
+        }
+    }
+    frames
+}
+
+fn main() -> ExitCode {
+    let args = match parse_args() {
+        Ok(a) => a,
+        Err(e) => {
+            eprintln!(
+                "hob-watchdog: {e}\nusage: hob-watchdog [--machine FILE] [--iface IFACE|shm] [--deadline-ms N]"
+            );
+            return ExitCode::from(2);
+        }
+    };
+    let machine = match MachineConfig::load(&args.machine) {
+        Ok(m) => m,
+        Err(e) => {
+            eprintln!("hob-watchdog: refused: {e}");
+            return ExitCode::from(2);
+        }
+    };
+    match run(&args, &machine) {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("hob-watchdog: {e}");
+            ExitCode::from(1)
+        }
+    }
+}
+
+fn run(args: &Args, machine: &MachineConfig) -> Result<(), String> {
+    let stop = rt::termination_flag();
+    let deadline_ms = args.deadline_ms.unwrap_or(machine.service.watchdog_deadline_ms);
+    if deadline_ms < 2 {
+        return Err(format!("--deadline-ms must be at least 2 (is {deadline_ms})"));
+    }
+    let deadline_ns = u64::from(deadline_ms) * 1_000_000;
+    let iface = args
+        .iface
+        .clone()
+        .unwrap_or_else(|| machine.can.interface.clone());
+    let mut bus = open_bus(&iface, "hob-watchdog-can")?;
+    let ports = hob_ipc::Ports::subscribe("hob-watchdog").map_err(|e| e.to_string())?;
+    let plan = BusPlan::from_machine(machine);
+    let frames = reaction(&plan);
+
+    let mut report = RtReport::default();
+    rt::set_fifo(machine.service.watchdog_priority, &mut report);
+    for p in &report.problems {
+        eprintln!("hob-watchdog: DEGRADED: {p}");
+    }
+    eprintln!("hob-watchdog: watching the loop on {iface}, deadline {deadline_ms} ms");
+
+    let mut last_cycle: Option<u64> = None;
+    let mut last_seen_ns = 0u64;
+    let mut tripped = false;
+    let mut next = now_ns();
+    while !stop.load(Ordering::Relaxed) {
+        next += POLL_NS;
+        sleep_until_ns(next);
+        let now = now_ns();
+        if now > next + POLL_NS {
+            next = now;
+        }
+        // Our own socket: keep its queue drained (we only read SDO answers).
+        while let Ok(Some(_)) = bus.try_recv() {}
+        let mut newest = None;
+        while let Some(s) = ports.next_state() {
+            newest = Some(s);
+        }
+        if let Some(s) = newest {
+            let restarted = last_cycle.is_some_and(|c| s.cycle < c);
+            if tripped && restarted {
+                tripped = false;
+                eprintln!(
+                    "hob-watchdog: a new loop is publishing (cycle {}): re-armed",
+                    s.cycle
+                );
+            }
+            if last_cycle.is_none() {
+                eprintln!("hob-watchdog: armed at cycle {}", s.cycle);
+            }
+            last_cycle = Some(s.cycle);
+            last_seen_ns = now;
+            if !tripped && let Some(f) = lost_machine(&s) {
+                act(&mut bus, &frames, Trip::LoopLostMachine(f), s.cycle);
+                tripped = true;
+            }
+        } else if !tripped && last_cycle.is_some() && now - last_seen_ns > deadline_ns {
+            let silence_ms = (now - last_seen_ns) as f64 / 1e6;
+            act(
+                &mut bus,
+                &frames,
+                Trip::Silent { silence_ms },
+                last_cycle.unwrap_or(0),
+            );
+            tripped = true;
+        }
+    }
+    Ok(())
+}
+
+/// Sends the reaction and reports it.
+fn act(bus: &mut Box<dyn CanBus>, frames: &[Frame], why: Trip, cycle: u64) {
+    let t0 = now_ns();
+    let mut sent = 0;
+    let mut errors = Vec::new();
+    for f in frames {
+        match bus.send(f) {
+            Ok(()) => sent += 1,
+            Err(e) => errors.push(format!("0x{:03X}: {e}", f.id)),
+        }
+    }
+    let send_us = (now_ns() - t0) as f64 / 1e3;
+    // The nodes' SDO answers (up to 50 ms).
+    let mut acks = Vec::new();
+    let end = now_ns() + 50_000_000;
+    while now_ns() < end && acks.len() < frames.len() {
+        match bus.try_recv() {
+            Ok(Some(f)) if (0x581..=0x5FF).contains(&f.id) => {
+                acks.push(format!("0x{:03X}:{:02X}", f.id, f.data[0]))
+            }
+            Ok(_) => std::thread::sleep(std::time::Duration::from_micros(200)),
+            Err(_) => break,
+        }
+    }
+    let reason = match why {
+        Trip::Silent { silence_ms } => format!("loop silent for {silence_ms:.1} ms after cycle {cycle}"),
+        Trip::LoopLostMachine(f) => format!("loop reports it lost the machine: {}", wire::fault_text(f)),
+    };
+    eprintln!(
+        "hob-watchdog: TRIPPED: {reason}: I/O coupler outputs off (PC-OK dropped, safety chain opens), \
+         spindle reference 0 V, quick stop to the drives: {sent}/{} frames sent in {send_us:.0} us, {} answered{}",
+        frames.len(),
+        acks.len(),
+        if errors.is_empty() {
+            String::new()
+        } else {
+            format!(", errors: {}", errors.join(", "))
+        }
+    );
+    println!(
+        "{{\"tripped\":true,\"reason\":{:?},\"last_cycle\":{cycle},\"frames_sent\":{sent},\"answers\":{},\"errors\":{}}}",
+        reason,
+        acks.len(),
+        errors.len()
+    );
+}
