@@ -7,6 +7,7 @@
 //!    safety relay chain opens (domain.md section 6), the drives lose power (STO), the VFD
 //!    stops; the spindle reference goes to 0 V;
 //! 2. sends quick stop (controlword 0x0002) to every drive by SDO;
+//!
 //! and reports what it did (stderr, and one JSON line on stdout). It re-arms when a new
 //! loop starts publishing.
 //!

@@ -319,6 +319,11 @@ pub struct Cyclic {
     spindle: i32,
     statusword: [u16; 3],
     fresh: [bool; 3],
+    /// Per drive: SYNCs sent whose synchronous TPDO has not arrived yet, TPDOs drained
+    /// this cycle, and whether the last cycle got one TPDO while still one behind.
+    owed: [u32; 3],
+    got: [u32; 3],
+    one_behind: [bool; 3],
     misses: [u32; 3],
     inputs: [u8; 3],
     inputs_seen: bool,
@@ -345,6 +350,9 @@ impl Cyclic {
             spindle: 0,
             statusword: [PowerState::SwitchOnDisabled.statusword(); 3],
             fresh: [false; 3],
+            owed: [0; 3],
+            got: [0; 3],
+            one_behind: [false; 3],
             misses: [0; 3],
             inputs: [0; 3],
             inputs_seen: false,
@@ -417,6 +425,7 @@ impl Cyclic {
                                 self.spindle = as_i32(v[1]);
                             }
                             self.fresh[i] = true;
+                            self.got[i] = self.got[i].saturating_add(1);
                         }
                     } else if n == 2
                         && let Some(v) = d.status.unpack(f)
@@ -468,7 +477,23 @@ impl Cyclic {
         let mut fb = [AxisFeedback::default(); 3];
         #[allow(clippy::needless_range_loop)] // five arrays indexed by drive
         for i in 0..3 {
-            if self.fresh[i] {
+            // A synchronous TPDO answers exactly one SYNC, in order. A node that fell
+            // behind (its answers arrive late, then in a burst) sends values of an older
+            // SYNC: they are the newest known but not this cycle's measurement. One behind
+            // two cycles running with one answer each is a lost frame, not lag: forgiven.
+            let mut owed = self.owed[i].saturating_sub(self.got[i]);
+            if self.got[i] == 1 && owed >= 1 {
+                if self.one_behind[i] {
+                    owed = 0;
+                }
+                self.one_behind[i] = true;
+            } else {
+                self.one_behind[i] = false;
+            }
+            let current = self.got[i] > 0 && owed == 0;
+            self.owed[i] = owed;
+            self.got[i] = 0;
+            if current {
                 self.misses[i] = 0;
             } else {
                 self.misses[i] += 1;
@@ -484,7 +509,7 @@ impl Cyclic {
                 enabled: state == PowerState::OperationEnabled,
                 fault: matches!(state, PowerState::Fault | PowerState::FaultReactionActive),
                 // The control core counts the misses and faults after the configured number.
-                fresh: self.fresh[i],
+                fresh: current,
             };
             self.fresh[i] = false;
         }
@@ -579,7 +604,17 @@ impl Cyclic {
                 &mut first_error,
             );
         }
-        send(bus, &Frame::new(SYNC, &[]), &mut first_error);
+        let sync = bus.send(&Frame::new(SYNC, &[]));
+        if sync.is_ok() {
+            // Each drive owes this SYNC's TPDO (bounded: a silent node is a fault long before).
+            for o in &mut self.owed {
+                *o = (*o + 1).min(1_000);
+            }
+        } else if let Err(e) = sync
+            && first_error.is_none()
+        {
+            first_error = Some(e);
+        }
         match first_error {
             Some(e) => {
                 self.event(BusEvent::SendFailed(e));

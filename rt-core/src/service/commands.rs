@@ -21,8 +21,10 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::mpsc::{Receiver, SyncSender, TryRecvError};
 use std::time::{Duration, Instant};
 
-/// What the command thread hands to the loop.
+/// What the command thread hands to the loop. Not boxed: the loop would free the box,
+/// a heap operation inside the cycle; the channel's slot holds it inline instead.
 #[derive(Debug, Clone, Copy)]
+#[allow(clippy::large_enum_variant)]
 pub enum Mail {
     Load(CycleProgram),
     Command(Command),
