@@ -81,7 +81,18 @@ pub fn node(name: &str) -> Result<Node<Svc>, BusError> {
     Ok(node)
 }
 
-type PubSub<T> = iceoryx2::service::port_factory::publish_subscribe::PortFactory<Svc, T, ()>;
+/// A publish-subscribe service of this bus.
+pub type PubSub<T> = iceoryx2::service::port_factory::publish_subscribe::PortFactory<Svc, T, ()>;
+
+/// A publisher on `service`, connected to the subscribers that exist already.
+pub fn publisher<T>(service: &PubSub<T>, what: &str) -> Result<Publisher<Svc, T, ()>, BusError>
+where
+    T: std::fmt::Debug + iceoryx2::prelude::ZeroCopySend + 'static,
+{
+    let p = service.publisher_builder().create().map_err(err(what))?;
+    let _ = p.update_connections();
+    Ok(p)
+}
 
 fn pub_sub<T>(node: &Node<Svc>, what: &str, buffer: usize, history: usize) -> Result<PubSub<T>, BusError>
 where

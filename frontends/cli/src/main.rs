@@ -512,12 +512,7 @@ fn parse_jog(s: &str) -> Result<(hob_rt_core::control::fault::Axis, f64), String
     let (axis, d) = s
         .split_once('=')
         .ok_or_else(|| format!("--jog {s}: expected AXIS=DISTANCE"))?;
-    let axis = match axis.to_ascii_lowercase().as_str() {
-        "x" => Axis::X,
-        "y" => Axis::Y,
-        "b" => Axis::B,
-        other => return Err(format!("--jog {s}: axis {other} is not x, y or b")),
-    };
+    let axis = Axis::parse(axis).ok_or_else(|| format!("--jog {s}: axis {axis} is not x, y or b"))?;
     let d: f64 = d.parse().map_err(|e| format!("--jog {s}: {e}"))?;
     Ok((axis, d))
 }

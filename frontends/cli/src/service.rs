@@ -43,12 +43,7 @@ pub fn start(single: bool) -> CommandRequest {
 }
 
 pub fn jog(axis: &str, distance: f64) -> Result<CommandRequest, (u8, String)> {
-    let axis = match axis.to_ascii_lowercase().as_str() {
-        "x" => Axis::X,
-        "y" => Axis::Y,
-        "b" => Axis::B,
-        other => return Err((2, format!("jog: axis {other} is not x, y or b"))),
-    };
+    let axis = Axis::parse(axis).ok_or_else(|| (2, format!("jog: axis {axis} is not x, y or b")))?;
     let (code, single, axis, value) =
         wire::command_code(hob_rt_core::control::Command::Jog { axis, distance });
     let mut r = CommandRequest::new(code);

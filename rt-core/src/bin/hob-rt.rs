@@ -129,24 +129,11 @@ fn run(args: &Args, machine: MachineConfig) -> Result<(), (u8, String)> {
     // would make these mappings fail).
     let node = hob_ipc::node("hob-rt").map_err(|e| (1, e.to_string()))?;
     let state_pub = hob_ipc::open_state(&node)
-        .and_then(|s| {
-            s.publisher_builder()
-                .create()
-                .map_err(|e| hob_ipc::BusError(format!("{e:?}")))
-        })
-        .map_err(|e| (1, format!("state publisher: {e}")))?;
+        .and_then(|s| hob_ipc::publisher(&s, "state publisher"))
+        .map_err(|e| (1, e.to_string()))?;
     let events_pub = hob_ipc::open_events(&node)
-        .and_then(|s| {
-            s.publisher_builder()
-                .create()
-                .map_err(|e| hob_ipc::BusError(format!("{e:?}")))
-        })
-        .map_err(|e| (1, format!("events publisher: {e}")))?;
-    {
-        use hob_ipc::iceoryx2::port::update_connections::UpdateConnections;
-        let _ = state_pub.update_connections();
-        let _ = events_pub.update_connections();
-    }
+        .and_then(|s| hob_ipc::publisher(&s, "events publisher"))
+        .map_err(|e| (1, e.to_string()))?;
 
     let (thread_box, loop_box) = commands::mailboxes();
     let (loop_timing, stats_timing) = stats::circulation();
@@ -302,10 +289,7 @@ fn stats_loop(
 ) -> hob_rt_core::service::stats::Timing {
     let publisher = hob_ipc::node("hob-rt-stats")
         .and_then(|n| {
-            let p = hob_ipc::open_stats(&n)?
-                .publisher_builder()
-                .create()
-                .map_err(|e| hob_ipc::BusError(format!("{e:?}")))?;
+            let p = hob_ipc::publisher(&hob_ipc::open_stats(&n)?, "stats publisher")?;
             Ok((n, p))
         })
         .map_err(|e| eprintln!("hob-rt: stats publisher: {e}"))

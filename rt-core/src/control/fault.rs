@@ -19,6 +19,16 @@ impl Axis {
             Axis::Y => "Y",
         }
     }
+
+    /// The axis of a name as an operator types it (`x`, `Y`, `b`).
+    pub fn parse(name: &str) -> Option<Axis> {
+        match name.to_ascii_lowercase().as_str() {
+            "b" => Some(Axis::B),
+            "x" => Some(Axis::X),
+            "y" => Some(Axis::Y),
+            _ => None,
+        }
+    }
 }
 
 /// Which end of an axis.

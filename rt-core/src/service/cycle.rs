@@ -115,13 +115,12 @@ impl<B: CanBus> RtLoop<B> {
         let _ = self.events_pub.send_copy(e);
     }
 
-    fn publish_events(&mut self) {
+    fn publish_events(&mut self, cycle: u64) {
         while let Some(ev) = self.controller.events().pop() {
             let s = wire::event_sample(0, &ev);
             self.publish_event(s);
         }
         let n = self.cyclic.take_events(&mut self.bus_events);
-        let cycle = self.controller.status().cycle;
         for i in 0..n {
             let Some(be) = self.bus_events[i] else { continue };
             let mut e = EventSample {
@@ -162,8 +161,9 @@ impl<B: CanBus> RtLoop<B> {
         }
     }
 
-    /// One cycle, woken at `wake_ns` for the deadline `deadline_ns`.
-    pub fn cycle(&mut self, deadline_ns: u64, wake_ns: u64) {
+    /// One cycle, woken at `wake_ns` for the deadline `deadline_ns`; returns the
+    /// sequencer's state after it.
+    pub fn cycle(&mut self, deadline_ns: u64, wake_ns: u64) -> State {
         while let Ok(Some(f)) = self.bus.try_recv() {
             self.cyclic.receive(&f);
         }
@@ -207,7 +207,7 @@ impl<B: CanBus> RtLoop<B> {
         if let Ok(sample) = self.state_pub.loan_uninit() {
             let _ = sample.write_payload(s).send();
         }
-        self.publish_events();
+        self.publish_events(status.cycle);
         self.counters.cycle.store(status.cycle, Ordering::Relaxed);
         self.timing
             .current
@@ -215,6 +215,7 @@ impl<B: CanBus> RtLoop<B> {
         if status.cycle.is_multiple_of(TIMING_HANDOVER_CYCLES) {
             self.timing.hand_over();
         }
+        status.state
     }
 
     /// Runs until `stop`; then stops a running cycle (out of the cut, gearbox engaged until
@@ -228,19 +229,17 @@ impl<B: CanBus> RtLoop<B> {
             sleep_until_ns(deadline);
             alloc_guard::in_cycle(true);
             let wake = now_ns();
-            self.cycle(deadline, wake);
+            let state = self.cycle(deadline, wake);
             n += 1;
-            let state = self.controller.status().state;
             alloc_guard::in_cycle(false);
+            let at_rest = matches!(state, State::Init | State::Idle | State::Faulted);
             if stop.load(Ordering::Relaxed) && stopping_since.is_none() {
                 stopping_since = Some(n);
-                if state.in_cycle() || state == State::Jog {
+                if !at_rest {
                     let _ = self.controller.command(crate::control::Command::Stop);
                 }
             }
             if let Some(since) = stopping_since {
-                let at_rest = !(state.in_cycle() || state == State::Jog)
-                    || matches!(state, State::Faulted | State::Idle | State::Init);
                 let waited_s = (n - since) as f64 * self.period_ns as f64 * 1e-9;
                 if at_rest || waited_s > STOP_GRACE_S {
                     break;

@@ -176,24 +176,26 @@ impl StatsTiming {
     /// emptied pairs. Returns whether anything came.
     pub fn collect(&mut self) -> bool {
         let mut any = false;
-        while let Ok(mut t) = self.full.try_recv() {
-            let _ = self.total.wake_ns.add(&t.wake_ns);
-            let _ = self.total.compute_ns.add(&t.compute_ns);
-            t.reset();
-            let _ = self.empty.try_send(t);
+        while let Ok(t) = self.full.try_recv() {
+            self.absorb(t);
             any = true;
         }
         any
     }
 
+    /// Adds a handed-over pair into the totals and returns it emptied.
+    fn absorb(&mut self, mut t: Timing) {
+        let _ = self.total.wake_ns.add(&t.wake_ns);
+        let _ = self.total.compute_ns.add(&t.compute_ns);
+        t.reset();
+        let _ = self.empty.try_send(t);
+    }
+
     /// Waits up to `d` for pairs (the stats thread's pace).
     pub fn wait(&mut self, d: Duration) -> bool {
         match self.full.recv_timeout(d) {
-            Ok(mut t) => {
-                let _ = self.total.wake_ns.add(&t.wake_ns);
-                let _ = self.total.compute_ns.add(&t.compute_ns);
-                t.reset();
-                let _ = self.empty.try_send(t);
+            Ok(t) => {
+                self.absorb(t);
                 self.collect();
                 true
             }
