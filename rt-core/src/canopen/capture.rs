@@ -13,8 +13,14 @@ pub struct Captured {
 }
 
 /// Parses `candump -L` lines (`(1700000000.123456) vcan0 080#`) or bare `ID#DATA`.
+///
+/// Frames are returned in the order of their kernel timestamps: `candump` writes frames
+/// received on different sockets' paths out of order now and then under load (measured in
+/// the emulated guest: a TPDO stamped before a SYNC logged after it), while the stamps
+/// keep the order on the bus. Lines without a stamp keep the file's order.
 pub fn parse_candump(text: &str) -> Vec<Captured> {
-    text.lines()
+    let mut frames: Vec<Captured> = text
+        .lines()
         .filter_map(|line| {
             let mut t_s = None;
             let mut rest = line.trim();
@@ -26,7 +32,12 @@ pub fn parse_candump(text: &str) -> Vec<Captured> {
             let frame_text = rest.split_whitespace().last()?;
             Frame::from_candump(frame_text).map(|frame| Captured { t_s, frame })
         })
-        .collect()
+        .collect();
+    if frames.iter().all(|c| c.t_s.is_some()) {
+        // Stable: frames with the same stamp keep the file's order.
+        frames.sort_by(|a, b| a.t_s.partial_cmp(&b.t_s).unwrap_or(std::cmp::Ordering::Equal));
+    }
+    frames
 }
 
 /// A `candump -L` line for a frame.
@@ -219,6 +230,23 @@ mod tests {
 
     fn plan() -> BusPlan {
         BusPlan::from_machine(&crate::config::machine::shipped_for_tests())
+    }
+
+    #[test]
+    fn frames_are_put_in_the_order_of_their_stamps() {
+        // As logged by candump in the guest (fresh-clone run): the TPDO stamped before the
+        // SYNC was written after it.
+        let text = "\
+(1795251869.388954) vcan0 204#AC800200
+(1795251869.389000) vcan0 080#
+(1795251869.388017) vcan0 184#B1800200
+(1795251869.393011) vcan0 182#9FA5E9FFD714F9FF
+";
+        let ids: Vec<u16> = parse_candump(text).iter().map(|c| c.frame.id).collect();
+        assert_eq!(ids, [0x184, 0x204, 0x080, 0x182]);
+        let unstamped = "vcan0 080#\nvcan0 184#B1800200\n";
+        let ids: Vec<u16> = parse_candump(unstamped).iter().map(|c| c.frame.id).collect();
+        assert_eq!(ids, [0x080, 0x184], "without stamps the file's order stands");
     }
 
     const GOOD: &str = "\
