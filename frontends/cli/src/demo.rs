@@ -35,7 +35,7 @@ pub struct DemoArgs<'a> {
 
 /// The machine configuration for a demo on a virtual machine: the hypervisor stalls a
 /// virtual CPU for milliseconds now and then (measured here: loop wake-up p99.99 4 ms,
-/// max 6 ms), longer than the 3 cycles of TPDOs the shipped configuration tolerates. The
+/// max 6 to 66 ms), longer than the 3 cycles of TPDOs the shipped configuration tolerates. The
 /// copy raises `can.tpdo_misses_to_fault`, `service.watchdog_deadline_ms` and
 /// `can.heartbeat_timeout_ms` to the tolerance; everything else is unchanged.
 fn relaxed_machine(file: &Path, dir: &Path, tolerance_ms: u32) -> Result<(PathBuf, String), String> {

@@ -53,7 +53,7 @@ enum Command {
         #[arg(long)]
         strict: bool,
         /// Without --strict: bus silence tolerated before a fault, ms.
-        #[arg(long, default_value_t = 25)]
+        #[arg(long, default_value_t = 100)]
         tolerance_ms: u32,
     },
     /// The running service's state, alarms, loop timing and recent events.
