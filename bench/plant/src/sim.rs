@@ -184,13 +184,22 @@ impl Simulation {
 
     /// One cycle; returns the trace row of this SYNC.
     pub fn step(&mut self) -> TraceRow {
+        self.step_with(&mut |c, i| c.step(i))
+    }
+
+    /// One cycle with the controller's step called through `step` (benchmarks time it or
+    /// count its instructions per sequencer state); returns the trace row of this SYNC.
+    pub fn step_with(
+        &mut self,
+        step: &mut dyn FnMut(&mut Controller, &CycleInputs) -> CycleOutputs,
+    ) -> TraceRow {
         let t_sync = self.cycle as f64 * self.period_s;
         let latch = t_sync + self.jitter();
         self.plant.advance_to(latch.max(self.plant.time_s()));
         self.plant.apply(&self.outputs);
         let inputs: CycleInputs = self.plant.latch();
         let row = self.row(t_sync);
-        self.outputs = self.controller.step(&inputs);
+        self.outputs = step(&mut self.controller, &inputs);
         while let Some(e) = self.controller.events().pop() {
             self.events.push(e);
         }
@@ -229,9 +238,19 @@ impl Simulation {
 
     /// Runs until the controller leaves power-up (or `max_s` passes).
     pub fn power_up(&mut self, max_s: f64, sink: &mut dyn FnMut(&TraceRow)) -> bool {
+        self.power_up_with(max_s, sink, &mut |c, i| c.step(i))
+    }
+
+    /// [`Self::power_up`] through a step hook (see [`Self::step_with`]).
+    pub fn power_up_with(
+        &mut self,
+        max_s: f64,
+        sink: &mut dyn FnMut(&TraceRow),
+        step: &mut dyn FnMut(&mut Controller, &CycleInputs) -> CycleOutputs,
+    ) -> bool {
         let end = self.cycle + (max_s / self.period_s) as u64;
         while self.cycle < end {
-            let row = self.step();
+            let row = self.step_with(step);
             sink(&row);
             if row.state == State::Idle {
                 return true;
@@ -247,9 +266,20 @@ impl Simulation {
         sink: &mut dyn FnMut(&TraceRow),
         done: &mut dyn FnMut(&TraceRow, &[Event]) -> bool,
     ) -> bool {
+        self.run_until_with(max_s, sink, done, &mut |c, i| c.step(i))
+    }
+
+    /// [`Self::run_until`] through a step hook (see [`Self::step_with`]).
+    pub fn run_until_with(
+        &mut self,
+        max_s: f64,
+        sink: &mut dyn FnMut(&TraceRow),
+        done: &mut dyn FnMut(&TraceRow, &[Event]) -> bool,
+        step: &mut dyn FnMut(&mut Controller, &CycleInputs) -> CycleOutputs,
+    ) -> bool {
         let end = self.cycle + (max_s / self.period_s) as u64;
         while self.cycle < end {
-            let row = self.step();
+            let row = self.step_with(step);
             sink(&row);
             if done(&row, &self.events) {
                 return true;
@@ -412,6 +442,31 @@ pub fn run_program(
     options: &SimOptions,
     sink: &mut dyn FnMut(&TraceRow),
 ) -> Result<Summary, String> {
+    run_program_with(
+        machine_in,
+        plant_cfg,
+        program,
+        plan,
+        job,
+        options,
+        sink,
+        &mut |c, i| c.step(i),
+    )
+}
+
+/// [`run_program`] with the controller's step called through `step` (see
+/// [`Simulation::step_with`]).
+#[allow(clippy::too_many_arguments)]
+pub fn run_program_with(
+    machine_in: &MachineConfig,
+    plant_cfg: &PlantConfig,
+    program: &CycleProgram,
+    plan: &Plan,
+    job: &hob_rt_core::job::Program,
+    options: &SimOptions,
+    sink: &mut dyn FnMut(&TraceRow),
+    step: &mut dyn FnMut(&mut Controller, &CycleInputs) -> CycleOutputs,
+) -> Result<Summary, String> {
     let mut machine = machine_in.clone();
     if options.windows_off {
         machine.gearbox.fine_window_arcsec = 1e9;
@@ -437,7 +492,7 @@ pub fn run_program(
         builder.add(row, period);
         sink(row);
     };
-    if !sim.power_up(60.0, &mut both) {
+    if !sim.power_up_with(60.0, &mut both, step) {
         return Err("the machine did not leave power-up within 60 s".into());
     }
     sim.controller
@@ -448,9 +503,12 @@ pub fn run_program(
         single: options.single,
     })
     .map_err(|r| format!("start refused: {r:?}"))?;
-    let completed = sim.run_until(options.max_time_s, &mut both, &mut |row, _| {
-        matches!(row.state, State::Idle | State::Faulted)
-    });
+    let completed = sim.run_until_with(
+        options.max_time_s,
+        &mut both,
+        &mut |row, _| matches!(row.state, State::Idle | State::Faulted),
+        step,
+    );
     let fault = sim.controller.status().fault.map(|f| format!("{f:?}"));
     let completed = completed && fault.is_none();
     let total = sim.time_s();

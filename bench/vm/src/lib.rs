@@ -13,4 +13,5 @@
 pub mod machine;
 pub mod node;
 pub mod od;
+pub mod procs;
 pub mod runner;

@@ -33,7 +33,9 @@ const USAGE: &str =
                   [default: can.interface of the configuration]
   --require-rt    refuse to run without SCHED_FIFO, the pinned core and locked memory
   --cycles N      stop after N cycles (benchmarks)
-  --hgrm DIR      at exit, write the loop's latency histograms to DIR (wake.hgrm, compute.hgrm)
+  --hgrm DIR      at exit, write the loop's histograms to DIR: wake.hgrm, compute.hgrm
+                  (percentile text, us), wake.hist, compute.hist (every value, ns) and
+                  hob-rt.json (cycles, overruns, real-time set-up)
 
 Environment: HOB_INSTANCE names the shared-memory bus instance (default main).";
 
@@ -270,9 +272,30 @@ fn run(args: &Args, machine: MachineConfig) -> Result<(), (u8, String)> {
     );
     if let Some(dir) = &args.hgrm {
         std::fs::create_dir_all(dir).map_err(|e| (1, format!("{}: {e}", dir.display())))?;
-        for (name, h) in [("wake.hgrm", &total.wake_ns), ("compute.hgrm", &total.compute_ns)] {
+        let summary = format!(
+            "{{\"cycles\": {}, \"overruns\": {}, \"period_ns\": {}, \"fifo_priority\": {}, \"core\": {}, \"memory_locked\": {}, \"preempt_rt\": {}, \"iface\": \"{}\", \"system_allocations_in_cycles\": {}, \"pool_blocks_in_cycles\": {}, \"final_state\": \"{}\"}}\n",
+            total.wake_ns.len(),
+            counters.overruns.load(Ordering::Relaxed),
+            u64::from(machine.control.cycle_period_us) * 1000,
+            report.fifo_priority.unwrap_or(0),
+            report.core.map_or(-1, i64::from),
+            report.memory_locked,
+            kernel_rt,
+            iface.escape_default(),
+            alloc_guard::counts().map_or(0, |c| c.0),
+            alloc_guard::counts().map_or(0, |c| c.1),
+            status.state.name()
+        );
+        let files = [
+            ("wake.hgrm", stats::hgrm(&total.wake_ns)),
+            ("compute.hgrm", stats::hgrm(&total.compute_ns)),
+            ("wake.hist", stats::counts_text(&total.wake_ns)),
+            ("compute.hist", stats::counts_text(&total.compute_ns)),
+            ("hob-rt.json", summary),
+        ];
+        for (name, text) in files {
             let p = dir.join(name);
-            std::fs::write(&p, stats::hgrm(h)).map_err(|e| (1, format!("{}: {e}", p.display())))?;
+            std::fs::write(&p, text).map_err(|e| (1, format!("{}: {e}", p.display())))?;
         }
     }
     Ok(())

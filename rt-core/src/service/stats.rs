@@ -109,6 +109,35 @@ pub fn hgrm(h: &Histogram<u64>) -> String {
     s
 }
 
+/// Every recorded value with its count, one `value_ns count` line each (lossless, unlike
+/// the `.hgrm` text; the benchmarks read it back with [`from_counts_text`]).
+pub fn counts_text(h: &Histogram<u64>) -> String {
+    let mut s = String::from("# value_ns count\n");
+    for v in h.iter_recorded() {
+        let _ = writeln!(s, "{} {}", v.value_iterated_to(), v.count_at_value());
+    }
+    s
+}
+
+/// A histogram from [`counts_text`].
+pub fn from_counts_text(text: &str) -> Result<Histogram<u64>, String> {
+    let mut h = Histogram::new_with_bounds(1, HIGHEST_NS, 3).map_err(|e| e.to_string())?;
+    for (n, line) in text.lines().enumerate() {
+        let line = line.trim();
+        if line.is_empty() || line.starts_with('#') {
+            continue;
+        }
+        let mut f = line.split_whitespace().map(str::parse::<u64>);
+        match (f.next(), f.next(), f.next()) {
+            (Some(Ok(v)), Some(Ok(c)), None) => h
+                .record_n(v.clamp(1, HIGHEST_NS), c)
+                .map_err(|e| format!("line {}: {e}", n + 1))?,
+            _ => return Err(format!("line {}: expected `value_ns count`: {line}", n + 1)),
+        }
+    }
+    Ok(h)
+}
+
 /// The loop's end of the circulation.
 #[derive(Debug)]
 pub struct LoopTiming {
@@ -251,6 +280,18 @@ mod tests {
         t.record(0, u64::MAX);
         assert_eq!(t.wake_ns.len(), 1);
         assert!(t.compute_ns.max() >= HIGHEST_NS / 2);
+    }
+
+    #[test]
+    fn counts_text_round_trips_exactly() {
+        let mut t = Timing::new();
+        for v in [1_000u64, 1_000, 25_000, 1_000_000, 64_000_000] {
+            t.record(v, 5);
+        }
+        let back = from_counts_text(&counts_text(&t.wake_ns)).expect("parses");
+        assert_eq!(back, t.wake_ns);
+        assert!(from_counts_text("12 x").is_err());
+        assert!(from_counts_text("12 1 2").is_err());
     }
 
     #[test]

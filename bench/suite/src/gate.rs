@@ -1,0 +1,388 @@
+//! The release gate: reads the benchmark results of a directory and the limits of a
+//! checked-in file (`ci/gates.toml`), prints a table of every check and fails when one
+//! does. Where the machine's noise would decide, the limits are ratios to the same-run
+//! reference (cyclictest) plus a fixed allowance. Maxima are gated only on a PREEMPT_RT
+//! kernel (on a virtual machine the hypervisor's stalls of milliseconds decide them); they
+//! are always reported.
+
+use crate::accuracy::{AccuracyBench, Disturbance};
+use crate::bus::{BusBench, Pace, Transport};
+use crate::busload::BusLoadBench;
+use crate::latency::LoopBench;
+use crate::step::StepBench;
+use serde::{Deserialize, Serialize};
+use std::path::Path;
+
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Limits {
+    #[serde(rename = "loop")]
+    pub loop_: LoopLimits,
+    pub bus: BusLimits,
+    pub step: StepLimits,
+    pub accuracy: AccuracyLimits,
+    pub busload: BusLoadLimits,
+}
+
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct LoopLimits {
+    pub p99_ratio: f64,
+    pub p99_allowance_us: f64,
+    pub p999_ratio: f64,
+    pub p999_allowance_us: f64,
+    /// Not PREEMPT_RT: late wake-ups (a period or more) beyond cyclictest's, per minute.
+    pub vm_late_wakeups_allowance_per_min: f64,
+    /// PREEMPT_RT only: max <= max_ratio x cyclictest's max + max_allowance_us.
+    pub max_ratio: f64,
+    pub max_allowance_us: f64,
+    pub compute_p9999_share_of_period: f64,
+    pub system_allocations_in_cycles: u64,
+}
+
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct BusLimits {
+    pub iceoryx2_khz_p99_us: f64,
+    pub iceoryx2_khz_lost: u64,
+}
+
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct StepLimits {
+    /// Any state's median step time, as a share of the period.
+    pub median_share_of_period: f64,
+    /// Any state's instructions per step (callgrind), when counted.
+    pub instructions_per_step: f64,
+    /// Every state must have been reached by the scenarios.
+    pub all_states_reached: bool,
+}
+
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct AccuracyLimits {
+    /// With cross-coupling and predictor on, at these disturbance levels: the worst pass's
+    /// max error over the control core's bound (a quarter of grade-5 f_p).
+    pub disturbances: Vec<Disturbance>,
+    pub max_of_bound: f64,
+    /// And each part must help: with it off the error must be larger.
+    pub each_part_helps: bool,
+}
+
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct BusLoadLimits {
+    pub max_percent: f64,
+}
+
+impl Limits {
+    pub fn load(path: &Path) -> Result<Self, String> {
+        let text = std::fs::read_to_string(path).map_err(|e| format!("{}: {e}", path.display()))?;
+        toml::from_str(&text).map_err(|e| format!("{}: {e}", path.display()))
+    }
+}
+
+/// One line of the gate's table.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Check {
+    pub name: String,
+    pub measured: String,
+    pub limit: String,
+    /// None: reported, not gated.
+    pub pass: Option<bool>,
+}
+
+fn check(name: &str, measured: f64, limit: f64, unit: &str) -> Check {
+    Check {
+        name: name.into(),
+        measured: format!("{measured:.2}{unit}"),
+        limit: format!("<= {limit:.2}{unit}"),
+        pass: Some(measured <= limit),
+    }
+}
+
+fn missing(name: &str, e: String) -> Check {
+    Check {
+        name: name.into(),
+        measured: e,
+        limit: "a result".into(),
+        pass: Some(false),
+    }
+}
+
+fn read<T: serde::de::DeserializeOwned>(dir: &Path, file: &str) -> Result<T, String> {
+    let p = dir.join(file);
+    let text = std::fs::read_to_string(&p).map_err(|e| format!("{}: {e}", p.display()))?;
+    serde_json::from_str(&text).map_err(|e| format!("{}: {e}", p.display()))
+}
+
+pub fn loop_checks(r: &LoopBench, l: &LoopLimits) -> Vec<Check> {
+    let c = &r.cyclictest.wake;
+    let w = &r.hob_rt.wake;
+    let rt = r.system.preempt_rt;
+    let mut v = vec![
+        check(
+            "loop wake p99 vs cyclictest",
+            w.p99_us,
+            l.p99_ratio * c.p99_us + l.p99_allowance_us,
+            " us",
+        ),
+        check(
+            "loop wake p99.9 vs cyclictest",
+            w.p999_us,
+            l.p999_ratio * c.p999_us + l.p999_allowance_us,
+            " us",
+        ),
+    ];
+    let max_limit = l.max_ratio * c.max_us + l.max_allowance_us;
+    v.push(Check {
+        name: "loop wake max vs cyclictest".into(),
+        measured: format!("{:.2} us (cyclictest {:.2} us)", w.max_us, c.max_us),
+        limit: if rt {
+            format!("<= {max_limit:.2} us")
+        } else {
+            "reported (not PREEMPT_RT)".into()
+        },
+        pass: rt.then_some(w.max_us <= max_limit),
+    });
+    if rt {
+        v.push(check("loop overruns", r.hob_rt.overruns as f64, 0.0, ""));
+    } else {
+        let minutes = r.seconds as f64 / 60.0;
+        let excess = r.hob_rt.late.wakeups as f64 - r.cyclictest.late.wakeups as f64;
+        let mut c = check(
+            "loop late wake-ups beyond cyclictest's",
+            excess,
+            l.vm_late_wakeups_allowance_per_min * minutes,
+            "",
+        );
+        c.measured = format!(
+            "{excess:.0} ({} vs {}; {} overruns)",
+            r.hob_rt.late.wakeups, r.cyclictest.late.wakeups, r.hob_rt.overruns
+        );
+        v.push(c);
+    }
+    let period_us = r.period_us as f64;
+    v.push(check(
+        "loop compute p99.99",
+        r.hob_rt.compute.p9999_us,
+        l.compute_p9999_share_of_period * period_us,
+        " us",
+    ));
+    v.push(check(
+        "loop system heap allocations in cycles",
+        r.hob_rt.system_allocations_in_cycles as f64,
+        l.system_allocations_in_cycles as f64,
+        "",
+    ));
+    v.push(Check {
+        name: "loop ran with SCHED_FIFO".into(),
+        measured: format!("priority {}", r.hob_rt.fifo_priority),
+        limit: format!("priority {}", r.priority),
+        pass: Some(r.hob_rt.fifo_priority == r.priority),
+    });
+    v
+}
+
+pub fn bus_checks(r: &BusBench, l: &BusLimits) -> Vec<Check> {
+    let mut v = Vec::new();
+    let Some(c) = r
+        .cases
+        .iter()
+        .find(|c| c.transport == Transport::Iceoryx2 && c.pace == Pace::Khz)
+    else {
+        return vec![missing("bus iceoryx2 at 1 kHz", "no such case".into())];
+    };
+    v.push(check(
+        "bus iceoryx2 1 kHz p99",
+        c.latency.p99_us,
+        l.iceoryx2_khz_p99_us,
+        " us",
+    ));
+    v.push(check(
+        "bus iceoryx2 1 kHz lost",
+        c.lost as f64,
+        l.iceoryx2_khz_lost as f64,
+        "",
+    ));
+    if let Some(u) = r
+        .cases
+        .iter()
+        .find(|c| c.transport == Transport::Unix && c.pace == Pace::Khz)
+    {
+        v.push(Check {
+            name: "bus unix datagram 1 kHz p99 (reference)".into(),
+            measured: format!("{:.2} us", u.latency.p99_us),
+            limit: "reported".into(),
+            pass: None,
+        });
+    }
+    v
+}
+
+pub fn step_checks(r: &StepBench, l: &StepLimits, period_us: f64) -> Vec<Check> {
+    let mut v = Vec::new();
+    if let Some(worst) = r.states.iter().max_by(|a, b| a.median_ns.total_cmp(&b.median_ns)) {
+        let mut c = check(
+            "step median time, worst state",
+            worst.median_ns / 1e3,
+            l.median_share_of_period * period_us,
+            " us",
+        );
+        c.name = format!("step median time, worst state ({})", worst.state);
+        v.push(c);
+    }
+    let counted: Vec<_> = r
+        .states
+        .iter()
+        .filter_map(|s| s.instructions.map(|i| (s, i)))
+        .collect();
+    if let Some((s, i)) = counted.iter().max_by(|a, b| a.1.total_cmp(&b.1)) {
+        v.push(check(
+            &format!("step instructions, worst state ({})", s.state),
+            *i,
+            l.instructions_per_step,
+            "",
+        ));
+    } else {
+        v.push(missing("step instructions (callgrind)", "not counted".into()));
+    }
+    if l.all_states_reached {
+        v.push(Check {
+            name: "step: every sequencer state measured".into(),
+            measured: if r.not_reached.is_empty() {
+                format!("{} states", r.states.len())
+            } else {
+                format!("not reached: {}", r.not_reached.join(", "))
+            },
+            limit: "all".into(),
+            pass: Some(r.not_reached.is_empty()),
+        });
+    }
+    v
+}
+
+pub fn accuracy_checks(r: &AccuracyBench, l: &AccuracyLimits) -> Vec<Check> {
+    let mut v = Vec::new();
+    let find = |gear: &str, d: Disturbance, ccc: bool, pr: bool| {
+        r.rows
+            .iter()
+            .find(|x| x.gear == gear && x.disturbance == d && x.cross_coupling == ccc && x.predictor == pr)
+    };
+    let mut gears: Vec<&str> = r.rows.iter().map(|x| x.gear.as_str()).collect();
+    gears.dedup();
+    for gear in gears {
+        for &d in &l.disturbances {
+            let Some(full) = find(gear, d, true, true) else {
+                v.push(missing(
+                    &format!("accuracy {gear} {}", d.name()),
+                    "not measured".into(),
+                ));
+                continue;
+            };
+            let mut c = check(
+                &format!("accuracy {gear}, {} disturbance: max of bound", d.name()),
+                full.max_um / full.bound_um,
+                l.max_of_bound,
+                "",
+            );
+            c.measured = format!(
+                "{:.2} ({:.2} of {:.2} um)",
+                full.max_um / full.bound_um,
+                full.max_um,
+                full.bound_um
+            );
+            if !full.completed {
+                c.pass = Some(false);
+                c.measured = format!("not completed: {}", full.fault.as_deref().unwrap_or("timeout"));
+            }
+            v.push(c);
+            if l.each_part_helps {
+                for (what, other) in [
+                    ("CCC", find(gear, d, false, true)),
+                    ("predictor", find(gear, d, true, false)),
+                ] {
+                    if let Some(o) = other {
+                        v.push(Check {
+                            name: format!("accuracy {gear}, {}: {what} helps", d.name()),
+                            measured: format!("{:.2} um without, {:.2} um with", o.max_um, full.max_um),
+                            limit: "with < without".into(),
+                            pass: Some(full.max_um < o.max_um),
+                        });
+                    }
+                }
+            }
+        }
+    }
+    v
+}
+
+pub fn busload_checks(r: &BusLoadBench, l: &BusLoadLimits) -> Vec<Check> {
+    vec![check("bus load, worst case", r.load_percent, l.max_percent, " %")]
+}
+
+/// Every check of the results in `dir`.
+pub fn evaluate(dir: &Path, limits: &Limits) -> Vec<Check> {
+    let mut v = Vec::new();
+    let mut period_us = 1000.0;
+    match read::<LoopBench>(dir, "loop.json") {
+        Ok(r) => {
+            period_us = r.period_us as f64;
+            v.extend(loop_checks(&r, &limits.loop_));
+        }
+        Err(e) => v.push(missing("loop latency", e)),
+    }
+    match read::<BusBench>(dir, "bus.json") {
+        Ok(r) => v.extend(bus_checks(&r, &limits.bus)),
+        Err(e) => v.push(missing("bus latency", e)),
+    }
+    match read::<StepBench>(dir, "step.json") {
+        Ok(r) => v.extend(step_checks(&r, &limits.step, period_us)),
+        Err(e) => v.push(missing("step cost", e)),
+    }
+    match read::<AccuracyBench>(dir, "accuracy.json") {
+        Ok(r) => v.extend(accuracy_checks(&r, &limits.accuracy)),
+        Err(e) => v.push(missing("accuracy", e)),
+    }
+    match read::<BusLoadBench>(dir, "busload.json") {
+        Ok(r) => v.extend(busload_checks(&r, &limits.busload)),
+        Err(e) => v.push(missing("bus load", e)),
+    }
+    v
+}
+
+pub fn table(checks: &[Check]) -> String {
+    let w = checks.iter().map(|c| c.name.len()).max().unwrap_or(5).max(5);
+    let m = checks.iter().map(|c| c.measured.len()).max().unwrap_or(8).max(8);
+    let mut o = format!("{:<w$}  {:<m$}  {:<28}  result\n", "check", "measured", "limit");
+    for c in checks {
+        o.push_str(&format!(
+            "{:<w$}  {:<m$}  {:<28}  {}\n",
+            c.name,
+            c.measured,
+            c.limit,
+            match c.pass {
+                Some(true) => "pass",
+                Some(false) => "FAIL",
+                None => "-",
+            }
+        ));
+    }
+    let failed = checks.iter().filter(|c| c.pass == Some(false)).count();
+    o.push_str(&if failed == 0 {
+        format!(
+            "gate: PASS ({} checks)\n",
+            checks.iter().filter(|c| c.pass.is_some()).count()
+        )
+    } else {
+        format!(
+            "gate: FAIL ({failed} of {} checks failed)\n",
+            checks.iter().filter(|c| c.pass.is_some()).count()
+        )
+    });
+    o
+}
+
+pub fn passed(checks: &[Check]) -> bool {
+    checks.iter().all(|c| c.pass != Some(false))
+}

@@ -1,0 +1,366 @@
+//! Loop latency against the kernel's limit: `cyclictest` (Debian's rt-tests) and `hob-rt`
+//! (against the virtual machine `hob-sim`, cutting the demo job over and over) in the
+//! same run, one after the other, with the same period, SCHED_FIFO priority and core
+//! (from the machine configuration's `[service]`), optionally under a background load
+//! (`hackbench` from rt-tests). Writes `loop.json`, the histograms (`.hgrm`) and
+//! `loop.svg`.
+
+use crate::hist::{self, Summary};
+use crate::plot::{self, Series};
+use crate::system::{self, SystemInfo};
+use hob_ipc::{CommandRequest, Ports, command};
+use hob_rt_core::config::machine::MachineConfig;
+use hob_rt_core::control::State;
+use hob_rt_core::service::{stats, wire};
+use hob_vm::procs::{Processes, relaxed_machine, sibling};
+use serde::{Deserialize, Serialize};
+use std::path::{Path, PathBuf};
+use std::process::Command;
+use std::time::{Duration, Instant};
+
+#[derive(Debug, Clone)]
+pub struct Args {
+    pub seconds: u64,
+    pub load: Load,
+    pub out: PathBuf,
+    pub machine: PathBuf,
+    pub plant: PathBuf,
+    pub program: PathBuf,
+    pub iface: String,
+    /// Keep the machine configuration's bus timing (else relaxed for a virtual machine).
+    pub strict: bool,
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, clap::ValueEnum)]
+#[serde(rename_all = "lowercase")]
+pub enum Load {
+    None,
+    /// `hackbench -P -g 2`: processes passing messages over sockets on every core.
+    Hackbench,
+}
+
+/// Wake-ups a period or more late and the deadlines they skipped.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Serialize, Deserialize)]
+pub struct Late {
+    pub wakeups: u64,
+    pub periods_skipped: u64,
+}
+
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+pub struct CyclictestResult {
+    pub command: String,
+    pub wake: Summary,
+    pub late: Late,
+}
+
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+pub struct LoopResult {
+    pub wake: Summary,
+    pub compute: Summary,
+    pub late: Late,
+    /// hob-rt's own count of deadlines that passed before the cycle was done.
+    pub overruns: u64,
+    pub fifo_priority: u32,
+    pub memory_locked: bool,
+    pub iface: String,
+    pub system_allocations_in_cycles: u64,
+    pub passes_cut: u32,
+    pub final_state: String,
+}
+
+/// Loop percentile over cyclictest's.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Serialize, Deserialize)]
+pub struct Ratios {
+    pub p50: f64,
+    pub p99: f64,
+    pub p999: f64,
+    pub p9999: f64,
+    pub max: f64,
+}
+
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+pub struct LoopBench {
+    pub system: SystemInfo,
+    pub seconds: u64,
+    pub period_us: u64,
+    pub priority: u32,
+    pub core: u32,
+    pub load: Option<Load>,
+    pub cyclictest: CyclictestResult,
+    pub hob_rt: LoopResult,
+    pub ratio: Ratios,
+}
+
+fn ratio(a: f64, b: f64) -> f64 {
+    if b > 0.0 { a / b } else { f64::INFINITY }
+}
+
+/// A background load that is stopped when dropped.
+struct Background(Option<std::process::Child>);
+
+impl Drop for Background {
+    fn drop(&mut self) {
+        if let Some(c) = &mut self.0 {
+            let _ = c.kill();
+            let _ = c.wait();
+        }
+    }
+}
+
+fn start_load(load: Load) -> Result<Background, String> {
+    match load {
+        Load::None => Ok(Background(None)),
+        Load::Hackbench => Command::new("hackbench")
+            .args(["-P", "-g", "2", "-l", "100000000"])
+            .stdout(std::process::Stdio::null())
+            .stderr(std::process::Stdio::null())
+            .spawn()
+            .map(|c| Background(Some(c)))
+            .map_err(|e| format!("hackbench (apt install rt-tests, or bash ci/bench-setup): {e}")),
+    }
+}
+
+fn run_cyclictest(
+    a: &Args,
+    period_us: u64,
+    prio: u32,
+    core: u32,
+) -> Result<(CyclictestResult, hdrhistogram::Histogram<u64>), String> {
+    let json = a.out.join("cyclictest.json");
+    let args = [
+        "-m".to_string(),
+        "-q".into(),
+        "-p".into(),
+        prio.to_string(),
+        "-i".into(),
+        period_us.to_string(),
+        "-a".into(),
+        core.to_string(),
+        "-t".into(),
+        "1".into(),
+        "-D".into(),
+        a.seconds.to_string(),
+        "-h".into(),
+        "100000".into(),
+        format!("--histfile={}", a.out.join("cyclictest.hist").display()),
+        format!("--json={}", json.display()),
+    ];
+    let out = Command::new("cyclictest")
+        .args(&args)
+        .output()
+        .map_err(|e| format!("cyclictest (apt install rt-tests, or bash ci/bench-setup): {e}"))?;
+    if !out.status.success() {
+        return Err(format!(
+            "cyclictest failed ({}): {}",
+            out.status,
+            String::from_utf8_lossy(&out.stderr).trim()
+        ));
+    }
+    let text = std::fs::read_to_string(&json).map_err(|e| format!("{}: {e}", json.display()))?;
+    let (h, _) = hist::from_cyclictest_json(&text)?;
+    let (wakeups, periods_skipped) = hist::late_wakeups(&h, period_us * 1000);
+    Ok((
+        CyclictestResult {
+            command: format!("cyclictest {}", args.join(" ")),
+            wake: hist::summary(&h),
+            late: Late {
+                wakeups,
+                periods_skipped,
+            },
+        },
+        h,
+    ))
+}
+
+/// hob-rt cutting the program again and again until `cycles` are done.
+fn run_loop(a: &Args, machine_file: &Path, cycles: u64) -> Result<u32, String> {
+    let instance = format!("bench-loop-{}", std::process::id());
+    hob_ipc::use_instance(&instance);
+    let mut procs = Processes::default();
+    let mf = machine_file.display().to_string();
+    let cmd = |name: &str| -> Result<Command, String> {
+        let mut c = Command::new(sibling(name)?);
+        c.env("HOB_INSTANCE", &instance);
+        Ok(c)
+    };
+    let mut sim = cmd("hob-sim")?;
+    sim.args(["--iface", &a.iface, "--machine", &mf, "--rt-priority", "75"])
+        .arg("--plant")
+        .arg(&a.plant)
+        .arg("--program")
+        .arg(&a.program);
+    procs.spawn("hob-sim", sim, &a.out.join("hob-sim.log"))?;
+    std::thread::sleep(Duration::from_millis(300));
+    let mut rt = cmd("hob-rt")?;
+    rt.args(["--iface", &a.iface, "--machine", &mf, "--cycles"])
+        .arg(cycles.to_string())
+        .arg("--hgrm")
+        .arg(&a.out);
+    procs.spawn("hob-rt", rt, &a.out.join("hob-rt.log"))?;
+    let ports = Ports::subscribe(&format!("hob-bench-{}", std::process::id())).map_err(|e| e.to_string())?;
+    let client = hob_ipc::Client::connect(&format!("hob-bench-cmd-{}", std::process::id()))
+        .map_err(|e| e.to_string())?;
+    let text = std::fs::read_to_string(&a.program).map_err(|e| format!("{}: {e}", a.program.display()))?;
+    let load = CommandRequest::load_program(&a.program.display().to_string(), &text)?;
+    let mut start = CommandRequest::new(command::START);
+    start.single = 0;
+    let mut loaded = false;
+    let mut passes = 0;
+    let mut last_pass = 0;
+    let end = Instant::now() + Duration::from_secs(cycles / 1000 + 120);
+    loop {
+        if let Some(s) = ports.wait_state(Duration::from_millis(200)) {
+            if s.pass != last_pass && s.pass > 0 {
+                passes += 1;
+            }
+            last_pass = s.pass;
+            if wire::state_from_code(s.state) == Some(State::Idle) {
+                if !loaded {
+                    let r = client
+                        .request(&load, Duration::from_secs(3))
+                        .map_err(|e| e.to_string())?;
+                    if r.accepted == 0 {
+                        return Err(format!("load refused: {}", r.text()));
+                    }
+                    loaded = true;
+                }
+                // Accepted or not (a new blank may be needed first), try again next time.
+                let _ = client.request(&start, Duration::from_secs(3));
+                let _ = client.request(&CommandRequest::new(command::NEW_BLANK), Duration::from_secs(3));
+            }
+        }
+        if let Some(d) = procs.dead() {
+            if d.starts_with("hob-rt exited (exit status: 0)") {
+                break;
+            }
+            return Err(format!("{d}: see {}", a.out.display()));
+        }
+        if Instant::now() > end {
+            return Err("hob-rt did not finish its cycles in time".into());
+        }
+    }
+    procs.stop("hob-sim", Duration::from_secs(2));
+    Ok(passes)
+}
+
+pub fn run(a: &Args) -> Result<LoopBench, String> {
+    std::fs::create_dir_all(&a.out).map_err(|e| format!("{}: {e}", a.out.display()))?;
+    let machine = MachineConfig::load(&a.machine).map_err(|e| e.to_string())?;
+    let period_us = u64::from(machine.control.cycle_period_us);
+    let prio = machine.service.loop_priority;
+    let core = machine.service.loop_core;
+    let machine_file = if a.strict {
+        a.machine.clone()
+    } else {
+        relaxed_machine(&a.machine, &a.out, 100)?.0
+    };
+    let _load = start_load(a.load)?;
+    let (ct, ct_hist) = run_cyclictest(a, period_us, prio, core)?;
+    let passes_cut = run_loop(a, &machine_file, a.seconds * 1_000_000 / period_us)?;
+    let read = |name: &str| -> Result<String, String> {
+        let p = a.out.join(name);
+        std::fs::read_to_string(&p).map_err(|e| format!("{}: {e}", p.display()))
+    };
+    let wake = stats::from_counts_text(&read("wake.hist")?)?;
+    let compute = stats::from_counts_text(&read("compute.hist")?)?;
+    let rt: serde_json::Value =
+        serde_json::from_str(&read("hob-rt.json")?).map_err(|e| format!("hob-rt.json: {e}"))?;
+    let (wakeups, periods_skipped) = hist::late_wakeups(&wake, period_us * 1000);
+    let hob_rt = LoopResult {
+        wake: hist::summary(&wake),
+        compute: hist::summary(&compute),
+        late: Late {
+            wakeups,
+            periods_skipped,
+        },
+        overruns: rt["overruns"].as_u64().unwrap_or(0),
+        fifo_priority: rt["fifo_priority"].as_u64().unwrap_or(0) as u32,
+        memory_locked: rt["memory_locked"].as_bool().unwrap_or(false),
+        iface: rt["iface"].as_str().unwrap_or("").to_string(),
+        system_allocations_in_cycles: rt["system_allocations_in_cycles"].as_u64().unwrap_or(0),
+        passes_cut,
+        final_state: rt["final_state"].as_str().unwrap_or("").to_string(),
+    };
+    let c = &ct.wake;
+    let w = &hob_rt.wake;
+    let result = LoopBench {
+        system: system::probe(),
+        seconds: a.seconds,
+        period_us,
+        priority: prio,
+        core,
+        load: Some(a.load),
+        ratio: Ratios {
+            p50: ratio(w.p50_us, c.p50_us),
+            p99: ratio(w.p99_us, c.p99_us),
+            p999: ratio(w.p999_us, c.p999_us),
+            p9999: ratio(w.p9999_us, c.p9999_us),
+            max: ratio(w.max_us, c.max_us),
+        },
+        cyclictest: ct,
+        hob_rt,
+    };
+    std::fs::write(a.out.join("cyclictest.hgrm"), stats::hgrm(&ct_hist)).map_err(|e| e.to_string())?;
+    let svg = plot::percentile_svg(
+        &format!(
+            "wake-up latency, {} s, {} us period, SCHED_FIFO {prio}, core {core}, load {:?}",
+            a.seconds, period_us, a.load
+        ),
+        &[
+            Series {
+                label: "cyclictest".into(),
+                hist: &ct_hist,
+            },
+            Series {
+                label: "hob-rt wake-up".into(),
+                hist: &wake,
+            },
+            Series {
+                label: "hob-rt compute".into(),
+                hist: &compute,
+            },
+        ],
+        period_us as f64,
+    );
+    std::fs::write(a.out.join("loop.svg"), svg).map_err(|e| e.to_string())?;
+    crate::write_json(&a.out.join("loop.json"), &result)?;
+    Ok(result)
+}
+
+/// The summary a person reads.
+pub fn text(r: &LoopBench) -> String {
+    let row = |name: &str, s: &Summary, late: &Late| {
+        format!(
+            "{name:<16} {:>8.1} {:>8.1} {:>8.1} {:>8.1} {:>9.1} {:>10.1} {:>6} {:>7}\n",
+            s.min_us, s.p50_us, s.p99_us, s.p999_us, s.p9999_us, s.max_us, late.wakeups, late.periods_skipped
+        )
+    };
+    let mut o = format!(
+        "loop latency: {} s at {} us, SCHED_FIFO {}, core {}, load {:?}; kernel {}{}{}\n",
+        r.seconds,
+        r.period_us,
+        r.priority,
+        r.core,
+        r.load.unwrap_or(Load::None),
+        r.system.kernel,
+        if r.system.preempt_rt { " PREEMPT_RT" } else { "" },
+        if r.system.virtual_machine {
+            ", virtual machine"
+        } else {
+            ""
+        }
+    );
+    o.push_str("wake-up us            min      p50      p99    p99.9    p99.99        max   late skipped\n");
+    o.push_str(&row("cyclictest", &r.cyclictest.wake, &r.cyclictest.late));
+    o.push_str(&row("hob-rt", &r.hob_rt.wake, &r.hob_rt.late));
+    o.push_str(&format!(
+        "ratio hob-rt/cyclictest: p50 {:.2} p99 {:.2} p99.9 {:.2} p99.99 {:.2} max {:.2}\n",
+        r.ratio.p50, r.ratio.p99, r.ratio.p999, r.ratio.p9999, r.ratio.max
+    ));
+    let c = &r.hob_rt.compute;
+    o.push_str(&format!(
+        "hob-rt compute us: p50 {:.1} p99 {:.1} p99.9 {:.1} p99.99 {:.1} max {:.1}; overruns {}; {} passes cut; system heap allocations in cycles {}\n",
+        c.p50_us, c.p99_us, c.p999_us, c.p9999_us, c.max_us, r.hob_rt.overruns, r.hob_rt.passes_cut, r.hob_rt.system_allocations_in_cycles
+    ));
+    o
+}
