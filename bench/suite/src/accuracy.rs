@@ -86,6 +86,9 @@ pub struct AccuracyBench {
     pub rows: Vec<Row>,
 }
 
+/// Program, disturbance, cross-coupling, predictor.
+type Case = (PathBuf, Disturbance, bool, bool);
+
 #[derive(Debug, Clone)]
 pub struct Args {
     pub out: PathBuf,
@@ -170,7 +173,7 @@ pub fn run(a: &Args) -> Result<AccuracyBench, String> {
     }
     // Independent runs: one thread per core.
     let threads = std::thread::available_parallelism().map_or(1, usize::from);
-    let chunks: Vec<Vec<(usize, (PathBuf, Disturbance, bool, bool))>> = (0..threads)
+    let chunks: Vec<Vec<(usize, Case)>> = (0..threads)
         .map(|t| {
             cases
                 .iter()

@@ -98,7 +98,6 @@ pub fn peer(a: &PeerArgs) -> Result<(), String> {
         rt::pin(a.core, &mut report);
         rt::set_fifo(a.priority, &mut report);
     }
-    let n_end = rt::now_ns() + (a.seconds * 1e9) as u64;
     let period_ns = 1_000_000;
     let mut send: Box<dyn FnMut(u64) -> Result<(), String>> = match a.transport {
         Transport::Iceoryx2 => {
@@ -135,6 +134,7 @@ pub fn peer(a: &PeerArgs) -> Result<(), String> {
         }
     };
     let mut seq = 0;
+    let n_end = rt::now_ns() + (a.seconds * 1e9) as u64;
     let mut deadline = rt::now_ns() + period_ns;
     while rt::now_ns() < n_end {
         if a.pace == Pace::Khz {
@@ -232,7 +232,8 @@ impl Receiver {
 }
 
 fn case(a: &Args, t: Transport, p: Pace, core: u32, prio: u32) -> Result<Case, String> {
-    let instance = format!("bench-bus-{}-{:?}-{:?}", std::process::id(), t, p).to_lowercase();
+    // One instance for the whole run (the name is fixed at first use in this process).
+    let instance = format!("bench-bus-{}", std::process::id());
     let socket = std::env::temp_dir().join(format!("hob-bench-bus-{}.sock", std::process::id()));
     let _ = std::fs::remove_file(&socket);
     let mut r = Receiver::new();
@@ -266,7 +267,7 @@ fn case(a: &Args, t: Transport, p: Pace, core: u32, prio: u32) -> Result<Case, S
                     }
                 }
                 if t0.elapsed() > timeout {
-                    return Err("iceoryx2: no end marker".into());
+                    return Err(format!("iceoryx2: no end marker ({} received)", r.received));
                 }
                 std::hint::spin_loop();
             }
