@@ -232,8 +232,9 @@ impl Receiver {
 }
 
 fn case(a: &Args, t: Transport, p: Pace, core: u32, prio: u32) -> Result<Case, String> {
-    // One instance for the whole run (the name is fixed at first use in this process).
-    let instance = format!("bench-bus-{}", std::process::id());
+    // The instance is fixed at its first use in this process: the child gets that one.
+    hob_ipc::use_instance(&format!("bench-{}", std::process::id()));
+    let instance = hob_ipc::instance();
     let socket = std::env::temp_dir().join(format!("hob-bench-bus-{}.sock", std::process::id()));
     let _ = std::fs::remove_file(&socket);
     let mut r = Receiver::new();
@@ -241,7 +242,6 @@ fn case(a: &Args, t: Transport, p: Pace, core: u32, prio: u32) -> Result<Case, S
     let timeout = Duration::from_secs_f64(a.seconds + 10.0);
     let sent = match t {
         Transport::Iceoryx2 => {
-            hob_ipc::use_instance(&instance);
             let node = hob_ipc::node("hob-bench-bus-sub").map_err(|e| e.to_string())?;
             let sub = hob_ipc::open_state(&node)
                 .map_err(|e| e.to_string())?

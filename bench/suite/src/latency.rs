@@ -173,9 +173,10 @@ fn run_cyclictest(
 }
 
 /// hob-rt cutting the program again and again until `cycles` are done.
-fn run_loop(a: &Args, machine_file: &Path, cycles: u64) -> Result<u32, String> {
-    let instance = format!("bench-loop-{}", std::process::id());
-    hob_ipc::use_instance(&instance);
+fn run_loop(a: &Args, machine_file: &Path, loop_core: u32, cycles: u64) -> Result<u32, String> {
+    // The instance is fixed at its first use in this process: the children get that one.
+    hob_ipc::use_instance(&format!("bench-{}", std::process::id()));
+    let instance = hob_ipc::instance();
     let mut procs = Processes::default();
     let mf = machine_file.display().to_string();
     let cmd = |name: &str| -> Result<Command, String> {
@@ -184,11 +185,13 @@ fn run_loop(a: &Args, machine_file: &Path, cycles: u64) -> Result<u32, String> {
         Ok(c)
     };
     let mut sim = cmd("hob-sim")?;
-    sim.args(["--iface", &a.iface, "--machine", &mf, "--rt-priority", "75"])
-        .arg("--plant")
-        .arg(&a.plant)
-        .arg("--program")
-        .arg(&a.program);
+    sim.args(["--iface", &a.iface, "--machine", &mf, "--rt-priority", "75"]);
+    // The simulated drives are separate hardware on a real machine: off the loop's core.
+    let cpus = std::thread::available_parallelism().map_or(1, |n| n.get() as u32);
+    if cpus > 1 {
+        sim.arg("--core").arg(if loop_core == 0 { "1" } else { "0" });
+    }
+    sim.arg("--plant").arg(&a.plant).arg("--program").arg(&a.program);
     procs.spawn("hob-sim", sim, &a.out.join("hob-sim.log"))?;
     std::thread::sleep(Duration::from_millis(300));
     let mut rt = cmd("hob-rt")?;
@@ -256,7 +259,7 @@ pub fn run(a: &Args) -> Result<LoopBench, String> {
     };
     let _load = start_load(a.load)?;
     let (ct, ct_hist) = run_cyclictest(a, period_us, prio, core)?;
-    let passes_cut = run_loop(a, &machine_file, a.seconds * 1_000_000 / period_us)?;
+    let passes_cut = run_loop(a, &machine_file, core, a.seconds * 1_000_000 / period_us)?;
     let read = |name: &str| -> Result<String, String> {
         let p = a.out.join(name);
         std::fs::read_to_string(&p).map_err(|e| format!("{}: {e}", p.display()))

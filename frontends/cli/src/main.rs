@@ -5,6 +5,7 @@
 
 mod can;
 mod demo;
+mod doctor;
 mod log;
 mod render;
 mod service;
@@ -55,6 +56,19 @@ enum Command {
         /// Without --strict: bus silence tolerated before a fault, ms.
         #[arg(long, default_value_t = 100)]
         tolerance_ms: u32,
+    },
+    /// Is this PC ready for the 1 ms loop? RT kernel, core isolation, governor, limits,
+    /// CAN interface, shared memory, clock source, a short cyclictest; the fix for each.
+    Doctor {
+        /// Machine configuration [default: config/machine.toml, then /etc/hob/machine.toml].
+        #[arg(long, value_name = "FILE")]
+        machine: Option<PathBuf>,
+        /// Length of the cyclictest run (0: skip it).
+        #[arg(long, default_value_t = 10)]
+        cyclictest_seconds: u32,
+        /// The findings as JSON.
+        #[arg(long)]
+        json: bool,
     },
     /// The running service's state, alarms, loop timing and recent events.
     Status {
@@ -306,6 +320,28 @@ fn run(command: Command) -> Result<(), Failure> {
                     eprintln!("hob: demo: {}", text.lines().next().unwrap_or("failed"));
                     Err(Failure::Exit(code))
                 }
+            }
+        }
+        Command::Doctor {
+            machine,
+            cyclictest_seconds,
+            json,
+        } => {
+            let machine_file = machine_path(machine.as_deref())?;
+            let machine = MachineConfig::load(&machine_file).map_err(Failure::Refused)?;
+            let findings = doctor::run(&machine, cyclictest_seconds);
+            if json {
+                emit(
+                    &(serde_json::to_string_pretty(&findings).map_err(|e| Failure::Other(e.to_string()))?
+                        + "\n"),
+                )?;
+            } else {
+                emit(&doctor::text(&findings))?;
+            }
+            if findings.iter().any(|f| f.level == doctor::Level::Fail) {
+                Err(Failure::Exit(1))
+            } else {
+                Ok(())
             }
         }
         Command::Status { watch, json } => service_result(service::status(watch, json)),

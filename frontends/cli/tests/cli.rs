@@ -274,3 +274,41 @@ fn simulate_refuses_a_bad_plant_file() {
         text(&o.stderr)
     );
 }
+
+#[test]
+fn doctor_reports_every_check_with_a_fix_and_fails_on_a_missing_can_interface() {
+    let out = hob(&["doctor", "--cyclictest-seconds", "0", "--json"]);
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).expect("json");
+    let findings = v.as_array().expect("array");
+    let checks: Vec<&str> = findings.iter().filter_map(|f| f["check"].as_str()).collect();
+    for c in [
+        "PREEMPT_RT kernel",
+        "isolated loop core",
+        "nohz_full",
+        "interrupt affinity",
+        "CPU frequency governor",
+        "CPU idle states",
+        "SCHED_FIFO allowed",
+        "memory lock allowed",
+        "CAN interface",
+        "iceoryx2 shared memory",
+        "clock source",
+        "cyclictest",
+    ] {
+        assert!(checks.contains(&c), "{c} missing: {checks:?}");
+    }
+    for f in findings {
+        let level = f["level"].as_str().unwrap();
+        if level == "warn" || level == "fail" {
+            assert!(!f["fix"].as_str().unwrap().is_empty(), "no fix: {f}");
+        }
+    }
+    let any_fail = findings.iter().any(|f| f["level"] == "fail");
+    assert_eq!(out.status.code(), Some(if any_fail { 1 } else { 0 }));
+    // The shipped configuration names can0, which a test machine does not have.
+    if !Path::new("/sys/class/net/can0").exists() {
+        let can = findings.iter().find(|f| f["check"] == "CAN interface").unwrap();
+        assert_eq!(can["level"], "fail");
+        assert!(can["fix"].as_str().unwrap().contains("restart-ms 100"));
+    }
+}

@@ -49,6 +49,10 @@ struct Args {
     /// real-time master (`hob demo` runs it at 75, below `hob-rt`).
     #[arg(long, default_value_t = 0)]
     rt_priority: u32,
+    /// Pin to this core (benchmarks keep the simulated drives off the loop's core: real
+    /// drives are separate hardware).
+    #[arg(long)]
+    core: Option<u32>,
     /// Exit after this many seconds without any frame (0: never).
     #[arg(long, default_value_t = 0.0)]
     idle_exit_s: f64,
@@ -106,6 +110,13 @@ fn run(a: Args) -> Result<(), String> {
     }
     for f in faults.drain(..) {
         vm.inject(f);
+    }
+    if let Some(core) = a.core {
+        let mut r = hob_rt_core::service::rt::RtReport::default();
+        hob_rt_core::service::rt::pin(core, &mut r);
+        for p in &r.problems {
+            eprintln!("hob-sim: {p}");
+        }
     }
     if a.rt_priority > 0 {
         let mut r = hob_rt_core::service::rt::RtReport::default();
