@@ -173,6 +173,30 @@ impl Simulation {
         }
     }
 
+    /// A machine at rest with the program's blank on the table (start position, gashes,
+    /// workpiece geometry).
+    pub fn for_program(
+        machine: &MachineConfig,
+        plant_cfg: &PlantConfig,
+        program: &CycleProgram,
+        plan: &Plan,
+        job: &hob_rt_core::job::Program,
+    ) -> Self {
+        let mut sim = Self::new(
+            machine,
+            plant_cfg,
+            start_for(program),
+            job.tool.gashes.max(1) as u32,
+        );
+        sim.plant.set_workpiece(workpiece_for(
+            program,
+            plan,
+            job.workpiece.face_width_mm,
+            job.tool.outside_diameter_mm,
+        ));
+        sim
+    }
+
     fn jitter(&mut self) -> f64 {
         // xorshift64*: deterministic for a seed.
         self.rng ^= self.rng >> 12;
@@ -473,18 +497,7 @@ pub fn run_program_with(
         machine.gearbox.coarse_window_arcsec = 2e9;
     }
     let machine = &machine;
-    let mut sim = Simulation::new(
-        machine,
-        plant_cfg,
-        start_for(program),
-        job.tool.gashes.max(1) as u32,
-    );
-    sim.plant.set_workpiece(workpiece_for(
-        program,
-        plan,
-        job.workpiece.face_width_mm,
-        job.tool.outside_diameter_mm,
-    ));
+    let mut sim = Simulation::for_program(machine, plant_cfg, program, plan, job);
     sim.controller.set_angle_source(options.angle_source);
     let mut builder = SummaryBuilder::new(plan);
     let period = sim.period_s;

@@ -246,29 +246,22 @@ fn run(cli: Cli) -> Result<bool, String> {
             iface,
         } => {
             let quick = *quick || !*release;
-            let r = latency::run(&latency::Args {
-                seconds: if quick { 20 } else { 300 },
-                load: Load::None,
-                out: out.clone(),
-                machine: cli.machine.clone(),
-                plant: cli.plant.clone(),
-                program: step::programs_dir(&cli.machine).join("demo-short-spur-z17-m5.toml"),
-                iface: default_iface(iface.clone()),
-                strict: false,
-            })?;
-            say(latency::text(&r));
-            if !quick {
-                let r = latency::run(&latency::Args {
-                    seconds: 120,
-                    load: Load::Hackbench,
-                    out: out.join("loop-hackbench"),
+            let loop_run = |seconds: u64, load: Load, out: PathBuf| {
+                latency::run(&latency::Args {
+                    seconds,
+                    load,
+                    out,
                     machine: cli.machine.clone(),
                     plant: cli.plant.clone(),
                     program: step::programs_dir(&cli.machine).join("demo-short-spur-z17-m5.toml"),
                     iface: default_iface(iface.clone()),
                     strict: false,
-                })?;
-                say(latency::text(&r));
+                })
+                .map(|r| say(latency::text(&r)))
+            };
+            loop_run(if quick { 20 } else { 300 }, Load::None, out.clone())?;
+            if !quick {
+                loop_run(120, Load::Hackbench, out.join("loop-hackbench"))?;
             }
             say(bus::text(&bus::run(&bus::Args {
                 seconds: if quick { 3.0 } else { 20.0 },

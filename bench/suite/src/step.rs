@@ -15,7 +15,7 @@ use crate::hist::{self, Summary};
 use crate::system::{self, SystemInfo};
 use hob_plant::config::PlantConfig;
 use hob_plant::machine::Injection;
-use hob_plant::sim::{Simulation, start_for, workpiece_for};
+use hob_plant::sim::Simulation;
 use hob_rt_core::config::Problems;
 use hob_rt_core::config::machine::MachineConfig;
 use hob_rt_core::control::fault::Axis;
@@ -180,18 +180,7 @@ fn run_scenarios(
     step: &mut dyn FnMut(&mut Controller, &CycleInputs) -> CycleOutputs,
 ) -> Result<(), String> {
     for (s, (job, cycle, plan)) in SCENARIOS.iter().zip(&l.jobs) {
-        let mut sim = Simulation::new(
-            &l.machine,
-            &l.plant,
-            start_for(cycle),
-            job.tool.gashes.max(1) as u32,
-        );
-        sim.plant.set_workpiece(workpiece_for(
-            cycle,
-            plan,
-            job.workpiece.face_width_mm,
-            job.tool.outside_diameter_mm,
-        ));
+        let mut sim = Simulation::for_program(&l.machine, &l.plant, cycle, plan, job);
         if !sim.power_up_with(60.0, &mut |_| {}, step) {
             return Err(format!("{}: no power-up", s.program));
         }
