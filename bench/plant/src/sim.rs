@@ -466,31 +466,6 @@ pub fn run_program(
     options: &SimOptions,
     sink: &mut dyn FnMut(&TraceRow),
 ) -> Result<Summary, String> {
-    run_program_with(
-        machine_in,
-        plant_cfg,
-        program,
-        plan,
-        job,
-        options,
-        sink,
-        &mut |c, i| c.step(i),
-    )
-}
-
-/// [`run_program`] with the controller's step called through `step` (see
-/// [`Simulation::step_with`]).
-#[allow(clippy::too_many_arguments)]
-pub fn run_program_with(
-    machine_in: &MachineConfig,
-    plant_cfg: &PlantConfig,
-    program: &CycleProgram,
-    plan: &Plan,
-    job: &hob_rt_core::job::Program,
-    options: &SimOptions,
-    sink: &mut dyn FnMut(&TraceRow),
-    step: &mut dyn FnMut(&mut Controller, &CycleInputs) -> CycleOutputs,
-) -> Result<Summary, String> {
     let mut machine = machine_in.clone();
     if options.windows_off {
         machine.gearbox.fine_window_arcsec = 1e9;
@@ -505,7 +480,7 @@ pub fn run_program_with(
         builder.add(row, period);
         sink(row);
     };
-    if !sim.power_up_with(60.0, &mut both, step) {
+    if !sim.power_up(60.0, &mut both) {
         return Err("the machine did not leave power-up within 60 s".into());
     }
     sim.controller
@@ -516,12 +491,9 @@ pub fn run_program_with(
         single: options.single,
     })
     .map_err(|r| format!("start refused: {r:?}"))?;
-    let completed = sim.run_until_with(
-        options.max_time_s,
-        &mut both,
-        &mut |row, _| matches!(row.state, State::Idle | State::Faulted),
-        step,
-    );
+    let completed = sim.run_until(options.max_time_s, &mut both, &mut |row, _| {
+        matches!(row.state, State::Idle | State::Faulted)
+    });
     let fault = sim.controller.status().fault.map(|f| format!("{f:?}"));
     let completed = completed && fault.is_none();
     let total = sim.time_s();

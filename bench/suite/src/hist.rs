@@ -2,7 +2,7 @@
 //! histograms `hob-rt --hgrm` and `cyclictest --json` write.
 
 use hdrhistogram::Histogram;
-use hob_rt_core::service::stats::HIGHEST_NS;
+use hob_rt_core::service::stats::{self, HIGHEST_NS};
 use serde::{Deserialize, Serialize};
 
 /// A distribution's summary, microseconds.
@@ -19,27 +19,26 @@ pub struct Summary {
 }
 
 pub fn new() -> Histogram<u64> {
-    Histogram::new_with_bounds(1, HIGHEST_NS, 3).unwrap_or_else(|_| unreachable!("static bounds"))
+    stats::histogram()
 }
 
 pub fn record(h: &mut Histogram<u64>, ns: u64) {
-    h.saturating_record(ns.clamp(1, HIGHEST_NS));
+    stats::record(h, ns);
 }
 
+/// [`stats::percentiles`] in microseconds, with the mean.
 pub fn summary(h: &Histogram<u64>) -> Summary {
-    if h.is_empty() {
-        return Summary::default();
-    }
+    let p = stats::percentiles(h);
     let us = |ns: u64| ns as f64 / 1e3;
     Summary {
-        count: h.len(),
-        min_us: us(h.min()),
-        p50_us: us(h.value_at_quantile(0.5)),
-        p99_us: us(h.value_at_quantile(0.99)),
-        p999_us: us(h.value_at_quantile(0.999)),
-        p9999_us: us(h.value_at_quantile(0.9999)),
-        max_us: us(h.max()),
-        mean_us: h.mean() / 1e3,
+        count: p.count,
+        min_us: us(p.min_ns),
+        p50_us: us(p.p50_ns),
+        p99_us: us(p.p99_ns),
+        p999_us: us(p.p999_ns),
+        p9999_us: us(p.p9999_ns),
+        max_us: us(p.max_ns),
+        mean_us: if h.is_empty() { 0.0 } else { h.mean() / 1e3 },
     }
 }
 

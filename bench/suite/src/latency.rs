@@ -227,9 +227,8 @@ fn run_loop(a: &Args, machine_file: &Path, loop_core: u32, cycles: u64) -> Resul
                     }
                     loaded = true;
                 }
-                // Accepted or not (a new blank may be needed first), try again next time.
+                // Cut the same blank again; a refused start is tried at the next idle sample.
                 let _ = client.request(&start, Duration::from_secs(3));
-                let _ = client.request(&CommandRequest::new(command::NEW_BLANK), Duration::from_secs(3));
             }
         }
         if let Some(d) = procs.dead() {

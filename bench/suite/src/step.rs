@@ -308,9 +308,8 @@ fn counts(a: &Args, l: &Loaded) -> Result<BTreeMap<String, u64>, String> {
         *n.entry(fn_name(s)).or_default() += 1;
         step_fn(s)(c, i)
     })?;
-    Ok(n).inspect(|n| {
-        let _ = crate::write_json(&a.out.join("step-calls.json"), n);
-    })
+    crate::write_json(&a.out.join("step-calls.json"), &n)?;
+    Ok(n)
 }
 
 /// `--count-only`: the scenarios once through the per-state functions (run under callgrind).

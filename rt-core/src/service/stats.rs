@@ -22,19 +22,28 @@ pub struct Timing {
     pub compute_ns: Histogram<u64>,
 }
 
+/// An empty latency histogram: 1 ns to [`HIGHEST_NS`], 3 significant digits.
+pub fn histogram() -> Histogram<u64> {
+    Histogram::new_with_bounds(1, HIGHEST_NS, 3).unwrap_or_else(|_| unreachable!("static bounds"))
+}
+
+/// Records a value, clamped into the range (allocation-free).
+pub fn record(h: &mut Histogram<u64>, ns: u64) {
+    h.saturating_record(ns.clamp(1, HIGHEST_NS));
+}
+
 impl Timing {
     pub fn new() -> Self {
-        let h = || Histogram::new_with_bounds(1, HIGHEST_NS, 3).unwrap_or_else(|_| unreachable!());
         Self {
-            wake_ns: h(),
-            compute_ns: h(),
+            wake_ns: histogram(),
+            compute_ns: histogram(),
         }
     }
 
     /// Records one cycle (allocation-free: values are clamped into the range).
     pub fn record(&mut self, wake_ns: u64, compute_ns: u64) {
-        self.wake_ns.saturating_record(wake_ns.clamp(1, HIGHEST_NS));
-        self.compute_ns.saturating_record(compute_ns.clamp(1, HIGHEST_NS));
+        record(&mut self.wake_ns, wake_ns);
+        record(&mut self.compute_ns, compute_ns);
     }
 
     fn reset(&mut self) {
@@ -121,7 +130,7 @@ pub fn counts_text(h: &Histogram<u64>) -> String {
 
 /// A histogram from [`counts_text`].
 pub fn from_counts_text(text: &str) -> Result<Histogram<u64>, String> {
-    let mut h = Histogram::new_with_bounds(1, HIGHEST_NS, 3).map_err(|e| e.to_string())?;
+    let mut h = histogram();
     for (n, line) in text.lines().enumerate() {
         let line = line.trim();
         if line.is_empty() || line.starts_with('#') {
