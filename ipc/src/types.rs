@@ -192,7 +192,9 @@ pub struct StatsSample {
     pub memory_locked: u8,
     /// Frames on the CAN bus: 0 SocketCAN, 1 shared-memory virtual CAN.
     pub bus_kind: u8,
-    pub _pad: [u8; 6],
+    pub _pad: [u8; 2],
+    /// The idle-state exit latency the loop holds the CPUs to, us (-1: not held).
+    pub cpu_dma_latency_us: i32,
     /// Frames the loop could not send (queue full, interface down).
     pub tx_errors: u64,
 }

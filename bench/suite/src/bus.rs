@@ -13,7 +13,7 @@ use crate::hist::{self, Summary};
 use crate::system::{self, SystemInfo};
 use hob_ipc::StateSample;
 use hob_ipc::iceoryx2::port::update_connections::UpdateConnections as _;
-use hob_rt_core::config::machine::MachineConfig;
+use hob_rt_core::config::machine::{MachineConfig, ServiceConfig};
 use hob_rt_core::service::rt::{self, RtReport};
 use serde::{Deserialize, Serialize};
 use std::os::unix::net::UnixDatagram;
@@ -74,6 +74,7 @@ pub struct PeerArgs {
     pub socket: PathBuf,
     pub core: u32,
     pub priority: u32,
+    pub cpu_dma_latency_us: u32,
 }
 
 fn message(seq: u64, stamp_ns: u64) -> [u8; MESSAGE_BYTES] {
@@ -98,6 +99,8 @@ pub fn peer(a: &PeerArgs) -> Result<(), String> {
         rt::pin(a.core, &mut report);
         rt::set_fifo(a.priority, &mut report);
     }
+    // The stand-in for hob-rt holds its idle-state request too.
+    let _idle = rt::hold_cpu_dma_latency(a.cpu_dma_latency_us, &mut report);
     let period_ns = 1_000_000;
     let mut send: Box<dyn FnMut(u64) -> Result<(), String>> = match a.transport {
         Transport::Iceoryx2 => {
@@ -155,8 +158,7 @@ fn spawn_peer(
     t: Transport,
     p: Pace,
     socket: &Path,
-    core: u32,
-    prio: u32,
+    sv: &ServiceConfig,
     instance: &str,
 ) -> Result<Child, String> {
     let me = std::env::current_exe().map_err(|e| e.to_string())?;
@@ -178,9 +180,11 @@ fn spawn_peer(
         .arg("--socket")
         .arg(socket)
         .arg("--core")
-        .arg(core.to_string())
+        .arg(sv.loop_core.to_string())
         .arg("--priority")
-        .arg(prio.to_string())
+        .arg(sv.loop_priority.to_string())
+        .arg("--cpu-dma-latency-us")
+        .arg(sv.cpu_dma_latency_us.to_string())
         .stdout(Stdio::piped())
         .stderr(Stdio::inherit())
         .spawn()
@@ -231,7 +235,7 @@ impl Receiver {
     }
 }
 
-fn case(a: &Args, t: Transport, p: Pace, core: u32, prio: u32) -> Result<Case, String> {
+fn case(a: &Args, t: Transport, p: Pace, sv: &ServiceConfig) -> Result<Case, String> {
     // The instance is fixed at its first use in this process: the child gets that one.
     hob_ipc::use_instance(&format!("bench-{}", std::process::id()));
     let instance = hob_ipc::instance();
@@ -249,7 +253,7 @@ fn case(a: &Args, t: Transport, p: Pace, core: u32, prio: u32) -> Result<Case, S
                 .buffer_size(hob_ipc::STATE_BUFFER)
                 .create()
                 .map_err(|e| format!("subscriber: {e:?}"))?;
-            let child = spawn_peer(a, t, p, &socket, core, prio, &instance)?;
+            let child = spawn_peer(a, t, p, &socket, sv, &instance)?;
             'recv: loop {
                 if r.received == 0 {
                     let _ = sub.update_connections();
@@ -276,7 +280,7 @@ fn case(a: &Args, t: Transport, p: Pace, core: u32, prio: u32) -> Result<Case, S
         Transport::Unix => {
             let sock = UnixDatagram::bind(&socket).map_err(|e| format!("{}: {e}", socket.display()))?;
             sock.set_read_timeout(Some(timeout)).map_err(|e| e.to_string())?;
-            let child = spawn_peer(a, t, p, &socket, core, prio, &instance)?;
+            let child = spawn_peer(a, t, p, &socket, sv, &instance)?;
             let mut buf = [0u8; MESSAGE_BYTES];
             loop {
                 let n = sock.recv(&mut buf).map_err(|e| format!("unix recv: {e}"))?;
@@ -304,12 +308,10 @@ fn case(a: &Args, t: Transport, p: Pace, core: u32, prio: u32) -> Result<Case, S
 pub fn run(a: &Args) -> Result<BusBench, String> {
     std::fs::create_dir_all(&a.out).map_err(|e| format!("{}: {e}", a.out.display()))?;
     let machine = MachineConfig::load(&a.machine).map_err(|e| e.to_string())?;
-    let core = machine.service.loop_core;
-    let prio = machine.service.loop_priority;
     let mut cases = Vec::new();
     for p in [Pace::Khz, Pace::Flat] {
         for t in [Transport::Iceoryx2, Transport::Unix] {
-            cases.push(case(a, t, p, core, prio)?);
+            cases.push(case(a, t, p, &machine.service)?);
         }
     }
     let r = BusBench {

@@ -182,6 +182,15 @@ pub fn loop_checks(r: &LoopBench, l: &LoopLimits) -> Vec<Check> {
         limit: format!("priority {}", r.priority),
         pass: Some(r.hob_rt.fifo_priority == r.priority),
     });
+    v.push(Check {
+        name: "loop held cyclictest's idle-state request".into(),
+        measured: r
+            .hob_rt
+            .cpu_dma_latency_us
+            .map_or("not held".into(), |us| format!("{us} us")),
+        limit: format!("{} us", r.cpu_dma_latency_us),
+        pass: Some(r.hob_rt.cpu_dma_latency_us == Some(r.cpu_dma_latency_us)),
+    });
     v
 }
 

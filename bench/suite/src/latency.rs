@@ -62,6 +62,9 @@ pub struct LoopResult {
     pub overruns: u64,
     pub fifo_priority: u32,
     pub memory_locked: bool,
+    /// The idle-state exit latency hob-rt held the CPUs to, us (None: not held).
+    #[serde(default)]
+    pub cpu_dma_latency_us: Option<u32>,
     pub iface: String,
     pub system_allocations_in_cycles: u64,
     pub passes_cut: u32,
@@ -85,6 +88,10 @@ pub struct LoopBench {
     pub period_us: u64,
     pub priority: u32,
     pub core: u32,
+    /// The idle-state request cyclictest ran under (`--latency`), us: the machine
+    /// configuration's `service.cpu_dma_latency_us`, which hob-rt holds too.
+    #[serde(default)]
+    pub cpu_dma_latency_us: u32,
     pub load: Option<Load>,
     pub cyclictest: CyclictestResult,
     pub hob_rt: LoopResult,
@@ -125,6 +132,7 @@ fn run_cyclictest(
     period_us: u64,
     prio: u32,
     core: u32,
+    cpu_dma_latency_us: u32,
 ) -> Result<(CyclictestResult, hdrhistogram::Histogram<u64>), String> {
     let json = a.out.join("cyclictest.json");
     let args = [
@@ -144,6 +152,7 @@ fn run_cyclictest(
         "100000".into(),
         format!("--histfile={}", a.out.join("cyclictest.hist").display()),
         format!("--json={}", json.display()),
+        format!("--latency={cpu_dma_latency_us}"),
     ];
     let out = Command::new("cyclictest")
         .args(&args)
@@ -173,7 +182,7 @@ fn run_cyclictest(
 }
 
 /// hob-rt cutting the program again and again until `cycles` are done.
-fn run_loop(a: &Args, machine_file: &Path, loop_core: u32, cycles: u64) -> Result<u32, String> {
+fn run_loop(a: &Args, machine_file: &Path, cycles: u64) -> Result<u32, String> {
     // The instance is fixed at its first use in this process: the children get that one.
     hob_ipc::use_instance(&format!("bench-{}", std::process::id()));
     let instance = hob_ipc::instance();
@@ -186,11 +195,6 @@ fn run_loop(a: &Args, machine_file: &Path, loop_core: u32, cycles: u64) -> Resul
     };
     let mut sim = cmd("hob-sim")?;
     sim.args(["--iface", &a.iface, "--machine", &mf, "--rt-priority", "75"]);
-    // The simulated drives are separate hardware on a real machine: off the loop's core.
-    let cpus = std::thread::available_parallelism().map_or(1, |n| n.get() as u32);
-    if cpus > 1 {
-        sim.arg("--core").arg(if loop_core == 0 { "1" } else { "0" });
-    }
     sim.arg("--plant").arg(&a.plant).arg("--program").arg(&a.program);
     procs.spawn("hob-sim", sim, &a.out.join("hob-sim.log"))?;
     std::thread::sleep(Duration::from_millis(300));
@@ -256,9 +260,13 @@ pub fn run(a: &Args) -> Result<LoopBench, String> {
     } else {
         relaxed_machine(&a.machine, &a.out, 100)?.0
     };
+    let idle_us = machine.service.cpu_dma_latency_us;
     let _load = start_load(a.load)?;
-    let (ct, ct_hist) = run_cyclictest(a, period_us, prio, core)?;
-    let passes_cut = run_loop(a, &machine_file, core, a.seconds * 1_000_000 / period_us)?;
+    // This process stands in for the frontends: off the loop's core, as they are on the
+    // machine PC (the load above was started first, so it still runs on every core).
+    hob_rt_core::service::rt::keep_off_core(core);
+    let (ct, ct_hist) = run_cyclictest(a, period_us, prio, core, idle_us)?;
+    let passes_cut = run_loop(a, &machine_file, a.seconds * 1_000_000 / period_us)?;
     let read = |name: &str| -> Result<String, String> {
         let p = a.out.join(name);
         std::fs::read_to_string(&p).map_err(|e| format!("{}: {e}", p.display()))
@@ -278,6 +286,7 @@ pub fn run(a: &Args) -> Result<LoopBench, String> {
         overruns: rt["overruns"].as_u64().unwrap_or(0),
         fifo_priority: rt["fifo_priority"].as_u64().unwrap_or(0) as u32,
         memory_locked: rt["memory_locked"].as_bool().unwrap_or(false),
+        cpu_dma_latency_us: rt["cpu_dma_latency_us"].as_u64().map(|us| us as u32),
         iface: rt["iface"].as_str().unwrap_or("").to_string(),
         system_allocations_in_cycles: rt["system_allocations_in_cycles"].as_u64().unwrap_or(0),
         passes_cut,
@@ -291,6 +300,7 @@ pub fn run(a: &Args) -> Result<LoopBench, String> {
         period_us,
         priority: prio,
         core,
+        cpu_dma_latency_us: idle_us,
         load: Some(a.load),
         ratio: Ratios {
             p50: ratio(w.p50_us, c.p50_us),
@@ -338,11 +348,12 @@ pub fn text(r: &LoopBench) -> String {
         )
     };
     let mut o = format!(
-        "loop latency: {} s at {} us, SCHED_FIFO {}, core {}, load {:?}; kernel {}{}{}\n",
+        "loop latency: {} s at {} us, SCHED_FIFO {}, core {}, idle exit <= {} us, load {:?}; kernel {}{}{}\n",
         r.seconds,
         r.period_us,
         r.priority,
         r.core,
+        r.cpu_dma_latency_us,
         r.load.unwrap_or(Load::None),
         r.system.kernel,
         if r.system.preempt_rt { " PREEMPT_RT" } else { "" },

@@ -64,6 +64,8 @@ enum Cmd {
         core: u32,
         #[arg(long)]
         priority: u32,
+        #[arg(long)]
+        cpu_dma_latency_us: u32,
     },
     /// The control step's cost per sequencer state: time and callgrind instructions.
     Step {
@@ -187,6 +189,7 @@ fn run(cli: Cli) -> Result<bool, String> {
             socket,
             core,
             priority,
+            cpu_dma_latency_us,
         } => bus::peer(&bus::PeerArgs {
             transport: *transport,
             pace: *pace,
@@ -194,6 +197,7 @@ fn run(cli: Cli) -> Result<bool, String> {
             socket: socket.clone(),
             core: *core,
             priority: *priority,
+            cpu_dma_latency_us: *cpu_dma_latency_us,
         })?,
         Cmd::Step {
             repeat,

@@ -263,7 +263,22 @@ fn limits(priority: u32) -> Vec<Finding> {
             unit,
         )
     };
-    vec![fifo, lock]
+    let idle = if nix::unistd::access("/dev/cpu_dma_latency", nix::unistd::AccessFlags::W_OK).is_ok() {
+        finding(
+            "idle-state request",
+            Level::Ok,
+            "this user may write /dev/cpu_dma_latency (service.cpu_dma_latency_us holds the CPUs out of deep idle states)",
+            "",
+        )
+    } else {
+        finding(
+            "idle-state request",
+            Level::Warn,
+            "this user cannot write /dev/cpu_dma_latency: hob-rt would run degraded, every wake-up paying the exit from a deep idle state",
+            "deploy/udev/90-hob.rules gives the group hob write access (cp to /etc/udev/rules.d/, udevadm control --reload, udevadm trigger)",
+        )
+    };
+    vec![fifo, lock, idle]
 }
 
 fn can(iface: &str, bitrate: u32) -> Finding {

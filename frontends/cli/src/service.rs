@@ -138,7 +138,7 @@ pub fn status_text(s: &Snapshot) -> String {
         Some(x) => {
             let _ = writeln!(
                 o,
-                "loop     {}   {}   {}   bus {}   period {} us",
+                "loop     {}   {}   {}   {}   bus {}   period {} us",
                 if x.fifo_priority > 0 {
                     format!("SCHED_FIFO {}", x.fifo_priority)
                 } else {
@@ -153,6 +153,11 @@ pub fn status_text(s: &Snapshot) -> String {
                     "memory locked"
                 } else {
                     "memory NOT locked"
+                },
+                if x.cpu_dma_latency_us >= 0 {
+                    format!("idle exit <= {} us", x.cpu_dma_latency_us)
+                } else {
+                    "idle states NOT limited".into()
                 },
                 if x.bus_kind == 1 {
                     "shared-memory virtual CAN"
@@ -214,6 +219,7 @@ pub fn status_json(s: &Snapshot) -> String {
             "system_allocations_in_cycle": x.system_allocations_in_cycle,
             "pool_allocations_in_cycle": x.pool_allocations_in_cycle,
             "fifo_priority": x.fifo_priority, "core": x.core, "memory_locked": x.memory_locked != 0,
+            "cpu_dma_latency_us": (x.cpu_dma_latency_us >= 0).then_some(x.cpu_dma_latency_us),
             "bus": if x.bus_kind == 1 { "shm" } else { "socketcan" },
         })
     });

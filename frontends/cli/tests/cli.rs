@@ -290,6 +290,7 @@ fn doctor_reports_every_check_with_a_fix_and_fails_on_a_missing_can_interface() 
         "CPU idle states",
         "SCHED_FIFO allowed",
         "memory lock allowed",
+        "idle-state request",
         "CAN interface",
         "iceoryx2 shared memory",
         "clock source",

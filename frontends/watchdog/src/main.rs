@@ -147,6 +147,14 @@ fn run(args: &Args, machine: &MachineConfig) -> Result<(), String> {
     let frames = reaction(&plan);
 
     let mut report = RtReport::default();
+    // Off the loop's core: a loop that runs away at its higher priority would otherwise
+    // starve the very process that must notice it.
+    if !rt::keep_off_core(machine.service.loop_core) {
+        eprintln!(
+            "hob-watchdog: note: shares the loop's core {} (no other core allowed)",
+            machine.service.loop_core
+        );
+    }
     rt::set_fifo(machine.service.watchdog_priority, &mut report);
     for p in &report.problems {
         eprintln!("hob-watchdog: DEGRADED: {p}");

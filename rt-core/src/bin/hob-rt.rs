@@ -154,6 +154,7 @@ fn run(args: &Args, machine: MachineConfig) -> Result<(), (u8, String)> {
                 let ready = || {
                     let _ = ready_tx.send(());
                 };
+                rt::keep_off_core(machine.service.loop_core);
                 if let Err(e) = commands::serve(&machine, &thread_box, &stop, ready) {
                     eprintln!("hob-rt: {e}");
                 }
@@ -167,9 +168,11 @@ fn run(args: &Args, machine: MachineConfig) -> Result<(), (u8, String)> {
         let rt_report = Arc::clone(&rt_report);
         let ready_tx = ready_tx.clone();
         let bus_kind = u8::from(iface == "shm");
+        let loop_core = machine.service.loop_core;
         std::thread::Builder::new()
             .name("hob-rt-stats".into())
             .spawn(move || {
+                rt::keep_off_core(loop_core);
                 stats_loop(
                     stats_timing,
                     &counters,
@@ -195,6 +198,8 @@ fn run(args: &Args, machine: MachineConfig) -> Result<(), (u8, String)> {
     rt::prefault_stack(512 * 1024);
     rt::pin(machine.service.loop_core, &mut report);
     rt::set_fifo(machine.service.loop_priority, &mut report);
+    // Held until the process exits (the loop's run and the controlled stop).
+    let _idle_request = rt::hold_cpu_dma_latency(machine.service.cpu_dma_latency_us, &mut report);
     let kernel_rt = rt::kernel_is_preempt_rt();
     if !report.is_complete() {
         eprintln!("hob-rt: ************************************************************");
@@ -226,7 +231,7 @@ fn run(args: &Args, machine: MachineConfig) -> Result<(), (u8, String)> {
         Arc::clone(&counters),
     );
     let summary = format!(
-        "hob-rt started on {iface}: {}, {}, {}{}",
+        "hob-rt started on {iface}: {}, {}, {}{}{}",
         report
             .fifo_priority
             .map_or("no SCHED_FIFO".into(), |p| format!("SCHED_FIFO {p}")),
@@ -236,6 +241,11 @@ fn run(args: &Args, machine: MachineConfig) -> Result<(), (u8, String)> {
         } else {
             "memory not locked"
         },
+        report
+            .cpu_dma_latency_us
+            .map_or(", idle states not limited".into(), |us| format!(
+                ", idle exit latency <= {us} us"
+            )),
         if kernel_rt { ", PREEMPT_RT" } else { "" }
     );
     eprintln!("hob-rt: {summary}");
@@ -273,13 +283,16 @@ fn run(args: &Args, machine: MachineConfig) -> Result<(), (u8, String)> {
     if let Some(dir) = &args.hgrm {
         std::fs::create_dir_all(dir).map_err(|e| (1, format!("{}: {e}", dir.display())))?;
         let summary = format!(
-            "{{\"cycles\": {}, \"overruns\": {}, \"period_ns\": {}, \"fifo_priority\": {}, \"core\": {}, \"memory_locked\": {}, \"preempt_rt\": {}, \"iface\": \"{}\", \"system_allocations_in_cycles\": {}, \"pool_blocks_in_cycles\": {}, \"final_state\": \"{}\"}}\n",
+            "{{\"cycles\": {}, \"overruns\": {}, \"period_ns\": {}, \"fifo_priority\": {}, \"core\": {}, \"memory_locked\": {}, \"cpu_dma_latency_us\": {}, \"preempt_rt\": {}, \"iface\": \"{}\", \"system_allocations_in_cycles\": {}, \"pool_blocks_in_cycles\": {}, \"final_state\": \"{}\"}}\n",
             total.wake_ns.len(),
             counters.overruns.load(Ordering::Relaxed),
             u64::from(machine.control.cycle_period_us) * 1000,
             report.fifo_priority.unwrap_or(0),
             report.core.map_or(-1, i64::from),
             report.memory_locked,
+            report
+                .cpu_dma_latency_us
+                .map_or("null".into(), |us| us.to_string()),
             kernel_rt,
             iface.escape_default(),
             alloc_guard::counts().map_or(0, |c| c.0),
@@ -333,6 +346,7 @@ fn stats_loop(
                 fifo_priority: report.fifo_priority.map_or(0, |p| p as i32),
                 core: report.core.map_or(-1, |c| c as i32),
                 memory_locked: u8::from(report.memory_locked),
+                cpu_dma_latency_us: report.cpu_dma_latency_us.map_or(-1, |us| us as i32),
                 bus_kind,
                 ..timing.sample()
             };

@@ -63,6 +63,9 @@ pub struct ServiceConfig {
     pub watchdog_priority: u32,
     /// The watchdog acts when the loop's state stream is missing for this long.
     pub watchdog_deadline_ms: u32,
+    /// Longest idle-state exit latency the CPUs may have while `hob-rt` runs (a PM QoS
+    /// request on `/dev/cpu_dma_latency`, as cyclictest makes); 0: no idle state but polling.
+    pub cpu_dma_latency_us: u32,
 }
 
 #[derive(Debug, Clone, PartialEq, Deserialize, Serialize)]
@@ -557,6 +560,17 @@ impl MachineConfig {
                     "must be 2 cycles .. 1000 ms ({} .. 1000, is {})",
                     2 * period_ms,
                     sv.watchdog_deadline_ms
+                )
+            },
+        );
+        let quarter_cycle_us = self.control.cycle_period_us / 4;
+        p.require(
+            sv.cpu_dma_latency_us <= quarter_cycle_us,
+            "service.cpu_dma_latency_us",
+            || {
+                format!(
+                    "must be 0 .. a quarter of control.cycle_period_us ({quarter_cycle_us}), is {}",
+                    sv.cpu_dma_latency_us
                 )
             },
         );

@@ -49,8 +49,8 @@ struct Args {
     /// real-time master (`hob demo` runs it at 75, below `hob-rt`).
     #[arg(long, default_value_t = 0)]
     rt_priority: u32,
-    /// Pin to this core (benchmarks keep the simulated drives off the loop's core: real
-    /// drives are separate hardware).
+    /// Pin to this core. Without it the simulator keeps off the loop's core
+    /// (`service.loop_core`) where there is another: real drives are separate hardware.
     #[arg(long)]
     core: Option<u32>,
     /// Exit after this many seconds without any frame (0: never).
@@ -117,6 +117,8 @@ fn run(a: Args) -> Result<(), String> {
         for p in &r.problems {
             eprintln!("hob-sim: {p}");
         }
+    } else {
+        hob_rt_core::service::rt::keep_off_core(machine.service.loop_core);
     }
     if a.rt_priority > 0 {
         let mut r = hob_rt_core::service::rt::RtReport::default();

@@ -119,3 +119,14 @@ fn polarity_must_be_a_named_value() {
     let text = load_src(&src).unwrap_err().to_string();
     assert!(text.contains("normal") && text.contains("inverted"), "{text}");
 }
+
+#[test]
+fn an_idle_latency_request_longer_than_a_quarter_cycle_is_refused() {
+    let src = shipped_src().replace("cpu_dma_latency_us = 0", "cpu_dma_latency_us = 300");
+    let err = load_src(&src).unwrap_err();
+    let p = &err.problems()[0];
+    assert_eq!(p.key, "service.cpu_dma_latency_us");
+    assert!(p.message.contains("250"), "{}", p.message);
+    let src = shipped_src().replace("cpu_dma_latency_us = 0", "cpu_dma_latency_us = 250");
+    assert_eq!(load_src(&src).unwrap().service.cpu_dma_latency_us, 250);
+}
