@@ -183,6 +183,12 @@ pub fn loop_checks(r: &LoopBench, l: &LoopLimits) -> Vec<Check> {
         pass: Some(r.hob_rt.fifo_priority == r.priority),
     });
     v.push(Check {
+        name: "loop pinned to cyclictest's core".into(),
+        measured: r.hob_rt.core.map_or("not pinned".into(), |c| format!("core {c}")),
+        limit: format!("core {}", r.core),
+        pass: Some(r.hob_rt.core == Some(r.core)),
+    });
+    v.push(Check {
         name: "loop held cyclictest's idle-state request".into(),
         measured: r
             .hob_rt

@@ -14,6 +14,7 @@ use hob_rt_core::control::State;
 use hob_rt_core::service::{stats, wire};
 use hob_vm::procs::{Processes, relaxed_machine, sibling};
 use serde::{Deserialize, Serialize};
+use std::os::unix::process::CommandExt as _;
 use std::path::{Path, PathBuf};
 use std::process::Command;
 use std::time::{Duration, Instant};
@@ -61,6 +62,9 @@ pub struct LoopResult {
     /// hob-rt's own count of deadlines that passed before the cycle was done.
     pub overruns: u64,
     pub fifo_priority: u32,
+    /// The core the loop was pinned to (None: not pinned).
+    #[serde(default)]
+    pub core: Option<u32>,
     pub memory_locked: bool,
     /// The idle-state exit latency hob-rt held the CPUs to, us (None: not held).
     #[serde(default)]
@@ -102,28 +106,38 @@ fn ratio(a: f64, b: f64) -> f64 {
     if b > 0.0 { a / b } else { f64::INFINITY }
 }
 
-/// A background load that is stopped when dropped.
+/// A background load in a process group of its own, stopped (the whole group: hackbench
+/// forks its workers) when dropped.
 struct Background(Option<std::process::Child>);
 
 impl Drop for Background {
     fn drop(&mut self) {
         if let Some(c) = &mut self.0 {
-            let _ = c.kill();
+            // The group's id is the leader's pid (`process_group(0)` below).
+            let group = nix::unistd::Pid::from_raw(-(c.id() as i32));
+            let _ = nix::sys::signal::kill(group, nix::sys::signal::Signal::SIGKILL);
             let _ = c.wait();
         }
+    }
+}
+
+impl Background {
+    fn spawn(cmd: &mut Command) -> std::io::Result<Self> {
+        cmd.process_group(0)
+            .stdout(std::process::Stdio::null())
+            .stderr(std::process::Stdio::null())
+            .spawn()
+            .map(|c| Self(Some(c)))
     }
 }
 
 fn start_load(load: Load) -> Result<Background, String> {
     match load {
         Load::None => Ok(Background(None)),
-        Load::Hackbench => Command::new("hackbench")
-            .args(["-P", "-g", "2", "-l", "100000000"])
-            .stdout(std::process::Stdio::null())
-            .stderr(std::process::Stdio::null())
-            .spawn()
-            .map(|c| Background(Some(c)))
-            .map_err(|e| format!("hackbench (apt install rt-tests, or bash ci/bench-setup): {e}")),
+        Load::Hackbench => {
+            Background::spawn(Command::new("hackbench").args(["-P", "-g", "2", "-l", "100000000"]))
+                .map_err(|e| format!("hackbench (apt install rt-tests, or bash ci/bench-setup): {e}"))
+        }
     }
 }
 
@@ -263,10 +277,21 @@ pub fn run(a: &Args) -> Result<LoopBench, String> {
     let idle_us = machine.service.cpu_dma_latency_us;
     let _load = start_load(a.load)?;
     // This process stands in for the frontends: off the loop's core, as they are on the
-    // machine PC (the load above was started first, so it still runs on every core).
-    hob_rt_core::service::rt::keep_off_core(core);
-    let (ct, ct_hist) = run_cyclictest(a, period_us, prio, core, idle_us)?;
-    let passes_cut = run_loop(a, &machine_file, a.seconds * 1_000_000 / period_us)?;
+    // machine PC. A thread of its own does that (and starts cyclictest, hob-sim and hob-rt,
+    // which pin themselves), so the rest of the process and the load started above keep
+    // every core.
+    let cycles = a.seconds * 1_000_000 / period_us;
+    let measured = std::thread::scope(|scope| {
+        scope
+            .spawn(|| {
+                hob_rt_core::service::rt::keep_off_core(core);
+                let ct = run_cyclictest(a, period_us, prio, core, idle_us)?;
+                Ok::<_, String>((ct, run_loop(a, &machine_file, cycles)?))
+            })
+            .join()
+            .map_err(|_| "the loop benchmark's thread panicked".to_string())
+    })?;
+    let ((ct, ct_hist), passes_cut) = measured?;
     let read = |name: &str| -> Result<String, String> {
         let p = a.out.join(name);
         std::fs::read_to_string(&p).map_err(|e| format!("{}: {e}", p.display()))
@@ -285,6 +310,7 @@ pub fn run(a: &Args) -> Result<LoopBench, String> {
         },
         overruns: rt["overruns"].as_u64().unwrap_or(0),
         fifo_priority: rt["fifo_priority"].as_u64().unwrap_or(0) as u32,
+        core: rt["core"].as_u64().map(|c| c as u32),
         memory_locked: rt["memory_locked"].as_bool().unwrap_or(false),
         cpu_dma_latency_us: rt["cpu_dma_latency_us"].as_u64().map(|us| us as u32),
         iface: rt["iface"].as_str().unwrap_or("").to_string(),
@@ -376,4 +402,46 @@ pub fn text(r: &LoopBench) -> String {
         c.p50_us, c.p99_us, c.p999_us, c.p9999_us, c.max_us, r.hob_rt.overruns, r.hob_rt.passes_cut, r.hob_rt.system_allocations_in_cycles
     ));
     o
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Live (not yet reaped or zombie) processes of process group `pgid`.
+    fn live_members(pgid: i32) -> usize {
+        std::fs::read_dir("/proc")
+            .unwrap()
+            .flatten()
+            .filter_map(|e| std::fs::read_to_string(e.path().join("stat")).ok())
+            .filter(|stat| {
+                // pid (comm) state ppid pgrp ...: split after the comm's closing parenthesis.
+                let rest: Vec<&str> = stat
+                    .rsplit_once(')')
+                    .map_or("", |(_, r)| r)
+                    .split_whitespace()
+                    .collect();
+                rest.len() > 2 && rest[2] == pgid.to_string() && rest[0] != "Z"
+            })
+            .count()
+    }
+
+    #[test]
+    fn a_background_load_stops_with_every_process_it_forked() {
+        let mut cmd = Command::new("sh");
+        cmd.args(["-c", "sleep 30 & sleep 30 & wait"]);
+        let load = Background::spawn(&mut cmd).unwrap();
+        let pgid = load.0.as_ref().unwrap().id() as i32;
+        let t0 = Instant::now();
+        while live_members(pgid) < 3 && t0.elapsed() < Duration::from_secs(5) {
+            std::thread::sleep(Duration::from_millis(20));
+        }
+        assert_eq!(live_members(pgid), 3, "the shell and its two workers");
+        drop(load);
+        let t0 = Instant::now();
+        while live_members(pgid) > 0 && t0.elapsed() < Duration::from_secs(5) {
+            std::thread::sleep(Duration::from_millis(20));
+        }
+        assert_eq!(live_members(pgid), 0, "a forked worker outlived the load");
+    }
 }

@@ -70,19 +70,28 @@ pub fn prefault_stack(bytes: usize) {
     rec(bytes);
 }
 
-/// Pins the calling thread to `core`.
+/// Pins the calling thread to `core`. Any core the kernel has may be named, also one this
+/// process was not started on: an isolated core (`isolcpus`) is outside every process's
+/// default affinity, and a parent that keeps itself off the loop's core passes that on.
 pub fn pin(core: u32, report: &mut RtReport) {
-    let ids = core_affinity::get_core_ids().unwrap_or_default();
-    match ids.iter().find(|c| c.id == core as usize) {
-        Some(&id) if core_affinity::set_for_current(id) => report.core = Some(core),
-        Some(_) => report.problems.push(format!(
-            "could not pin the loop to core {core} (sched_setaffinity refused)"
-        )),
-        None => report.problems.push(format!(
-            "core {core} does not exist or is not allowed for this process ({} usable): \
-             set service.loop_core",
-            ids.len()
-        )),
+    if core as usize >= libc::CPU_SETSIZE as usize {
+        report.problems.push(format!(
+            "core {core} is beyond the {} a CPU set can name: set service.loop_core",
+            libc::CPU_SETSIZE
+        ));
+        return;
+    }
+    // Not `core_affinity::get_core_ids()`: it lists only the cores already allowed.
+    if core_affinity::set_for_current(core_affinity::CoreId { id: core as usize }) {
+        report.core = Some(core);
+    } else {
+        let e = std::io::Error::last_os_error();
+        report.problems.push(format!(
+            "could not pin the loop to core {core} ({e}): the core does not exist, is offline \
+             or outside this service's cpuset (systemd AllowedCPUs, docker --cpuset-cpus); \
+             {} cores online: set service.loop_core",
+            std::thread::available_parallelism().map_or(0, |n| n.get())
+        ));
     }
 }
 
@@ -267,10 +276,45 @@ mod tests {
     }
 
     #[test]
+    fn the_loop_pins_to_a_core_its_parent_kept_off() {
+        use nix::sched::{CpuSet, sched_getaffinity};
+        use nix::unistd::Pid;
+        let all = sched_getaffinity(Pid::from_raw(0)).unwrap();
+        let usable: Vec<usize> = (0..CpuSet::count()).filter(|&c| all.is_set(c).unwrap()).collect();
+        if usable.len() < 2 {
+            return; // one core: nothing to keep off
+        }
+        let loop_core = usable[1] as u32;
+        let r = std::thread::spawn(move || {
+            // The benchmark keeps itself off the loop's core and starts hob-rt (as an
+            // isolated core is outside a service's default affinity).
+            assert!(keep_off_core(loop_core));
+            let mut r = RtReport::default();
+            pin(loop_core, &mut r);
+            let now = sched_getaffinity(Pid::from_raw(0)).unwrap();
+            (r, now.is_set(loop_core as usize).unwrap())
+        })
+        .join()
+        .unwrap();
+        assert_eq!(r.0.core, Some(loop_core), "{:?}", r.0.problems);
+        assert!(r.1);
+    }
+
+    #[test]
     fn a_missing_core_is_reported_not_panicked() {
         let mut r = RtReport::default();
         pin(100_000, &mut r);
         assert_eq!(r.core, None);
         assert!(r.problems[0].contains("service.loop_core"), "{:?}", r.problems);
+        // Within a CPU set but not on this machine (run in a thread: a success would move it).
+        let r = std::thread::spawn(|| {
+            let mut r = RtReport::default();
+            pin(1000, &mut r);
+            r
+        })
+        .join()
+        .unwrap();
+        assert_eq!(r.core, None);
+        assert!(r.problems[0].contains("does not exist"), "{:?}", r.problems);
     }
 }
