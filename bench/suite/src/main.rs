@@ -265,7 +265,7 @@ fn run(cli: Cli) -> Result<bool, String> {
             };
             loop_run(if quick { 20 } else { 300 }, Load::None, out.clone())?;
             if !quick {
-                loop_run(120, Load::Hackbench, out.join("loop-hackbench"))?;
+                loop_run(120, Load::Hackbench, out.join(hob_bench::gate::LOADED_LOOP_DIR))?;
             }
             say(bus::text(&bus::run(&bus::Args {
                 seconds: if quick { 3.0 } else { 20.0 },

@@ -55,6 +55,36 @@ fn impossible_limits_fail_every_section() {
 }
 
 #[test]
+fn the_loop_under_a_background_load_is_checked_where_it_was_run() {
+    let checks = gate::evaluate(&fixtures(), &shipped());
+    let loaded: Vec<&str> = checks
+        .iter()
+        .filter(|c| c.name.starts_with("loop (hackbench) "))
+        .map(|c| c.name.as_str())
+        .collect();
+    assert!(loaded.contains(&"loop (hackbench) wake p99 vs cyclictest"), "{loaded:?}");
+    assert!(loaded.contains(&"loop (hackbench) pinned to cyclictest's core"), "{loaded:?}");
+    // A loaded run that breaches a limit fails the gate even where the unloaded one passes.
+    let dir = std::env::temp_dir().join(format!("hob-gate-loaded-{}", std::process::id()));
+    std::fs::create_dir_all(dir.join("loop-hackbench")).expect("temp dir");
+    for f in ["loop.json", "bus.json", "step.json", "accuracy.json", "busload.json"] {
+        std::fs::copy(fixtures().join(f), dir.join(f)).expect("copy");
+    }
+    let mut loaded: serde_json::Value = serde_json::from_str(
+        &std::fs::read_to_string(fixtures().join("loop-hackbench/loop.json")).expect("fixture"),
+    )
+    .expect("json");
+    loaded["hob_rt"]["system_allocations_in_cycles"] = 3.into();
+    std::fs::write(dir.join("loop-hackbench/loop.json"), loaded.to_string()).expect("write");
+    let checks = gate::evaluate(&dir, &shipped());
+    assert_eq!(
+        failed(&checks),
+        vec!["loop (hackbench) system heap allocations in cycles".to_string()]
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
 fn a_missing_result_fails() {
     let dir = std::env::temp_dir().join(format!("hob-gate-missing-{}", std::process::id()));
     std::fs::create_dir_all(&dir).expect("temp dir");
