@@ -62,12 +62,24 @@ fn the_loop_under_a_background_load_is_checked_where_it_was_run() {
         .filter(|c| c.name.starts_with("loop (hackbench) "))
         .map(|c| c.name.as_str())
         .collect();
-    assert!(loaded.contains(&"loop (hackbench) wake p99 vs cyclictest"), "{loaded:?}");
-    assert!(loaded.contains(&"loop (hackbench) pinned to cyclictest's core"), "{loaded:?}");
+    assert!(
+        loaded.contains(&"loop (hackbench) wake p99 vs cyclictest"),
+        "{loaded:?}"
+    );
+    assert!(
+        loaded.contains(&"loop (hackbench) pinned to cyclictest's core"),
+        "{loaded:?}"
+    );
     // A loaded run that breaches a limit fails the gate even where the unloaded one passes.
     let dir = std::env::temp_dir().join(format!("hob-gate-loaded-{}", std::process::id()));
     std::fs::create_dir_all(dir.join("loop-hackbench")).expect("temp dir");
-    for f in ["loop.json", "bus.json", "step.json", "accuracy.json", "busload.json"] {
+    for f in [
+        "loop.json",
+        "bus.json",
+        "step.json",
+        "accuracy.json",
+        "busload.json",
+    ] {
         std::fs::copy(fixtures().join(f), dir.join(f)).expect("copy");
     }
     let mut loaded: serde_json::Value = serde_json::from_str(
