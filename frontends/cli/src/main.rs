@@ -327,8 +327,7 @@ fn run(command: Command) -> Result<(), Failure> {
             cyclictest_seconds,
             json,
         } => {
-            let machine_file = machine_path(machine.as_deref())?;
-            let machine = MachineConfig::load(&machine_file).map_err(Failure::Refused)?;
+            let machine = load_machine(machine.as_deref())?;
             let findings = doctor::run(&machine, cyclictest_seconds);
             if json {
                 emit(
