@@ -268,7 +268,7 @@ fn run(cli: Cli) -> Result<bool, String> {
                 loop_run(120, Load::Hackbench, out.join(hob_bench::gate::LOADED_LOOP_DIR))?;
             }
             say(bus::text(&bus::run(&bus::Args {
-                seconds: if quick { 3.0 } else { 20.0 },
+                seconds: if quick { 10.0 } else { 20.0 },
                 out: out.clone(),
                 machine: cli.machine.clone(),
             })?));
