@@ -86,3 +86,39 @@ fn thesis_worst_case_spur_is_within_a_quarter_of_grade_5() {
 fn helical_gear_is_within_a_quarter_of_grade_5() {
     check("helical-z31-m3.toml");
 }
+
+/// The emulated PREEMPT_RT guest cannot hold 1 ms, so `ci/service/run` runs there on a
+/// 2 ms cycle (`HOB_CYCLE_US=2000`: `control.cycle_period_us` and, CSP, the drive delay).
+/// The control core holds its bound on that cycle too (measured with `hob simulate
+/// --machine`: 1.32 / 1.63 um of 1.77; at 4 ms it does not: 2.27 um).
+#[test]
+fn the_demo_job_on_the_guests_2_ms_cycle_is_within_the_bound() {
+    let mut m = common::machine();
+    m.control.cycle_period_us = 2000;
+    m.control.drive_delay_us = 2000;
+    let src =
+        std::fs::read_to_string(common::root().join("config/programs/demo-short-spur-z17-m5.toml")).unwrap();
+    let job: hob_rt_core::job::Program = toml::from_str(&src).unwrap();
+    let mut p = hob_rt_core::config::Problems::new();
+    let cycle = hob_rt_core::control::program::CycleProgram::build(&job, &m, &mut p).unwrap();
+    let plan = hob_rt_core::planner::plan(&job, &m, &mut p).unwrap();
+    assert!(p.as_slice().is_empty(), "{:?}", p.as_slice());
+    let s = run_program(
+        &m,
+        &common::plant(),
+        &cycle,
+        &plan,
+        &job,
+        &SimOptions::default(),
+        &mut |_| {},
+    )
+    .unwrap();
+    report("demo at 2 ms", "full", &s);
+    assert!(s.completed, "{:?}", s.fault);
+    assert!(
+        s.max_sync_err_um <= s.bound_um,
+        "{} um above {} um",
+        s.max_sync_err_um,
+        s.bound_um
+    );
+}

@@ -4,6 +4,8 @@
 //!
 //! Lockstep: the physics advance by one period per SYNC received, as real drives act on
 //! SYNC, so a run over the bus is reproducible however the processes are scheduled.
+//! As a real drive does, a SYNC is answered first (latch, TPDOs) and the period's
+//! physics are computed afterwards ([`VirtualMachine::settle`]), before the next frame.
 
 use crate::node::{Node, communication_objects};
 use crate::od::{Access, Od};
@@ -164,6 +166,8 @@ pub struct VirtualMachine {
     rng: u64,
     powered_before: bool,
     cutting_syncs: u64,
+    /// The physics owe the period since the last SYNC (see [`VirtualMachine::settle`]).
+    physics_owed: bool,
     /// The nodes' own clock (heartbeats, inhibit times): advances by one period per SYNC
     /// and by wall time while no SYNC runs, so both never mix.
     node_clock_s: f64,
@@ -194,6 +198,7 @@ impl VirtualMachine {
             rng: plant.simulation.seed.wrapping_mul(0x9E37_79B9_7F4A_7C15) | 1,
             powered_before: false,
             cutting_syncs: 0,
+            physics_owed: false,
             node_clock_s: 0.0,
         }
     }
@@ -239,6 +244,7 @@ impl VirtualMachine {
     }
 
     pub fn inject(&mut self, f: VmFault) {
+        self.settle();
         match f {
             VmFault::Plant(i) => self.plant.inject(i),
             VmFault::Drop(p) => self.drop = p,
@@ -261,8 +267,20 @@ impl VirtualMachine {
         self.rng.wrapping_mul(0x2545_F491_4F6C_DD1D)
     }
 
+    /// Computes the physics of the period since the last SYNC if that is still owed. A
+    /// SYNC's answer goes out before them (send `out`, then call this while the bus is
+    /// quiet); every other entry point calls it first, so the order never matters.
+    pub fn settle(&mut self) {
+        if self.physics_owed {
+            self.physics_owed = false;
+            self.plant.advance_to(self.time_s);
+            self.cutting_syncs += u64::from(self.plant.cutting());
+        }
+    }
+
     /// Handles one frame from the bus; frames to send are appended to `out`.
     pub fn on_frame(&mut self, f: &Frame, out: &mut Vec<Frame>) {
+        self.settle();
         let now = self.node_clock_s;
         let mut sync = false;
         for i in 0..3 {
@@ -342,8 +360,8 @@ impl VirtualMachine {
         }
     }
 
-    /// A SYNC: apply the targets received since the last one, latch, send the TPDOs,
-    /// then advance the physics by one period.
+    /// A SYNC: apply the targets received since the last one, latch, send the TPDOs;
+    /// the physics of the coming period are owed until [`Self::settle`].
     fn on_sync(&mut self, out: &mut Vec<Frame>) {
         self.syncs += 1;
         let mut targets = [0i32; 3];
@@ -452,13 +470,13 @@ impl VirtualMachine {
         }
 
         self.time_s += self.period_s;
-        self.plant.advance_to(self.time_s);
-        self.cutting_syncs += u64::from(self.plant.cutting());
+        self.physics_owed = true;
     }
 
     /// Without SYNCs (boot, pre-operational, a dead master): the nodes' clock runs on
     /// wall time (`wall_dt_s` since the last call); heartbeats go on.
     pub fn idle(&mut self, wall_dt_s: f64, out: &mut Vec<Frame>) {
+        self.settle();
         self.node_clock_s += wall_dt_s.max(0.0);
         let now = self.node_clock_s;
         for n in self.nodes_mut() {

@@ -44,6 +44,7 @@ pub fn serve(
             busy = true;
             vm.on_frame(&f, &mut out);
             flush(bus, &mut out);
+            vm.settle();
         }
         if vm.syncs() != last_sync {
             last_sync = vm.syncs();
@@ -59,6 +60,7 @@ pub fn serve(
             std::thread::sleep(Duration::from_micros(50));
         }
     }
+    vm.settle();
 }
 
 fn flush(bus: &mut dyn CanBus, out: &mut Vec<Frame>) {
@@ -80,7 +82,8 @@ pub struct MasterLoop<B: CanBus> {
 }
 
 impl<B: CanBus> MasterLoop<B> {
-    pub fn new(controller: Controller, cyclic: Cyclic, bus: B) -> Self {
+    pub fn new(controller: Controller, mut cyclic: Cyclic, mut bus: B) -> Self {
+        cyclic.hear_own_sync(&mut bus);
         Self {
             controller,
             cyclic,

@@ -152,6 +152,7 @@ pub fn run(machine: &MachineConfig, a: &DemoArgs<'_>) -> Result<String, (u8, Str
 
     // Progress: pass, Y, time left, sync error.
     let total_s = plan.total_time_s;
+    let period_s = f64::from(machine.control.cycle_period_us) * 1e-6;
     let timeout = Duration::from_secs_f64(total_s * 4.0 + 120.0);
     let end = Instant::now() + timeout;
     let mut start_cycle = None;
@@ -182,7 +183,7 @@ pub fn run(machine: &MachineConfig, a: &DemoArgs<'_>) -> Result<String, (u8, Str
         }
         if !a.quiet && last_draw.elapsed() > Duration::from_millis(250) {
             last_draw = Instant::now();
-            let elapsed_s = (s.cycle - c0) as f64 * 1e-3;
+            let elapsed_s = (s.cycle - c0) as f64 * period_s;
             let left = (total_s - elapsed_s).max(0.0);
             eprint!(
                 "\r{} pass {}/{}  {:<11} Y {:8.2} mm  left {:>3.0}:{:02.0}  sync {:+7.3} arcsec ",

@@ -79,6 +79,17 @@ pub struct Report {
     pub passes: Vec<hob_plant::sim::PassSummary>,
 }
 
+/// The loop's cycle period as recorded: SYNC time over cycles from the first sample to the
+/// last (a log holds no configuration; 1 ms when it holds a single sample).
+fn cycle_period_s(states: &[StateSample]) -> f64 {
+    match (states.first(), states.last()) {
+        (Some(a), Some(b)) if b.cycle > a.cycle && b.sync_time_ns > a.sync_time_ns => {
+            (b.sync_time_ns - a.sync_time_ns) as f64 * 1e-9 / (b.cycle - a.cycle) as f64
+        }
+        _ => 1e-3,
+    }
+}
+
 pub fn report(dir: &Path) -> Result<Report, String> {
     let states = hob_logger::read_dir_states(dir)?;
     let gear = states.iter().find(|s| s.pitch_radius_mm > 0.0).ok_or_else(|| {
@@ -89,6 +100,7 @@ pub fn report(dir: &Path) -> Result<Report, String> {
     })?;
     let mut b = SummaryBuilder::for_gear(gear.pitch_radius_mm, gear.normal_module_mm);
     let t0 = states.first().map_or(0, |s| s.sync_time_ns);
+    let period_s = cycle_period_s(&states);
     let mut missing = 0;
     let mut prev: Option<u64> = None;
     for s in &states {
@@ -98,7 +110,7 @@ pub fn report(dir: &Path) -> Result<Report, String> {
             missing += s.cycle - p - 1;
         }
         prev = Some(s.cycle);
-        b.add(&trace_row(s, t0), 0.001);
+        b.add(&trace_row(s, t0), period_s);
     }
     let (passes, tol) = b.passes();
     Ok(Report {

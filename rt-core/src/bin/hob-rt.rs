@@ -220,9 +220,19 @@ fn run(args: &Args, machine: MachineConfig) -> Result<(), (u8, String)> {
 
     let _ = rt_report.set(report.clone());
     let controller = Controller::new(ControlParams::from_machine(&machine));
+    let mut cyclic = Cyclic::new(plan);
+    if cyclic.hear_own_sync(&mut *bus) {
+        eprintln!(
+            "hob-rt: {iface} echoes our SYNCs in bus order: each TPDO is matched to the SYNC it answers"
+        );
+    } else {
+        eprintln!(
+            "hob-rt: {iface} cannot echo our SYNCs in order: TPDOs are matched by counting the SYNCs each drive owes"
+        );
+    }
     let mut lp = RtLoop::new(
         controller,
-        Cyclic::new(plan),
+        cyclic,
         bus,
         state_pub,
         events_pub,

@@ -35,6 +35,12 @@ pub trait CanBus {
     fn send(&mut self, f: &Frame) -> Result<(), BusError>;
     /// The next received frame, if one is waiting.
     fn try_recv(&mut self) -> Result<Option<Frame>, BusError>;
+    /// From now on, also deliver this endpoint's own SYNC frames, in bus order among the
+    /// frames received (start-up only). Then a TPDO is known to answer the SYNC heard
+    /// before it. Returns false where the transport cannot keep that order.
+    fn echo_own_sync(&mut self) -> bool {
+        false
+    }
 }
 
 impl<B: CanBus + ?Sized> CanBus for Box<B> {
@@ -45,11 +51,17 @@ impl<B: CanBus + ?Sized> CanBus for Box<B> {
     fn try_recv(&mut self) -> Result<Option<Frame>, BusError> {
         (**self).try_recv()
     }
+
+    fn echo_own_sync(&mut self) -> bool {
+        (**self).echo_own_sync()
+    }
 }
 
 #[derive(Debug, Default)]
 struct Hub {
     queues: Vec<VecDeque<Frame>>,
+    /// Endpoints that hear their own SYNCs.
+    echo_sync: Vec<bool>,
     log: Option<Vec<Frame>>,
     capacity: usize,
 }
@@ -68,6 +80,7 @@ impl MemoryBus {
     pub fn new(capacity: usize) -> Self {
         let hub = Hub {
             queues: vec![VecDeque::with_capacity(capacity)],
+            echo_sync: vec![false],
             log: None,
             capacity,
         };
@@ -82,6 +95,7 @@ impl MemoryBus {
         let mut hub = self.lock();
         let cap = hub.capacity;
         hub.queues.push(VecDeque::with_capacity(cap));
+        hub.echo_sync.push(false);
         Self {
             hub: Arc::clone(&self.hub),
             me: hub.queues.len() - 1,
@@ -117,8 +131,9 @@ impl CanBus for MemoryBus {
         {
             return Err(BusError::Full);
         }
+        let echo = f.id == super::frame::SYNC && hub.echo_sync[me];
         for (i, q) in hub.queues.iter_mut().enumerate() {
-            if i != me {
+            if i != me || echo {
                 q.push_back(*f);
             }
         }
@@ -132,6 +147,12 @@ impl CanBus for MemoryBus {
         let me = self.me;
         Ok(self.lock().queues[me].pop_front())
     }
+
+    fn echo_own_sync(&mut self) -> bool {
+        let me = self.me;
+        self.lock().echo_sync[me] = true;
+        true
+    }
 }
 
 #[cfg(feature = "socketcan")]
@@ -140,7 +161,9 @@ pub use socket::SocketCan;
 #[cfg(feature = "socketcan")]
 mod socket {
     use super::{BusError, CanBus, Frame};
-    use socketcan::{CanDataFrame, CanFrame, CanSocket, EmbeddedFrame, Id, Socket, StandardId};
+    use socketcan::{
+        CanDataFrame, CanFilter, CanFrame, CanSocket, EmbeddedFrame, Id, Socket, SocketOptions, StandardId,
+    };
     use std::io::ErrorKind;
 
     const ENETDOWN: i32 = 100;
@@ -221,6 +244,20 @@ mod socket {
                     Err(e) => return Err(os(e)),
                 }
             }
+        }
+
+        /// The kernel delivers a socket's own frames (`CAN_RAW_RECV_OWN_MSGS`) when they
+        /// are on the bus: on vcan at once, on a controller with echo when transmitted, in
+        /// order with the frames received. Filters keep out the other frames this master
+        /// sends (NMT, RPDOs, SDO requests): what passes is SYNC and EMCY, TPDO 1-4, SDO
+        /// responses and heartbeats, from any node.
+        fn echo_own_sync(&mut self) -> bool {
+            let node_to_master = [0x080, 0x180, 0x280, 0x380, 0x480, 0x580, 0x700];
+            let filters: Vec<CanFilter> = node_to_master
+                .iter()
+                .map(|&id| CanFilter::new(id, 0x780))
+                .collect();
+            self.socket.set_filters(&filters).is_ok() && self.socket.set_recv_own_msgs(true).is_ok()
         }
     }
 }

@@ -324,6 +324,12 @@ pub struct Cyclic {
     owed: [u32; 3],
     got: [u32; 3],
     one_behind: [bool; 3],
+    /// Where the bus echoes our own SYNCs in bus order ([`Cyclic::hear_own_sync`]): SYNCs
+    /// sent and heard, and per drive the SYNC its newest TPDO answers. No guessing then.
+    own_sync_heard: bool,
+    syncs_sent: u64,
+    syncs_heard: u64,
+    answers_sync: [u64; 3],
     misses: [u32; 3],
     inputs: [u8; 3],
     inputs_seen: bool,
@@ -353,6 +359,10 @@ impl Cyclic {
             owed: [0; 3],
             got: [0; 3],
             one_behind: [false; 3],
+            own_sync_heard: false,
+            syncs_sent: 0,
+            syncs_heard: 0,
+            answers_sync: [0; 3],
             misses: [0; 3],
             inputs: [0; 3],
             inputs_seen: false,
@@ -407,6 +417,15 @@ impl Cyclic {
             .all(|(f, m)| *f || *m >= silent)
     }
 
+    /// Asks `bus` to deliver our own SYNCs among the received frames, in bus order
+    /// ([`CanBus::echo_own_sync`]; start-up only). Where it can, a TPDO answers the SYNC
+    /// heard last before it, so a late answer is never taken for this cycle's; where it
+    /// cannot (the shared-memory bus), the count of SYNCs owed decides. Returns which.
+    pub fn hear_own_sync(&mut self, bus: &mut dyn CanBus) -> bool {
+        self.own_sync_heard = bus.echo_own_sync();
+        self.own_sync_heard
+    }
+
     /// Requests quick stop of every drive (kept until cleared).
     pub fn set_quick_stop(&mut self, on: bool) {
         self.quick_stop = on;
@@ -415,6 +434,7 @@ impl Cyclic {
     /// Takes in one received frame.
     pub fn receive(&mut self, f: &Frame) {
         match Cob::of(f.id) {
+            Cob::Sync if self.own_sync_heard => self.syncs_heard += 1,
             Cob::Tpdo(n, node) => {
                 if let Some(i) = self.plan.drives.iter().position(|d| d.node == node) {
                     let d = self.plan.drives[i];
@@ -426,6 +446,7 @@ impl Cyclic {
                             }
                             self.fresh[i] = true;
                             self.got[i] = self.got[i].saturating_add(1);
+                            self.answers_sync[i] = self.syncs_heard;
                         }
                     } else if n == 2
                         && let Some(v) = d.status.unpack(f)
@@ -490,7 +511,14 @@ impl Cyclic {
             } else {
                 self.one_behind[i] = false;
             }
-            let current = self.got[i] > 0 && owed == 0;
+            let current = if self.own_sync_heard {
+                // Exact: the newest TPDO answers the last SYNC sent.
+                self.got[i] > 0
+                    && self.answers_sync[i] == self.syncs_sent
+                    && self.syncs_heard == self.syncs_sent
+            } else {
+                self.got[i] > 0 && owed == 0
+            };
             self.owed[i] = owed;
             self.got[i] = 0;
             if current {
@@ -606,6 +634,7 @@ impl Cyclic {
         }
         let sync = bus.send(&Frame::new(SYNC, &[]));
         if sync.is_ok() {
+            self.syncs_sent += 1;
             // Each drive owes this SYNC's TPDO (bounded: a silent node is a fault long before).
             for o in &mut self.owed {
                 *o = (*o + 1).min(1_000);

@@ -174,6 +174,8 @@ fn run(a: Args) -> Result<(), String> {
             for f in out.drain(..) {
                 let _ = bus.send(&f);
             }
+            // A SYNC's answer is on the bus: now its period's physics.
+            vm.settle();
         }
         if vm.syncs() != last_sync.0 {
             last_sync = (vm.syncs(), Instant::now());
