@@ -96,13 +96,8 @@ fn the_demo_job_on_the_guests_2_ms_cycle_is_within_the_bound() {
     let mut m = common::machine();
     m.control.cycle_period_us = 2000;
     m.control.drive_delay_us = 2000;
-    let src =
-        std::fs::read_to_string(common::root().join("config/programs/demo-short-spur-z17-m5.toml")).unwrap();
-    let job: hob_rt_core::job::Program = toml::from_str(&src).unwrap();
-    let mut p = hob_rt_core::config::Problems::new();
-    let cycle = hob_rt_core::control::program::CycleProgram::build(&job, &m, &mut p).unwrap();
-    let plan = hob_rt_core::planner::plan(&job, &m, &mut p).unwrap();
-    assert!(p.as_slice().is_empty(), "{:?}", p.as_slice());
+    // Any problem with the program on this machine fails here (the planner refuses).
+    let (job, cycle, plan) = common::program_on(&m, "demo-short-spur-z17-m5.toml", &[]);
     let s = run_program(
         &m,
         &common::plant(),

@@ -355,9 +355,11 @@ pub const LOADED_LOOP_DIR: &str = "loop-hackbench";
 pub fn evaluate(dir: &Path, limits: &Limits) -> Vec<Check> {
     let mut v = Vec::new();
     let mut period_us = 1000.0;
+    let mut cyclictest_p99_us = None;
     match read::<LoopBench>(dir, "loop.json") {
         Ok(r) => {
             period_us = r.period_us as f64;
+            cyclictest_p99_us = Some(r.cyclictest.wake.p99_us);
             v.extend(loop_checks(&r, &limits.loop_));
         }
         Err(e) => v.push(missing("loop latency", e)),
@@ -374,12 +376,7 @@ pub fn evaluate(dir: &Path, limits: &Limits) -> Vec<Check> {
         }
     }
     match read::<BusBench>(dir, "bus.json") {
-        Ok(r) => {
-            let ct = read::<LoopBench>(dir, "loop.json")
-                .ok()
-                .map(|l| l.cyclictest.wake.p99_us);
-            v.extend(bus_checks(&r, &limits.bus, ct));
-        }
+        Ok(r) => v.extend(bus_checks(&r, &limits.bus, cyclictest_p99_us)),
         Err(e) => v.push(missing("bus latency", e)),
     }
     match read::<StepBench>(dir, "step.json") {

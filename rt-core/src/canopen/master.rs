@@ -426,6 +426,25 @@ impl Cyclic {
         self.own_sync_heard
     }
 
+    /// Without the echo: whether drive `i`'s newest TPDO answers the last SYNC, by
+    /// counting. A synchronous TPDO answers exactly one SYNC, in order. A node that fell
+    /// behind (its answers arrive late, then in a burst) sends values of an older SYNC:
+    /// they are the newest known but not this cycle's measurement. One behind two cycles
+    /// running with one answer each is a lost frame, not lag: forgiven.
+    fn counted_current(&mut self, i: usize) -> bool {
+        let mut owed = self.owed[i].saturating_sub(self.got[i]);
+        if self.got[i] == 1 && owed >= 1 {
+            if self.one_behind[i] {
+                owed = 0;
+            }
+            self.one_behind[i] = true;
+        } else {
+            self.one_behind[i] = false;
+        }
+        self.owed[i] = owed;
+        self.got[i] > 0 && owed == 0
+    }
+
     /// Requests quick stop of every drive (kept until cleared).
     pub fn set_quick_stop(&mut self, on: bool) {
         self.quick_stop = on;
@@ -498,28 +517,14 @@ impl Cyclic {
         let mut fb = [AxisFeedback::default(); 3];
         #[allow(clippy::needless_range_loop)] // five arrays indexed by drive
         for i in 0..3 {
-            // A synchronous TPDO answers exactly one SYNC, in order. A node that fell
-            // behind (its answers arrive late, then in a burst) sends values of an older
-            // SYNC: they are the newest known but not this cycle's measurement. One behind
-            // two cycles running with one answer each is a lost frame, not lag: forgiven.
-            let mut owed = self.owed[i].saturating_sub(self.got[i]);
-            if self.got[i] == 1 && owed >= 1 {
-                if self.one_behind[i] {
-                    owed = 0;
-                }
-                self.one_behind[i] = true;
-            } else {
-                self.one_behind[i] = false;
-            }
             let current = if self.own_sync_heard {
                 // Exact: the newest TPDO answers the last SYNC sent.
                 self.got[i] > 0
                     && self.answers_sync[i] == self.syncs_sent
                     && self.syncs_heard == self.syncs_sent
             } else {
-                self.got[i] > 0 && owed == 0
+                self.counted_current(i)
             };
-            self.owed[i] = owed;
             self.got[i] = 0;
             if current {
                 self.misses[i] = 0;

@@ -27,16 +27,20 @@ pub fn plant() -> PlantConfig {
 
 /// An example program with textual edits applied to its source.
 pub fn program(name: &str, edits: &[(&str, &str)]) -> (Program, CycleProgram, Plan) {
+    program_on(&machine(), name, edits)
+}
+
+/// [`program`] for machine `m`.
+pub fn program_on(m: &MachineConfig, name: &str, edits: &[(&str, &str)]) -> (Program, CycleProgram, Plan) {
     let mut src = std::fs::read_to_string(root().join("config/programs").join(name)).unwrap();
     for (from, to) in edits {
         assert!(src.contains(from), "{name} has no {from:?}");
         src = src.replace(from, to);
     }
     let job: Program = toml::from_str(&src).unwrap();
-    let m = machine();
     let mut p = Problems::new();
-    let cycle = CycleProgram::build(&job, &m, &mut p).unwrap_or_else(|| panic!("{:?}", p.as_slice()));
-    let plan = planner::plan(&job, &m, &mut p).unwrap();
+    let cycle = CycleProgram::build(&job, m, &mut p).unwrap_or_else(|| panic!("{:?}", p.as_slice()));
+    let plan = planner::plan(&job, m, &mut p).unwrap();
     (job, cycle, plan)
 }
 
