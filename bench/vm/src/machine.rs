@@ -171,6 +171,10 @@ pub struct VirtualMachine {
     /// The nodes' own clock (heartbeats, inhibit times): advances by one period per SYNC
     /// and by wall time while no SYNC runs, so both never mix.
     node_clock_s: f64,
+    /// The SYNC being handled is already followed by another: its PDOs are not sent.
+    superseded: bool,
+    /// SYNCs whose PDOs were not sent because a later SYNC was already waiting.
+    superseded_syncs: u64,
 }
 
 impl VirtualMachine {
@@ -200,6 +204,8 @@ impl VirtualMachine {
             cutting_syncs: 0,
             physics_owed: false,
             node_clock_s: 0.0,
+            superseded: false,
+            superseded_syncs: 0,
         }
     }
 
@@ -225,6 +231,12 @@ impl VirtualMachine {
 
     pub fn syncs(&self) -> u64 {
         self.syncs
+    }
+
+    /// SYNCs left unanswered because the simulator read them late, together with a later
+    /// one (see [`Self::on_frames`]).
+    pub fn superseded_syncs(&self) -> u64 {
+        self.superseded_syncs
     }
 
     pub fn drive_state(&self, axis: Axis) -> PowerState {
@@ -298,6 +310,22 @@ impl VirtualMachine {
         if f.id == hob_rt_core::canopen::frame::SYNC && (sync || self.any_operational()) {
             self.on_sync(out);
         }
+    }
+
+    /// Handles the frames read from the bus in one go, in order. A process scheduled late
+    /// reads several SYNCs at once; a drive latches each SYNC in hardware and answers it
+    /// within the period, so an answer to any but the last would reach the master after
+    /// the next SYNC and pass for that one's. Those SYNCs are latched and their periods
+    /// computed, but their PDOs are not sent: the master sees a missed frame, as from a
+    /// drive whose answer is lost, never a stale one.
+    pub fn on_frames(&mut self, batch: &[Frame], out: &mut Vec<Frame>) {
+        let sync = hob_rt_core::canopen::frame::SYNC;
+        let last_sync = batch.iter().rposition(|f| f.id == sync);
+        for (i, f) in batch.iter().enumerate() {
+            self.superseded = f.id == sync && last_sync.is_some_and(|l| i < l);
+            self.on_frame(f, out);
+        }
+        self.superseded = false;
     }
 
     fn any_operational(&self) -> bool {
@@ -434,8 +462,12 @@ impl VirtualMachine {
             n.transmit_pdos(true, now, &mut tx);
             n.heartbeat(now, &mut tx);
         }
+        self.superseded_syncs += u64::from(self.superseded);
         for f in tx {
             let is_pdo = (0x180..0x500).contains(&f.id);
+            if is_pdo && self.superseded {
+                continue;
+            }
             if is_pdo && self.drop > 0.0 && (self.random() >> 11) as f64 / (1u64 << 53) as f64 <= self.drop {
                 continue;
             }
@@ -484,3 +516,6 @@ impl VirtualMachine {
         }
     }
 }
+
+#[cfg(test)]
+mod tests;

@@ -7,7 +7,7 @@
 //!   so runs are reproducible on a loaded or emulated machine. Timing plays no part.
 
 use crate::machine::{VirtualMachine, VmFault};
-use hob_rt_core::canopen::bus::CanBus;
+use hob_rt_core::canopen::bus::{BusError, CanBus};
 use hob_rt_core::canopen::frame::Frame;
 use hob_rt_core::canopen::master::Cyclic;
 use hob_rt_core::control::{Controller, CycleOutputs};
@@ -30,6 +30,7 @@ pub fn serve(
 ) {
     let mut last_idle = Instant::now();
     let mut out = Vec::new();
+    let mut batch = Vec::new();
     vm.power_on(&mut out);
     let mut last_sync = vm.syncs();
     let mut last_sync_wall = Instant::now();
@@ -39,13 +40,7 @@ pub fn serve(
                 vm.inject(f);
             }
         }
-        let mut busy = false;
-        while let Ok(Some(f)) = bus.try_recv() {
-            busy = true;
-            vm.on_frame(&f, &mut out);
-            flush(bus, &mut out);
-            vm.settle();
-        }
+        let busy = serve_waiting(vm, bus, &mut batch, &mut out).unwrap_or(0) > 0;
         if vm.syncs() != last_sync {
             last_sync = vm.syncs();
             last_sync_wall = Instant::now();
@@ -61,6 +56,29 @@ pub fn serve(
         }
     }
     vm.settle();
+}
+
+/// Reads every frame waiting on `bus`, lets the machine handle them as one batch
+/// ([`VirtualMachine::on_frames`]: of several SYNCs read late only the last is answered),
+/// sends the answers, then computes the physics owed. Returns how many frames were read.
+pub fn serve_waiting(
+    vm: &mut VirtualMachine,
+    bus: &mut dyn CanBus,
+    batch: &mut Vec<Frame>,
+    out: &mut Vec<Frame>,
+) -> Result<usize, BusError> {
+    batch.clear();
+    let read = loop {
+        match bus.try_recv() {
+            Ok(Some(f)) => batch.push(f),
+            Ok(None) => break Ok(()),
+            Err(e) => break Err(e),
+        }
+    };
+    vm.on_frames(batch, out);
+    flush(bus, out);
+    vm.settle();
+    read.map(|()| batch.len())
 }
 
 fn flush(bus: &mut dyn CanBus, out: &mut Vec<Frame>) {

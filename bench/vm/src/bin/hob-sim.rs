@@ -17,7 +17,7 @@ use hob_rt_core::control::program::CycleProgram;
 use hob_rt_core::job::Program;
 use hob_rt_core::planner;
 use hob_vm::machine::{VirtualMachine, VmFault};
-use hob_vm::runner::SYNC_SILENCE;
+use hob_vm::runner::{SYNC_SILENCE, serve_waiting};
 use std::path::PathBuf;
 use std::process::ExitCode;
 use std::time::{Duration, Instant};
@@ -147,6 +147,8 @@ fn run(a: Args) -> Result<(), String> {
     let mut last_frame = Instant::now();
     let mut last_sync = (vm.syncs(), Instant::now());
     let mut out: Vec<Frame> = Vec::new();
+    let mut batch: Vec<Frame> = Vec::new();
+    let mut superseded = (0, Instant::now());
     let mut in_cut = in_cut;
     vm.power_on(&mut out);
     loop {
@@ -166,16 +168,18 @@ fn run(a: Args) -> Result<(), String> {
             vm.inject(f);
             in_cut = None;
         }
-        let mut busy = false;
-        while let Some(f) = bus.try_recv().map_err(|e| e.to_string())? {
-            busy = true;
+        let busy = serve_waiting(&mut vm, bus.as_mut(), &mut batch, &mut out).map_err(|e| e.to_string())? > 0;
+        if busy {
             last_frame = Instant::now();
-            vm.on_frame(&f, &mut out);
-            for f in out.drain(..) {
-                let _ = bus.send(&f);
-            }
-            // A SYNC's answer is on the bus: now its period's physics.
-            vm.settle();
+        }
+        if vm.superseded_syncs() != superseded.0 && superseded.1.elapsed() > Duration::from_secs(5) {
+            // Scheduled late: say so, at most every 5 s (the master sees the lost frames).
+            eprintln!(
+                "hob-sim: {} of {} SYNCs read late together with a later one: not answered",
+                vm.superseded_syncs(),
+                vm.syncs()
+            );
+            superseded = (vm.superseded_syncs(), Instant::now());
         }
         if vm.syncs() != last_sync.0 {
             last_sync = (vm.syncs(), Instant::now());
@@ -189,9 +193,10 @@ fn run(a: Args) -> Result<(), String> {
         }
         if a.idle_exit_s > 0.0 && last_frame.elapsed().as_secs_f64() > a.idle_exit_s {
             eprintln!(
-                "hob-sim: no frame for {} s, exiting after {} SYNCs",
+                "hob-sim: no frame for {} s, exiting after {} SYNCs ({} read late with a later one: not answered)",
                 a.idle_exit_s,
-                vm.syncs()
+                vm.syncs(),
+                vm.superseded_syncs()
             );
             return Ok(());
         }

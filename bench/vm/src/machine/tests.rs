@@ -1,0 +1,75 @@
+//! The virtual machine as a late-scheduled process sees the bus: several SYNCs read at once.
+#![allow(clippy::unwrap_used)]
+
+use super::*;
+use hob_rt_core::canopen::frame::{NMT, SYNC};
+use std::path::{Path, PathBuf};
+
+fn root() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../..")
+}
+
+/// A virtual machine with every node operational and TPDO1 sent on every SYNC.
+fn operational_vm() -> VirtualMachine {
+    let m = MachineConfig::load(&root().join("config/machine.toml")).unwrap();
+    let p = PlantConfig::load(&root().join("config/plant.toml")).unwrap();
+    let start = Start {
+        x_mm: 150.0,
+        y_mm: 150.0,
+        table_deg: 0.0,
+    };
+    let mut vm = VirtualMachine::new(&m, &p, start, 10);
+    for n in vm.nodes_mut() {
+        n.od.put(0x1800, 2, 1);
+    }
+    let mut out = Vec::new();
+    vm.on_frame(&Frame::new(NMT, &[0x01, 0]), &mut out);
+    assert!(vm.any_operational());
+    vm
+}
+
+fn pdos(out: &[Frame]) -> Vec<u16> {
+    out.iter()
+        .map(|f| f.id)
+        .filter(|id| (0x180..0x500).contains(id))
+        .collect()
+}
+
+#[test]
+fn of_several_syncs_read_at_once_only_the_last_is_answered() {
+    let mut vm = operational_vm();
+    let mut out = Vec::new();
+    vm.on_frames(&[Frame::new(SYNC, &[])], &mut out);
+    let one = pdos(&out);
+    assert_eq!(one.len(), 4, "one TPDO1 per node: {one:x?}");
+    assert_eq!(vm.superseded_syncs(), 0);
+
+    out.clear();
+    let t0 = vm.time_s();
+    let sync = Frame::new(SYNC, &[]);
+    vm.on_frames(&[sync, sync, sync], &mut out);
+    assert_eq!(pdos(&out), one, "the answers of the last SYNC only");
+    assert_eq!(vm.superseded_syncs(), 2);
+    assert_eq!(vm.syncs(), 4, "every SYNC latched");
+    vm.settle();
+    let period_s = vm.period_s;
+    assert!(
+        (vm.time_s() - t0 - 3.0 * period_s).abs() < 1e-12,
+        "three periods computed"
+    );
+}
+
+#[test]
+fn a_batch_without_a_later_sync_is_answered_in_full() {
+    let mut vm = operational_vm();
+    let mut out = Vec::new();
+    // A target, then the SYNC, then a frame after it: the SYNC is the last one.
+    let after = Frame::new(0x700 + 5, &[0x05]);
+    vm.on_frames(&[Frame::new(SYNC, &[]), after], &mut out);
+    assert_eq!(pdos(&out).len(), 4);
+    assert_eq!(vm.superseded_syncs(), 0);
+    // The next single SYNC is answered as well: nothing carries over.
+    out.clear();
+    vm.on_frames(&[Frame::new(SYNC, &[])], &mut out);
+    assert_eq!(pdos(&out).len(), 4);
+}
