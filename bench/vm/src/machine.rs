@@ -82,6 +82,11 @@ const FOLLOWING_WINDOW_COUNTS: u32 = 20_000;
 /// Supported modes announced in 0x6502: PP, PV, HM, IP, CSP.
 const SUPPORTED_MODES: u32 = 0x0000_00E5;
 
+/// TPDO1-4 and RPDO1-4 identifiers.
+fn is_pdo(id: u16) -> bool {
+    (0x180..0x580).contains(&id)
+}
+
 fn drive_od(node: u8, name: &str, spindle: Option<(u16, u8)>) -> Od {
     let mut od = Od::default();
     // Default mapping as many drives ship: RPDO1 controlword, TPDO1 statusword.
@@ -317,8 +322,9 @@ impl VirtualMachine {
     /// within the period, so an answer to any but the last would reach the master after
     /// the next SYNC and pass for that one's. Those SYNCs are latched and their periods
     /// computed, but their PDOs are not sent: the master sees a missed frame, as from a
-    /// drive whose answer is lost, never a stale one.
-    pub fn on_frames(&mut self, batch: &[Frame], out: &mut Vec<Frame>) {
+    /// drive whose answer is lost, never a stale one. Returns whether a SYNC was handled
+    /// (its answer is in `out`).
+    pub fn on_frames(&mut self, batch: &[Frame], out: &mut Vec<Frame>) -> bool {
         let sync = hob_rt_core::canopen::frame::SYNC;
         let last_sync = batch.iter().rposition(|f| f.id == sync);
         for (i, f) in batch.iter().enumerate() {
@@ -326,6 +332,17 @@ impl VirtualMachine {
             self.on_frame(f, out);
         }
         self.superseded = false;
+        last_sync.is_some()
+    }
+
+    /// The next SYNC arrived before the answer to the last one went out: the PDOs in `out`
+    /// are withdrawn (see [`Self::on_frames`]); everything else there is still sent.
+    pub fn withdraw_answer(&mut self, out: &mut Vec<Frame>) {
+        let before = out.len();
+        out.retain(|f| !is_pdo(f.id));
+        if out.len() < before {
+            self.superseded_syncs += 1;
+        }
     }
 
     fn any_operational(&self) -> bool {
@@ -464,7 +481,7 @@ impl VirtualMachine {
         }
         self.superseded_syncs += u64::from(self.superseded);
         for f in tx {
-            let is_pdo = (0x180..0x500).contains(&f.id);
+            let is_pdo = is_pdo(f.id);
             if is_pdo && self.superseded {
                 continue;
             }

@@ -8,7 +8,7 @@
 
 use crate::machine::{VirtualMachine, VmFault};
 use hob_rt_core::canopen::bus::{BusError, CanBus};
-use hob_rt_core::canopen::frame::Frame;
+use hob_rt_core::canopen::frame::{Frame, SYNC};
 use hob_rt_core::canopen::master::Cyclic;
 use hob_rt_core::control::{Controller, CycleOutputs};
 use std::sync::Arc;
@@ -60,25 +60,41 @@ pub fn serve(
 
 /// Reads every frame waiting on `bus`, lets the machine handle them as one batch
 /// ([`VirtualMachine::on_frames`]: of several SYNCs read late only the last is answered),
-/// sends the answers, then computes the physics owed. Returns how many frames were read.
+/// sends the answers, then computes the physics owed. Before an answer goes out the bus is
+/// read again: if the next SYNC came while it was computed, it would reach the master
+/// after that SYNC and pass for its answer, so it is withdrawn (a missed frame). Returns
+/// how many frames were read.
 pub fn serve_waiting(
     vm: &mut VirtualMachine,
     bus: &mut dyn CanBus,
     batch: &mut Vec<Frame>,
     out: &mut Vec<Frame>,
 ) -> Result<usize, BusError> {
-    batch.clear();
-    let read = loop {
-        match bus.try_recv() {
-            Ok(Some(f)) => batch.push(f),
-            Ok(None) => break Ok(()),
-            Err(e) => break Err(e),
+    let mut total = 0;
+    let mut answer_pending = false;
+    let result = loop {
+        batch.clear();
+        let read = loop {
+            match bus.try_recv() {
+                Ok(Some(f)) => batch.push(f),
+                Ok(None) => break Ok(()),
+                Err(e) => break Err(e),
+            }
+        };
+        if answer_pending && batch.iter().any(|f| f.id == SYNC) {
+            vm.withdraw_answer(out);
         }
+        flush(bus, out);
+        total += batch.len();
+        if batch.is_empty() || read.is_err() {
+            vm.on_frames(batch, out);
+            flush(bus, out);
+            break read.map(|()| total);
+        }
+        answer_pending = vm.on_frames(batch, out);
     };
-    vm.on_frames(batch, out);
-    flush(bus, out);
     vm.settle();
-    read.map(|()| batch.len())
+    result
 }
 
 fn flush(bus: &mut dyn CanBus, out: &mut Vec<Frame>) {

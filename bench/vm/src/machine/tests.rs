@@ -73,3 +73,58 @@ fn a_batch_without_a_later_sync_is_answered_in_full() {
     vm.on_frames(&[Frame::new(SYNC, &[])], &mut out);
     assert_eq!(pdos(&out).len(), 4);
 }
+
+/// A bus on which the frames of each step arrive while the simulator works on the last.
+struct Scripted {
+    steps: std::collections::VecDeque<Vec<Frame>>,
+    waiting: std::collections::VecDeque<Frame>,
+    sent: Vec<Frame>,
+}
+
+impl hob_rt_core::canopen::bus::CanBus for Scripted {
+    fn send(&mut self, f: &Frame) -> Result<(), hob_rt_core::canopen::bus::BusError> {
+        self.sent.push(*f);
+        Ok(())
+    }
+
+    fn try_recv(&mut self) -> Result<Option<Frame>, hob_rt_core::canopen::bus::BusError> {
+        if let Some(f) = self.waiting.pop_front() {
+            return Ok(Some(f));
+        }
+        // The queue ran dry: the next step's frames arrive (after this read).
+        if let Some(next) = self.steps.pop_front() {
+            self.waiting.extend(next);
+        }
+        Ok(None)
+    }
+}
+
+#[test]
+fn an_answer_overtaken_by_the_next_sync_is_withdrawn() {
+    let mut vm = operational_vm();
+    let sync = Frame::new(SYNC, &[]);
+    let mut bus = Scripted {
+        steps: [vec![sync], vec![]].into(),
+        waiting: [sync].into(),
+        sent: Vec::new(),
+    };
+    let (mut batch, mut out) = (Vec::new(), Vec::new());
+    let read = crate::runner::serve_waiting(&mut vm, &mut bus, &mut batch, &mut out).unwrap();
+    assert_eq!(read, 2);
+    assert_eq!(vm.syncs(), 2);
+    assert_eq!(vm.superseded_syncs(), 1);
+    assert_eq!(
+        pdos(&bus.sent).len(),
+        4,
+        "only the second SYNC answered: {:x?}",
+        bus.sent
+    );
+
+    // On time: every SYNC answered.
+    bus.waiting.push_back(sync);
+    bus.steps = [vec![], vec![]].into();
+    bus.sent.clear();
+    crate::runner::serve_waiting(&mut vm, &mut bus, &mut batch, &mut out).unwrap();
+    assert_eq!(pdos(&bus.sent).len(), 4);
+    assert_eq!(vm.superseded_syncs(), 1);
+}
