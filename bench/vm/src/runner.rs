@@ -41,6 +41,7 @@ pub fn serve(
             }
         }
         let busy = serve_waiting(vm, bus, &mut batch, &mut out).unwrap_or(0) > 0;
+        vm.settle();
         if vm.syncs() != last_sync {
             last_sync = vm.syncs();
             last_sync_wall = Instant::now();
@@ -59,11 +60,12 @@ pub fn serve(
 }
 
 /// Reads every frame waiting on `bus`, lets the machine handle them as one batch
-/// ([`VirtualMachine::on_frames`]: of several SYNCs read late only the last is answered),
-/// sends the answers, then computes the physics owed. Before an answer goes out the bus is
-/// read again: if the next SYNC came while it was computed, it would reach the master
-/// after that SYNC and pass for its answer, so it is withdrawn (a missed frame). Returns
-/// how many frames were read.
+/// ([`VirtualMachine::on_frames`]: of several SYNCs read late only the last is answered)
+/// and sends the answers; the caller then computes the physics owed
+/// ([`VirtualMachine::settle`]). Before an answer goes out the bus is read again: if the
+/// next SYNC came while it was computed, it would reach the master after that SYNC and
+/// pass for its answer, so it is withdrawn (a missed frame). Returns how many frames were
+/// read.
 pub fn serve_waiting(
     vm: &mut VirtualMachine,
     bus: &mut dyn CanBus,
@@ -72,7 +74,7 @@ pub fn serve_waiting(
 ) -> Result<usize, BusError> {
     let mut total = 0;
     let mut answer_pending = false;
-    let result = loop {
+    loop {
         batch.clear();
         let read = loop {
             match bus.try_recv() {
@@ -92,9 +94,7 @@ pub fn serve_waiting(
             break read.map(|()| total);
         }
         answer_pending = vm.on_frames(batch, out);
-    };
-    vm.settle();
-    result
+    }
 }
 
 fn flush(bus: &mut dyn CanBus, out: &mut Vec<Frame>) {

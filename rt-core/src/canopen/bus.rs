@@ -41,6 +41,12 @@ pub trait CanBus {
     fn echo_own_sync(&mut self) -> bool {
         false
     }
+    /// Waits until a frame may be waiting, at most `timeout`: for a process that serves the
+    /// bus (the virtual machine), never the loop. Where the transport cannot wake a waiter
+    /// it sleeps briefly (50 us) and the caller polls [`CanBus::try_recv`] again.
+    fn wait_for_frame(&mut self, timeout: std::time::Duration) {
+        std::thread::sleep(timeout.min(std::time::Duration::from_micros(50)));
+    }
 }
 
 impl<B: CanBus + ?Sized> CanBus for Box<B> {
@@ -54,6 +60,10 @@ impl<B: CanBus + ?Sized> CanBus for Box<B> {
 
     fn echo_own_sync(&mut self) -> bool {
         (**self).echo_own_sync()
+    }
+
+    fn wait_for_frame(&mut self, timeout: std::time::Duration) {
+        (**self).wait_for_frame(timeout);
     }
 }
 
@@ -165,6 +175,7 @@ mod socket {
         CanDataFrame, CanFilter, CanFrame, CanSocket, EmbeddedFrame, Id, Socket, SocketOptions, StandardId,
     };
     use std::io::ErrorKind;
+    use std::os::fd::AsRawFd;
 
     const ENETDOWN: i32 = 100;
 
@@ -258,6 +269,21 @@ mod socket {
                 .map(|&id| CanFilter::new(id, 0x780))
                 .collect();
             self.socket.set_filters(&filters).is_ok() && self.socket.set_recv_own_msgs(true).is_ok()
+        }
+
+        /// Blocks in `poll(2)` until the socket is readable: the process wakes when a frame
+        /// arrives, as a node reacts to reception.
+        #[allow(unsafe_code)]
+        fn wait_for_frame(&mut self, timeout: std::time::Duration) {
+            let mut fd = libc::pollfd {
+                fd: self.socket.as_raw_fd(),
+                events: libc::POLLIN,
+                revents: 0,
+            };
+            let ms = libc::c_int::try_from(timeout.as_millis().max(1)).unwrap_or(libc::c_int::MAX);
+            // SAFETY: one valid pollfd for the duration of the call; the result only tells
+            // whether to read, which the caller does with `try_recv` in any case.
+            unsafe { libc::poll(&mut fd, 1, ms) };
         }
     }
 }

@@ -56,6 +56,16 @@ struct Args {
     /// Exit after this many seconds without any frame (0: never).
     #[arg(long, default_value_t = 0.0)]
     idle_exit_s: f64,
+    /// Run on the loop's core (`service.loop_core`), in place of `--core` and
+    /// `--rt-priority`: waiting one SCHED_FIFO priority below the loop, so it runs while the
+    /// loop sleeps, and reading and answering one above it, so the master cannot run
+    /// between the simulator reading a SYNC and answering it, as it cannot interrupt real
+    /// drives. Also set by the environment variable HOB_SIM_BESIDE_LOOP=1 (`hob demo`
+    /// passes it on). For a machine whose CPUs stall (an emulated guest), where an answer
+    /// from a simulator on a CPU of its own can come after the next SYNC. Never for timing
+    /// measurements: an answer due when the loop wakes delays it.
+    #[arg(long)]
+    beside_loop: bool,
 }
 
 fn main() -> ExitCode {
@@ -111,7 +121,23 @@ fn run(a: Args) -> Result<(), String> {
     for f in faults.drain(..) {
         vm.inject(f);
     }
-    if let Some(core) = a.core {
+    let beside_loop = a.beside_loop || std::env::var("HOB_SIM_BESIDE_LOOP").is_ok_and(|v| v == "1");
+    // Priorities to wait at and to answer at.
+    let (core, rt_priority, answer_priority) = if beside_loop {
+        // The validation keeps service.loop_priority within 1 ..= 98.
+        let (below, above) = (
+            machine.service.loop_priority.saturating_sub(1).max(1),
+            machine.service.loop_priority + 1,
+        );
+        eprintln!(
+            "hob-sim: beside the loop: core {}, waiting at SCHED_FIFO {below}, answering at {above}",
+            machine.service.loop_core
+        );
+        (Some(machine.service.loop_core), below, Some(above))
+    } else {
+        (a.core, a.rt_priority, None)
+    };
+    if let Some(core) = core {
         let mut r = hob_rt_core::service::rt::RtReport::default();
         hob_rt_core::service::rt::pin(core, &mut r);
         for p in &r.problems {
@@ -120,9 +146,13 @@ fn run(a: Args) -> Result<(), String> {
     } else {
         hob_rt_core::service::rt::keep_off_core(machine.service.loop_core);
     }
-    if a.rt_priority > 0 {
+    if rt_priority > 0 {
         let mut r = hob_rt_core::service::rt::RtReport::default();
-        hob_rt_core::service::rt::set_fifo(a.rt_priority, &mut r);
+        if let Some(p) = answer_priority {
+            // Once at start-up to report whether it may: the loop below sets it silently.
+            hob_rt_core::service::rt::set_fifo(p, &mut r);
+        }
+        hob_rt_core::service::rt::set_fifo(rt_priority, &mut r);
         for p in &r.problems {
             eprintln!("hob-sim: {p}");
         }
@@ -168,7 +198,16 @@ fn run(a: Args) -> Result<(), String> {
             vm.inject(f);
             in_cut = None;
         }
-        let busy = serve_waiting(&mut vm, bus.as_mut(), &mut batch, &mut out).map_err(|e| e.to_string())? > 0;
+        if let Some(p) = answer_priority {
+            fifo(p);
+        }
+        let served = serve_waiting(&mut vm, bus.as_mut(), &mut batch, &mut out);
+        if answer_priority.is_some() {
+            fifo(rt_priority);
+        }
+        // The answers are on the bus: now the period's physics.
+        vm.settle();
+        let busy = served.map_err(|e| e.to_string())? > 0;
         if busy {
             last_frame = Instant::now();
         }
@@ -201,7 +240,14 @@ fn run(a: Args) -> Result<(), String> {
             return Ok(());
         }
         if !busy {
-            std::thread::sleep(Duration::from_micros(50));
+            // Wakes when a frame arrives (SocketCAN), or polls again after 50 us.
+            bus.wait_for_frame(Duration::from_millis(5));
         }
     }
+}
+
+/// Sets this thread's SCHED_FIFO priority (the start-up reported whether it may).
+fn fifo(priority: u32) {
+    let mut r = hob_rt_core::service::rt::RtReport::default();
+    hob_rt_core::service::rt::set_fifo(priority, &mut r);
 }
