@@ -321,8 +321,9 @@ impl VirtualMachine {
     /// reads several SYNCs at once; a drive latches each SYNC in hardware and answers it
     /// within the period, so an answer to any but the last would reach the master after
     /// the next SYNC and pass for that one's. Those SYNCs are latched and their periods
-    /// computed, but their PDOs are not sent: the master sees a missed frame, as from a
-    /// drive whose answer is lost, never a stale one. Returns whether a SYNC was handled
+    /// computed, but their synchronous TPDOs are not sent: the master sees a missed frame,
+    /// as from a drive whose answer is lost, never a stale one. Event-driven TPDOs (a
+    /// changed statusword) still go out. Returns whether a SYNC was handled
     /// (its answer is in `out`).
     pub fn on_frames(&mut self, batch: &[Frame], out: &mut Vec<Frame>) -> bool {
         let sync = hob_rt_core::canopen::frame::SYNC;
@@ -335,14 +336,25 @@ impl VirtualMachine {
         last_sync.is_some()
     }
 
-    /// The next SYNC arrived before the answer to the last one went out: the PDOs in `out`
-    /// are withdrawn (see [`Self::on_frames`]); everything else there is still sent.
+    /// The next SYNC arrived before the answer to the last one went out: the synchronous
+    /// TPDOs in `out` are withdrawn (see [`Self::on_frames`]); everything else there is
+    /// still sent. An event-driven TPDO (a statusword that changed) reports a change, not
+    /// a measurement at a SYNC: withheld, the master would keep the old state until the
+    /// next change.
     pub fn withdraw_answer(&mut self, out: &mut Vec<Frame>) {
         let before = out.len();
-        out.retain(|f| !is_pdo(f.id));
+        out.retain(|f| !self.answers_sync(f.id));
         if out.len() < before {
             self.superseded_syncs += 1;
         }
+    }
+
+    /// Whether `id` is a synchronous TPDO of one of the nodes (an answer to a SYNC).
+    fn answers_sync(&self, id: u16) -> bool {
+        self.drives
+            .iter()
+            .chain(std::iter::once(&self.io))
+            .any(|n| n.is_sync_tpdo(id))
     }
 
     fn any_operational(&self) -> bool {
@@ -482,7 +494,7 @@ impl VirtualMachine {
         self.superseded_syncs += u64::from(self.superseded);
         for f in tx {
             let is_pdo = is_pdo(f.id);
-            if is_pdo && self.superseded {
+            if self.superseded && self.answers_sync(f.id) {
                 continue;
             }
             if is_pdo && self.drop > 0.0 && (self.random() >> 11) as f64 / (1u64 << 53) as f64 <= self.drop {

@@ -219,6 +219,15 @@ impl Node {
         last
     }
 
+    /// Whether `cob` is one of this node's synchronous TPDOs (transmission type 1..=240):
+    /// an answer to a SYNC, as opposed to an event-driven TPDO, which reports a change.
+    pub fn is_sync_tpdo(&self, cob: u16) -> bool {
+        (0x1800..0x1804u16).any(|comm| {
+            let id = self.od.u32(comm, 1);
+            id & 0x8000_0000 == 0 && (id & 0x7FF) as u16 == cob && (1..=240).contains(&self.od.u32(comm, 2))
+        })
+    }
+
     /// Sends the TPDOs due: synchronous ones on a SYNC, event-driven ones on change
     /// (respecting the inhibit time).
     pub fn transmit_pdos(&mut self, sync: bool, now_s: f64, out: &mut Vec<Frame>) {

@@ -40,7 +40,8 @@ pub struct DrivePdos {
     pub control: Pdo,
     /// TPDO1: position actual (and the spindle encoder on the table drive), every SYNC.
     pub actual: Pdo,
-    /// TPDO2: statusword, on change with inhibit time.
+    /// TPDO2: statusword, on change with inhibit time, and again after [`EVENT_TIMER_MS`]
+    /// without a change.
     pub status: Pdo,
 }
 
@@ -108,7 +109,8 @@ impl BusPlan {
                     255,
                     &[MapEntry::new(object::STATUSWORD, 0, 16)],
                 )
-                .with_inhibit_100us(c.statusword_inhibit_ms * 10),
+                .with_inhibit_100us(c.statusword_inhibit_ms * 10)
+                .with_event_timer_ms(EVENT_TIMER_MS),
             }
         };
         let io = m.io.can_node_id;
@@ -342,6 +344,26 @@ mod tests {
         );
         assert!(!plan.node_configuration(3).iter().any(|w| w.value == 0x2112_0020));
         assert_eq!(interpolation_period(0.0005), (5, -4));
+    }
+
+    #[test]
+    fn event_driven_tpdos_are_sent_again_without_a_change() {
+        // A lost statusword or inputs frame would otherwise leave the master with a
+        // stale state until the next change (a drive it never sees enabled).
+        let plan = BusPlan::from_machine(&shipped());
+        for node in [2, 3, 4] {
+            let seq = plan.node_configuration(node);
+            assert!(
+                seq.iter()
+                    .any(|w| w.index == 0x1801 && w.sub == 5 && w.value == u32::from(EVENT_TIMER_MS)),
+                "statusword TPDO2 of node {node}: {seq:?}"
+            );
+        }
+        let io = plan.node_configuration(plan.io.node);
+        assert!(
+            io.iter()
+                .any(|w| w.index == 0x1800 && w.sub == 5 && w.value == u32::from(EVENT_TIMER_MS))
+        );
     }
 
     #[test]

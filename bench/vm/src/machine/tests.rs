@@ -128,3 +128,48 @@ fn an_answer_overtaken_by_the_next_sync_is_withdrawn() {
     assert_eq!(pdos(&bus.sent).len(), 4);
     assert_eq!(vm.superseded_syncs(), 1);
 }
+
+/// Drive B's statusword on an event-driven TPDO, as the master configures TPDO2.
+fn statusword_on_change(vm: &mut VirtualMachine) -> (u16, u16) {
+    let d = &mut vm.drives[0];
+    d.od.put(0x1800, 2, 255);
+    (0x180 + u16::from(d.id), 0x200 + u16::from(d.id))
+}
+
+#[test]
+fn a_changed_statusword_goes_out_even_when_its_sync_is_superseded() {
+    let mut vm = operational_vm();
+    let (status_cob, control_cob) = statusword_on_change(&mut vm);
+    let mut out = Vec::new();
+    vm.on_frames(&[Frame::new(SYNC, &[])], &mut out);
+    out.clear();
+    // "Shutdown" (0x0006), then two SYNCs read at once: the first one's synchronous
+    // answers are withheld, the statusword's change is not.
+    let sync = Frame::new(SYNC, &[]);
+    vm.on_frames(&[Frame::new(control_cob, &[0x06, 0x00]), sync, sync], &mut out);
+    assert_eq!(vm.drive_state(Axis::B), PowerState::ReadyToSwitchOn);
+    let status: Vec<&Frame> = out.iter().filter(|f| f.id == status_cob).collect();
+    assert_eq!(status.len(), 1, "the change reported once: {out:x?}");
+    assert_eq!(
+        status[0].payload(),
+        PowerState::ReadyToSwitchOn.statusword().to_le_bytes()
+    );
+    assert_eq!(
+        pdos(&out).len(),
+        4,
+        "3 synchronous answers of the last SYNC and the change"
+    );
+}
+
+#[test]
+fn withdrawing_an_answer_keeps_the_event_driven_tpdos() {
+    let mut vm = operational_vm();
+    let (status_cob, _) = statusword_on_change(&mut vm);
+    let status = Frame::new(status_cob, &[0x21, 0x02]);
+    let answer = Frame::new(0x181 + 2, &[0; 4]);
+    let heartbeat = Frame::new(0x700 + 5, &[0x05]);
+    let mut out = vec![status, answer, heartbeat];
+    vm.withdraw_answer(&mut out);
+    assert_eq!(out, vec![status, heartbeat]);
+    assert_eq!(vm.superseded_syncs(), 1);
+}
