@@ -230,6 +230,7 @@ pub fn status_json(s: &Snapshot) -> String {
         .collect();
     let j = serde_json::json!({
         "cycle": st.cycle,
+        "sync_time_ns": st.sync_time_ns,
         "state": wire::state_name(st.state),
         "hold": st.hold != 0,
         "pass": st.pass,
