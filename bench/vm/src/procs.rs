@@ -13,8 +13,16 @@ use std::time::{Duration, Instant};
 /// virtual CPU for milliseconds now and then (measured here: loop wake-up p99.99 4 ms,
 /// max 6 to 66 ms), longer than the 3 cycles of TPDOs the shipped configuration tolerates. The
 /// copy raises `can.tpdo_misses_to_fault`, `service.watchdog_deadline_ms` and
-/// `can.heartbeat_timeout_ms` to the tolerance; everything else is unchanged.
+/// `can.heartbeat_timeout_ms` to the tolerance; everything else is unchanged. Written to
+/// `dir/machine.toml` (see [`relaxed_machine_text`]).
 pub fn relaxed_machine(file: &Path, dir: &Path, tolerance_ms: u32) -> Result<(PathBuf, String), String> {
+    let (text, note) = relaxed_machine_text(file, tolerance_ms)?;
+    Ok((write_machine(dir, &text)?, note))
+}
+
+/// [`relaxed_machine`]'s file as text, validated before anything is written (a tolerance
+/// the validation refuses is refused here, naming the key), and a note saying what changed.
+pub fn relaxed_machine_text(file: &Path, tolerance_ms: u32) -> Result<(String, String), String> {
     let text = std::fs::read_to_string(file).map_err(|e| format!("{}: {e}", file.display()))?;
     let mut t: toml::Table = text.parse().map_err(|e| format!("{}: {e}", file.display()))?;
     let set = |t: &mut toml::Table, sec: &str, key: &str, v: i64| -> Option<i64> {
@@ -28,18 +36,14 @@ pub fn relaxed_machine(file: &Path, dir: &Path, tolerance_ms: u32) -> Result<(Pa
     let misses = set(&mut t, "can", "tpdo_misses_to_fault", n);
     let hb = set(&mut t, "can", "heartbeat_timeout_ms", (10 * n).max(250));
     let wd = set(&mut t, "service", "watchdog_deadline_ms", 2 * n);
-    let out = dir.join("machine.toml");
-    std::fs::write(
-        &out,
-        format!(
-            "# {} with bus timing relaxed for a virtual machine\n{t}",
-            file.display()
-        ),
-    )
-    .map_err(|e| format!("{}: {e}", out.display()))?;
-    MachineConfig::load(&out).map_err(|e| e.to_string())?;
+    let relaxed = format!(
+        "# {} with bus timing relaxed for a virtual machine\n{t}",
+        file.display()
+    );
+    let origin = format!("{} relaxed to a tolerance of {tolerance_ms} ms", file.display());
+    MachineConfig::parse(Path::new(&origin), &relaxed).map_err(|e| e.to_string())?;
     Ok((
-        out,
+        relaxed,
         format!(
             "timing relaxed for a virtual machine (--strict: as configured): TPDOs may be missing {} cycles, heartbeat timeout {} ms, watchdog deadline {} ms",
             misses.unwrap_or(0),
@@ -47,6 +51,13 @@ pub fn relaxed_machine(file: &Path, dir: &Path, tolerance_ms: u32) -> Result<(Pa
             wd.unwrap_or(0)
         ),
     ))
+}
+
+/// Writes a machine file's `text` to `dir/machine.toml`.
+pub fn write_machine(dir: &Path, text: &str) -> Result<PathBuf, String> {
+    let out = dir.join("machine.toml");
+    std::fs::write(&out, text).map_err(|e| format!("{}: {e}", out.display()))?;
+    Ok(out)
 }
 
 /// The processes of the demo; killed when dropped (an error half-way leaves nothing behind).

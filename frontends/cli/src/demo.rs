@@ -9,7 +9,7 @@ use hob_ipc::{CommandRequest, Ports, StatsSample};
 use hob_rt_core::config::machine::MachineConfig;
 use hob_rt_core::control::State;
 use hob_rt_core::service::wire;
-use hob_vm::procs::{Processes, relaxed_machine, sibling};
+use hob_vm::procs::{Processes, relaxed_machine_text, sibling, write_machine};
 use std::fmt::Write as _;
 use std::io::Write as _;
 use std::path::{Path, PathBuf};
@@ -67,6 +67,12 @@ pub fn run(machine: &MachineConfig, a: &DemoArgs<'_>) -> Result<String, (u8, Str
         || hob_rt_core::service::shm_can::default_iface().to_string(),
         str::to_string,
     );
+    // Refused before anything is created: a tolerance the machine file's validation refuses.
+    let relaxed = if a.strict {
+        None
+    } else {
+        Some(relaxed_machine_text(a.machine_file, a.tolerance_ms).map_err(|e| (2, e))?)
+    };
     let instance = std::env::var("HOB_INSTANCE").unwrap_or_else(|_| format!("demo-{}", std::process::id()));
     hob_ipc::use_instance(&instance);
     let stamp = std::time::SystemTime::now()
@@ -93,12 +99,12 @@ pub fn run(machine: &MachineConfig, a: &DemoArgs<'_>) -> Result<String, (u8, Str
         }
     ));
 
-    let machine_path = if a.strict {
-        a.machine_file.to_path_buf()
-    } else {
-        let (p, note) = relaxed_machine(a.machine_file, &dir, a.tolerance_ms).map_err(fail)?;
-        say(&note);
-        p
+    let machine_path = match &relaxed {
+        None => a.machine_file.to_path_buf(),
+        Some((text, note)) => {
+            say(note);
+            write_machine(&dir, text).map_err(fail)?
+        }
     };
     let mut procs = Processes::default();
     let machine_file = machine_path.to_str().unwrap_or("config/machine.toml");

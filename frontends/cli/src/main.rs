@@ -315,6 +315,12 @@ fn run(command: Command) -> Result<(), Failure> {
             };
             match demo::run(&machine, &args) {
                 Ok(text) => emit(&text),
+                // Refused before anything started (the program, the tolerance): the reasons
+                // on stderr, as every refusal.
+                Err((2, text)) => {
+                    eprintln!("hob: refused: demo: {text}");
+                    Err(Failure::Exit(2))
+                }
                 Err((code, text)) => {
                     let _ = emit(&text);
                     eprintln!("hob: demo: {}", text.lines().next().unwrap_or("failed"));

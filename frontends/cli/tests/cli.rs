@@ -313,3 +313,28 @@ fn doctor_reports_every_check_with_a_fix_and_fails_on_a_missing_can_interface() 
         assert!(can["fix"].as_str().unwrap().contains("restart-ms 100"));
     }
 }
+
+#[test]
+fn demo_refuses_a_tolerance_the_machine_file_cannot_take_before_creating_anything() {
+    let log = std::env::temp_dir().join(format!("hob-cli-test-demo-refused-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&log);
+    let log_arg = log.to_str().unwrap();
+    // 600 ms: 600 TPDO misses (limit 100) and a 1200 ms watchdog deadline (limit 1000).
+    assert_refused(
+        &[
+            "demo",
+            "--tolerance-ms",
+            "600",
+            "--iface",
+            "shm",
+            "--log",
+            log_arg,
+        ],
+        &[
+            "can.tpdo_misses_to_fault",
+            "service.watchdog_deadline_ms",
+            "600 ms",
+        ],
+    );
+    assert!(!log.exists(), "no log directory for a refused demo");
+}

@@ -2,7 +2,7 @@
 //! machine builder at commissioning. Loaded with serde (unknown keys refused) and validated
 //! completely before anything runs.
 
-use super::{LoadError, Problems, read_toml};
+use super::{LoadError, Problems, parse_toml, read_toml};
 use crate::gearing::cutting::SpindleDrive;
 use serde::{Deserialize, Serialize};
 use std::path::Path;
@@ -416,9 +416,18 @@ impl MachineConfig {
     /// Loads and validates `file`.
     pub fn load(file: &Path) -> Result<Self, LoadError> {
         let (config, src): (Self, String) = read_toml(file)?;
+        Self::validated(config, file, &src)
+    }
+
+    /// Parses and validates `src`, a machine file's text (`origin` names it in errors).
+    pub fn parse(origin: &Path, src: &str) -> Result<Self, LoadError> {
+        Self::validated(parse_toml(origin, src)?, origin, src)
+    }
+
+    fn validated(config: Self, file: &Path, src: &str) -> Result<Self, LoadError> {
         let mut problems = Problems::new();
         config.validate(&mut problems);
-        problems.into_result(file, &src)?;
+        problems.into_result(file, src)?;
         Ok(config)
     }
 
