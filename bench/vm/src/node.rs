@@ -32,6 +32,12 @@ pub struct Node {
     pub master_seen_s: Option<f64>,
 }
 
+/// Whether a PDO transmission type (0x1800 + n, sub 2) is synchronous: sent on every
+/// n-th SYNC (1..=240), as opposed to event-driven (254, 255).
+fn synchronous(transmission_type: u32) -> bool {
+    (1..=240).contains(&transmission_type)
+}
+
 /// The communication objects every node has: heartbeat, consumer, identity, PDOs.
 pub fn communication_objects(
     od: &mut Od,
@@ -224,7 +230,7 @@ impl Node {
     pub fn is_sync_tpdo(&self, cob: u16) -> bool {
         (0x1800..0x1804u16).any(|comm| {
             let id = self.od.u32(comm, 1);
-            id & 0x8000_0000 == 0 && (id & 0x7FF) as u16 == cob && (1..=240).contains(&self.od.u32(comm, 2))
+            id & 0x8000_0000 == 0 && (id & 0x7FF) as u16 == cob && synchronous(self.od.u32(comm, 2))
         })
     }
 
@@ -248,7 +254,7 @@ impl Node {
                 b.resize(len, 0);
                 data.extend_from_slice(&b);
             }
-            let due = if (1..=240).contains(&ttype) {
+            let due = if synchronous(ttype) {
                 sync
             } else {
                 let inhibit_s = f64::from(self.od.u32(comm, 3)) * 1e-4;

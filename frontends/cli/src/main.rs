@@ -315,8 +315,8 @@ fn run(command: Command) -> Result<(), Failure> {
             };
             match demo::run(&machine, &args) {
                 Ok(text) => emit(&text),
-                // Refused before anything started (the program, the tolerance): the reasons
-                // on stderr, as every refusal.
+                // A refusal (the program, the tolerance, or hob-rt refusing the load or the
+                // start): the reasons on stderr, as every refusal.
                 Err((2, text)) => {
                     eprintln!("hob: refused: demo: {text}");
                     Err(Failure::Exit(2))
