@@ -16,9 +16,11 @@
 //! watchdog waits on it with its own deadline, so the loop never calls `notify()` (a
 //! syscall per cycle) for anybody.
 //!
-//! The types here are plain numbers: what the codes mean (states, alarms, refusals) is
-//! defined next to the code that produces them, in `hob_rt_core::service::wire`.
+//! The types here are plain numbers; [`codec`] turns the control core's types into them
+//! and back, and gives every code its text (states, faults, refusals, events, commands):
+//! the loop encodes with it, every frontend decodes with it.
 
+pub mod codec;
 mod ports;
 mod types;
 

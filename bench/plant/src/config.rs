@@ -1,6 +1,6 @@
 //! The plant's parameters (`config/plant.toml`), validated like every configuration.
 
-use hob_rt_core::config::{LoadError, Problems, read_toml};
+use hob_setup::config::{LoadError, Problems, read_toml};
 use serde::{Deserialize, Serialize};
 use std::path::Path;
 

@@ -6,10 +6,10 @@ use crate::config::PlantConfig;
 use crate::servo::{Servo, ServoParams};
 use crate::spindle::Spindle;
 use crate::worklink::WorkLink;
-use hob_rt_core::config::machine::MachineConfig;
-use hob_rt_core::control::fault::{Axis, End};
-use hob_rt_core::control::io::{Inputs, IoBits, Outputs};
-use hob_rt_core::control::{AxisFeedback, ControlParams, CycleInputs, CycleOutputs};
+use hob_control::fault::{Axis, End};
+use hob_control::io::{Inputs, IoBits, Outputs};
+use hob_control::{AxisFeedback, ControlParams, CycleInputs, CycleOutputs};
+use hob_setup::config::machine::MachineConfig;
 use std::f64::consts::TAU;
 
 const G: f64 = 9.81;
@@ -88,7 +88,7 @@ pub struct Plant {
 }
 
 fn linear_servo(
-    m: &hob_rt_core::config::machine::LinearAxisConfig,
+    m: &hob_setup::config::machine::LinearAxisConfig,
     p: &crate::config::LinearPlant,
     vertical: bool,
     period_s: f64,

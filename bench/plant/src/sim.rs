@@ -6,16 +6,16 @@
 
 use crate::config::PlantConfig;
 use crate::machine::{Injection, Plant, Start, Workpiece};
-use hob_rt_core::config::machine::MachineConfig;
-use hob_rt_core::control::egb::Coupling;
-use hob_rt_core::control::events::Event;
-use hob_rt_core::control::program::CycleProgram;
-use hob_rt_core::control::{
+use hob_control::egb::Coupling;
+use hob_control::events::Event;
+use hob_control::program::CycleProgram;
+use hob_control::{
     Command, ControlParams, Controller, CycleInputs, CycleOutputs, SpindleAngleSource, State, Status,
 };
-use hob_rt_core::gearing::iso1328::single_pitch_tolerance_um;
-use hob_rt_core::planner::Plan;
-use hob_rt_core::units::arcsec_to_um_at_radius;
+use hob_gearing::iso1328::single_pitch_tolerance_um;
+use hob_gearing::units::arcsec_to_um_at_radius;
+use hob_setup::config::machine::MachineConfig;
+use hob_setup::planner::Plan;
 use serde::Serialize;
 
 /// Columns of `trace.csv`, in order.
@@ -180,7 +180,7 @@ impl Simulation {
         plant_cfg: &PlantConfig,
         program: &CycleProgram,
         plan: &Plan,
-        job: &hob_rt_core::job::Program,
+        job: &hob_setup::job::Program,
     ) -> Self {
         let mut sim = Self::new(
             machine,
@@ -317,7 +317,7 @@ impl Simulation {
         self.outputs
     }
 
-    pub fn command(&mut self, c: Command) -> Result<(), hob_rt_core::control::fault::Refusal> {
+    pub fn command(&mut self, c: Command) -> Result<(), hob_control::fault::Refusal> {
         self.controller.command(c)
     }
 
@@ -462,7 +462,7 @@ pub fn run_program(
     plant_cfg: &PlantConfig,
     program: &CycleProgram,
     plan: &Plan,
-    job: &hob_rt_core::job::Program,
+    job: &hob_setup::job::Program,
     options: &SimOptions,
     sink: &mut dyn FnMut(&TraceRow),
 ) -> Result<Summary, String> {

@@ -6,8 +6,8 @@
 
 mod common;
 
+use hob_control::SpindleAngleSource;
 use hob_plant::sim::{SimOptions, Summary, run_program};
-use hob_rt_core::control::SpindleAngleSource;
 
 fn simulate(name: &str, options: SimOptions) -> Summary {
     let (job, cycle, plan) = common::program(name, &[]);

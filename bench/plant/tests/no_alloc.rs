@@ -6,10 +6,10 @@
 
 mod common;
 
+use hob_control::fault::Axis;
+use hob_control::{Command, CycleOutputs, State};
 use hob_plant::machine::Injection;
 use hob_plant::sim::Simulation;
-use hob_rt_core::control::fault::Axis;
-use hob_rt_core::control::{Command, CycleOutputs, State};
 use std::alloc::{GlobalAlloc, Layout, System};
 use std::cell::Cell;
 use std::collections::BTreeSet;

@@ -6,11 +6,11 @@
 mod common;
 
 use common::{Run, in_order, powered_up, run, run_cycle, short_spur};
+use hob_control::egb::Coupling;
+use hob_control::events::EventKind;
+use hob_control::fault::{Axis, End, Fault, Refusal};
+use hob_control::{Command, State};
 use hob_plant::machine::Injection;
-use hob_rt_core::control::egb::Coupling;
-use hob_rt_core::control::events::EventKind;
-use hob_rt_core::control::fault::{Axis, End, Fault, Refusal};
-use hob_rt_core::control::{Command, State};
 
 use State::*;
 
@@ -494,7 +494,7 @@ fn leaving_the_coarse_window_in_the_cut_is_a_fault_with_retract_first() {
     let (job, cycle, plan) = short_spur(&[]);
     let mut sim = powered_up(&job, &cycle, &plan);
     sim.controller
-        .set_angle_source(hob_rt_core::control::SpindleAngleSource::LastMeasured);
+        .set_angle_source(hob_control::SpindleAngleSource::LastMeasured);
     let r = run_cycle(&mut sim, false, 300.0);
     let faults = r.faults();
     assert!(

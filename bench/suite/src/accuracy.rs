@@ -6,14 +6,14 @@
 //! `hob simulate --no-windows`) to measure the error at all.
 
 use crate::system::{self, SystemInfo};
+use hob_control::SpindleAngleSource;
+use hob_control::program::CycleProgram;
 use hob_plant::config::PlantConfig;
 use hob_plant::sim::{SimOptions, run_program};
-use hob_rt_core::config::Problems;
-use hob_rt_core::config::machine::MachineConfig;
-use hob_rt_core::control::SpindleAngleSource;
-use hob_rt_core::control::program::CycleProgram;
-use hob_rt_core::job::Program;
-use hob_rt_core::planner;
+use hob_setup::config::Problems;
+use hob_setup::config::machine::MachineConfig;
+use hob_setup::job::Program;
+use hob_setup::planner;
 use serde::{Deserialize, Serialize};
 use std::path::PathBuf;
 

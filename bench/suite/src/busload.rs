@@ -1,8 +1,8 @@
 //! Bus load: the worst-case CAN load of the machine configuration's bus schedule (the
 //! `hob bus-load` figures), as JSON.
 
-use hob_rt_core::canopen::plan::BusPlan;
-use hob_rt_core::config::machine::MachineConfig;
+use hob_process_image::plan::BusPlan;
+use hob_setup::config::machine::MachineConfig;
 use serde::{Deserialize, Serialize};
 use std::path::Path;
 

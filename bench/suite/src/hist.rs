@@ -2,7 +2,7 @@
 //! histograms `hob-rt --hgrm` and `cyclictest --json` write.
 
 use hdrhistogram::Histogram;
-use hob_rt_core::service::stats::{self, HIGHEST_NS};
+use hob_service::stats::{self, HIGHEST_NS};
 use serde::{Deserialize, Serialize};
 
 /// A distribution's summary, microseconds.

@@ -8,11 +8,12 @@
 use crate::hist::{self, Summary};
 use crate::plot::{self, Series};
 use crate::system::{self, SystemInfo};
+use hob_control::State;
+use hob_ipc::codec;
 use hob_ipc::{CommandRequest, Ports, command};
-use hob_rt_core::config::machine::MachineConfig;
-use hob_rt_core::control::State;
-use hob_rt_core::service::{stats, wire};
-use hob_vm::procs::{Processes, relaxed_machine, sibling};
+use hob_service::stats;
+use hob_setup::config::machine::MachineConfig;
+use hob_virtual_machine::procs::{Processes, relaxed_machine, sibling};
 use serde::{Deserialize, Serialize};
 use std::os::unix::process::CommandExt as _;
 use std::path::{Path, PathBuf};
@@ -235,7 +236,7 @@ fn run_loop(a: &Args, machine_file: &Path, cycles: u64) -> Result<u32, String> {
                 passes += 1;
             }
             last_pass = s.pass;
-            if wire::state_from_code(s.state) == Some(State::Idle) {
+            if codec::state_from_code(s.state) == Some(State::Idle) {
                 if !loaded {
                     let r = client
                         .request(&load, Duration::from_secs(3))
@@ -284,7 +285,7 @@ pub fn run(a: &Args) -> Result<LoopBench, String> {
     let measured = std::thread::scope(|scope| {
         scope
             .spawn(|| {
-                hob_rt_core::service::rt::keep_off_core(core);
+                hob_rt_os::keep_off_core(core);
                 let ct = run_cyclictest(a, period_us, prio, core, idle_us)?;
                 Ok::<_, String>((ct, run_loop(a, &machine_file, cycles)?))
             })

@@ -129,7 +129,7 @@ fn parse_disturbance(s: &str) -> Result<Disturbance, String> {
 }
 
 fn default_iface(iface: Option<String>) -> String {
-    iface.unwrap_or_else(|| hob_rt_core::service::shm_can::default_iface().to_string())
+    iface.unwrap_or_else(|| hob_can_transport::shm::default_iface().to_string())
 }
 
 fn programs_dir(cli: &Cli, programs: Option<PathBuf>) -> PathBuf {

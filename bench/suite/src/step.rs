@@ -13,16 +13,16 @@
 
 use crate::hist::{self, Summary};
 use crate::system::{self, SystemInfo};
+use hob_control::fault::Axis;
+use hob_control::program::CycleProgram;
+use hob_control::{Command, Controller, CycleInputs, CycleOutputs, State};
 use hob_plant::config::PlantConfig;
 use hob_plant::machine::Injection;
 use hob_plant::sim::Simulation;
-use hob_rt_core::config::Problems;
-use hob_rt_core::config::machine::MachineConfig;
-use hob_rt_core::control::fault::Axis;
-use hob_rt_core::control::program::CycleProgram;
-use hob_rt_core::control::{Command, Controller, CycleInputs, CycleOutputs, State};
-use hob_rt_core::job::Program;
-use hob_rt_core::planner;
+use hob_setup::config::Problems;
+use hob_setup::config::machine::MachineConfig;
+use hob_setup::job::Program;
+use hob_setup::planner;
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};

@@ -26,7 +26,7 @@ pub fn probe() -> SystemInfo {
         kernel: std::fs::read_to_string("/proc/sys/kernel/osrelease")
             .map(|s| s.trim().to_string())
             .unwrap_or_default(),
-        preempt_rt: hob_rt_core::service::rt::kernel_is_preempt_rt(),
+        preempt_rt: hob_rt_os::kernel_is_preempt_rt(),
         cpus: std::thread::available_parallelism().map_or(1, usize::from),
         cpu_model: field("model name"),
         virtual_machine: field("flags").split_whitespace().any(|f| f == "hypervisor"),

@@ -1,16 +1,16 @@
 //! `hob bus-load` and the commissioning tools `hob can ...` (in the style of can-utils).
 
-use hob_rt_core::canopen::capture::{check_schedule, parse_candump};
-use hob_rt_core::canopen::describe::describe;
-use hob_rt_core::canopen::master::{Cyclic, boot, identify, sdo_read, sdo_write};
-use hob_rt_core::canopen::nmt::NmtState;
-use hob_rt_core::canopen::plan::BusPlan;
-use hob_rt_core::config::Problems;
-use hob_rt_core::config::machine::MachineConfig;
-use hob_rt_core::control::fault::Axis;
-use hob_rt_core::control::program::CycleProgram;
-use hob_rt_core::control::{Command, ControlParams, Controller, State};
-use hob_rt_core::job::Program;
+use hob_canopen::nmt::NmtState;
+use hob_control::fault::Axis;
+use hob_control::program::CycleProgram;
+use hob_control::{Command, ControlParams, Controller, State};
+use hob_process_image::capture::{check_schedule, parse_candump};
+use hob_process_image::describe::describe;
+use hob_process_image::master::{Cyclic, boot, identify, sdo_read, sdo_write};
+use hob_process_image::plan::BusPlan;
+use hob_setup::config::Problems;
+use hob_setup::config::machine::MachineConfig;
+use hob_setup::job::Program;
 use std::fmt::Write as _;
 use std::path::Path;
 use std::time::{Duration, Instant};
@@ -72,8 +72,8 @@ pub fn bus_load(machine: &MachineConfig) -> Result<String, String> {
     Ok(o)
 }
 
-fn open(iface: &str) -> Result<hob_rt_core::canopen::bus::SocketCan, String> {
-    hob_rt_core::canopen::bus::SocketCan::open(iface).map_err(|e| e.to_string())
+fn open(iface: &str) -> Result<hob_can_transport::SocketCan, String> {
+    hob_can_transport::SocketCan::open(iface).map_err(|e| e.to_string())
 }
 
 fn profile_name(device_type: u32) -> &'static str {
@@ -309,7 +309,7 @@ pub fn check_capture(machine: &MachineConfig, file: &Path, program: Option<&Path
                 params.x.counts_per_unit,
                 params.y.counts_per_unit,
             ];
-            Some(hob_rt_core::canopen::capture::check_gearbox(
+            Some(hob_process_image::capture::check_gearbox(
                 &frames,
                 &plan,
                 cycle.ratio_signed,
@@ -416,7 +416,7 @@ pub fn run(machine: &MachineConfig, a: &RunArgs<'_>) -> Result<String, (u8, Stri
     }
     let controller = Controller::new(ControlParams::from_machine(machine));
     let mut r = Runner {
-        m: hob_vm::runner::MasterLoop::new(controller, Cyclic::new(plan), bus),
+        m: hob_virtual_machine::runner::MasterLoop::new(controller, Cyclic::new(plan), bus),
         states: Vec::new(),
         cycles: 0,
         max_cycles: (a.max_s / plan.cycle_s) as u64,
@@ -523,7 +523,7 @@ pub fn run(machine: &MachineConfig, a: &RunArgs<'_>) -> Result<String, (u8, Stri
 
 /// The lockstep loop of `hob can run`, with the states it passed.
 struct Runner {
-    m: hob_vm::runner::MasterLoop<hob_rt_core::canopen::bus::SocketCan>,
+    m: hob_virtual_machine::runner::MasterLoop<hob_can_transport::SocketCan>,
     states: Vec<State>,
     cycles: u64,
     max_cycles: u64,
@@ -535,10 +535,10 @@ impl Runner {
         self.m.cycle();
         self.cycles += 1;
         // EMCYs are shown to the operator with the error code's meaning.
-        let mut events = [None; hob_rt_core::canopen::master::BUS_EVENTS];
+        let mut events = [None; hob_process_image::master::BUS_EVENTS];
         let n = self.m.cyclic.take_events(&mut events);
         for e in events[..n].iter().flatten() {
-            if let hob_rt_core::canopen::master::BusEvent::Emcy(e) = e {
+            if let hob_process_image::master::BusEvent::Emcy(e) = e {
                 self.emcy
                     .push(format!("EMCY node {}: 0x{:04X} {}", e.node, e.code, e.text()));
             }

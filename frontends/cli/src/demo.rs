@@ -5,11 +5,11 @@
 
 use crate::log;
 use crate::service;
+use hob_control::State;
+use hob_ipc::codec;
 use hob_ipc::{CommandRequest, Ports, StatsSample};
-use hob_rt_core::config::machine::MachineConfig;
-use hob_rt_core::control::State;
-use hob_rt_core::service::wire;
-use hob_vm::procs::{Processes, relaxed_machine_text, sibling, write_machine};
+use hob_setup::config::machine::MachineConfig;
+use hob_virtual_machine::procs::{Processes, relaxed_machine_text, sibling, write_machine};
 use std::fmt::Write as _;
 use std::io::Write as _;
 use std::path::{Path, PathBuf};
@@ -47,7 +47,7 @@ fn wait_for(
     let end = Instant::now() + timeout;
     loop {
         if let Some(s) = ports.wait_state(Duration::from_millis(200))
-            && wire::state_from_code(s.state).is_some_and(&ok)
+            && codec::state_from_code(s.state).is_some_and(&ok)
         {
             return Ok(());
         }
@@ -62,9 +62,9 @@ fn wait_for(
 
 pub fn run(machine: &MachineConfig, a: &DemoArgs<'_>) -> Result<String, (u8, String)> {
     let fail = |e: String| (1, e);
-    let plan = hob_rt_core::planner::plan_file(a.program, machine).map_err(|e| (2, e.to_string()))?;
+    let plan = hob_setup::planner::plan_file(a.program, machine).map_err(|e| (2, e.to_string()))?;
     let iface = a.iface.map_or_else(
-        || hob_rt_core::service::shm_can::default_iface().to_string(),
+        || hob_can_transport::shm::default_iface().to_string(),
         str::to_string,
     );
     // Refused before anything is created: a tolerance the machine file's validation refuses.
@@ -171,11 +171,11 @@ pub fn run(machine: &MachineConfig, a: &DemoArgs<'_>) -> Result<String, (u8, Str
                 procs.dead().unwrap_or_else(|| "hob-rt stopped publishing".into()),
             ));
         };
-        let state = wire::state_from_code(s.state).unwrap_or(State::Init);
+        let state = codec::state_from_code(s.state).unwrap_or(State::Init);
         let c0 = *start_cycle.get_or_insert(s.cycle);
         left_idle |= state != State::Idle;
         if state == State::Faulted {
-            fault = Some(wire::alarm_text(&s.alarm));
+            fault = Some(codec::alarm_text(&s.alarm));
             break;
         }
         if left_idle && state == State::Idle {
@@ -196,7 +196,7 @@ pub fn run(machine: &MachineConfig, a: &DemoArgs<'_>) -> Result<String, (u8, Str
                 bar(elapsed_s / total_s, 24),
                 s.pass,
                 s.passes_total,
-                wire::state_name(s.state),
+                codec::state_name(s.state),
                 s.y_mm.actual,
                 (left / 60.0).floor(),
                 left % 60.0,

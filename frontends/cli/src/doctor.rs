@@ -8,7 +8,7 @@
 //! Everything is read from /sys and /proc, except the CAN details (`ip -details -json link`)
 //! and the cyclictest run. Exit status 0 when nothing failed, 1 otherwise.
 
-use hob_rt_core::config::machine::MachineConfig;
+use hob_setup::config::machine::MachineConfig;
 use serde::Serialize;
 use std::fmt::Write as _;
 use std::path::Path;

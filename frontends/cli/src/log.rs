@@ -1,20 +1,20 @@
 //! `hob log export|report`: reading a `hob-logger` directory.
 
+use hob_control::State;
 use hob_ipc::StateSample;
+use hob_ipc::codec;
 use hob_plant::sim::{SummaryBuilder, TRACE_HEADER, TraceRow};
-use hob_rt_core::control::State;
-use hob_rt_core::service::wire;
 use std::fmt::Write as _;
 use std::path::Path;
 
-/// Coupling code of "synchronised" (`wire::coupling_name`).
+/// Coupling code of "synchronised" (`codec::coupling_name`).
 const SYNCHRONISED: u32 = 3;
 
 /// The simulation trace's row for a recorded sample (`t0_ns`: the first sample's SYNC).
 pub fn trace_row(s: &StateSample, t0_ns: u64) -> TraceRow {
     TraceRow {
         t_s: s.sync_time_ns.saturating_sub(t0_ns) as f64 * 1e-9,
-        state: wire::state_from_code(s.state).unwrap_or(State::Init),
+        state: codec::state_from_code(s.state).unwrap_or(State::Init),
         hold: s.hold != 0,
         pass: s.pass,
         spindle_deg: s.spindle_deg,
@@ -55,8 +55,8 @@ pub fn export_csv(dir: &Path) -> Result<String, String> {
             s.cycle,
             s.spindle_rpm,
             s.ccc_arcsec,
-            wire::coupling_name(s.coupling),
-            wire::alarm_text(&s.alarm).replace(',', ";"),
+            codec::coupling_name(s.coupling),
+            codec::alarm_text(&s.alarm).replace(',', ";"),
             s.digital_inputs,
             s.digital_outputs,
             f64::from(s.wake_latency_ns) / 1e3,

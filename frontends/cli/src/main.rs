@@ -12,9 +12,9 @@ mod service;
 mod simulate;
 
 use clap::{Parser, Subcommand};
-use hob_rt_core::config::LoadError;
-use hob_rt_core::config::machine::MachineConfig;
-use hob_rt_core::planner::plan_file;
+use hob_setup::config::LoadError;
+use hob_setup::config::machine::MachineConfig;
+use hob_setup::planner::plan_file;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
@@ -406,9 +406,9 @@ fn run(command: Command) -> Result<(), Failure> {
             let options = hob_plant::sim::SimOptions {
                 cross_coupling: !no_ccc,
                 angle_source: if no_predictor {
-                    hob_rt_core::control::SpindleAngleSource::LastMeasured
+                    hob_control::SpindleAngleSource::LastMeasured
                 } else {
-                    hob_rt_core::control::SpindleAngleSource::Predicted
+                    hob_control::SpindleAngleSource::Predicted
                 },
                 single,
                 windows_off: no_windows,
@@ -548,8 +548,8 @@ fn sdo(iface: &str, op: SdoOp, timeout: std::time::Duration) -> Result<String, (
     }
 }
 
-fn parse_jog(s: &str) -> Result<(hob_rt_core::control::fault::Axis, f64), String> {
-    use hob_rt_core::control::fault::Axis;
+fn parse_jog(s: &str) -> Result<(hob_control::fault::Axis, f64), String> {
+    use hob_control::fault::Axis;
     let (axis, d) = s
         .split_once('=')
         .ok_or_else(|| format!("--jog {s}: expected AXIS=DISTANCE"))?;

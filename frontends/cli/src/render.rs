@@ -1,8 +1,8 @@
 //! Human-readable plan for the terminal.
 
-use hob_rt_core::gearing::signs::{Hand, Rotation, Vertical};
-use hob_rt_core::job::{CycleKind, Mode};
-use hob_rt_core::planner::{PassKind, Plan};
+use hob_gearing::signs::{Hand, Rotation, Vertical};
+use hob_setup::job::{CycleKind, Mode};
+use hob_setup::planner::{PassKind, Plan};
 use std::fmt::Write;
 use std::path::Path;
 

@@ -2,9 +2,9 @@
 //! same shared-memory interfaces as every frontend (the HMI included): the `state`,
 //! `events` and `stats` streams, and the `command` request-response service.
 
+use hob_control::fault::Axis;
+use hob_ipc::codec;
 use hob_ipc::{CommandRequest, CommandResponse, EventSample, Ports, StateSample, StatsSample, command};
-use hob_rt_core::control::fault::Axis;
-use hob_rt_core::service::wire;
 use std::fmt::Write as _;
 use std::path::Path;
 use std::time::{Duration, Instant};
@@ -44,8 +44,7 @@ pub fn start(single: bool) -> CommandRequest {
 
 pub fn jog(axis: &str, distance: f64) -> Result<CommandRequest, (u8, String)> {
     let axis = Axis::parse(axis).ok_or_else(|| (2, format!("jog: axis {axis} is not x, y or b")))?;
-    let (code, single, axis, value) =
-        wire::command_code(hob_rt_core::control::Command::Jog { axis, distance });
+    let (code, single, axis, value) = codec::command_code(hob_control::Command::Jog { axis, distance });
     let mut r = CommandRequest::new(code);
     r.single = single;
     r.axis = axis;
@@ -94,13 +93,13 @@ pub fn status_text(s: &Snapshot) -> String {
     let _ = writeln!(
         o,
         "state    {}{hold}   cycle {}   pass {}/{}   program {}",
-        wire::state_name(st.state),
+        codec::state_name(st.state),
         st.cycle,
         st.pass,
         st.passes_total,
         if st.program_loaded != 0 { "loaded" } else { "none" }
     );
-    let alarm = wire::alarm_text(&st.alarm);
+    let alarm = codec::alarm_text(&st.alarm);
     let _ = writeln!(
         o,
         "alarm    {}",
@@ -116,7 +115,7 @@ pub fn status_text(s: &Snapshot) -> String {
         "spindle  {:7.2} rpm (set {:7.2})   gearbox {}   sync error {:7.3} arcsec   CCC {:6.3} arcsec",
         st.spindle_rpm,
         st.spindle_set_rpm,
-        wire::coupling_name(st.coupling),
+        codec::coupling_name(st.coupling),
         st.sync_error_arcsec,
         st.ccc_arcsec
     );
@@ -200,7 +199,7 @@ pub fn status_text(s: &Snapshot) -> String {
     if !s.events.is_empty() {
         let _ = writeln!(o, "events   (newest last)");
         for e in s.events.iter().rev().take(10).rev() {
-            let _ = writeln!(o, "  #{:<6} cycle {:<9} {}", e.seq, e.cycle, wire::event_text(e));
+            let _ = writeln!(o, "  #{:<6} cycle {:<9} {}", e.seq, e.cycle, codec::event_text(e));
         }
     }
     o
@@ -226,23 +225,23 @@ pub fn status_json(s: &Snapshot) -> String {
     let events: Vec<serde_json::Value> = s
         .events
         .iter()
-        .map(|e| serde_json::json!({"seq": e.seq, "cycle": e.cycle, "text": wire::event_text(e)}))
+        .map(|e| serde_json::json!({"seq": e.seq, "cycle": e.cycle, "text": codec::event_text(e)}))
         .collect();
     let j = serde_json::json!({
         "cycle": st.cycle,
         "sync_time_ns": st.sync_time_ns,
-        "state": wire::state_name(st.state),
+        "state": codec::state_name(st.state),
         "hold": st.hold != 0,
         "pass": st.pass,
         "passes_total": st.passes_total,
         "program_loaded": st.program_loaded != 0,
-        "alarm": wire::alarm_text(&st.alarm),
+        "alarm": codec::alarm_text(&st.alarm),
         "x_mm": st.x_mm.actual,
         "y_mm": st.y_mm.actual,
         "table_deg": st.table_deg.actual,
         "spindle_rpm": st.spindle_rpm,
         "sync_error_arcsec": st.sync_error_arcsec,
-        "coupling": wire::coupling_name(st.coupling),
+        "coupling": codec::coupling_name(st.coupling),
         "io_valid": st.io_valid != 0,
         "digital_outputs": st.digital_outputs,
         "stats": stats,
@@ -267,16 +266,16 @@ pub fn status(watch: bool, json: bool) -> Result<String, (u8, String)> {
     loop {
         std::thread::sleep(Duration::from_millis(500));
         while let Some(e) = ports.next_event() {
-            println!("  #{:<6} cycle {:<9} {}", e.seq, e.cycle, wire::event_text(&e));
+            println!("  #{:<6} cycle {:<9} {}", e.seq, e.cycle, codec::event_text(&e));
         }
         let Some(st) = ports.wait_state(Duration::from_secs(1)) else {
             return Err((1, "hob-rt stopped publishing".into()));
         };
-        let alarm = wire::alarm_text(&st.alarm);
+        let alarm = codec::alarm_text(&st.alarm);
         println!(
             "cycle {:>9}  {:<12} pass {}/{}  X {:8.3}  Y {:8.3}  spindle {:6.1} rpm  sync {:7.3} arcsec  wake {:6.1} us  {}",
             st.cycle,
-            wire::state_name(st.state),
+            codec::state_name(st.state),
             st.pass,
             st.passes_total,
             st.x_mm.actual,

@@ -1,13 +1,13 @@
 //! `hob simulate`: the whole program, core against the simulated machine, in-process.
 
+use hob_control::SpindleAngleSource;
+use hob_control::program::CycleProgram;
 use hob_plant::config::PlantConfig;
 use hob_plant::sim::{SimOptions, TRACE_HEADER, run_program};
-use hob_rt_core::config::Problems;
-use hob_rt_core::config::machine::MachineConfig;
-use hob_rt_core::control::SpindleAngleSource;
-use hob_rt_core::control::program::CycleProgram;
-use hob_rt_core::job::Program;
-use hob_rt_core::planner;
+use hob_setup::config::Problems;
+use hob_setup::config::machine::MachineConfig;
+use hob_setup::job::Program;
+use hob_setup::planner;
 use std::io::{BufWriter, Write};
 use std::path::Path;
 

@@ -156,7 +156,7 @@ impl LogWriter {
             e.seq,
             e.cycle,
             e.kind,
-            hob_rt_core::service::wire::event_text(e)
+            hob_ipc::codec::event_text(e)
         )
     }
 

@@ -13,17 +13,18 @@
 //!
 //! usage: hob-watchdog [--machine FILE] [--iface IFACE|shm] [--deadline-ms N]
 
+use hob_can_transport::shm::open_bus;
+use hob_canopen::bus::CanBus;
+use hob_canopen::frame::Frame;
+use hob_canopen::sdo::SdoClient;
+use hob_control::State;
+use hob_control::fault::Fault;
 use hob_ipc::StateSample;
-use hob_rt_core::canopen::bus::CanBus;
-use hob_rt_core::canopen::frame::Frame;
-use hob_rt_core::canopen::plan::{ANALOG_OUTPUTS, BusPlan, DIGITAL_OUTPUTS};
-use hob_rt_core::canopen::sdo::SdoClient;
-use hob_rt_core::config::machine::MachineConfig;
-use hob_rt_core::control::State;
-use hob_rt_core::control::fault::Fault;
-use hob_rt_core::service::rt::{self, RtReport, now_ns, sleep_until_ns};
-use hob_rt_core::service::shm_can::open_bus;
-use hob_rt_core::service::wire;
+use hob_ipc::codec;
+use hob_process_image::plan::{ANALOG_OUTPUTS, BusPlan, DIGITAL_OUTPUTS};
+use hob_rt_os as rt;
+use hob_rt_os::{RtReport, now_ns, sleep_until_ns};
+use hob_setup::config::machine::MachineConfig;
 use std::path::PathBuf;
 use std::process::ExitCode;
 use std::sync::atomic::Ordering;
@@ -74,10 +75,10 @@ enum Trip {
 /// The loop reports that it lost the machine: faulted with a drive's feedback or the I/O
 /// coupler gone (it can no longer make the machine safe by itself).
 fn lost_machine(s: &StateSample) -> Option<Fault> {
-    if wire::state_from_code(s.state) != Some(State::Faulted) {
+    if codec::state_from_code(s.state) != Some(State::Faulted) {
         return None;
     }
-    match wire::fault_from_alarm(&s.alarm)? {
+    match codec::fault_from_alarm(&s.alarm)? {
         f @ (Fault::FeedbackLost { .. } | Fault::IoLost) => Some(f),
         _ => None,
     }
@@ -236,7 +237,7 @@ fn act(bus: &mut Box<dyn CanBus>, frames: &[Frame], why: Trip, cycle: u64) {
     }
     let reason = match why {
         Trip::Silent { silence_ms } => format!("loop silent for {silence_ms:.1} ms after cycle {cycle}"),
-        Trip::LoopLostMachine(f) => format!("loop reports it lost the machine: {}", wire::fault_text(f)),
+        Trip::LoopLostMachine(f) => format!("loop reports it lost the machine: {}", codec::fault_text(f)),
     };
     eprintln!(
         "hob-watchdog: TRIPPED: {reason}: I/O coupler outputs off (PC-OK dropped, safety chain opens), \

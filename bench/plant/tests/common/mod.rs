@@ -2,15 +2,15 @@
 //! programs (optionally edited), a powered-up simulation.
 #![allow(dead_code, clippy::unwrap_used)]
 
+use hob_control::events::Event;
+use hob_control::program::CycleProgram;
+use hob_control::{Command, State};
 use hob_plant::config::PlantConfig;
 use hob_plant::sim::{Simulation, TraceRow, start_for, workpiece_for};
-use hob_rt_core::config::Problems;
-use hob_rt_core::config::machine::MachineConfig;
-use hob_rt_core::control::events::Event;
-use hob_rt_core::control::program::CycleProgram;
-use hob_rt_core::control::{Command, State};
-use hob_rt_core::job::Program;
-use hob_rt_core::planner::{self, Plan};
+use hob_setup::config::Problems;
+use hob_setup::config::machine::MachineConfig;
+use hob_setup::job::Program;
+use hob_setup::planner::{self, Plan};
 use std::path::{Path, PathBuf};
 
 pub fn root() -> PathBuf {
@@ -94,11 +94,11 @@ impl Run {
     }
 
     /// The faults raised during the stretch, in order.
-    pub fn faults(&self) -> Vec<hob_rt_core::control::fault::Fault> {
+    pub fn faults(&self) -> Vec<hob_control::fault::Fault> {
         self.events
             .iter()
             .filter_map(|e| match e.kind {
-                hob_rt_core::control::events::EventKind::Fault(f) => Some(f),
+                hob_control::events::EventKind::Fault(f) => Some(f),
                 _ => None,
             })
             .collect()

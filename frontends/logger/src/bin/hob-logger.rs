@@ -18,7 +18,7 @@ fn main() -> ExitCode {
         eprintln!("usage: hob-logger DIR   (HOB_INSTANCE selects the bus instance)");
         return ExitCode::from(2);
     };
-    let stop = hob_rt_core::service::rt::termination_flag();
+    let stop = hob_rt_os::termination_flag();
     let ports = match hob_ipc::Ports::subscribe("hob-logger") {
         Ok(p) => p,
         Err(e) => {

@@ -1,0 +1,550 @@
+//! The virtual machine on the bus: every node of the real machine (three CiA 402 drives,
+//! the CiA 401 I/O coupler, the spindle encoder on the table drive's auxiliary input)
+//! around the physics of `hob-plant`, with fault injection.
+//!
+//! Lockstep: the physics advance by one period per SYNC received, as real drives act on
+//! SYNC, so a run over the bus is reproducible however the processes are scheduled.
+//! As a real drive does, a SYNC is answered first (latch, TPDOs) and the period's
+//! physics are computed afterwards ([`VirtualMachine::settle`]), before the next frame.
+
+use crate::node::{Node, communication_objects};
+use crate::od::{Access, Od};
+use hob_canopen::cia402::{self, PowerState, object};
+use hob_canopen::emcy::Emcy;
+use hob_canopen::frame::Frame;
+use hob_canopen::nmt::NmtState;
+use hob_control::fault::Axis;
+use hob_plant::config::PlantConfig;
+use hob_plant::machine::{Injection, Plant, Start};
+use hob_process_image::plan::{ANALOG_OUTPUTS, BusPlan, DIGITAL_INPUTS, DIGITAL_OUTPUTS};
+use hob_setup::config::machine::MachineConfig;
+use std::collections::VecDeque;
+
+/// A fault of the bus or of a node, injected from the command line or control channel.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum VmFault {
+    /// A physical fault of the machine.
+    Plant(Injection),
+    /// Drop each TPDO with this probability.
+    Drop(f64),
+    /// Hold every TPDO back by this many SYNCs.
+    Delay(u32),
+    /// The node sends and hears nothing any more.
+    Silent(u8),
+    /// Garbage frames per SYNC: unused identifiers, and used ones with wrong lengths.
+    Garbage(u32),
+}
+
+impl VmFault {
+    /// Parses `drive-fault x`, `estop`, `chain-open`, `limit y min`, `no-lube`,
+    /// `obstruct y`, `vfd-fault`, `drop 0.2`, `delay 3`, `silent 2`, `garbage 4`.
+    pub fn parse(text: &str) -> Result<Self, String> {
+        let words: Vec<&str> = text.split_whitespace().collect();
+        let axis = |w: Option<&&str>| match w.map(|s| s.to_ascii_lowercase()).as_deref() {
+            Some("b") | Some("table") => Ok(Axis::B),
+            Some("x") => Ok(Axis::X),
+            Some("y") => Ok(Axis::Y),
+            other => Err(format!("axis must be b, x or y (got {other:?})")),
+        };
+        let num = |w: Option<&&str>| -> Result<f64, String> {
+            w.ok_or("a number is missing")?
+                .parse::<f64>()
+                .map_err(|e| e.to_string())
+        };
+        Ok(match words.first().copied() {
+            Some("drive-fault") => VmFault::Plant(Injection::DriveFault(axis(words.get(1))?)),
+            Some("estop") => VmFault::Plant(Injection::EmergencyStop),
+            Some("chain-open") => VmFault::Plant(Injection::OpenSafetyChain),
+            Some("limit") => {
+                let end = match words.get(2).copied() {
+                    Some("min") => hob_control::fault::End::Min,
+                    Some("max") => hob_control::fault::End::Max,
+                    other => return Err(format!("limit end must be min or max (got {other:?})")),
+                };
+                VmFault::Plant(Injection::HardwareLimit(axis(words.get(1))?, end))
+            }
+            Some("no-lube") => VmFault::Plant(Injection::NoLubePressure),
+            Some("obstruct") => VmFault::Plant(Injection::Obstruct(axis(words.get(1))?)),
+            Some("vfd-fault") => VmFault::Plant(Injection::VfdFault),
+            Some("drop") => VmFault::Drop(num(words.get(1))?.clamp(0.0, 1.0)),
+            Some("delay") => VmFault::Delay(num(words.get(1))? as u32),
+            Some("silent") => VmFault::Silent(num(words.get(1))? as u8),
+            Some("garbage") => VmFault::Garbage(num(words.get(1))? as u32),
+            other => return Err(format!("unknown fault {other:?}")),
+        })
+    }
+}
+
+const DRIVE_DEVICE_TYPE: u32 = 0x0002_0192; // CiA 402, servo
+const IO_DEVICE_TYPE: u32 = 0x0003_0191; // CiA 401, digital in + out
+/// Following error window of the simulated drives (0x6065), counts.
+const FOLLOWING_WINDOW_COUNTS: u32 = 20_000;
+/// Supported modes announced in 0x6502: PP, PV, HM, IP, CSP.
+const SUPPORTED_MODES: u32 = 0x0000_00E5;
+
+/// TPDO1-4 and RPDO1-4 identifiers.
+fn is_pdo(id: u16) -> bool {
+    (0x180..0x580).contains(&id)
+}
+
+fn drive_od(node: u8, name: &str, spindle: Option<(u16, u8)>) -> Od {
+    let mut od = Od::default();
+    // Default mapping as many drives ship: RPDO1 controlword, TPDO1 statusword.
+    let rpdo = [[0x6040_0010, 0, 0], [0, 0, 0], [0, 0, 0], [0, 0, 0]];
+    let tpdo = [[0x6041_0010, 0, 0], [0, 0, 0], [0, 0, 0], [0, 0, 0]];
+    communication_objects(&mut od, node, DRIVE_DEVICE_TYPE, name, &rpdo, &tpdo);
+    od.set(object::CONTROLWORD, 0, Access::Rw, &0u16.to_le_bytes())
+        .set(
+            object::STATUSWORD,
+            0,
+            Access::Ro,
+            &PowerState::SwitchOnDisabled.statusword().to_le_bytes(),
+        )
+        .set(object::MODES_OF_OPERATION, 0, Access::Rw, &[0])
+        .set(object::MODES_DISPLAY, 0, Access::Ro, &[0])
+        .set(object::POSITION_ACTUAL, 0, Access::Ro, &0i32.to_le_bytes())
+        .set(0x6065, 0, Access::Rw, &FOLLOWING_WINDOW_COUNTS.to_le_bytes())
+        .set(object::TARGET_POSITION, 0, Access::Rw, &0i32.to_le_bytes())
+        .set(object::VELOCITY_OFFSET, 0, Access::Rw, &0i32.to_le_bytes())
+        .set(object::INTERPOLATION_PERIOD, 0, Access::Ro, &[2])
+        .set(object::INTERPOLATION_PERIOD, 1, Access::Rw, &[1])
+        .set(object::INTERPOLATION_PERIOD, 2, Access::Rw, &[(-3i8) as u8])
+        .set(
+            object::SUPPORTED_MODES,
+            0,
+            Access::Ro,
+            &SUPPORTED_MODES.to_le_bytes(),
+        )
+        // A vendor-specific text the machine builder may write (axis label).
+        .set_rw_str(0x2000, 0, "");
+    if let Some((index, sub)) = spindle {
+        od.set(index, sub, Access::Ro, &0i32.to_le_bytes());
+    }
+    od
+}
+
+fn io_od(node: u8) -> Od {
+    let mut od = Od::default();
+    let rpdo = [
+        [0x6200_0108, 0x6200_0208, 0],
+        [0x6411_0110, 0x6411_0210, 0],
+        [0, 0, 0],
+        [0, 0, 0],
+    ];
+    let tpdo = [
+        [0x6000_0108, 0x6000_0208, 0x6000_0308],
+        [0, 0, 0],
+        [0, 0, 0],
+        [0, 0, 0],
+    ];
+    communication_objects(&mut od, node, IO_DEVICE_TYPE, "hob-sim I/O coupler", &rpdo, &tpdo);
+    od.set(DIGITAL_INPUTS, 0, Access::Ro, &[3]);
+    for s in 1..=3 {
+        od.set(DIGITAL_INPUTS, s, Access::Ro, &[0]);
+    }
+    od.set(DIGITAL_OUTPUTS, 0, Access::Ro, &[2]);
+    for s in 1..=2 {
+        od.set(DIGITAL_OUTPUTS, s, Access::Rw, &[0]);
+    }
+    od.set(ANALOG_OUTPUTS, 0, Access::Ro, &[2]);
+    for s in 1..=2 {
+        od.set(ANALOG_OUTPUTS, s, Access::Rw, &0i16.to_le_bytes());
+    }
+    od
+}
+
+/// The virtual machine.
+#[derive(Debug)]
+pub struct VirtualMachine {
+    pub plant: Plant,
+    plan: BusPlan,
+    drives: [Node; 3],
+    io: Node,
+    state: [PowerState; 3],
+    time_s: f64,
+    period_s: f64,
+    syncs: u64,
+    drop: f64,
+    delay: u32,
+    garbage: u32,
+    delayed: VecDeque<(u64, Frame)>,
+    rng: u64,
+    powered_before: bool,
+    cutting_syncs: u64,
+    /// The physics owe the period since the last SYNC (see [`VirtualMachine::settle`]).
+    physics_owed: bool,
+    /// The nodes' own clock (heartbeats, inhibit times): advances by one period per SYNC
+    /// and by wall time while no SYNC runs, so both never mix.
+    node_clock_s: f64,
+    /// The SYNC being handled is already followed by another: its PDOs are not sent.
+    superseded: bool,
+    /// SYNCs whose PDOs were not sent because a later SYNC was already waiting.
+    superseded_syncs: u64,
+}
+
+impl VirtualMachine {
+    pub fn new(machine: &MachineConfig, plant: &PlantConfig, start: Start, gashes: u32) -> Self {
+        let plan = BusPlan::from_machine(machine);
+        let spindle = (plan.spindle_encoder.index, plan.spindle_encoder.sub);
+        let names = ["hob-sim drive B (table)", "hob-sim drive X", "hob-sim drive Y"];
+        let drives = std::array::from_fn(|i| {
+            let node = plan.drives[i].node;
+            Node::new(node, drive_od(node, names[i], (i == 0).then_some(spindle)))
+        });
+        Self {
+            plant: Plant::new(plant, machine, start, gashes),
+            plan,
+            drives,
+            io: Node::new(plan.io.node, io_od(plan.io.node)),
+            state: [PowerState::SwitchOnDisabled; 3],
+            time_s: 0.0,
+            period_s: plan.cycle_s,
+            syncs: 0,
+            drop: 0.0,
+            delay: 0,
+            garbage: 0,
+            delayed: VecDeque::new(),
+            rng: plant.simulation.seed.wrapping_mul(0x9E37_79B9_7F4A_7C15) | 1,
+            powered_before: false,
+            cutting_syncs: 0,
+            physics_owed: false,
+            node_clock_s: 0.0,
+            superseded: false,
+            superseded_syncs: 0,
+        }
+    }
+
+    /// Every node sends its boot-up message (power-on).
+    pub fn power_on(&mut self, out: &mut Vec<Frame>) {
+        for n in self.nodes_mut() {
+            n.power_on(out);
+        }
+    }
+
+    fn nodes_mut(&mut self) -> impl Iterator<Item = &mut Node> {
+        self.drives.iter_mut().chain(std::iter::once(&mut self.io))
+    }
+
+    pub fn time_s(&self) -> f64 {
+        self.time_s
+    }
+
+    /// SYNCs during which the tool was in the work.
+    pub fn cutting_syncs(&self) -> u64 {
+        self.cutting_syncs
+    }
+
+    pub fn syncs(&self) -> u64 {
+        self.syncs
+    }
+
+    /// SYNCs left unanswered because the simulator read them late, together with a later
+    /// one (see [`Self::on_frames`]).
+    pub fn superseded_syncs(&self) -> u64 {
+        self.superseded_syncs
+    }
+
+    pub fn drive_state(&self, axis: Axis) -> PowerState {
+        self.state[match axis {
+            Axis::B => 0,
+            Axis::X => 1,
+            Axis::Y => 2,
+        }]
+    }
+
+    pub fn nmt_state(&self, node: u8) -> Option<NmtState> {
+        self.drives
+            .iter()
+            .chain(std::iter::once(&self.io))
+            .find(|n| n.id == node)
+            .map(|n| n.nmt)
+    }
+
+    pub fn inject(&mut self, f: VmFault) {
+        self.settle();
+        match f {
+            VmFault::Plant(i) => self.plant.inject(i),
+            VmFault::Drop(p) => self.drop = p,
+            VmFault::Delay(n) => self.delay = n,
+            VmFault::Garbage(n) => self.garbage = n,
+            VmFault::Silent(node) => {
+                for n in self.nodes_mut() {
+                    if n.id == node {
+                        n.silent = true;
+                    }
+                }
+            }
+        }
+    }
+
+    fn random(&mut self) -> u64 {
+        self.rng ^= self.rng >> 12;
+        self.rng ^= self.rng << 25;
+        self.rng ^= self.rng >> 27;
+        self.rng.wrapping_mul(0x2545_F491_4F6C_DD1D)
+    }
+
+    /// Computes the physics of the period since the last SYNC if that is still owed. A
+    /// SYNC's answer goes out before them (send `out`, then call this while the bus is
+    /// quiet); every other entry point calls it first, so the order never matters.
+    pub fn settle(&mut self) {
+        if self.physics_owed {
+            self.physics_owed = false;
+            self.plant.advance_to(self.time_s);
+            self.cutting_syncs += u64::from(self.plant.cutting());
+        }
+    }
+
+    /// Handles one frame from the bus; frames to send are appended to `out`.
+    pub fn on_frame(&mut self, f: &Frame, out: &mut Vec<Frame>) {
+        self.settle();
+        let now = self.node_clock_s;
+        let mut sync = false;
+        for i in 0..3 {
+            let e = self.drives[i].handle(f, now, out);
+            sync |= e.sync;
+            if e.reset {
+                self.state[i] = PowerState::SwitchOnDisabled;
+            }
+            if e.written == Some(object::CONTROLWORD) {
+                self.on_controlword(i, out);
+            }
+        }
+        let e = self.io.handle(f, now, out);
+        sync |= e.sync;
+        if f.id == hob_canopen::frame::SYNC && (sync || self.any_operational()) {
+            self.on_sync(out);
+        }
+    }
+
+    /// Handles the frames read from the bus in one go, in order. A process scheduled late
+    /// reads several SYNCs at once; a drive latches each SYNC in hardware and answers it
+    /// within the period, so an answer to any but the last would reach the master after
+    /// the next SYNC and pass for that one's. Those SYNCs are latched and their periods
+    /// computed, but their synchronous TPDOs are not sent: the master sees a missed frame,
+    /// as from a drive whose answer is lost, never a stale one. Event-driven TPDOs (a
+    /// changed statusword) still go out. Returns whether a SYNC was handled
+    /// (its answer is in `out`).
+    pub fn on_frames(&mut self, batch: &[Frame], out: &mut Vec<Frame>) -> bool {
+        let sync = hob_canopen::frame::SYNC;
+        let last_sync = batch.iter().rposition(|f| f.id == sync);
+        for (i, f) in batch.iter().enumerate() {
+            self.superseded = f.id == sync && last_sync.is_some_and(|l| i < l);
+            self.on_frame(f, out);
+        }
+        self.superseded = false;
+        last_sync.is_some()
+    }
+
+    /// The next SYNC arrived before the answer to the last one went out: the synchronous
+    /// TPDOs in `out` are withdrawn (see [`Self::on_frames`]); everything else there is
+    /// still sent. An event-driven TPDO (a statusword that changed) reports a change, not
+    /// a measurement at a SYNC: withheld, the master would keep the old state until the
+    /// next change.
+    pub fn withdraw_answer(&mut self, out: &mut Vec<Frame>) {
+        let before = out.len();
+        out.retain(|f| !self.answers_sync(f.id));
+        if out.len() < before {
+            self.superseded_syncs += 1;
+        }
+    }
+
+    /// Whether `id` is a synchronous TPDO of one of the nodes (an answer to a SYNC).
+    fn answers_sync(&self, id: u16) -> bool {
+        self.drives
+            .iter()
+            .chain(std::iter::once(&self.io))
+            .any(|n| n.is_sync_tpdo(id))
+    }
+
+    fn any_operational(&self) -> bool {
+        self.drives
+            .iter()
+            .chain(std::iter::once(&self.io))
+            .any(|n| n.nmt == NmtState::Operational)
+    }
+
+    fn on_controlword(&mut self, i: usize, out: &mut Vec<Frame>) {
+        let cw = self.drives[i].od.u32(object::CONTROLWORD, 0) as u16;
+        let before = self.state[i];
+        let mut next = cia402::drive_transition(before, cw);
+        // Without power at the stage the drive cannot switch on.
+        if !self.plant.drives_have_power()
+            && matches!(next, PowerState::SwitchedOn | PowerState::OperationEnabled)
+        {
+            next = PowerState::SwitchOnDisabled;
+        }
+        if before == PowerState::Fault && next != PowerState::Fault {
+            // Fault reset: the drive clears the fault if its cause is gone.
+            let servo = match i {
+                0 => &self.plant.table,
+                1 => &self.plant.x,
+                _ => &self.plant.y,
+            };
+            if servo.fault {
+                next = PowerState::Fault;
+            } else {
+                out.push(self.emcy(i, 0x0000, 0));
+            }
+        }
+        self.set_state(i, next);
+    }
+
+    /// An EMCY of drive `i`.
+    fn emcy(&self, i: usize, code: u16, register: u8) -> Frame {
+        Emcy {
+            node: self.drives[i].id,
+            code,
+            register,
+            vendor: [0; 5],
+        }
+        .frame()
+    }
+
+    fn set_state(&mut self, i: usize, s: PowerState) {
+        self.state[i] = s;
+        self.drives[i]
+            .od
+            .put(object::STATUSWORD, 0, u64::from(s.statusword()));
+        let mode = self.drives[i].od.u32(object::MODES_OF_OPERATION, 0);
+        self.drives[i].od.put(object::MODES_DISPLAY, 0, u64::from(mode));
+    }
+
+    fn fault(&mut self, i: usize, code: u16, out: &mut Vec<Frame>) {
+        if self.state[i] != PowerState::Fault {
+            self.set_state(i, PowerState::Fault);
+            out.push(self.emcy(i, code, 0x01));
+        }
+    }
+
+    /// A SYNC: apply the targets received since the last one, latch, send the TPDOs;
+    /// the physics of the coming period are owed until [`Self::settle`].
+    fn on_sync(&mut self, out: &mut Vec<Frame>) {
+        self.syncs += 1;
+        let mut targets = [0i32; 3];
+        let mut enable = [false; 3];
+        for i in 0..3 {
+            let d = &self.drives[i];
+            targets[i] = d.od.u32(object::TARGET_POSITION, 0) as i32;
+            let csp = d.od.u32(object::MODES_OF_OPERATION, 0) as u8 as i8 == cia402::MODE_CSP;
+            enable[i] =
+                self.state[i] == PowerState::OperationEnabled && csp && d.nmt == NmtState::Operational;
+        }
+        let io = &self.io.od;
+        let dout = io.u32(DIGITAL_OUTPUTS, 1) | io.u32(DIGITAL_OUTPUTS, 2) << 8;
+        let ch = 1 + self.plan.spindle_analog_channel;
+        let analog = io.u32(ANALOG_OUTPUTS, ch) as u16 as i16;
+        let volts = f64::from(analog.max(0)) / 32767.0 * self.plan.analog_full_scale_v;
+        self.plant.apply_io(dout, volts);
+        self.plant.apply_drives(targets, enable);
+
+        // Latch.
+        let powered = self.plant.drives_have_power();
+        let servos = [&self.plant.table, &self.plant.x, &self.plant.y];
+        let positions: [i64; 3] = std::array::from_fn(|i| servos[i].position_counts());
+        let faulted: [bool; 3] = std::array::from_fn(|i| servos[i].fault);
+        for i in 0..3 {
+            self.drives[i]
+                .od
+                .put(object::POSITION_ACTUAL, 0, positions[i] as i32 as u32 as u64);
+            if faulted[i] {
+                self.fault(i, 0x2310, out);
+            } else if enable[i]
+                && (i64::from(targets[i]) - positions[i]).unsigned_abs()
+                    > u64::from(self.drives[i].od.u32(0x6065, 0))
+            {
+                self.fault(i, 0x8611, out);
+            } else if !powered
+                && self.powered_before
+                && matches!(
+                    self.state[i],
+                    PowerState::OperationEnabled | PowerState::SwitchedOn | PowerState::ReadyToSwitchOn
+                )
+            {
+                // Safe torque off by the safety relay.
+                self.set_state(i, PowerState::SwitchOnDisabled);
+                out.push(self.emcy(i, 0x5441, 0x01));
+            }
+            if self.drives[i].master_lost(self.node_clock_s) && self.state[i] == PowerState::OperationEnabled
+            {
+                // Communication error reaction: quick stop.
+                self.set_state(i, PowerState::QuickStopActive);
+                out.push(self.emcy(i, 0x8130, 0x11));
+            }
+        }
+        self.powered_before = powered;
+        let spindle = self.plant.spindle_counts();
+        let enc = self.plan.spindle_encoder;
+        self.drives[0].od.put(enc.index, enc.sub, spindle as u32 as u64);
+        let din = self.plant.input_image();
+        for s in 0..3u8 {
+            self.io
+                .od
+                .put(DIGITAL_INPUTS, s + 1, u64::from((din >> (8 * s)) & 0xFF));
+        }
+
+        // TPDOs, through the injected faults.
+        self.node_clock_s += self.period_s;
+        let now = self.node_clock_s;
+        let mut tx = Vec::new();
+        for n in self.drives.iter_mut().chain(std::iter::once(&mut self.io)) {
+            n.transmit_pdos(true, now, &mut tx);
+            n.heartbeat(now, &mut tx);
+        }
+        self.superseded_syncs += u64::from(self.superseded);
+        for f in tx {
+            let is_pdo = is_pdo(f.id);
+            if self.superseded && self.answers_sync(f.id) {
+                continue;
+            }
+            if is_pdo && self.drop > 0.0 && (self.random() >> 11) as f64 / (1u64 << 53) as f64 <= self.drop {
+                continue;
+            }
+            if is_pdo && self.delay > 0 {
+                self.delayed.push_back((self.syncs + u64::from(self.delay), f));
+            } else {
+                out.push(f);
+            }
+        }
+        while self.delayed.front().is_some_and(|(due, _)| *due <= self.syncs) {
+            if let Some((_, f)) = self.delayed.pop_front() {
+                out.push(f);
+            }
+        }
+        for _ in 0..self.garbage {
+            let r = self.random();
+            let f = if r & 1 == 0 {
+                // An identifier nobody uses here (0x6E0..0x6FF: unassigned SDO range).
+                Frame::new(
+                    0x6E0 + ((r >> 8) & 0x1F) as u16,
+                    &(r >> 16).to_le_bytes()[..((r >> 40) % 9) as usize],
+                )
+            } else {
+                // A used TPDO identifier with a length no PDO of ours has (5 or 7 bytes).
+                let d = &self.plan.drives[((r >> 8) % 3) as usize];
+                Frame::new(
+                    d.actual.cob_id,
+                    &(r >> 16).to_le_bytes()[..if r & 2 == 0 { 5 } else { 7 }],
+                )
+            };
+            out.push(f);
+        }
+
+        self.time_s += self.period_s;
+        self.physics_owed = true;
+    }
+
+    /// Without SYNCs (boot, pre-operational, a dead master): the nodes' clock runs on
+    /// wall time (`wall_dt_s` since the last call); heartbeats go on.
+    pub fn idle(&mut self, wall_dt_s: f64, out: &mut Vec<Frame>) {
+        self.settle();
+        self.node_clock_s += wall_dt_s.max(0.0);
+        let now = self.node_clock_s;
+        for n in self.nodes_mut() {
+            n.heartbeat(now, out);
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests;

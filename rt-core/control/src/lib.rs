@@ -1,0 +1,656 @@
+//! The control core: what the 1 kHz loop computes, as deterministic code with no I/O.
+//!
+//! [`Controller::step`] runs once per cycle. Its inputs were latched at this cycle's SYNC
+//! (k); its outputs are applied by the drives at the next SYNC (k+1) and reached through
+//! CSP interpolation over the following period, so the spindle angle is predicted one
+//! period plus `control.drive_delay_us` ahead.
+//!
+//! Rules of this module (checked by `tests/no_alloc.rs` with a counting allocator): no
+//! heap allocation, no lock, no blocking call, no logging, bounded work per call, no
+//! panic. Errors are `Copy` enums ([`fault::Fault`], [`fault::Refusal`]); events go into
+//! a fixed ring ([`events::EventRing`]) that the caller drains.
+
+pub mod egb;
+pub mod events;
+pub mod fault;
+pub mod io;
+pub mod lube;
+pub mod observer;
+pub mod profile;
+pub mod program;
+mod sequencer;
+
+pub use sequencer::{Command, State};
+
+use egb::{Coupling, Gearbox, GearboxParams};
+use events::{Event, EventKind, EventRing};
+use fault::{Axis, Fault};
+use hob_gearing::cutting::SpindleDrive;
+use hob_setup::config::machine::MachineConfig;
+use io::{Inputs, IoBits, Outputs};
+use lube::{Lube, LubeParams};
+use observer::{SpindleObserver, Unwrapper};
+use profile::Profile;
+use program::CycleProgram;
+
+/// Integral gain of the spindle speed trim, per second.
+const SPINDLE_TRIM_PER_S: f64 = 0.5;
+/// Bounds of the trim factor on the VFD reference.
+const SPINDLE_TRIM_RANGE: (f64, f64) = (0.8, 1.25);
+/// Time the drives may take to reach "operation enabled" once asked to.
+pub const DRIVE_ENABLE_TIMEOUT_S: f64 = 2.0;
+/// The spindle must hold its speed this long before the gearbox engages.
+pub const SPINDLE_SETTLE_S: f64 = 0.5;
+
+/// One drive's feedback, latched at SYNC.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct AxisFeedback {
+    /// Actual position (0x6064), counts, wrapping.
+    pub position_counts: i32,
+    /// CiA 402 "operation enabled".
+    pub enabled: bool,
+    /// CiA 402 "fault".
+    pub fault: bool,
+    /// The feedback arrived for this cycle (false: the last value is held).
+    pub fresh: bool,
+}
+
+/// Everything latched at this cycle's SYNC.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct CycleInputs {
+    /// Spindle encoder (B drive's auxiliary encoder), counts, wrapping.
+    pub spindle_counts: i32,
+    pub table: AxisFeedback,
+    pub x: AxisFeedback,
+    pub y: AxisFeedback,
+    /// Raw digital input image of the I/O coupler.
+    pub digital_inputs: u32,
+    /// The input image is current: it arrived at least once and the coupler is alive.
+    /// While false the inputs read as inactive with the safety chain open.
+    pub io_valid: bool,
+}
+
+/// Everything to send for the next SYNC.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct CycleOutputs {
+    /// Target positions (0x607A), counts, wrapping.
+    pub table_target_counts: i32,
+    pub x_target_counts: i32,
+    pub y_target_counts: i32,
+    /// Velocity feed-forward (0x60B1), counts/s.
+    pub table_velocity_counts_s: f64,
+    pub x_velocity_counts_s: f64,
+    pub y_velocity_counts_s: f64,
+    /// Drives in "operation enabled" (false: disable voltage).
+    pub drives_enabled: bool,
+    /// Raw digital output image of the I/O coupler.
+    pub digital_outputs: u32,
+    /// Spindle speed reference to the VFD.
+    pub spindle_analog_v: f64,
+}
+
+/// Scaling of one axis between counts and units.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct AxisScale {
+    pub counts_per_unit: f64,
+    pub sign: f64,
+}
+
+impl AxisScale {
+    /// Position of an encoder reading: the middle of the count's interval (an encoder
+    /// reports `floor(position)`, so taking the count itself would bias every reading by
+    /// half a count: 3.8 arcsec of table at z = 17 for the spindle's 10 000 counts).
+    pub fn to_units(&self, counts: i64) -> f64 {
+        (counts as f64 + 0.5) / self.counts_per_unit * self.sign
+    }
+
+    /// Wrapping 32-bit counts for a position (drives count modulo 2^32 in CSP).
+    pub fn to_counts(&self, units: f64) -> i32 {
+        let c = (units * self.sign * self.counts_per_unit).round();
+        // Saturating cast, then wrap to the drive's 32-bit range.
+        (c as i64) as i32
+    }
+}
+
+/// Limits and timing of one linear axis.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct LinearLimits {
+    pub soft_min_mm: f64,
+    pub soft_max_mm: f64,
+    pub rapid_mm_s: f64,
+    pub accel_mm_s2: f64,
+    pub max_following_error_mm: f64,
+}
+
+/// Everything the loop needs from the machine configuration, copied at start-up.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ControlParams {
+    pub period_s: f64,
+    /// Prediction horizon: one period plus the drive delay.
+    pub horizon_s: f64,
+    pub spindle: AxisScale,
+    pub table: AxisScale,
+    pub x: AxisScale,
+    pub y: AxisScale,
+    pub x_limits: LinearLimits,
+    pub y_limits: LinearLimits,
+    pub table_max_deg_s: f64,
+    pub table_accel_deg_s2: f64,
+    pub table_max_following_error_deg: f64,
+    pub spindle_drive: SpindleDrive,
+    pub spindle_max_rpm: f64,
+    pub spindle_tolerance: f64,
+    pub spindle_start_timeout_s: f64,
+    pub clamp_timeout_s: f64,
+    pub observer_bandwidth_hz: f64,
+    /// Consecutive cycles without fresh feedback from a drive before it is a fault.
+    pub feedback_misses_to_fault: u32,
+    pub gearbox: GearboxParams,
+    pub lube: LubeParams,
+    pub io: IoBits,
+}
+
+impl ControlParams {
+    /// Copies and converts the validated machine configuration.
+    pub fn from_machine(m: &MachineConfig) -> Self {
+        let period_s = f64::from(m.control.cycle_period_us) * 1e-6;
+        let linear = |a: &hob_setup::config::machine::LinearAxisConfig| LinearLimits {
+            soft_min_mm: a.soft_limit_min_mm,
+            soft_max_mm: a.soft_limit_max_mm,
+            rapid_mm_s: a.rapid_mm_min / 60.0,
+            accel_mm_s2: a.max_accel_mm_s2,
+            max_following_error_mm: a.max_following_error_mm,
+        };
+        let g = &m.gearbox;
+        Self {
+            period_s,
+            horizon_s: period_s + f64::from(m.control.drive_delay_us) * 1e-6,
+            spindle: AxisScale {
+                counts_per_unit: f64::from(m.spindle.encoder_counts_per_rev) / 360.0,
+                sign: m.spindle.encoder_polarity.sign(),
+            },
+            table: AxisScale {
+                counts_per_unit: m.table.counts_per_deg(),
+                sign: m.table.polarity.sign(),
+            },
+            x: AxisScale {
+                counts_per_unit: m.x.counts_per_mm(),
+                sign: m.x.polarity.sign(),
+            },
+            y: AxisScale {
+                counts_per_unit: m.y.counts_per_mm(),
+                sign: m.y.polarity.sign(),
+            },
+            x_limits: linear(&m.x),
+            y_limits: linear(&m.y),
+            table_max_deg_s: m.table.max_table_rpm * 6.0,
+            table_accel_deg_s2: m.table.max_accel_deg_s2,
+            table_max_following_error_deg: m.table.max_following_error_deg,
+            spindle_drive: m.spindle.drive(),
+            spindle_max_rpm: m.spindle.max_spindle_rpm,
+            spindle_tolerance: m.control.spindle_speed_tolerance,
+            spindle_start_timeout_s: m.control.spindle_start_timeout_s,
+            clamp_timeout_s: m.control.x_clamp_timeout_s,
+            observer_bandwidth_hz: m.control.spindle_observer_bandwidth_hz,
+            feedback_misses_to_fault: m.can.tpdo_misses_to_fault,
+            gearbox: GearboxParams {
+                ratio_signed: 0.0,
+                differential_signed_deg_per_mm: 0.0,
+                pitch_deg: 360.0,
+                engage_time_s: g.engage_time_s,
+                fine_window_deg: g.fine_window_arcsec / 3600.0,
+                coarse_window_deg: g.coarse_window_arcsec / 3600.0,
+                ccc_enabled: g.ccc_enabled,
+                ccc_kp: g.ccc_kp,
+                ccc_ki_per_s: g.ccc_ki_per_s,
+                ccc_limit_deg: g.ccc_limit_arcsec / 3600.0,
+                phase_speed_deg_s: g.phase_sync_speed_deg_s,
+                table_accel_deg_s2: m.table.max_accel_deg_s2,
+            },
+            lube: LubeParams {
+                interval_mm: m.lube.interval_travel_m * 1000.0,
+                pressure_timeout_s: m.lube.pressure_timeout_s,
+                pump_run_s: m.lube.pump_run_s,
+            },
+            io: IoBits::new(&m.io),
+        }
+    }
+}
+
+/// How the spindle angle is taken for the gearbox.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum SpindleAngleSource {
+    /// Observer estimate predicted to the instant the command takes effect (normal).
+    Predicted,
+    /// The last measured angle, unpredicted (to show what prediction is worth).
+    LastMeasured,
+}
+
+/// What the loop publishes about itself each cycle.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Status {
+    pub cycle: u64,
+    pub state: State,
+    /// Feed hold active.
+    pub hold: bool,
+    /// 1-based pass number, 0 outside a cycle.
+    pub pass: u32,
+    /// Tooth being cut (tooth-by-tooth), 0-based.
+    pub tooth: u32,
+    pub spindle_deg: f64,
+    pub spindle_rpm: f64,
+    pub spindle_set_rpm: f64,
+    pub table_deg: f64,
+    pub table_cmd_deg: f64,
+    pub x_mm: f64,
+    pub x_cmd_mm: f64,
+    pub y_mm: f64,
+    pub y_cmd_mm: f64,
+    pub coupling: Coupling,
+    pub sync_error_arcsec: f64,
+    pub ccc_arcsec: f64,
+    pub fault: Option<Fault>,
+    pub inputs: Inputs,
+    pub outputs: Outputs,
+    /// Drives (B, X, Y) reporting "operation enabled".
+    pub drives_enabled: [bool; 3],
+    /// Drives whose feedback has been missing long enough to be a fault (their state is
+    /// unknown).
+    pub drives_silent: [bool; 3],
+}
+
+/// Measured values of one cycle, in units.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+struct Measured {
+    spindle_deg: f64,
+    spindle_speed_deg_s: f64,
+    /// Angle the gearbox follows (predicted or last measured).
+    spindle_for_gearbox_deg: f64,
+    table_deg: f64,
+    x_mm: f64,
+    y_mm: f64,
+    inputs: Inputs,
+    drives_enabled: [bool; 3],
+}
+
+/// The control core.
+#[derive(Debug, Clone)]
+pub struct Controller {
+    p: ControlParams,
+    angle_source: SpindleAngleSource,
+    program: Option<CycleProgram>,
+    unwrap: [Unwrapper; 4],
+    observer: SpindleObserver,
+    gearbox: Gearbox,
+    x: Profile,
+    y: Profile,
+    table_cmd_deg: f64,
+    /// Targets (B, X, Y) of the last two cycles: the drive follows the older one at SYNC.
+    history: [[f64; 3]; 2],
+    misses: [u32; 3],
+    m: Measured,
+    last_spindle_for_gearbox_deg: f64,
+    seq: sequencer::Sequencer,
+    fault: Option<Fault>,
+    lube: Lube,
+    outputs: Outputs,
+    /// Slow trim of the open-loop VFD reference onto the measured spindle speed (slip).
+    spindle_trim: f64,
+    /// Time the spindle has been within tolerance of its set speed.
+    spindle_at_speed_s: f64,
+    /// Time the drives have been asked to be enabled.
+    enable_age_s: f64,
+    events: EventRing,
+    cycle: u64,
+    started: bool,
+}
+
+impl Controller {
+    /// A controller for the machine; allocates nothing after this.
+    pub fn new(p: ControlParams) -> Self {
+        Self {
+            p,
+            angle_source: SpindleAngleSource::Predicted,
+            program: None,
+            unwrap: [Unwrapper::default(); 4],
+            observer: SpindleObserver::new(p.period_s, p.observer_bandwidth_hz),
+            gearbox: Gearbox::new(p.gearbox, 0.0),
+            x: Profile::default(),
+            y: Profile::default(),
+            table_cmd_deg: 0.0,
+            history: [[0.0; 3]; 2],
+            misses: [0; 3],
+            m: Measured::default(),
+            last_spindle_for_gearbox_deg: 0.0,
+            seq: sequencer::Sequencer::default(),
+            fault: None,
+            lube: Lube::new(p.lube),
+            outputs: Outputs::default(),
+            spindle_trim: 1.0,
+            spindle_at_speed_s: 0.0,
+            enable_age_s: 0.0,
+            events: EventRing::new(),
+            cycle: 0,
+            started: false,
+        }
+    }
+
+    /// Chooses the spindle angle the gearbox follows (for comparisons; default predicted).
+    pub fn set_angle_source(&mut self, source: SpindleAngleSource) {
+        self.angle_source = source;
+    }
+
+    /// Turns cross-coupling on or off (before a cycle).
+    pub fn set_cross_coupling(&mut self, on: bool) {
+        self.p.gearbox.ccc_enabled = on;
+        self.gearbox.set_cross_coupling(on);
+    }
+
+    pub fn params(&self) -> &ControlParams {
+        &self.p
+    }
+
+    pub fn program(&self) -> Option<&CycleProgram> {
+        self.program.as_ref()
+    }
+
+    /// Events since the last drain, oldest first.
+    pub fn events(&mut self) -> &mut EventRing {
+        &mut self.events
+    }
+
+    fn event(&mut self, kind: EventKind) {
+        self.events.push(Event {
+            cycle: self.cycle,
+            kind,
+        });
+    }
+
+    /// Latches a fault (the first one wins) and starts the reaction.
+    fn raise(&mut self, f: Fault) {
+        if self.fault.is_some() {
+            return;
+        }
+        self.fault = Some(f);
+        self.event(EventKind::Fault(f));
+        self.seq_on_fault(f);
+    }
+
+    /// One control cycle.
+    pub fn step(&mut self, input: &CycleInputs) -> CycleOutputs {
+        self.cycle += 1;
+        self.measure(input);
+        if !self.started {
+            self.started = true;
+            self.x = Profile::at(self.m.x_mm);
+            self.y = Profile::at(self.m.y_mm);
+            self.gearbox = Gearbox::new(self.p.gearbox, self.m.table_deg);
+            self.table_cmd_deg = self.m.table_deg;
+            self.history = [[self.m.table_deg, self.m.x_mm, self.m.y_mm]; 2];
+            self.last_spindle_for_gearbox_deg = self.m.spindle_for_gearbox_deg;
+        }
+        self.supervise(input);
+        let (x_before, y_before) = (self.x.position, self.y.position);
+        self.trim_spindle();
+        self.sequence();
+        if let Err(f) = self.lube.step(
+            self.p.period_s,
+            self.x.position - x_before,
+            self.y.position - y_before,
+            self.m.inputs.lube_pressure_ok,
+        ) {
+            self.raise(f);
+        }
+        self.table_cmd_deg = self.gearbox.step(
+            self.m.spindle_for_gearbox_deg,
+            self.y.position,
+            self.m.spindle_deg,
+            self.m.table_deg,
+            self.m.y_mm,
+            self.p.period_s,
+        );
+        self.last_spindle_for_gearbox_deg = self.m.spindle_for_gearbox_deg;
+        self.check_soft_limits();
+        self.history = [
+            self.history[1],
+            [self.table_cmd_deg, self.x.position, self.y.position],
+        ];
+        self.outputs()
+    }
+
+    fn measure(&mut self, input: &CycleInputs) {
+        let prev = self.m;
+        let spindle = self
+            .p
+            .spindle
+            .to_units(self.unwrap[0].update(input.spindle_counts));
+        // The spindle encoder rides on the B drive's TPDO: without it this cycle the
+        // observer coasts instead of taking the held value as a measurement.
+        let est = if input.table.fresh || !self.started {
+            self.observer.update(spindle)
+        } else {
+            self.observer.coast()
+        };
+        let for_gearbox = match self.angle_source {
+            SpindleAngleSource::Predicted => est.predict_deg(self.p.horizon_s),
+            SpindleAngleSource::LastMeasured => spindle,
+        };
+        self.m = Measured {
+            spindle_deg: est.angle_deg,
+            spindle_speed_deg_s: est.speed_deg_s,
+            spindle_for_gearbox_deg: for_gearbox,
+            table_deg: self
+                .p
+                .table
+                .to_units(self.unwrap[1].update(input.table.position_counts)),
+            x_mm: self.p.x.to_units(self.unwrap[2].update(input.x.position_counts)),
+            y_mm: self.p.y.to_units(self.unwrap[3].update(input.y.position_counts)),
+            drives_enabled: [input.table.enabled, input.x.enabled, input.y.enabled],
+            inputs: if input.io_valid {
+                self.p.io.decode(input.digital_inputs)
+            } else {
+                Inputs::default()
+            },
+        };
+        // A drive's feedback that did not arrive this cycle (a late frame, a bus hiccup)
+        // is not a measurement: assume the axis moved as commanded, its following error
+        // unchanged, until `feedback_misses_to_fault` cycles make it a fault.
+        if self.started {
+            let [h0, h1] = self.history;
+            let moved = |k: usize| h1[k] - h0[k];
+            if !input.table.fresh {
+                self.m.table_deg = prev.table_deg + moved(0);
+            }
+            if !input.x.fresh {
+                self.m.x_mm = prev.x_mm + moved(1);
+            }
+            if !input.y.fresh {
+                self.m.y_mm = prev.y_mm + moved(2);
+            }
+        }
+    }
+
+    /// Supervision: safety chain, limits, drives, feedback, following errors.
+    fn supervise(&mut self, input: &CycleInputs) {
+        let i = self.m.inputs;
+        let active = self.seq.drives_should_be_enabled();
+        if !input.io_valid && active {
+            self.raise(Fault::IoLost);
+        }
+        // The specific causes first, so that the root cause is the fault reported: each of
+        // them also opens the safety chain.
+        if i.estop_pressed {
+            self.raise(Fault::EmergencyStop);
+        }
+        for (on, axis, end) in [
+            (i.x_limit_min, Axis::X, fault::End::Min),
+            (i.x_limit_max, Axis::X, fault::End::Max),
+            (i.y_limit_min, Axis::Y, fault::End::Min),
+            (i.y_limit_max, Axis::Y, fault::End::Max),
+        ] {
+            if on {
+                self.raise(Fault::HardwareLimit { axis, end });
+            }
+        }
+        if i.vfd_fault {
+            self.raise(Fault::VfdFault);
+        }
+        if !i.safety_chain_closed && active {
+            self.raise(Fault::SafetyChainOpen);
+        }
+        let drives = [(input.table, Axis::B), (input.x, Axis::X), (input.y, Axis::Y)];
+        for (k, (fb, axis)) in drives.into_iter().enumerate() {
+            if fb.fault {
+                self.raise(Fault::DriveFault { axis });
+            }
+            self.misses[k] = if fb.fresh { 0 } else { self.misses[k] + 1 };
+            if self.misses[k] >= self.p.feedback_misses_to_fault {
+                self.raise(Fault::FeedbackLost { axis });
+            }
+        }
+        self.enable_age_s = if active {
+            self.enable_age_s + self.p.period_s
+        } else {
+            0.0
+        };
+        if active && self.enable_age_s > DRIVE_ENABLE_TIMEOUT_S {
+            for (enabled, axis) in self.m.drives_enabled.into_iter().zip([Axis::B, Axis::X, Axis::Y]) {
+                if !enabled {
+                    self.raise(Fault::DriveNotEnabled { axis });
+                }
+            }
+        }
+        if active && self.cycle > 3 {
+            let [b, x, y] = self.history[0];
+            let errors = [
+                (
+                    self.m.table_deg - b,
+                    self.p.table_max_following_error_deg,
+                    Axis::B,
+                ),
+                (self.m.x_mm - x, self.p.x_limits.max_following_error_mm, Axis::X),
+                (self.m.y_mm - y, self.p.y_limits.max_following_error_mm, Axis::Y),
+            ];
+            for (error, limit, axis) in errors {
+                if error.abs() > limit {
+                    self.raise(Fault::FollowingError { axis, error });
+                }
+            }
+        }
+    }
+
+    /// The VFD runs open loop and its motor slips under load: a slow integral trim keeps
+    /// the measured speed on the set speed. Bounded; learned value kept between runs.
+    fn trim_spindle(&mut self) {
+        let set = self.seq.spindle_set_rpm;
+        let sign = self.program.map_or(1.0, |p| p.spindle_sign);
+        let actual = self.m.spindle_speed_deg_s / 6.0 * sign;
+        if set > 0.0 && actual > 0.5 * set {
+            let error = (set - actual) / set;
+            self.spindle_trim = (self.spindle_trim + SPINDLE_TRIM_PER_S * self.p.period_s * error)
+                .clamp(SPINDLE_TRIM_RANGE.0, SPINDLE_TRIM_RANGE.1);
+        }
+        let within = set > 0.0 && (actual - set).abs() <= self.p.spindle_tolerance * set;
+        self.spindle_at_speed_s = if within {
+            self.spindle_at_speed_s + self.p.period_s
+        } else {
+            0.0
+        };
+    }
+
+    fn check_soft_limits(&mut self) {
+        for (axis, pos, lim) in [
+            (Axis::X, self.x.position, self.p.x_limits),
+            (Axis::Y, self.y.position, self.p.y_limits),
+        ] {
+            if !(lim.soft_min_mm..=lim.soft_max_mm).contains(&pos) && self.seq.drives_should_be_enabled() {
+                self.raise(Fault::SoftLimit { axis, position: pos });
+                let clamped = pos.clamp(lim.soft_min_mm, lim.soft_max_mm);
+                let p = if axis == Axis::X { &mut self.x } else { &mut self.y };
+                p.position = clamped;
+                p.velocity = 0.0;
+            }
+        }
+    }
+
+    fn outputs(&mut self) -> CycleOutputs {
+        let enabled = self.seq.drives_should_be_enabled() && self.m.inputs.safety_chain_closed;
+        let spindle_rpm = self.seq.spindle_set_rpm;
+        let program_sign = self.program.map_or(1.0, |p| p.spindle_sign);
+        let running = spindle_rpm > 0.0;
+        let forward = program_sign * self.p.spindle.sign > 0.0;
+        self.outputs = Outputs {
+            pc_ok_relay: self.seq.pc_ok(self.fault),
+            pc_reset_relay: self.fault.is_none(),
+            lube_pump: self.lube.pump_on(),
+            coolant_pump: self.seq.coolant,
+            x_clamp: self.seq.clamp,
+            spindle_run_forward: running && forward,
+            spindle_run_reverse: running && !forward,
+            fault_lamp: self.fault.is_some(),
+        };
+        let v_table = (self.table_cmd_deg - self.history[0][0]) / (2.0 * self.p.period_s);
+        CycleOutputs {
+            table_target_counts: self.p.table.to_counts(self.table_cmd_deg),
+            x_target_counts: self.p.x.to_counts(self.x.position),
+            y_target_counts: self.p.y.to_counts(self.y.position),
+            table_velocity_counts_s: v_table * self.p.table.counts_per_unit * self.p.table.sign,
+            x_velocity_counts_s: self.x.velocity * self.p.x.counts_per_unit * self.p.x.sign,
+            y_velocity_counts_s: self.y.velocity * self.p.y.counts_per_unit * self.p.y.sign,
+            drives_enabled: enabled,
+            digital_outputs: self.p.io.encode(&self.outputs),
+            spindle_analog_v: self
+                .p
+                .spindle_drive
+                .analog_out_v(spindle_rpm * self.spindle_trim)
+                .clamp(0.0, self.p.spindle_drive.analog_full_scale_v),
+        }
+    }
+
+    /// What the loop publishes this cycle.
+    pub fn status(&self) -> Status {
+        let s = self.gearbox.status();
+        Status {
+            cycle: self.cycle,
+            state: self.seq.state,
+            hold: self.seq.hold,
+            pass: self.seq.pass_number(),
+            tooth: self.seq.tooth,
+            spindle_deg: self.m.spindle_deg,
+            spindle_rpm: self.m.spindle_speed_deg_s / 6.0,
+            spindle_set_rpm: self.seq.spindle_set_rpm,
+            table_deg: self.m.table_deg,
+            table_cmd_deg: self.table_cmd_deg,
+            x_mm: self.m.x_mm,
+            x_cmd_mm: self.x.position,
+            y_mm: self.m.y_mm,
+            y_cmd_mm: self.y.position,
+            coupling: self.gearbox.coupling(),
+            sync_error_arcsec: s.error_deg * 3600.0,
+            ccc_arcsec: s.ccc_deg * 3600.0,
+            fault: self.fault,
+            inputs: self.m.inputs,
+            outputs: self.outputs,
+            drives_enabled: self.m.drives_enabled,
+            drives_silent: self.misses.map(|m| m >= self.p.feedback_misses_to_fault),
+        }
+    }
+
+    /// The gearbox (for its recorded phase and parameters).
+    pub fn gearbox(&self) -> &Gearbox {
+        &self.gearbox
+    }
+
+    /// Whether every drive reports "operation enabled".
+    pub fn drives_ready(&self) -> bool {
+        self.m.drives_enabled.iter().all(|e| *e)
+    }
+
+    /// Lubrication cycles completed since power-up.
+    pub fn lube_cycles(&self) -> u32 {
+        self.lube.cycles_done()
+    }
+}
+
+#[cfg(test)]
+mod tests;

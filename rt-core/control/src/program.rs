@@ -1,0 +1,141 @@
+//! The loaded program in the form the loop runs it: fixed size and `Copy`, built at
+//! start-up (or on "load program") from a checked program and its plans.
+
+use hob_gearing::shapes::XShape;
+use hob_setup::config::Problems;
+use hob_setup::config::machine::MachineConfig;
+use hob_setup::job::{CycleKind, Mode, Program};
+use hob_setup::planner::{self, Pass, PassKind, Plan};
+
+/// Most passes a program may have in the loop.
+pub const MAX_PASSES: usize = 51;
+
+/// One pass as the loop needs it.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PassSetpoint {
+    pub kind: PassKind,
+    pub depth_mm: f64,
+    pub x_mm: f64,
+    pub spindle_rpm: f64,
+    /// Y travel per spindle degree in the cut (unsigned).
+    pub feed_mm_per_spindle_deg: f64,
+    pub y_start_mm: f64,
+    pub y_end_mm: f64,
+}
+
+impl PassSetpoint {
+    fn from_pass(p: &Pass) -> Self {
+        Self {
+            kind: p.kind,
+            depth_mm: p.depth_mm,
+            x_mm: p.x_mm,
+            spindle_rpm: p.spindle_rpm,
+            feed_mm_per_spindle_deg: p.axial_feed_mm_min / (p.spindle_rpm * 360.0),
+            y_start_mm: p.y_start_mm,
+            y_end_mm: p.y_end_mm,
+        }
+    }
+}
+
+/// A program ready for the loop.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct CycleProgram {
+    pub cycle: CycleKind,
+    pub teeth: u32,
+    /// Table deg per spindle deg, signed (0 for tooth-by-tooth).
+    pub ratio_signed: f64,
+    /// Table deg per mm of Y, signed.
+    pub differential_signed_deg_per_mm: f64,
+    /// +1 or -1: the spindle's sense of rotation.
+    pub spindle_sign: f64,
+    /// +1 or -1: the feed direction in the cut.
+    pub feed_sign: f64,
+    pub x_safe_mm: f64,
+    /// X with the tool tip on the blank's outside diameter.
+    pub x_surface_mm: f64,
+    pub face_bottom_mm: f64,
+    pub shape: XShape,
+    pub plunge_feed_mm_min: f64,
+    /// The gear's pitch diameter and normal module (to express errors at the pitch circle).
+    pub pitch_diameter_mm: f64,
+    pub normal_module_mm: f64,
+    passes: [PassSetpoint; MAX_PASSES],
+    pass_count: usize,
+    single: Option<PassSetpoint>,
+}
+
+impl CycleProgram {
+    /// Checks and plans `program` on `machine` (both modes); `None` with the problems
+    /// recorded when it cannot be cut.
+    pub fn build(program: &Program, machine: &MachineConfig, p: &mut Problems) -> Option<Self> {
+        let mut automatic = program.clone();
+        automatic.cycle.mode = Mode::Automatic;
+        let plan = planner::plan(&automatic, machine, p)?;
+        let checked = program.check(p)?;
+        let single = match program.cycle.single_depth_mm {
+            Some(_) => {
+                let mut single = program.clone();
+                single.cycle.mode = Mode::Single;
+                planner::plan(&single, machine, p)?
+                    .passes
+                    .first()
+                    .map(PassSetpoint::from_pass)
+            }
+            None => None,
+        };
+        if plan.passes.len() > MAX_PASSES {
+            p.push(
+                "strategy.rough_passes",
+                format!("at most {} passes in all", MAX_PASSES),
+            );
+            return None;
+        }
+        Some(Self::from_plan(program, &plan, checked.x_shape, single))
+    }
+
+    fn from_plan(program: &Program, plan: &Plan, shape: XShape, single: Option<PassSetpoint>) -> Self {
+        let s = &plan.signs;
+        let ratio = if program.cycle.kind == CycleKind::ToothByTooth {
+            0.0
+        } else {
+            plan.egb_ratio
+        };
+        let mut passes = [PassSetpoint::from_pass(&plan.passes[0]); MAX_PASSES];
+        for (slot, pass) in passes.iter_mut().zip(&plan.passes) {
+            *slot = PassSetpoint::from_pass(pass);
+        }
+        Self {
+            cycle: program.cycle.kind,
+            teeth: plan.teeth,
+            ratio_signed: s.s_i() * ratio,
+            differential_signed_deg_per_mm: s.s_d() * plan.differential_deg_per_mm,
+            spindle_sign: s.spindle.sign(),
+            feed_sign: s.s_f(),
+            x_safe_mm: plan.x_safe_mm,
+            x_surface_mm: plan.x_safe_mm - program.strategy.retract_mm,
+            face_bottom_mm: program.workpiece.height_above_table_mm,
+            shape,
+            plunge_feed_mm_min: program.strategy.plunge_feed_mm_min.unwrap_or(0.0),
+            pitch_diameter_mm: plan.pitch_diameter_mm,
+            normal_module_mm: plan.normal_module_mm,
+            passes,
+            pass_count: plan.passes.len(),
+            single,
+        }
+    }
+
+    /// The passes of the automatic cycle.
+    pub fn passes(&self) -> &[PassSetpoint] {
+        &self.passes[..self.pass_count]
+    }
+
+    /// The single-mode pass, if the program has a single depth.
+    pub fn single(&self) -> Option<PassSetpoint> {
+        self.single
+    }
+
+    /// Pitch of the table between equivalent tooth phases.
+    pub fn pitch_deg(&self) -> f64 {
+        360.0 / f64::from(self.teeth)
+    }
+}

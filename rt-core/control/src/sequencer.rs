@@ -1,0 +1,769 @@
+//! The sequencer: the three cycles of domain.md section 5 with all their steps, rough and
+//! finishing passes, single mode, feed hold, cycle stop, return to start; peripherals
+//! (coolant, X clamp, spindle); and the fault reaction: retract X first with the gearbox
+//! engaged, then stop, then drop the PC-OK relay.
+
+use super::Controller;
+use super::egb::{Coupling, GearboxParams};
+use super::events::EventKind;
+use super::fault::{Axis, Fault, Refusal};
+use super::program::{CycleProgram, PassSetpoint};
+use hob_setup::job::CycleKind;
+
+/// Feed ramp time in and out of the cut (feed hold, resume).
+const FEED_RAMP_S: f64 = 0.2;
+/// Time the stop sequence may take before the drives are disabled anyway.
+const STOP_TIMEOUT_S: f64 = 15.0;
+/// Time the gearbox may take to synchronise before it is a fault.
+const SYNC_TIMEOUT_S: f64 = 20.0;
+/// Below this the spindle counts as stopped.
+const SPINDLE_STOPPED_RPM: f64 = 1.0;
+/// X rapids this far outside the blank before the radial plunge at feed.
+const PLUNGE_CLEARANCE_MM: f64 = 1.0;
+
+/// Sequencer states; `name` is the short word of traces and status.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum State {
+    /// Power-up: waiting for the safety chain and the first lubrication.
+    #[default]
+    Init,
+    Idle,
+    Jog,
+    /// X to the safe position.
+    ToSafe,
+    /// Y to the pass's start.
+    ToStart,
+    /// Spindle to the pass's speed.
+    SpindleUp,
+    /// Gearbox coupling and phase synchronisation.
+    Engage,
+    /// X to depth (or near the blank for the plunge).
+    Infeed,
+    /// Radial plunge at feed.
+    Plunge,
+    /// One table revolution at depth before the feed (plunge cycle).
+    ExtraRev,
+    Clamp,
+    Cut,
+    Unclamp,
+    Retract,
+    /// Y back to the start (tooth by tooth).
+    Return,
+    /// Table to the next tooth (tooth by tooth).
+    Index,
+    /// Y back to the cycle's start position after the last pass.
+    Home,
+    Disengage,
+    SpindleDown,
+    FaultRetract,
+    FaultStop,
+    Faulted,
+}
+
+impl State {
+    pub fn name(self) -> &'static str {
+        match self {
+            State::Init => "init",
+            State::Idle => "idle",
+            State::Jog => "jog",
+            State::ToSafe => "safe",
+            State::ToStart => "start",
+            State::SpindleUp => "spin",
+            State::Engage => "sync",
+            State::Infeed => "infeed",
+            State::Plunge => "plunge",
+            State::ExtraRev => "rev",
+            State::Clamp => "clamp",
+            State::Cut => "cut",
+            State::Unclamp => "unclamp",
+            State::Retract => "retract",
+            State::Return => "return",
+            State::Index => "index",
+            State::Home => "home",
+            State::Disengage => "disengage",
+            State::SpindleDown => "spindown",
+            State::FaultRetract => "f_retract",
+            State::FaultStop => "f_stop",
+            State::Faulted => "fault",
+        }
+    }
+
+    /// Whether the tool may be in (or touching) the work.
+    pub fn tool_in_work(self) -> bool {
+        matches!(
+            self,
+            State::Plunge | State::ExtraRev | State::Clamp | State::Cut | State::Unclamp | State::Retract
+        )
+    }
+
+    /// Whether a cycle is running.
+    pub fn in_cycle(self) -> bool {
+        !matches!(self, State::Init | State::Idle | State::Jog | State::Faulted)
+    }
+}
+
+/// A request from a frontend (HMI, CLI, buttons). Checked against the machine state;
+/// a refusal changes nothing.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Command {
+    /// Start the loaded program: all passes, or the single-mode pass.
+    Start {
+        single: bool,
+    },
+    FeedHold,
+    Resume,
+    /// Cycle stop: out of the cut, gearbox out, spindle off.
+    Stop,
+    /// Clear a fault whose cause is gone.
+    Reset,
+    /// Move an axis by a distance (mm, or deg for B), only when idle.
+    Jog {
+        axis: Axis,
+        distance: f64,
+    },
+    /// Spindle at a speed, only when idle (e.g. to centre the blank).
+    SpindleOn {
+        rpm: f64,
+    },
+    SpindleOff,
+    /// A new blank is on the table: forget the recorded tooth phase.
+    NewBlank,
+}
+
+/// The sequencer's own state.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub(super) struct Sequencer {
+    pub state: State,
+    pub state_time_s: f64,
+    pub hold: bool,
+    pub stopping: bool,
+    pub single: bool,
+    pub pass_index: usize,
+    pub tooth: u32,
+    pub spindle_set_rpm: f64,
+    pub coolant: bool,
+    pub clamp: bool,
+    feed_scale: f64,
+    rev_start_deg: f64,
+    jog_target: f64,
+    jog_axis: Option<Axis>,
+    /// Power-up conditions met (chain closed, lubricated, no fault): enable the drives.
+    init_ready: bool,
+}
+
+impl Sequencer {
+    pub fn pass_number(&self) -> u32 {
+        if self.state.in_cycle() {
+            self.pass_index as u32 + 1
+        } else {
+            0
+        }
+    }
+
+    /// Drives are asked to be enabled once power-up is through (safety chain closed,
+    /// first lubrication done) and until the fault reaction has stopped the machine.
+    pub fn drives_should_be_enabled(&self) -> bool {
+        match self.state {
+            State::Faulted => false,
+            State::Init => self.init_ready,
+            _ => true,
+        }
+    }
+
+    pub fn pc_ok(&self, fault: Option<Fault>) -> bool {
+        // Dropped once the fault reaction has stopped the machine.
+        !(fault.is_some() && self.state == State::Faulted)
+    }
+}
+
+impl Controller {
+    /// Loads a program (built outside the loop). Refused during a cycle or a fault.
+    pub fn load(&mut self, program: CycleProgram) -> Result<(), Refusal> {
+        if self.seq.state.in_cycle() {
+            return Err(Refusal::CycleRunning);
+        }
+        let params = GearboxParams {
+            ratio_signed: program.ratio_signed,
+            differential_signed_deg_per_mm: program.differential_signed_deg_per_mm,
+            pitch_deg: program.pitch_deg(),
+            ..self.p.gearbox
+        };
+        let same_law = self.program.is_some_and(|old| {
+            old.ratio_signed == program.ratio_signed
+                && old.differential_signed_deg_per_mm == program.differential_signed_deg_per_mm
+                && old.teeth == program.teeth
+        });
+        if !same_law {
+            // A different gear: the recorded phase belongs to another blank.
+            self.gearbox.set_params(params);
+        }
+        self.program = Some(program);
+        self.event(EventKind::ProgramLoaded);
+        Ok(())
+    }
+
+    /// Handles a command; every outcome is also an event.
+    pub fn command(&mut self, cmd: Command) -> Result<(), Refusal> {
+        let result = self.try_command(cmd);
+        match result {
+            Ok(()) => self.event(EventKind::Accepted(cmd)),
+            Err(reason) => self.event(EventKind::Refused { command: cmd, reason }),
+        }
+        result
+    }
+
+    fn try_command(&mut self, cmd: Command) -> Result<(), Refusal> {
+        let state = self.seq.state;
+        match cmd {
+            Command::Reset => {
+                if self.fault.is_none() {
+                    return Err(Refusal::NothingToDo);
+                }
+                if state != State::Faulted {
+                    return Err(Refusal::CycleRunning);
+                }
+                if self.fault == Some(Fault::LubeTimeout) {
+                    self.lube.request();
+                }
+                self.fault = None;
+                self.event(EventKind::FaultCleared);
+                self.enter(State::Init);
+                Ok(())
+            }
+            _ if self.fault.is_some() => Err(Refusal::Faulted),
+            Command::Start { single } => {
+                let program = self.program.ok_or(Refusal::NoProgram)?;
+                match state {
+                    State::Idle => {}
+                    State::Init => return Err(Refusal::NotReady),
+                    _ => return Err(Refusal::CycleRunning),
+                }
+                if single && program.single().is_none() {
+                    return Err(Refusal::NoSingleDepth);
+                }
+                if !self.m.inputs.safety_chain_closed {
+                    return Err(Refusal::SafetyChainOpen);
+                }
+                if !self.drives_ready() {
+                    return Err(Refusal::DrivesNotEnabled);
+                }
+                self.seq.single = single;
+                self.seq.pass_index = 0;
+                self.seq.tooth = 0;
+                self.seq.stopping = false;
+                self.seq.hold = false;
+                self.enter(State::ToSafe);
+                Ok(())
+            }
+            Command::FeedHold => {
+                if !state.in_cycle() || self.seq.hold {
+                    return Err(Refusal::NothingToDo);
+                }
+                self.seq.hold = true;
+                Ok(())
+            }
+            Command::Resume => {
+                if !self.seq.hold {
+                    return Err(Refusal::NothingToDo);
+                }
+                self.seq.hold = false;
+                Ok(())
+            }
+            Command::Stop => {
+                if !state.in_cycle() && state != State::Jog && self.seq.spindle_set_rpm == 0.0 {
+                    return Err(Refusal::NothingToDo);
+                }
+                self.seq.hold = false;
+                self.seq.stopping = true;
+                match state {
+                    State::Idle => self.seq.spindle_set_rpm = 0.0,
+                    State::Jog => self.enter(State::Idle),
+                    s if s.tool_in_work() || s == State::Infeed => self.leave_cut(),
+                    State::Home | State::Disengage | State::SpindleDown => {}
+                    _ => self.enter(State::Disengage),
+                }
+                Ok(())
+            }
+            Command::Jog { axis, distance } => {
+                if state != State::Idle {
+                    return Err(if state == State::Init {
+                        Refusal::NotReady
+                    } else {
+                        Refusal::CycleRunning
+                    });
+                }
+                if !distance.is_finite() {
+                    return Err(Refusal::BadValue);
+                }
+                if !self.drives_ready() {
+                    return Err(Refusal::DrivesNotEnabled);
+                }
+                let target = match axis {
+                    Axis::X => self.x.position + distance,
+                    Axis::Y => self.y.position + distance,
+                    Axis::B => distance,
+                };
+                let lim = match axis {
+                    Axis::X => Some(self.p.x_limits),
+                    Axis::Y => Some(self.p.y_limits),
+                    Axis::B => None,
+                };
+                if let Some(l) = lim
+                    && !(l.soft_min_mm..=l.soft_max_mm).contains(&target)
+                {
+                    return Err(Refusal::OutsideSoftLimits);
+                }
+                if axis == Axis::B {
+                    self.gearbox.move_table_by(distance);
+                }
+                self.seq.jog_axis = Some(axis);
+                self.seq.jog_target = target;
+                self.enter(State::Jog);
+                Ok(())
+            }
+            Command::SpindleOn { rpm } => {
+                if state != State::Idle {
+                    return Err(if state == State::Init {
+                        Refusal::NotReady
+                    } else {
+                        Refusal::CycleRunning
+                    });
+                }
+                if !(rpm.is_finite() && rpm > 0.0 && rpm <= self.p.spindle_max_rpm) {
+                    return Err(Refusal::BadValue);
+                }
+                self.seq.spindle_set_rpm = rpm;
+                Ok(())
+            }
+            Command::SpindleOff => {
+                if state.in_cycle() {
+                    return Err(Refusal::CycleRunning);
+                }
+                self.seq.spindle_set_rpm = 0.0;
+                Ok(())
+            }
+            Command::NewBlank => {
+                if state.in_cycle() {
+                    return Err(Refusal::CycleRunning);
+                }
+                self.gearbox.new_blank();
+                Ok(())
+            }
+        }
+    }
+
+    fn enter(&mut self, to: State) {
+        let from = self.seq.state;
+        if from != to {
+            self.seq.state = to;
+            self.seq.state_time_s = 0.0;
+            self.event(EventKind::StateChanged { from, to });
+        }
+    }
+
+    /// Starts the fault reaction.
+    pub(super) fn seq_on_fault(&mut self, f: Fault) {
+        let state = self.seq.state;
+        self.seq.hold = false;
+        if matches!(state, State::Init | State::Idle | State::Jog | State::Faulted) {
+            self.seq.spindle_set_rpm = 0.0;
+            self.enter(State::Faulted);
+            return;
+        }
+        if !f.table_can_follow() {
+            // The table cannot follow: stop the spindle at once, pull out if X can.
+            self.seq.spindle_set_rpm = 0.0;
+            self.gearbox.disengage();
+        }
+        if (state.tool_in_work() || state == State::Infeed) && f.x_can_move() {
+            self.enter(State::FaultRetract);
+        } else {
+            self.enter(State::FaultStop);
+        }
+    }
+
+    fn current_pass(&self) -> Option<PassSetpoint> {
+        let program = self.program?;
+        if self.seq.single {
+            program.single()
+        } else {
+            program.passes().get(self.seq.pass_index).copied()
+        }
+    }
+
+    fn pass_count(&self) -> usize {
+        match self.program {
+            Some(_) if self.seq.single => 1,
+            Some(p) => p.passes().len(),
+            None => 0,
+        }
+    }
+
+    /// X for the current Y in the cut: pass depth plus crowning/contour.
+    fn x_in_cut(&self, program: &CycleProgram, pass: &PassSetpoint) -> f64 {
+        pass.x_mm
+            + program
+                .shape
+                .x_offset_mm(self.y.position - program.face_bottom_mm)
+    }
+
+    /// Steps X towards `target` at rapid (or `speed`), pausing on feed hold.
+    fn move_x(&mut self, target: f64, speed_mm_s: f64) -> bool {
+        let l = self.p.x_limits;
+        if self.seq.hold {
+            self.x.step_stop(l.accel_mm_s2, self.p.period_s);
+            return false;
+        }
+        self.x
+            .step_towards(target, speed_mm_s, l.accel_mm_s2, self.p.period_s)
+    }
+
+    /// Steps Y towards `target` at rapid, slower while the gearbox couples the table to
+    /// Y (the differential must not drive the table beyond its speed).
+    fn move_y(&mut self, target: f64) -> bool {
+        let l = self.p.y_limits;
+        if self.seq.hold {
+            self.y.step_stop(l.accel_mm_s2, self.p.period_s);
+            return false;
+        }
+        let g = self.gearbox.params();
+        let mut speed = l.rapid_mm_s;
+        let d = g.differential_signed_deg_per_mm.abs();
+        if d > 0.0 && self.gearbox.coupling() != Coupling::Disengaged {
+            let base = (g.ratio_signed * self.m.spindle_speed_deg_s).abs();
+            let spare = (0.9 * self.p.table_max_deg_s - base).max(0.0);
+            speed = speed.min(spare / d).max(0.1);
+        }
+        self.y.step_towards(target, speed, l.accel_mm_s2, self.p.period_s)
+    }
+
+    fn spindle_at_speed(&self) -> bool {
+        self.spindle_at_speed_s >= super::SPINDLE_SETTLE_S
+    }
+
+    fn spindle_stopped(&self) -> bool {
+        (self.m.spindle_speed_deg_s / 6.0).abs() < SPINDLE_STOPPED_RPM
+    }
+
+    /// One cycle of the sequencer.
+    pub(super) fn sequence(&mut self) {
+        let dt = self.p.period_s;
+        self.seq.state_time_s += dt;
+        let state = self.seq.state;
+        self.seq.coolant = matches!(
+            state,
+            State::Infeed
+                | State::Plunge
+                | State::ExtraRev
+                | State::Clamp
+                | State::Cut
+                | State::Unclamp
+                | State::Retract
+        ) && self.seq.spindle_set_rpm > 0.0;
+        let status = self.gearbox.status();
+        if state.tool_in_work()
+            && self.gearbox.coupling() == Coupling::Synchronised
+            && !status.in_coarse_window
+        {
+            self.raise(Fault::SyncLost {
+                error_arcsec: status.error_deg * 3600.0,
+            });
+            return;
+        }
+        match state {
+            State::Init | State::Idle | State::Jog | State::Faulted => return self.sequence_idle(),
+            State::Disengage => {
+                self.seq.clamp = false;
+                self.x.step_stop(self.p.x_limits.accel_mm_s2, dt);
+                self.y.step_stop(self.p.y_limits.accel_mm_s2, dt);
+                self.gearbox.disengage();
+                if self.gearbox.coupling() == Coupling::Disengaged && !self.gearbox.table_moving() {
+                    self.enter(State::SpindleDown);
+                }
+                return;
+            }
+            State::SpindleDown => {
+                self.seq.spindle_set_rpm = 0.0;
+                if self.spindle_stopped() {
+                    if !self.seq.stopping {
+                        self.event(EventKind::CycleDone);
+                    }
+                    self.seq.stopping = false;
+                    self.enter(State::Idle);
+                }
+                return;
+            }
+            State::FaultStop => {
+                self.seq.clamp = false;
+                self.seq.spindle_set_rpm = 0.0;
+                self.x.step_stop(self.p.x_limits.accel_mm_s2, dt);
+                self.y.step_stop(self.p.y_limits.accel_mm_s2, dt);
+                self.gearbox.disengage();
+                let stopped = self.gearbox.coupling() == Coupling::Disengaged && self.spindle_stopped();
+                if stopped || self.seq.state_time_s > STOP_TIMEOUT_S {
+                    self.enter(State::Faulted);
+                }
+                return;
+            }
+            _ => {}
+        }
+        let (Some(program), Some(pass)) = (self.program, self.current_pass()) else {
+            // A cycle state without a program cannot happen (loading is refused in a
+            // cycle); stop safely if it ever does.
+            self.seq.stopping = true;
+            self.enter(State::Disengage);
+            return;
+        };
+        let rapid_x = self.p.x_limits.rapid_mm_s;
+        match state {
+            State::Init | State::Idle | State::Jog | State::Faulted => self.sequence_idle(),
+            State::Disengage | State::SpindleDown | State::FaultStop => {}
+            State::ToSafe => {
+                self.seq.clamp = false;
+                if self.move_x(program.x_safe_mm, rapid_x) {
+                    self.enter(State::ToStart);
+                }
+            }
+            State::ToStart => {
+                if self.move_y(pass.y_start_mm) {
+                    self.enter(State::SpindleUp);
+                }
+            }
+            State::SpindleUp => {
+                if self.seq.hold {
+                    return;
+                }
+                self.seq.spindle_set_rpm = pass.spindle_rpm;
+                if self.spindle_at_speed() {
+                    self.event(EventKind::PassStarted {
+                        pass: self.seq.pass_index as u32 + 1,
+                    });
+                    self.enter(State::Engage);
+                } else if self.seq.state_time_s > self.p.spindle_start_timeout_s {
+                    let actual_rpm = self.m.spindle_speed_deg_s.abs() / 6.0;
+                    self.raise(Fault::SpindleSpeed {
+                        set_rpm: pass.spindle_rpm,
+                        actual_rpm,
+                    });
+                }
+            }
+            State::Engage => {
+                let recorded_before = self.gearbox.recorded_phase_deg();
+                self.gearbox.engage();
+                if recorded_before.is_none()
+                    && let Some(phase_deg) = self.gearbox.recorded_phase_deg()
+                {
+                    self.event(EventKind::PhaseRecorded { phase_deg });
+                }
+                if self.gearbox.ready_to_cut() && !self.seq.hold {
+                    self.enter(State::Infeed);
+                } else if self.seq.state_time_s > SYNC_TIMEOUT_S {
+                    let error_arcsec = self.gearbox.status().error_deg * 3600.0;
+                    self.raise(Fault::SyncLost { error_arcsec });
+                }
+            }
+            State::Infeed => {
+                let target = if program.cycle == CycleKind::RadialPlunge {
+                    program.x_surface_mm + PLUNGE_CLEARANCE_MM
+                } else {
+                    self.x_in_cut(&program, &pass)
+                };
+                if self.move_x(target, rapid_x) {
+                    self.seq.rev_start_deg = self.m.spindle_deg;
+                    if program.cycle == CycleKind::RadialPlunge {
+                        self.enter(State::Plunge);
+                    } else {
+                        self.enter_cut_or_clamp(&program);
+                    }
+                }
+            }
+            State::Plunge => {
+                let target = self.x_in_cut(&program, &pass);
+                if self.move_x(target, program.plunge_feed_mm_min / 60.0) {
+                    self.seq.rev_start_deg = self.m.spindle_deg;
+                    self.enter(State::ExtraRev);
+                }
+            }
+            State::ExtraRev => {
+                let table_turn = (program.ratio_signed * (self.m.spindle_deg - self.seq.rev_start_deg)).abs();
+                if table_turn >= 360.0 {
+                    self.enter_cut_or_clamp(&program);
+                }
+            }
+            State::Clamp => {
+                self.seq.clamp = true;
+                if self.m.inputs.x_clamp_closed {
+                    self.seq.feed_scale = 0.0;
+                    self.enter(State::Cut);
+                } else if self.seq.state_time_s > self.p.clamp_timeout_s {
+                    self.raise(Fault::ClampTimeout);
+                }
+            }
+            State::Cut => self.sequence_cut(&program, &pass),
+            State::Unclamp => {
+                self.seq.clamp = false;
+                if !self.m.inputs.x_clamp_closed {
+                    self.enter(State::Retract);
+                } else if self.seq.state_time_s > self.p.clamp_timeout_s {
+                    self.raise(Fault::ClampTimeout);
+                }
+            }
+            State::Retract => {
+                if self.move_x(program.x_safe_mm, rapid_x) {
+                    if self.seq.stopping {
+                        self.enter(State::Disengage);
+                    } else if program.cycle == CycleKind::ToothByTooth {
+                        self.enter(State::Return);
+                    } else {
+                        self.next_pass();
+                    }
+                }
+            }
+            State::Return => {
+                if self.move_y(pass.y_start_mm) {
+                    self.gearbox.move_table_by(program.pitch_deg());
+                    self.enter(State::Index);
+                }
+            }
+            State::Index => {
+                if !self.gearbox.table_moving() {
+                    self.seq.tooth += 1;
+                    if self.seq.tooth < program.teeth {
+                        self.enter(State::Infeed);
+                    } else {
+                        self.seq.tooth = 0;
+                        self.next_pass();
+                    }
+                }
+            }
+            State::Home => {
+                let start = if self.seq.single {
+                    pass.y_start_mm
+                } else {
+                    program.passes()[0].y_start_mm
+                };
+                if self.move_y(start) {
+                    self.enter(State::Disengage);
+                }
+            }
+            State::FaultRetract => {
+                self.seq.clamp = false;
+                self.seq.feed_scale = 0.0;
+                self.y.step_stop(self.p.y_limits.accel_mm_s2, dt);
+                let unclamped =
+                    !self.m.inputs.x_clamp_closed || self.seq.state_time_s > self.p.clamp_timeout_s;
+                if unclamped
+                    && self
+                        .x
+                        .step_towards(program.x_safe_mm, rapid_x, self.p.x_limits.accel_mm_s2, dt)
+                {
+                    self.enter(State::FaultStop);
+                }
+            }
+        }
+    }
+
+    /// Out of the cut: unclamp X first if it was clamped.
+    fn leave_cut(&mut self) {
+        let moves_x = self.program.is_some_and(|p| p.shape.moves_x());
+        self.enter(if moves_x { State::Retract } else { State::Unclamp });
+    }
+
+    /// Into the cut: X clamped first unless it moves in the cut (crowning, contour).
+    fn enter_cut_or_clamp(&mut self, program: &CycleProgram) {
+        self.seq.feed_scale = 0.0;
+        self.enter(if program.shape.moves_x() {
+            State::Cut
+        } else {
+            State::Clamp
+        });
+    }
+
+    fn sequence_cut(&mut self, program: &CycleProgram, pass: &PassSetpoint) {
+        let dt = self.p.period_s;
+        let want = if self.seq.hold { 0.0 } else { 1.0 };
+        let ramp = dt / FEED_RAMP_S;
+        self.seq.feed_scale += (want - self.seq.feed_scale).clamp(-ramp, ramp);
+        // Y is tied to the spindle: it advances with the spindle's turning, never with time.
+        let spindle_delta =
+            program.spindle_sign * (self.m.spindle_for_gearbox_deg - self.last_spindle_for_gearbox_deg);
+        let dy =
+            program.feed_sign * pass.feed_mm_per_spindle_deg * spindle_delta.max(0.0) * self.seq.feed_scale;
+        let before = self.y.position;
+        let mut y = before + dy;
+        let done = (pass.y_end_mm - y) * program.feed_sign <= 0.0;
+        if done {
+            y = pass.y_end_mm;
+        }
+        self.y.position = y;
+        self.y.velocity = (y - before) / dt;
+        let x = self.x_in_cut(program, pass);
+        self.x.velocity = (x - self.x.position) / dt;
+        self.x.position = x;
+        if done {
+            self.y.velocity = 0.0;
+            self.x.velocity = 0.0;
+            self.leave_cut();
+        }
+    }
+
+    fn next_pass(&mut self) {
+        if self.seq.pass_index + 1 < self.pass_count() && !self.seq.stopping {
+            self.seq.pass_index += 1;
+            self.enter(State::ToStart);
+        } else {
+            self.enter(State::Home);
+        }
+    }
+
+    /// Outside a cycle: follow the actual positions when the drives are off, run jogs.
+    fn sequence_idle(&mut self) {
+        let dt = self.p.period_s;
+        match self.seq.state {
+            State::Init | State::Faulted => {
+                self.seq.clamp = false;
+                self.seq.spindle_set_rpm = 0.0;
+                if !self.seq.drives_should_be_enabled() {
+                    // Drives are off: the commands follow the machine, so enabling never
+                    // jumps. Once they are being enabled the commands hold still.
+                    self.x = super::profile::Profile::at(self.m.x_mm);
+                    self.y = super::profile::Profile::at(self.m.y_mm);
+                    let table = self.m.table_deg;
+                    let g = *self.gearbox.params();
+                    let recorded = self.gearbox.recorded_phase_deg();
+                    self.gearbox = super::egb::Gearbox::new(g, table);
+                    if let Some(r) = recorded {
+                        self.gearbox.restore_recorded_phase(r);
+                    }
+                }
+                self.seq.init_ready = self.seq.state == State::Init
+                    && self.m.inputs.safety_chain_closed
+                    && self.lube.cycles_done() > 0
+                    && self.fault.is_none();
+                if self.seq.init_ready && self.drives_ready() {
+                    self.enter(State::Idle);
+                }
+            }
+            State::Jog => {
+                let done = match self.seq.jog_axis {
+                    Some(Axis::X) => {
+                        let l = self.p.x_limits;
+                        self.x
+                            .step_towards(self.seq.jog_target, l.rapid_mm_s / 2.0, l.accel_mm_s2, dt)
+                    }
+                    Some(Axis::Y) => {
+                        let l = self.p.y_limits;
+                        self.y
+                            .step_towards(self.seq.jog_target, l.rapid_mm_s / 2.0, l.accel_mm_s2, dt)
+                    }
+                    Some(Axis::B) | None => !self.gearbox.table_moving(),
+                };
+                if done {
+                    self.seq.jog_axis = None;
+                    self.enter(State::Idle);
+                }
+            }
+            _ => {}
+        }
+    }
+}

@@ -1,0 +1,339 @@
+//! `candump -L` captures: reading them, and checking that a run kept to the bus schedule
+//! (SYNC each cycle; between two SYNCs exactly one target RPDO and one actual-position
+//! TPDO per drive; no frame outside the schedule; no SDO once the cycle runs).
+
+use crate::plan::BusPlan;
+use hob_canopen::frame::{Cob, Frame};
+
+/// One captured frame and its timestamp (s), if the capture has one.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Captured {
+    pub t_s: Option<f64>,
+    pub frame: Frame,
+}
+
+/// Parses `candump -L` lines (`(1700000000.123456) vcan0 080#`) or bare `ID#DATA`.
+///
+/// Frames are returned in the order of their kernel timestamps: `candump` writes frames
+/// received on different sockets' paths out of order now and then under load (measured in
+/// the emulated guest: a TPDO stamped before a SYNC logged after it), while the stamps
+/// keep the order on the bus. Lines without a stamp keep the file's order.
+pub fn parse_candump(text: &str) -> Vec<Captured> {
+    let mut frames: Vec<Captured> = text
+        .lines()
+        .filter_map(|line| {
+            let mut t_s = None;
+            let mut rest = line.trim();
+            if let Some(r) = rest.strip_prefix('(') {
+                let (t, after) = r.split_once(')')?;
+                t_s = t.trim().parse().ok();
+                rest = after.trim();
+            }
+            let frame_text = rest.split_whitespace().last()?;
+            Frame::from_candump(frame_text).map(|frame| Captured { t_s, frame })
+        })
+        .collect();
+    if frames.iter().all(|c| c.t_s.is_some()) {
+        // Stable: frames with the same stamp keep the file's order.
+        frames.sort_by(|a, b| a.t_s.partial_cmp(&b.t_s).unwrap_or(std::cmp::Ordering::Equal));
+    }
+    frames
+}
+
+/// A `candump -L` line for a frame.
+pub fn candump_line(t_s: f64, iface: &str, f: &Frame) -> String {
+    format!("({t_s:.6}) {iface} {}", f.to_candump())
+}
+
+/// What a capture shows.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct ScheduleReport {
+    pub frames: usize,
+    pub syncs: usize,
+    /// Intervals between SYNCs checked for the cyclic PDO set.
+    pub cycles_checked: usize,
+    /// Position TPDOs that came one SYNC late (the master counts and holds them; on an
+    /// emulated machine a slow node process causes this, on the real bus a late drive).
+    pub late_tpdos: usize,
+    /// Cycles whose cyclic PDO count was off beyond one late TPDO (kept apart from
+    /// `violations`: a capture taken by `candump` on an emulated machine can lose or
+    /// misorder frames under load; the caller decides how many it tolerates).
+    pub count_anomalies: Vec<String>,
+    pub violations: Vec<String>,
+    /// Intervals between SYNCs from the timestamps (s): median and maximum.
+    pub sync_interval_median_s: Option<f64>,
+    pub sync_interval_max_s: Option<f64>,
+}
+
+/// Checks a capture against the bus plan.
+pub fn check_schedule(frames: &[Captured], plan: &BusPlan) -> ScheduleReport {
+    let mut r = ScheduleReport {
+        frames: frames.len(),
+        ..ScheduleReport::default()
+    };
+    let nodes = plan.nodes();
+    let mut in_cycle = false;
+    let mut counts: Option<[[u32; 2]; 3]> = None;
+    // Per drive: position TPDOs seen minus intervals (-1: one is late).
+    let mut backlog = [0i64; 3];
+    let mut sync_times = Vec::new();
+    for (i, c) in frames.iter().enumerate() {
+        let f = &c.frame;
+        let cob = Cob::of(f.id);
+        let known = match cob {
+            Cob::Nmt | Cob::Sync => true,
+            Cob::Emcy(n) | Cob::Heartbeat(n) => nodes.contains(&n) || n == crate::plan::MASTER_NODE,
+            Cob::SdoRx(n) | Cob::SdoTx(n) => {
+                if in_cycle {
+                    r.violations
+                        .push(format!("frame {i}: SDO to node {n} while the cycle runs"));
+                }
+                nodes.contains(&n)
+            }
+            Cob::Tpdo(_, _) | Cob::Rpdo(_, _) => plan
+                .drives
+                .iter()
+                .flat_map(|d| [d.target, d.control, d.actual, d.status])
+                .chain([plan.io.inputs, plan.io.outputs, plan.io.analog])
+                .any(|p| p.cob_id == f.id && usize::from(f.len) == p.len_bytes()),
+            _ => false,
+        };
+        if !known {
+            r.violations
+                .push(format!("frame {i}: {} is not in the schedule", f.to_candump()));
+        }
+        if cob == Cob::Sync {
+            r.syncs += 1;
+            in_cycle = true;
+            if let Some(t) = c.t_s {
+                sync_times.push(t);
+            }
+            if let Some(k) = counts.take() {
+                r.cycles_checked += 1;
+                for (j, (d, [rpdo, tpdo])) in plan.drives.iter().zip(k).enumerate() {
+                    // A TPDO may come one SYNC late: it then stands in the next interval.
+                    backlog[j] += i64::from(tpdo) - 1;
+                    if tpdo == 0 && backlog[j] >= -1 {
+                        r.late_tpdos += 1;
+                    }
+                    if rpdo != 1 || !(-1..=0).contains(&backlog[j]) {
+                        r.count_anomalies.push(format!(
+                            "frame {i}: before this SYNC drive {} had {rpdo} target RPDOs and {tpdo} position TPDOs (1 each expected, one may be late)",
+                            d.node
+                        ));
+                        backlog[j] = 0;
+                    }
+                }
+            }
+            counts = Some([[0; 2]; 3]);
+            continue;
+        }
+        if let Some(k) = counts.as_mut() {
+            for (j, d) in plan.drives.iter().enumerate() {
+                if f.id == d.target.cob_id {
+                    k[j][0] += 1;
+                } else if f.id == d.actual.cob_id {
+                    k[j][1] += 1;
+                }
+            }
+        }
+    }
+    let mut gaps: Vec<f64> = sync_times.windows(2).map(|w| w[1] - w[0]).collect();
+    gaps.sort_by(f64::total_cmp);
+    r.sync_interval_median_s = gaps.get(gaps.len() / 2).copied();
+    r.sync_interval_max_s = gaps.last().copied();
+    r
+}
+
+/// What the frames show about the gearbox in the cut.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct GearboxReport {
+    /// Stretches of `window` cycles found entirely in a cut.
+    pub windows: usize,
+    /// Largest relative difference between the table targets' advance and z0/z times
+    /// the received spindle angles' advance.
+    pub worst_relative_error: f64,
+}
+
+/// Checks, from the frames alone, that in the cut the table targets the master sent
+/// advance by the gearbox ratio of the spindle angles it received (timing plays no part).
+///
+/// A cycle is in the cut when the X target is at one of `cut_x_mm` (within 0.1 mm:
+/// crowning and contour stay well inside) and the Y target moves. Per cycle the pair is
+/// (spindle counts in the table drive's TPDO1 after SYNC k, table target in the RPDO1
+/// sent next).
+pub fn check_gearbox(
+    frames: &[Captured],
+    plan: &BusPlan,
+    ratio_signed: f64,
+    scales: [f64; 4],
+    cut_x_mm: &[f64],
+    window: usize,
+) -> GearboxReport {
+    let [
+        spindle_counts_per_deg,
+        table_counts_per_deg,
+        x_counts_per_mm,
+        y_counts_per_mm,
+    ] = scales;
+    let (b, x, y) = (&plan.drives[0], &plan.drives[1], &plan.drives[2]);
+    let mut spindle = None;
+    let (mut x_target, mut y_target, mut last_y) = (f64::NAN, f64::NAN, f64::NAN);
+    let mut pairs: Vec<(f64, f64, bool)> = Vec::new();
+    for c in frames {
+        let f = &c.frame;
+        if f.id == b.actual.cob_id
+            && let Some(v) = b.actual.unpack(f)
+        {
+            spindle = Some(f64::from(v[1] as u32 as i32) / spindle_counts_per_deg);
+        } else if f.id == x.target.cob_id
+            && let Some(v) = x.target.unpack(f)
+        {
+            x_target = f64::from(v[0] as u32 as i32) / x_counts_per_mm;
+        } else if f.id == y.target.cob_id
+            && let Some(v) = y.target.unpack(f)
+        {
+            y_target = f64::from(v[0] as u32 as i32) / y_counts_per_mm;
+        } else if f.id == b.target.cob_id
+            && let Some(v) = b.target.unpack(f)
+            && let Some(s) = spindle.take()
+        {
+            let table = f64::from(v[0] as u32 as i32) / table_counts_per_deg;
+            let feeding = y_target != last_y && last_y.is_finite();
+            let at_depth = cut_x_mm.iter().any(|cx| (x_target - cx).abs() < 0.1);
+            pairs.push((s, table, feeding && at_depth));
+            last_y = y_target;
+        }
+    }
+    let mut r = GearboxReport::default();
+    let mut i = 0;
+    while i + window < pairs.len() {
+        if pairs[i..=i + window].iter().all(|p| p.2) {
+            let (s0, t0, _) = pairs[i];
+            let (s1, t1, _) = pairs[i + window];
+            let slope = (t1 - t0) / (s1 - s0);
+            r.windows += 1;
+            r.worst_relative_error = r
+                .worst_relative_error
+                .max(((slope - ratio_signed) / ratio_signed).abs());
+            i += window;
+        } else {
+            i += 1;
+        }
+    }
+    r
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn plan() -> BusPlan {
+        BusPlan::from_machine(&hob_setup::config::machine::shipped_for_tests())
+    }
+
+    #[test]
+    fn frames_are_put_in_the_order_of_their_stamps() {
+        // As logged by candump in the guest (fresh-clone run): the TPDO stamped before the
+        // SYNC was written after it.
+        let text = "\
+(1795251869.388954) vcan0 204#AC800200
+(1795251869.389000) vcan0 080#
+(1795251869.388017) vcan0 184#B1800200
+(1795251869.393011) vcan0 182#9FA5E9FFD714F9FF
+";
+        let ids: Vec<u16> = parse_candump(text).iter().map(|c| c.frame.id).collect();
+        assert_eq!(ids, [0x184, 0x204, 0x080, 0x182]);
+        let unstamped = "vcan0 080#\nvcan0 184#B1800200\n";
+        let ids: Vec<u16> = parse_candump(unstamped).iter().map(|c| c.frame.id).collect();
+        assert_eq!(ids, [0x080, 0x184], "without stamps the file's order stands");
+    }
+
+    const GOOD: &str = "\
+(1.000000) vcan0 202#00000000
+(1.000010) vcan0 203#00000000
+(1.000020) vcan0 204#00000000
+(1.000030) vcan0 080#
+(1.000100) vcan0 182#0000000000000000
+(1.000110) vcan0 183#00000000
+(1.000120) vcan0 184#00000000
+(1.000200) vcan0 202#01000000
+(1.000210) vcan0 203#00000000
+(1.000220) vcan0 204#00000000
+(1.001030) vcan0 080#
+";
+
+    #[test]
+    fn a_run_on_schedule_passes() {
+        let frames = parse_candump(GOOD);
+        assert_eq!(frames.len(), 11);
+        let r = check_schedule(&frames, &plan());
+        assert_eq!(r.syncs, 2);
+        assert_eq!(r.cycles_checked, 1);
+        assert!(r.violations.is_empty(), "{:?}", r.violations);
+        assert!((r.sync_interval_median_s.unwrap() - 0.001).abs() < 1e-9);
+    }
+
+    #[test]
+    fn missing_pdos_and_strangers_are_reported() {
+        let text = GOOD.replace("(1.000110) vcan0 183#00000000\n", "(1.000110) vcan0 6E3#01\n");
+        let r = check_schedule(&parse_candump(&text), &plan());
+        assert_eq!(r.violations.len(), 1, "{:?}", r.violations);
+        assert!(r.violations[0].contains("6E3#01 is not in the schedule"));
+        assert!(r.count_anomalies.is_empty());
+        // A single missing TPDO could still be late: only the stranger is a violation.
+        assert_eq!(r.late_tpdos, 1);
+    }
+
+    /// Cycles of RPDOs and SYNC; `tpdos[k]` lists the TPDO ids sent after SYNC k.
+    fn cycles(tpdos: &[&[u16]]) -> String {
+        let mut text = String::new();
+        for ids in tpdos {
+            text.push_str("202#00000000\n203#00000000\n204#00000000\n080#\n");
+            for id in *ids {
+                let data = if *id == 0x182 {
+                    "0000000000000000"
+                } else {
+                    "00000000"
+                };
+                text.push_str(&format!("{id:03X}#{data}\n"));
+            }
+        }
+        text + "202#00000000\n203#00000000\n204#00000000\n080#\n"
+    }
+
+    #[test]
+    fn a_late_tpdo_is_counted_and_two_missing_are_a_violation() {
+        let all: &[u16] = &[0x182, 0x183, 0x184];
+        let on_time = check_schedule(&parse_candump(&cycles(&[all, all, all])), &plan());
+        assert!(
+            on_time.violations.is_empty() && on_time.late_tpdos == 0,
+            "{on_time:?}"
+        );
+        // X's TPDO of SYNC 2 comes after SYNC 3, before its own.
+        let late = check_schedule(
+            &parse_candump(&cycles(&[all, &[0x182, 0x184], &[0x183, 0x182, 0x183, 0x184]])),
+            &plan(),
+        );
+        assert!(
+            late.violations.is_empty() && late.count_anomalies.is_empty(),
+            "{late:?}"
+        );
+        assert_eq!(late.late_tpdos, 1);
+        // Two in a row missing is not lateness.
+        let lost = check_schedule(
+            &parse_candump(&cycles(&[all, &[0x182, 0x184], &[0x182, 0x184]])),
+            &plan(),
+        );
+        assert_eq!(lost.count_anomalies.len(), 1, "{lost:?}");
+        assert!(lost.violations.is_empty());
+    }
+
+    #[test]
+    fn candump_lines_round_trip() {
+        let f = Frame::new(0x182, &[1, 2]);
+        let line = candump_line(12.5, "vcan0", &f);
+        assert_eq!(line, "(12.500000) vcan0 182#0102");
+        assert_eq!(parse_candump(&line)[0].frame, f);
+    }
+}

@@ -1,0 +1,663 @@
+//! The CANopen master of the machine.
+//!
+//! - Start-up ([`boot`], may block): NMT reset, wait for every node's boot-up, read
+//!   device type and identity, refuse a drive without cyclic synchronous position (0x6502),
+//!   configure heartbeats, modes and PDOs by SDO, start the network.
+//! - The cycle ([`Cyclic`], no allocation, never blocks): take in the frames received
+//!   since the last cycle, build the control core's inputs (what was latched at this
+//!   cycle's SYNC), send the targets for the next SYNC, event-driven controlwords and
+//!   outputs, then the SYNC itself; count TPDOs that did not arrive and hold their last
+//!   value; watch heartbeats and EMCYs.
+
+use crate::plan::{BusPlan, MASTER_NODE, PROFILE_DRIVE, PROFILE_IO};
+use hob_canopen::bus::{BusError, CanBus};
+use hob_canopen::cia402::{self, PowerState, object};
+use hob_canopen::emcy::Emcy;
+use hob_canopen::frame::{Cob, Frame, SYNC, heartbeat_id};
+use hob_canopen::nmt::{NmtCommand, NmtState};
+use hob_canopen::pdo::as_i32;
+use hob_canopen::sdo::{AbortCode, Progress, SdoClient, SdoError};
+use hob_control::{AxisFeedback, CycleInputs, CycleOutputs};
+use std::time::{Duration, Instant};
+
+/// What a node told about itself at boot.
+#[derive(Debug, Clone, PartialEq)]
+pub struct NodeInfo {
+    pub node: u8,
+    pub device_type: u32,
+    pub name: String,
+    pub vendor_id: u32,
+    pub product_code: u32,
+    pub revision: u32,
+    pub serial: u32,
+    /// 0x6502 for drives.
+    pub supported_modes: Option<u32>,
+}
+
+impl NodeInfo {
+    pub fn profile(&self) -> u32 {
+        self.device_type & 0xFFFF
+    }
+
+    pub fn csp(&self) -> bool {
+        self.supported_modes
+            .is_some_and(|m| cia402::supports_mode(m, cia402::MODE_CSP))
+    }
+}
+
+/// Why the bus could not be brought up.
+#[derive(Debug, Clone, PartialEq)]
+pub enum BootError {
+    Bus(BusError),
+    /// A node did not announce itself.
+    NoBootUp {
+        node: u8,
+    },
+    Sdo {
+        node: u8,
+        error: SdoError,
+    },
+    /// A node is not the device the configuration expects.
+    WrongDevice {
+        node: u8,
+        expected_profile: u32,
+        device_type: u32,
+    },
+    /// A drive without cyclic synchronous position mode.
+    NoCsp {
+        node: u8,
+        supported_modes: u32,
+    },
+    /// A node did not report operational after the start.
+    NotOperational {
+        node: u8,
+    },
+}
+
+impl std::fmt::Display for BootError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            BootError::Bus(e) => write!(f, "bus: {e}"),
+            BootError::NoBootUp { node } => write!(
+                f,
+                "node {node} did not boot (no boot-up message): powered, wired, node-ID set?"
+            ),
+            BootError::Sdo { node, error } => write!(f, "node {node}: {error}"),
+            BootError::WrongDevice {
+                node,
+                expected_profile,
+                device_type,
+            } => write!(
+                f,
+                "node {node} is a CiA {} device (0x1000 = 0x{device_type:08X}), the configuration expects CiA {expected_profile}",
+                device_type & 0xFFFF
+            ),
+            BootError::NoCsp {
+                node,
+                supported_modes,
+            } => write!(
+                f,
+                "drive {node} does not support cyclic synchronous position mode (0x6502 = 0x{supported_modes:08X}, bit 7 clear): \
+                 it cannot follow the electronic gearbox; use a drive with CSP"
+            ),
+            BootError::NotOperational { node } => write!(f, "node {node} did not enter operational"),
+        }
+    }
+}
+
+impl std::error::Error for BootError {}
+
+/// Waits for the next frame until `deadline` (start-up only).
+fn recv_until(bus: &mut dyn CanBus, deadline: Instant) -> Result<Option<Frame>, BootError> {
+    loop {
+        if let Some(f) = bus.try_recv().map_err(BootError::Bus)? {
+            return Ok(Some(f));
+        }
+        if Instant::now() >= deadline {
+            return Ok(None);
+        }
+        std::thread::sleep(Duration::from_micros(100));
+    }
+}
+
+/// Runs one SDO transfer to the end (start-up and commissioning tools: blocks).
+fn transfer(
+    bus: &mut dyn CanBus,
+    client: &mut SdoClient,
+    first: Frame,
+    timeout: Duration,
+) -> Result<(), SdoError> {
+    bus.send(&first)
+        .map_err(|_| SdoError::Timeout { index: 0, sub: 0 })?;
+    let mut deadline = Instant::now() + timeout;
+    loop {
+        let f = match recv_until(bus, deadline) {
+            Ok(Some(f)) => f,
+            _ => {
+                let abort = client.abort(AbortCode::TIMEOUT);
+                let _ = bus.send(&abort);
+                let (index, sub) = (u16::from_le_bytes([first.data[1], first.data[2]]), first.data[3]);
+                return Err(SdoError::Timeout { index, sub });
+            }
+        };
+        match client.on_frame(&f) {
+            Progress::Ignored => {}
+            Progress::Send(next) => {
+                bus.send(&next)
+                    .map_err(|_| SdoError::Timeout { index: 0, sub: 0 })?;
+                deadline = Instant::now() + timeout;
+            }
+            Progress::Uploaded | Progress::Downloaded => return Ok(()),
+            Progress::Failed(e, abort) => {
+                if let Some(a) = abort {
+                    let _ = bus.send(&a);
+                }
+                return Err(e);
+            }
+        }
+    }
+}
+
+/// Reads `index:sub` of `node` (blocks up to `timeout` per frame).
+pub fn sdo_read(
+    bus: &mut dyn CanBus,
+    node: u8,
+    index: u16,
+    sub: u8,
+    timeout: Duration,
+) -> Result<Vec<u8>, SdoError> {
+    let mut c = SdoClient::new(node);
+    let first = c.upload(index, sub);
+    transfer(bus, &mut c, first, timeout)?;
+    Ok(c.data().to_vec())
+}
+
+/// Writes `data` to `index:sub` of `node`.
+pub fn sdo_write(
+    bus: &mut dyn CanBus,
+    node: u8,
+    index: u16,
+    sub: u8,
+    data: &[u8],
+    timeout: Duration,
+) -> Result<(), SdoError> {
+    let mut c = SdoClient::new(node);
+    let first = c.download(index, sub, data)?;
+    transfer(bus, &mut c, first, timeout)
+}
+
+fn u32_of(b: &[u8]) -> u32 {
+    let mut v = [0u8; 4];
+    let n = b.len().min(4);
+    v[..n].copy_from_slice(&b[..n]);
+    u32::from_le_bytes(v)
+}
+
+/// Reads what a node says about itself (0x1000, 0x1008, 0x1018, and 0x6502 on drives).
+pub fn identify(bus: &mut dyn CanBus, node: u8, timeout: Duration) -> Result<NodeInfo, SdoError> {
+    let device_type = u32_of(&sdo_read(bus, node, 0x1000, 0, timeout)?);
+    let name = sdo_read(bus, node, 0x1008, 0, timeout)
+        .map(|b| String::from_utf8_lossy(&b).trim_end_matches('\0').to_string())
+        .unwrap_or_default();
+    let mut id = |sub| {
+        sdo_read(bus, node, 0x1018, sub, timeout)
+            .map(|b| u32_of(&b))
+            .unwrap_or(0)
+    };
+    let (vendor_id, product_code, revision, serial) = (id(1), id(2), id(3), id(4));
+    let supported_modes = if device_type & 0xFFFF == PROFILE_DRIVE {
+        Some(u32_of(&sdo_read(bus, node, object::SUPPORTED_MODES, 0, timeout)?))
+    } else {
+        None
+    };
+    Ok(NodeInfo {
+        node,
+        device_type,
+        name,
+        vendor_id,
+        product_code,
+        revision,
+        serial,
+        supported_modes,
+    })
+}
+
+/// Brings every node of `plan` from power-up to operational (start-up: blocks).
+pub fn boot(plan: &BusPlan, bus: &mut dyn CanBus, timeout: Duration) -> Result<Vec<NodeInfo>, BootError> {
+    let nodes = plan.nodes();
+    bus.send(&NmtCommand::ResetCommunication.frame(0))
+        .map_err(BootError::Bus)?;
+    let mut booted = [false; 4];
+    let deadline = Instant::now() + timeout * 4;
+    while !booted.iter().all(|b| *b) {
+        let Some(f) = recv_until(bus, deadline)? else {
+            let missing = nodes[booted.iter().position(|b| !b).unwrap_or(0)];
+            return Err(BootError::NoBootUp { node: missing });
+        };
+        if let Some((node, NmtState::BootUp)) = NmtState::parse_heartbeat(&f)
+            && let Some(i) = nodes.iter().position(|n| *n == node)
+        {
+            booted[i] = true;
+        }
+    }
+    let mut infos = Vec::new();
+    for node in nodes {
+        let info = identify(bus, node, timeout).map_err(|error| BootError::Sdo { node, error })?;
+        let expected = if plan.drive(node).is_some() {
+            PROFILE_DRIVE
+        } else {
+            PROFILE_IO
+        };
+        if info.profile() != expected {
+            return Err(BootError::WrongDevice {
+                node,
+                expected_profile: expected,
+                device_type: info.device_type,
+            });
+        }
+        if expected == PROFILE_DRIVE && !info.csp() {
+            return Err(BootError::NoCsp {
+                node,
+                supported_modes: info.supported_modes.unwrap_or(0),
+            });
+        }
+        for w in plan.node_configuration(node) {
+            sdo_write(
+                bus,
+                node,
+                w.index,
+                w.sub,
+                &w.bytes()[..usize::from(w.size)],
+                timeout,
+            )
+            .map_err(|error| BootError::Sdo { node, error })?;
+        }
+        infos.push(info);
+    }
+    bus.send(&NmtCommand::Start.frame(0)).map_err(BootError::Bus)?;
+    let mut operational = [false; 4];
+    let deadline = Instant::now() + timeout * 4;
+    while !operational.iter().all(|b| *b) {
+        let Some(f) = recv_until(bus, deadline)? else {
+            let missing = nodes[operational.iter().position(|b| !b).unwrap_or(0)];
+            return Err(BootError::NotOperational { node: missing });
+        };
+        if let Some((node, NmtState::Operational)) = NmtState::parse_heartbeat(&f)
+            && let Some(i) = nodes.iter().position(|n| *n == node)
+        {
+            operational[i] = true;
+        }
+    }
+    Ok(infos)
+}
+
+/// A node's liveness as the master sees it.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct Liveness {
+    pub cycles_since_heartbeat: u32,
+    pub state: Option<NmtState>,
+}
+
+/// Something the bus reported that the operator must see.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum BusEvent {
+    Emcy(Emcy),
+    HeartbeatLost { node: u8 },
+    TpdoMissing { node: u8, in_a_row: u32 },
+    SendFailed(BusError),
+}
+
+/// Capacity of the bus event ring.
+pub const BUS_EVENTS: usize = 64;
+
+/// The cyclic part of the master: no allocation, never blocks.
+#[derive(Debug, Clone)]
+pub struct Cyclic {
+    plan: BusPlan,
+    /// Per drive: raw position, spindle, statusword; fresh this cycle.
+    position: [i32; 3],
+    spindle: i32,
+    statusword: [u16; 3],
+    fresh: [bool; 3],
+    /// Per drive: SYNCs sent whose synchronous TPDO has not arrived yet, TPDOs drained
+    /// this cycle, and whether the last cycle got one TPDO while still one behind.
+    owed: [u32; 3],
+    got: [u32; 3],
+    one_behind: [bool; 3],
+    /// Where the bus echoes our own SYNCs in bus order ([`Cyclic::hear_own_sync`]): SYNCs
+    /// sent and heard, and per drive the SYNC its newest TPDO answers. No guessing then.
+    own_sync_heard: bool,
+    syncs_sent: u64,
+    syncs_heard: u64,
+    answers_sync: [u64; 3],
+    misses: [u32; 3],
+    inputs: [u8; 3],
+    inputs_seen: bool,
+    last_controlword: [Option<u16>; 3],
+    controlword_age: [u32; 3],
+    last_outputs: Option<[u8; 2]>,
+    last_analog: Option<i16>,
+    outputs_age: u32,
+    analog_age: u32,
+    liveness: [Liveness; 4],
+    cycle: u64,
+    events: [Option<BusEvent>; BUS_EVENTS],
+    event_count: usize,
+    lost_events: u64,
+    /// Quick stop requested (by a watchdog or the operator): drives go to quick stop.
+    quick_stop: bool,
+}
+
+impl Cyclic {
+    pub fn new(plan: BusPlan) -> Self {
+        Self {
+            plan,
+            position: [0; 3],
+            spindle: 0,
+            statusword: [PowerState::SwitchOnDisabled.statusword(); 3],
+            fresh: [false; 3],
+            owed: [0; 3],
+            got: [0; 3],
+            one_behind: [false; 3],
+            own_sync_heard: false,
+            syncs_sent: 0,
+            syncs_heard: 0,
+            answers_sync: [0; 3],
+            misses: [0; 3],
+            inputs: [0; 3],
+            inputs_seen: false,
+            last_controlword: [None; 3],
+            controlword_age: [u32::MAX; 3],
+            last_outputs: None,
+            last_analog: None,
+            outputs_age: u32::MAX,
+            analog_age: u32::MAX,
+            liveness: [Liveness::default(); 4],
+            cycle: 0,
+            events: [None; BUS_EVENTS],
+            event_count: 0,
+            lost_events: 0,
+            quick_stop: false,
+        }
+    }
+
+    pub fn plan(&self) -> &BusPlan {
+        &self.plan
+    }
+
+    fn event(&mut self, e: BusEvent) {
+        if self.event_count < BUS_EVENTS {
+            self.events[self.event_count] = Some(e);
+            self.event_count += 1;
+        } else {
+            self.lost_events += 1;
+        }
+    }
+
+    /// Events since the last call (fixed storage; the caller copies them out).
+    pub fn take_events(&mut self, out: &mut [Option<BusEvent>; BUS_EVENTS]) -> usize {
+        let n = self.event_count;
+        out[..n].copy_from_slice(&self.events[..n]);
+        self.event_count = 0;
+        n
+    }
+
+    pub fn liveness(&self) -> [Liveness; 4] {
+        self.liveness
+    }
+
+    /// Whether every drive whose synchronous TPDO came in the last cycle has sent it
+    /// again since the last [`Self::inputs`] (a lockstep runner waits for this; a drive
+    /// that went silent is not waited for).
+    pub fn all_fresh(&self) -> bool {
+        let silent = self.plan.tpdo_misses_to_fault;
+        self.fresh
+            .iter()
+            .zip(&self.misses)
+            .all(|(f, m)| *f || *m >= silent)
+    }
+
+    /// Asks `bus` to deliver our own SYNCs among the received frames, in bus order
+    /// ([`CanBus::echo_own_sync`]; start-up only). Where it can, a TPDO answers the SYNC
+    /// heard last before it, so a late answer is never taken for this cycle's; where it
+    /// cannot (the shared-memory bus), the count of SYNCs owed decides. Returns which.
+    pub fn hear_own_sync(&mut self, bus: &mut dyn CanBus) -> bool {
+        self.own_sync_heard = bus.echo_own_sync();
+        self.own_sync_heard
+    }
+
+    /// Without the echo: whether drive `i`'s newest TPDO answers the last SYNC, by
+    /// counting. A synchronous TPDO answers exactly one SYNC, in order. A node that fell
+    /// behind (its answers arrive late, then in a burst) sends values of an older SYNC:
+    /// they are the newest known but not this cycle's measurement. One behind two cycles
+    /// running with one answer each is a lost frame, not lag: forgiven.
+    fn counted_current(&mut self, i: usize) -> bool {
+        let mut owed = self.owed[i].saturating_sub(self.got[i]);
+        if self.got[i] == 1 && owed >= 1 {
+            if self.one_behind[i] {
+                owed = 0;
+            }
+            self.one_behind[i] = true;
+        } else {
+            self.one_behind[i] = false;
+        }
+        self.owed[i] = owed;
+        self.got[i] > 0 && owed == 0
+    }
+
+    /// Requests quick stop of every drive (kept until cleared).
+    pub fn set_quick_stop(&mut self, on: bool) {
+        self.quick_stop = on;
+    }
+
+    /// Takes in one received frame.
+    pub fn receive(&mut self, f: &Frame) {
+        match Cob::of(f.id) {
+            Cob::Sync if self.own_sync_heard => self.syncs_heard += 1,
+            Cob::Tpdo(n, node) => {
+                if let Some(i) = self.plan.drives.iter().position(|d| d.node == node) {
+                    let d = self.plan.drives[i];
+                    if n == 1 {
+                        if let Some(v) = d.actual.unpack(f) {
+                            self.position[i] = as_i32(v[0]);
+                            if d.actual.entries().len() > 1 {
+                                self.spindle = as_i32(v[1]);
+                            }
+                            self.fresh[i] = true;
+                            self.got[i] = self.got[i].saturating_add(1);
+                            self.answers_sync[i] = self.syncs_heard;
+                        }
+                    } else if n == 2
+                        && let Some(v) = d.status.unpack(f)
+                    {
+                        self.statusword[i] = v[0] as u16;
+                    }
+                } else if node == self.plan.io.node
+                    && n == 1
+                    && let Some(v) = self.plan.io.inputs.unpack(f)
+                {
+                    self.inputs = [v[0] as u8, v[1] as u8, v[2] as u8];
+                    self.inputs_seen = true;
+                }
+            }
+            Cob::Emcy(_) => {
+                if let Some(e) = Emcy::parse(f) {
+                    self.event(BusEvent::Emcy(e));
+                }
+            }
+            Cob::Heartbeat(node) => {
+                if let Some((node, state)) =
+                    NmtState::parse_heartbeat(&Frame::new(heartbeat_id(node), f.payload()))
+                    && let Some(i) = self.plan.nodes().iter().position(|n| *n == node)
+                {
+                    self.liveness[i] = Liveness {
+                        cycles_since_heartbeat: 0,
+                        state: Some(state),
+                    };
+                }
+            }
+            _ => {}
+        }
+    }
+
+    /// The control core's inputs for this cycle (latched at this cycle's SYNC). A drive
+    /// whose TPDO did not arrive keeps its last value and is marked not fresh.
+    pub fn inputs(&mut self) -> CycleInputs {
+        self.cycle += 1;
+        let timeout = u32::from(self.plan.heartbeat_timeout_ms);
+        let cycle_ms = (self.plan.cycle_s * 1000.0).max(1e-3);
+        for i in 0..4 {
+            let l = &mut self.liveness[i];
+            l.cycles_since_heartbeat = l.cycles_since_heartbeat.saturating_add(1);
+            if f64::from(l.cycles_since_heartbeat) * cycle_ms == f64::from(timeout) + cycle_ms {
+                let node = self.plan.nodes()[i];
+                self.event(BusEvent::HeartbeatLost { node });
+            }
+        }
+        let mut fb = [AxisFeedback::default(); 3];
+        #[allow(clippy::needless_range_loop)] // five arrays indexed by drive
+        for i in 0..3 {
+            let current = if self.own_sync_heard {
+                // Exact: the newest TPDO answers the last SYNC sent.
+                self.got[i] > 0
+                    && self.answers_sync[i] == self.syncs_sent
+                    && self.syncs_heard == self.syncs_sent
+            } else {
+                self.counted_current(i)
+            };
+            self.got[i] = 0;
+            if current {
+                self.misses[i] = 0;
+            } else {
+                self.misses[i] += 1;
+                let node = self.plan.drives[i].node;
+                let in_a_row = self.misses[i];
+                if in_a_row <= self.plan.tpdo_misses_to_fault {
+                    self.event(BusEvent::TpdoMissing { node, in_a_row });
+                }
+            }
+            let state = PowerState::from_statusword(self.statusword[i]);
+            fb[i] = AxisFeedback {
+                position_counts: self.position[i],
+                enabled: state == PowerState::OperationEnabled,
+                fault: matches!(state, PowerState::Fault | PowerState::FaultReactionActive),
+                // The control core counts the misses and faults after the configured number.
+                fresh: current,
+            };
+            self.fresh[i] = false;
+        }
+        let io_alive =
+            u64::from(self.liveness[3].cycles_since_heartbeat) as f64 * cycle_ms <= f64::from(timeout);
+        CycleInputs {
+            io_valid: self.inputs_seen && io_alive,
+            spindle_counts: self.spindle,
+            table: fb[0],
+            x: fb[1],
+            y: fb[2],
+            digital_inputs: u32::from(self.inputs[0])
+                | u32::from(self.inputs[1]) << 8
+                | u32::from(self.inputs[2]) << 16,
+        }
+    }
+
+    /// Sends this cycle's targets, event-driven controlwords and outputs, the heartbeat
+    /// when due, and the SYNC that applies them. Never blocks; a full queue is reported.
+    pub fn transmit(&mut self, out: &CycleOutputs, bus: &mut dyn CanBus) -> Result<(), BusError> {
+        let spacing = (f64::from(self.plan.event_rpdo_spacing_ms) / 1000.0 / self.plan.cycle_s).ceil() as u32;
+        let mut first_error = None;
+        let send = |bus: &mut dyn CanBus, f: &Frame, err: &mut Option<BusError>| {
+            if let Err(e) = bus.send(f)
+                && err.is_none()
+            {
+                *err = Some(e);
+            }
+        };
+        let targets = [
+            (out.table_target_counts, out.table_velocity_counts_s),
+            (out.x_target_counts, out.x_velocity_counts_s),
+            (out.y_target_counts, out.y_velocity_counts_s),
+        ];
+        for (i, (target, velocity)) in targets.into_iter().enumerate() {
+            let d = self.plan.drives[i];
+            let f = d
+                .target
+                .pack(&[target as u32 as u64, velocity.round() as i32 as u32 as u64]);
+            send(bus, &f, &mut first_error);
+            let state = PowerState::from_statusword(self.statusword[i]);
+            let cw = if self.quick_stop && state == PowerState::OperationEnabled {
+                cia402::command::QUICK_STOP
+            } else {
+                cia402::next_controlword(state, out.drives_enabled && !self.quick_stop)
+            };
+            self.controlword_age[i] = self.controlword_age[i].saturating_add(1);
+            let changed = self.last_controlword[i] != Some(cw);
+            // Steps towards "enabled" at most once per spacing (the bus-load figure counts
+            // on it); disabling and quick stop go at once. An unanswered step is repeated.
+            let stopping = cw == cia402::command::DISABLE_VOLTAGE || cw == cia402::command::QUICK_STOP;
+            let due = self.controlword_age[i] >= spacing;
+            if (changed && (due || stopping)) || self.controlword_age[i] >= spacing * 4 {
+                send(bus, &d.control.pack(&[u64::from(cw)]), &mut first_error);
+                self.last_controlword[i] = Some(cw);
+                self.controlword_age[i] = 0;
+            }
+        }
+        let io = self.plan.io;
+        let dout = [out.digital_outputs as u8, (out.digital_outputs >> 8) as u8];
+        self.outputs_age = self.outputs_age.saturating_add(1);
+        // Outputs switching on wait for the spacing; switching off (PC-OK, spindle, coolant)
+        // goes at once.
+        let only_off = self
+            .last_outputs
+            .is_some_and(|old| (dout[0] & !old[0]) | (dout[1] & !old[1]) == 0);
+        if self.last_outputs != Some(dout) && (self.outputs_age >= spacing || only_off) {
+            send(
+                bus,
+                &io.outputs.pack(&[u64::from(dout[0]), u64::from(dout[1])]),
+                &mut first_error,
+            );
+            self.last_outputs = Some(dout);
+            self.outputs_age = 0;
+        }
+        let analog = self.plan.analog_counts(out.spindle_analog_v);
+        self.analog_age = self.analog_age.saturating_add(1);
+        if self.last_analog != Some(analog) && self.analog_age >= spacing {
+            let mut values = [0u64; 2];
+            values[usize::from(self.plan.spindle_analog_channel.min(1))] = analog as u16 as u64;
+            send(bus, &io.analog.pack(&values), &mut first_error);
+            self.last_analog = Some(analog);
+            self.analog_age = 0;
+        }
+        let hb_cycles = (f64::from(self.plan.heartbeat_ms) / 1000.0 / self.plan.cycle_s)
+            .round()
+            .max(1.0) as u64;
+        if self.cycle.is_multiple_of(hb_cycles) {
+            send(
+                bus,
+                &NmtState::Operational.heartbeat(MASTER_NODE),
+                &mut first_error,
+            );
+        }
+        let sync = bus.send(&Frame::new(SYNC, &[]));
+        if sync.is_ok() {
+            self.syncs_sent += 1;
+            // Each drive owes this SYNC's TPDO (bounded: a silent node is a fault long before).
+            for o in &mut self.owed {
+                *o = (*o + 1).min(1_000);
+            }
+        } else if let Err(e) = sync
+            && first_error.is_none()
+        {
+            first_error = Some(e);
+        }
+        match first_error {
+            Some(e) => {
+                self.event(BusEvent::SendFailed(e));
+                Err(e)
+            }
+            None => Ok(()),
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests;

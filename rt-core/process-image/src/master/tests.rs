@@ -1,0 +1,136 @@
+//! Which SYNC a drive's TPDO answers: counted (SYNCs owed) or heard (own SYNC echoed in
+//! bus order), and what the control core is told about it.
+
+use super::*;
+use hob_can_transport::MemoryBus;
+use hob_control::CycleOutputs;
+use hob_setup::config::machine::shipped_for_tests;
+
+/// A master on one end of an in-memory bus, the drives' side on the other.
+fn master(echo: bool) -> (Cyclic, MemoryBus, MemoryBus) {
+    let plan = BusPlan::from_machine(&shipped_for_tests());
+    let mut m = Cyclic::new(plan);
+    let mut ours = MemoryBus::new(4096);
+    let nodes = ours.endpoint();
+    if echo {
+        assert!(m.hear_own_sync(&mut ours));
+    }
+    (m, ours, nodes)
+}
+
+/// Every drive answers with `position` (the spindle counts the same).
+fn answer(m: &Cyclic, nodes: &mut MemoryBus, position: i32) {
+    for d in m.plan().drives {
+        let f = d.actual.pack(&[position as u32 as u64, position as u32 as u64]);
+        nodes.send(&f).unwrap();
+    }
+}
+
+/// The first half of the master's cycle: drain, inputs.
+fn drain(m: &mut Cyclic, ours: &mut MemoryBus) -> CycleInputs {
+    while let Some(f) = ours.try_recv().unwrap() {
+        m.receive(&f);
+    }
+    m.inputs()
+}
+
+/// One cycle of the master: drain, inputs, transmit (targets, then SYNC).
+fn cycle(m: &mut Cyclic, ours: &mut MemoryBus) -> CycleInputs {
+    let inputs = drain(m, ours);
+    m.transmit(&CycleOutputs::default(), ours).unwrap();
+    inputs
+}
+
+/// The drives' side reads what the master sent; true if a SYNC was among it.
+fn heard_sync(nodes: &mut MemoryBus) -> bool {
+    let mut sync = false;
+    while let Some(f) = nodes.try_recv().unwrap() {
+        sync |= f.id == SYNC;
+    }
+    sync
+}
+
+#[test]
+fn answers_before_the_next_cycle_are_current_either_way() {
+    for echo in [false, true] {
+        let (mut m, mut ours, mut nodes) = master(echo);
+        cycle(&mut m, &mut ours);
+        for k in 1..50 {
+            assert!(heard_sync(&mut nodes));
+            answer(&m, &mut nodes, k);
+            let i = cycle(&mut m, &mut ours);
+            assert!(i.table.fresh && i.x.fresh && i.y.fresh, "echo {echo}, cycle {k}");
+            assert_eq!(i.table.position_counts, k);
+            assert_eq!(i.spindle_counts, k);
+        }
+    }
+}
+
+/// A node whose answers come every cycle just after the master has read its inputs (a
+/// slow drive, or a simulated machine on an emulated CPU), before the next SYNC: counting
+/// forgives the steady lag after two cycles and takes the previous SYNC's values for this
+/// cycle's (one period of motion wrong); hearing the SYNCs never does.
+#[test]
+fn a_node_one_cycle_late_is_never_current_when_the_syncs_are_heard() {
+    for echo in [false, true] {
+        let (mut m, mut ours, mut nodes) = master(echo);
+        cycle(&mut m, &mut ours);
+        let mut current = 0;
+        for k in 1..50 {
+            let i = drain(&mut m, &mut ours);
+            if i.table.fresh {
+                current += 1;
+                // Taken as this cycle's: it answers the SYNC before the last one.
+                assert_eq!(i.table.position_counts, k - 1);
+            }
+            // The answer to the last SYNC arrives now, before the next SYNC goes out.
+            assert!(heard_sync(&mut nodes));
+            answer(&m, &mut nodes, k);
+            m.transmit(&CycleOutputs::default(), &mut ours).unwrap();
+        }
+        if echo {
+            assert_eq!(current, 0, "a late answer was taken for this cycle's");
+        } else {
+            assert!(current > 40, "counting forgives a steady lag ({current})");
+        }
+    }
+}
+
+#[test]
+fn a_lost_answer_costs_one_cycle_when_the_syncs_are_heard() {
+    let (mut m, mut ours, mut nodes) = master(true);
+    cycle(&mut m, &mut ours);
+    let mut fresh = Vec::new();
+    for k in 1..20 {
+        assert!(heard_sync(&mut nodes));
+        if k != 7 {
+            answer(&m, &mut nodes, k);
+        }
+        fresh.push(cycle(&mut m, &mut ours).table.fresh);
+    }
+    let missed: Vec<usize> = fresh
+        .iter()
+        .enumerate()
+        .filter(|(_, f)| !**f)
+        .map(|(i, _)| i + 1)
+        .collect();
+    assert_eq!(missed, vec![7]);
+}
+
+#[test]
+fn a_burst_of_late_answers_is_not_current_until_the_last_sync_is_answered() {
+    let (mut m, mut ours, mut nodes) = master(true);
+    cycle(&mut m, &mut ours);
+    assert!(heard_sync(&mut nodes));
+    answer(&m, &mut nodes, 1);
+    assert!(cycle(&mut m, &mut ours).table.fresh);
+    // SYNC 2 and 3 go out unanswered; then both answers arrive after SYNC 3.
+    assert!(heard_sync(&mut nodes));
+    assert!(!cycle(&mut m, &mut ours).table.fresh);
+    assert!(heard_sync(&mut nodes));
+    answer(&m, &mut nodes, 2);
+    answer(&m, &mut nodes, 3);
+    let i = cycle(&mut m, &mut ours);
+    assert!(i.table.fresh);
+    assert_eq!(i.table.position_counts, 3);
+}

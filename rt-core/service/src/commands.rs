@@ -1,0 +1,199 @@
+//! `hob-rt`'s command thread: the server of the `command` service. It does the work that
+//! may allocate (parsing and checking a program file against this machine's
+//! configuration), then hands the typed command to the loop through a bounded mailbox and
+//! answers with the loop's verdict. The loop checks every command against the machine
+//! state; a refusal changes nothing.
+//!
+//! The mailboxes are std's bounded channels used with `try_send`/`try_recv` only on the
+//! loop's side, and this thread polls instead of parking: no thread ever waits on them,
+//! so the loop's calls never lock nor wake anybody (no syscall).
+
+use hob_control::Command;
+use hob_control::fault::Refusal;
+use hob_control::program::CycleProgram;
+use hob_ipc::codec;
+use hob_ipc::{CommandRequest, CommandResponse, command};
+use hob_setup::config::machine::MachineConfig;
+use hob_setup::config::{Problems, parse_toml};
+use hob_setup::job::Program;
+use std::path::Path;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::mpsc::{Receiver, SyncSender, TryRecvError};
+use std::time::{Duration, Instant};
+
+/// What the command thread hands to the loop. Not boxed: the loop would free the box,
+/// a heap operation inside the cycle; the channel's slot holds it inline instead.
+#[derive(Debug, Clone, Copy)]
+#[allow(clippy::large_enum_variant)]
+pub enum Mail {
+    Load(CycleProgram),
+    Command(Command),
+}
+
+/// The loop's verdict.
+pub type Verdict = Result<(), Refusal>;
+
+/// How long a request may wait for the loop (it takes one per cycle).
+const LOOP_ANSWER: Duration = Duration::from_millis(500);
+
+/// Checks a program file's text on this machine: the cycle program, or the problems
+/// (file, line, key, limit) as text.
+pub fn build_program(name: &str, text: &str, machine: &MachineConfig) -> Result<CycleProgram, String> {
+    let path = Path::new(name);
+    let program: Program = parse_toml(path, text).map_err(|e| e.to_string())?;
+    let mut problems = Problems::new();
+    match CycleProgram::build(&program, machine, &mut problems) {
+        Some(c) => Ok(c),
+        None => Err(problems
+            .into_result(path, text)
+            .err()
+            .map_or_else(|| "refused".into(), |e| e.to_string())),
+    }
+}
+
+/// Turns a request into mail for the loop, or the reason it is malformed.
+pub fn to_mail(req: &CommandRequest, machine: &MachineConfig) -> Result<Mail, String> {
+    if req.command == command::LOAD_PROGRAM {
+        return build_program(&req.name(), &req.text(), machine).map(Mail::Load);
+    }
+    codec::command_from_code(req.command, req.single, req.axis, req.value)
+        .map(Mail::Command)
+        .ok_or_else(|| format!("unknown command {} (axis code {})", req.command, req.axis))
+}
+
+/// The loop's side of the mailboxes.
+#[derive(Debug)]
+pub struct LoopMailbox {
+    pub requests: Receiver<Mail>,
+    pub verdicts: SyncSender<Verdict>,
+}
+
+/// The command thread's side.
+#[derive(Debug)]
+pub struct ThreadMailbox {
+    requests: SyncSender<Mail>,
+    verdicts: Receiver<Verdict>,
+}
+
+pub fn mailboxes() -> (ThreadMailbox, LoopMailbox) {
+    let (rq_tx, rq_rx) = std::sync::mpsc::sync_channel(1);
+    let (v_tx, v_rx) = std::sync::mpsc::sync_channel(1);
+    (
+        ThreadMailbox {
+            requests: rq_tx,
+            verdicts: v_rx,
+        },
+        LoopMailbox {
+            requests: rq_rx,
+            verdicts: v_tx,
+        },
+    )
+}
+
+impl ThreadMailbox {
+    /// Hands `mail` to the loop and polls for its verdict.
+    pub fn ask(&self, mail: Mail) -> Result<Verdict, String> {
+        // A verdict left over from a request that timed out.
+        while self.verdicts.try_recv().is_ok() {}
+        self.requests
+            .try_send(mail)
+            .map_err(|_| "the loop is not taking commands".to_string())?;
+        let end = Instant::now() + LOOP_ANSWER;
+        loop {
+            match self.verdicts.try_recv() {
+                Ok(v) => return Ok(v),
+                Err(TryRecvError::Disconnected) => return Err("the loop has stopped".into()),
+                Err(TryRecvError::Empty) if Instant::now() >= end => {
+                    return Err("the loop did not answer in time".into());
+                }
+                Err(TryRecvError::Empty) => std::thread::sleep(Duration::from_micros(500)),
+            }
+        }
+    }
+}
+
+/// The answer to one request.
+pub fn answer(req: &CommandRequest, machine: &MachineConfig, mailbox: &ThreadMailbox) -> CommandResponse {
+    let what = codec::command_name(req.command);
+    let mail = match to_mail(req, machine) {
+        Ok(m) => m,
+        Err(text) => return CommandResponse::new(false, 0, &format!("{what} refused: {text}")),
+    };
+    match mailbox.ask(mail) {
+        Ok(Ok(())) => {
+            let text = match mail {
+                Mail::Load(p) => format!("loaded {} ({} passes)", req.name(), p.passes().len()),
+                Mail::Command(_) => format!("{what}: accepted"),
+            };
+            CommandResponse::new(true, 0, &text)
+        }
+        Ok(Err(r)) => CommandResponse::new(
+            false,
+            codec::refusal_code(r),
+            &format!("{what} refused: {}", codec::refusal_text(r)),
+        ),
+        Err(text) => CommandResponse::new(false, 0, &format!("{what} not done: {text}")),
+    }
+}
+
+/// Serves the `command` service until `stop`; `ready` is called once the server exists.
+pub fn serve(
+    machine: &MachineConfig,
+    mailbox: &ThreadMailbox,
+    stop: &AtomicBool,
+    ready: impl FnOnce(),
+) -> Result<(), hob_ipc::BusError> {
+    let node = hob_ipc::node("hob-rt-commands")?;
+    let server = hob_ipc::command_server(&node)?;
+    ready();
+    while !stop.load(Ordering::Relaxed) {
+        match server.receive() {
+            Ok(Some(active)) => {
+                let response = answer(active.payload(), machine, mailbox);
+                let _ = active.send_copy(response);
+            }
+            Ok(None) => std::thread::sleep(Duration::from_millis(2)),
+            Err(e) => return Err(hob_ipc::BusError(format!("command server: {e:?}"))),
+        }
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use hob_setup::config::machine::shipped_for_tests;
+
+    #[test]
+    fn a_program_that_fails_its_check_is_refused_with_the_key() {
+        let m = shipped_for_tests();
+        let text = std::fs::read_to_string(
+            Path::new(env!("CARGO_MANIFEST_DIR")).join("../../config/programs/spur-z17-m5.toml"),
+        )
+        .unwrap();
+        assert!(build_program("spur.toml", &text, &m).is_ok());
+        let bad = text.replacen("teeth = 17", "teeth = 2", 1);
+        assert_ne!(bad, text, "the sample program changed: adapt the test");
+        let e = build_program("spur.toml", &bad, &m).unwrap_err();
+        assert!(e.contains("teeth"), "{e}");
+        let e = build_program("x.toml", "[nonsense]\n", &m).unwrap_err();
+        assert!(e.contains("x.toml"), "{e}");
+    }
+
+    #[test]
+    fn a_loop_that_does_not_answer_is_reported() {
+        let (thread, _loop) = mailboxes();
+        let e = thread.ask(Mail::Command(Command::Stop)).unwrap_err();
+        assert!(e.contains("did not answer"), "{e}");
+    }
+
+    #[test]
+    fn unknown_commands_and_axes_are_malformed() {
+        let m = shipped_for_tests();
+        let mut r = CommandRequest::new(99);
+        assert!(to_mail(&r, &m).is_err());
+        r = CommandRequest::new(command::JOG);
+        r.axis = 7;
+        assert!(to_mail(&r, &m).unwrap_err().contains("axis"));
+    }
+}

@@ -1,0 +1,261 @@
+//! The 1 kHz loop of `hob-rt`. Each cycle, at its absolute deadline on CLOCK_MONOTONIC:
+//! drain the received frames, take at most one command, run the control step, send the
+//! PDOs and SYNC, publish the state sample and the events, record the timing.
+//!
+//! Nothing here allocates, locks, blocks (besides the deadline sleep) or logs: the
+//! publishers write into preallocated shared memory and never wait for a subscriber
+//! (a slow one loses its oldest samples, the loop never notices).
+
+use crate::commands::{LoopMailbox, Mail};
+use crate::stats::LoopTiming;
+use hob_canopen::bus::CanBus;
+use hob_canopen::emcy::emcy_text;
+use hob_control::{Controller, CycleOutputs, State};
+use hob_ipc::codec;
+use hob_ipc::iceoryx2::port::publisher::Publisher;
+use hob_ipc::{EVENT_TEXT_BYTES, EventSample, StateSample, Svc, event_kind};
+use hob_process_image::master::{BUS_EVENTS, BusEvent, Cyclic};
+use hob_rt_os::alloc_guard;
+use hob_rt_os::{now_ns, sleep_until_ns};
+use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
+
+/// Cycles between two hand-overs of the timing histograms to the stats thread.
+pub const TIMING_HANDOVER_CYCLES: u64 = 500;
+/// After a termination request, how long the loop keeps cycling for the controlled stop.
+pub const STOP_GRACE_S: f64 = 60.0;
+
+/// Counters shared with the stats thread (atomics, written by the loop only).
+#[derive(Debug, Default)]
+pub struct LoopCounters {
+    pub cycle: AtomicU64,
+    pub overruns: AtomicU64,
+    pub tx_errors: AtomicU64,
+}
+
+/// Writes formatted text into a fixed buffer (cut when full), allocation-free.
+struct FixedText<'a> {
+    buf: &'a mut [u8; EVENT_TEXT_BYTES],
+    len: usize,
+}
+
+impl std::fmt::Write for FixedText<'_> {
+    fn write_str(&mut self, s: &str) -> std::fmt::Result {
+        let room = EVENT_TEXT_BYTES - self.len;
+        let mut n = s.len().min(room);
+        while !s.is_char_boundary(n) {
+            n -= 1;
+        }
+        self.buf[self.len..self.len + n].copy_from_slice(&s.as_bytes()[..n]);
+        self.len += n;
+        Ok(())
+    }
+}
+
+/// Everything the loop owns.
+#[derive(Debug)]
+pub struct RtLoop<B: CanBus> {
+    pub controller: Controller,
+    pub cyclic: Cyclic,
+    pub bus: B,
+    pub state_pub: Publisher<Svc, StateSample, ()>,
+    pub events_pub: Publisher<Svc, EventSample, ()>,
+    pub mailbox: LoopMailbox,
+    pub timing: LoopTiming,
+    pub counters: Arc<LoopCounters>,
+    pub period_ns: u64,
+    event_seq: u64,
+    bus_events: [Option<BusEvent>; BUS_EVENTS],
+    outputs: CycleOutputs,
+}
+
+impl<B: CanBus> RtLoop<B> {
+    #[allow(clippy::too_many_arguments)]
+    pub fn new(
+        controller: Controller,
+        cyclic: Cyclic,
+        bus: B,
+        state_pub: Publisher<Svc, StateSample, ()>,
+        events_pub: Publisher<Svc, EventSample, ()>,
+        mailbox: LoopMailbox,
+        timing: LoopTiming,
+        counters: Arc<LoopCounters>,
+    ) -> Self {
+        let period_ns = (cyclic.plan().cycle_s * 1e9).round() as u64;
+        Self {
+            controller,
+            cyclic,
+            bus,
+            state_pub,
+            events_pub,
+            mailbox,
+            timing,
+            counters,
+            period_ns,
+            event_seq: 0,
+            bus_events: [None; BUS_EVENTS],
+            outputs: CycleOutputs::default(),
+        }
+    }
+
+    /// Publishes a message event (start-up and shutdown; allocation-free too).
+    pub fn message(&mut self, text: &str) {
+        let mut e = EventSample {
+            kind: event_kind::MESSAGE,
+            cycle: self.controller.status().cycle,
+            ..EventSample::default()
+        };
+        e.text_len = hob_ipc::write_text(&mut e.text, text);
+        self.publish_event(e);
+    }
+
+    fn publish_event(&mut self, mut e: EventSample) {
+        self.event_seq += 1;
+        e.seq = self.event_seq;
+        let _ = self.events_pub.send_copy(e);
+    }
+
+    fn publish_events(&mut self, cycle: u64) {
+        while let Some(ev) = self.controller.events().pop() {
+            let s = codec::event_sample(0, &ev);
+            self.publish_event(s);
+        }
+        let n = self.cyclic.take_events(&mut self.bus_events);
+        for i in 0..n {
+            let Some(be) = self.bus_events[i] else { continue };
+            let mut e = EventSample {
+                kind: event_kind::BUS,
+                cycle,
+                ..EventSample::default()
+            };
+            let mut w = FixedText {
+                buf: &mut e.text,
+                len: 0,
+            };
+            use std::fmt::Write as _;
+            let _ = match be {
+                BusEvent::Emcy(m) => {
+                    e.a = u32::from(m.node);
+                    e.b = 1;
+                    e.value = f64::from(m.code);
+                    write!(w, "EMCY node {} 0x{:04X}: {}", m.node, m.code, emcy_text(m.code))
+                }
+                BusEvent::HeartbeatLost { node } => {
+                    e.a = u32::from(node);
+                    e.b = 2;
+                    write!(w, "heartbeat of node {node} lost")
+                }
+                BusEvent::TpdoMissing { node, in_a_row } => {
+                    e.a = u32::from(node);
+                    e.b = 3;
+                    e.value = f64::from(in_a_row);
+                    write!(w, "TPDO of node {node} missing {in_a_row} cycles in a row")
+                }
+                BusEvent::SendFailed(err) => {
+                    e.b = 4;
+                    write!(w, "CAN send failed: {err}")
+                }
+            };
+            e.text_len = w.len as u32;
+            self.publish_event(e);
+        }
+    }
+
+    /// One cycle, woken at `wake_ns` for the deadline `deadline_ns`; returns the
+    /// sequencer's state after it.
+    pub fn cycle(&mut self, deadline_ns: u64, wake_ns: u64) -> State {
+        while let Ok(Some(f)) = self.bus.try_recv() {
+            self.cyclic.receive(&f);
+        }
+        if let Ok(mail) = self.mailbox.requests.try_recv() {
+            let verdict = match mail {
+                Mail::Load(p) => self.controller.load(p),
+                Mail::Command(c) => self.controller.command(c),
+            };
+            let _ = self.mailbox.verdicts.try_send(verdict);
+        }
+        let inputs = self.cyclic.inputs();
+        self.outputs = self.controller.step(&inputs);
+        let sync_ns = now_ns();
+        if self.cyclic.transmit(&self.outputs, &mut self.bus).is_err() {
+            self.counters.tx_errors.fetch_add(1, Ordering::Relaxed);
+        }
+        let status = self.controller.status();
+        let (passes, loaded, pitch_radius_mm, normal_module_mm) =
+            self.controller.program().map_or((0, false, 0.0, 0.0), |p| {
+                (
+                    p.passes().len() as u32,
+                    true,
+                    p.pitch_diameter_mm / 2.0,
+                    p.normal_module_mm,
+                )
+            });
+        let compute_ns = now_ns().saturating_sub(wake_ns);
+        let wake_latency_ns = wake_ns.saturating_sub(deadline_ns);
+        let mut s = StateSample::default();
+        codec::fill_state(&mut s, &status, passes, loaded);
+        s.sync_time_ns = sync_ns;
+        s.digital_inputs = inputs.digital_inputs;
+        s.digital_outputs = self.outputs.digital_outputs;
+        s.io_valid = u8::from(inputs.io_valid);
+        s.wake_latency_ns = wake_latency_ns.min(u64::from(u32::MAX)) as u32;
+        s.compute_ns = compute_ns.min(u64::from(u32::MAX)) as u32;
+        s.overruns = self.counters.overruns.load(Ordering::Relaxed);
+        s.events_lost = self.controller.events().lost();
+        s.pitch_radius_mm = pitch_radius_mm;
+        s.normal_module_mm = normal_module_mm;
+        if let Ok(sample) = self.state_pub.loan_uninit() {
+            let _ = sample.write_payload(s).send();
+        }
+        self.publish_events(status.cycle);
+        self.counters.cycle.store(status.cycle, Ordering::Relaxed);
+        self.timing
+            .current
+            .record(wake_latency_ns, now_ns().saturating_sub(wake_ns));
+        if status.cycle.is_multiple_of(TIMING_HANDOVER_CYCLES) {
+            self.timing.hand_over();
+        }
+        status.state
+    }
+
+    /// Runs until `stop`; then stops a running cycle (out of the cut, gearbox engaged until
+    /// X is clear) and returns when the machine is at rest or after [`STOP_GRACE_S`].
+    /// `max_cycles` ends the run earlier (benchmarks).
+    pub fn run(&mut self, stop: &AtomicBool, max_cycles: Option<u64>) {
+        let mut deadline = now_ns() + self.period_ns;
+        let mut stopping_since: Option<u64> = None;
+        let mut n = 0u64;
+        loop {
+            sleep_until_ns(deadline);
+            alloc_guard::in_cycle(true);
+            let wake = now_ns();
+            let state = self.cycle(deadline, wake);
+            n += 1;
+            alloc_guard::in_cycle(false);
+            let at_rest = matches!(state, State::Init | State::Idle | State::Faulted);
+            if stop.load(Ordering::Relaxed) && stopping_since.is_none() {
+                stopping_since = Some(n);
+                if !at_rest {
+                    let _ = self.controller.command(hob_control::Command::Stop);
+                }
+            }
+            if let Some(since) = stopping_since {
+                let waited_s = (n - since) as f64 * self.period_ns as f64 * 1e-9;
+                if at_rest || waited_s > STOP_GRACE_S {
+                    break;
+                }
+            }
+            if max_cycles.is_some_and(|m| n >= m) {
+                break;
+            }
+            deadline += self.period_ns;
+            let now = now_ns();
+            if now >= deadline {
+                // The next deadline has passed already: count it and keep the phase.
+                let missed = (now - deadline) / self.period_ns + 1;
+                self.counters.overruns.fetch_add(missed, Ordering::Relaxed);
+                deadline += missed * self.period_ns;
+            }
+        }
+    }
+}

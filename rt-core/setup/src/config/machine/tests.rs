@@ -1,0 +1,132 @@
+use super::*;
+use crate::config::parse_toml;
+use std::path::PathBuf;
+
+fn shipped_path() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../../config/machine.toml")
+}
+
+fn shipped_src() -> String {
+    std::fs::read_to_string(shipped_path()).expect("shipped machine.toml")
+}
+
+/// Loads `src` with its validation, as `MachineConfig::load` does.
+fn load_src(src: &str) -> Result<MachineConfig, LoadError> {
+    let file = Path::new("machine.toml");
+    let config: MachineConfig = parse_toml(file, src)?;
+    let mut p = Problems::new();
+    config.validate(&mut p);
+    p.into_result(file, src)?;
+    Ok(config)
+}
+
+#[test]
+fn the_shipped_configuration_is_the_thesis_machine() {
+    let m = MachineConfig::load(&shipped_path()).expect("valid");
+    assert_eq!(m.spindle.encoder_counts_per_rev, 10_000);
+    assert!((m.y.counts_per_mm() - 3000.0).abs() < 1e-12);
+    assert!((m.x.counts_per_mm() - 3000.0).abs() < 1e-12);
+    // 750 000 counts per table revolution, 1.728 arcsec per count.
+    assert!((m.table.counts_per_deg() * 360.0 - 750_000.0).abs() < 1e-9);
+    assert!((3600.0 / m.table.counts_per_deg() - 1.728).abs() < 1e-12);
+}
+
+#[test]
+fn thesis_servo_motor_speeds() {
+    let m = MachineConfig::load(&shipped_path()).expect("valid");
+    // Table at 14.1 rpm needs 1057.5 motor rpm (thesis eq. 4.16).
+    assert!((m.table.max_table_rpm * m.table.worm_ratio - 1057.5).abs() < 1e-9);
+    // X/Y rapid 3 m/min: screw 300 rpm, motor 900 rpm (thesis eq. 4.5).
+    assert!((m.y.motor_rpm(m.y.rapid_mm_min) - 900.0).abs() < 1e-9);
+    assert!((m.x.motor_rpm(m.x.rapid_mm_min) - 900.0).abs() < 1e-9);
+}
+
+#[test]
+fn a_bad_value_is_named_with_its_position() {
+    let src = shipped_src().replace("max_table_rpm = 14.1", "max_table_rpm = 80.0");
+    let err = load_src(&src).unwrap_err();
+    let p = &err.problems()[0];
+    assert_eq!(p.key, "table.max_table_rpm");
+    assert!(p.message.contains("6000.0 motor rpm"), "{}", p.message);
+    let line = src.lines().position(|l| l.starts_with("max_table_rpm")).unwrap() + 1;
+    assert_eq!(p.position.map(|p| p.line), Some(line));
+    assert!(
+        err.to_string()
+            .contains(&format!("machine.toml:{line}:1: table.max_table_rpm")),
+        "{err}"
+    );
+}
+
+#[test]
+fn all_problems_are_reported_at_once() {
+    let src = shipped_src()
+        .replace(
+            "screw_lead_mm = 10.0\nmotor_max_rpm = 4000.0\nsoft_limit_min_mm = 25.0",
+            "screw_lead_mm = -1.0\nmotor_max_rpm = 4000.0\nsoft_limit_min_mm = 25.0",
+        )
+        .replace("interval_travel_m = 5.0", "interval_travel_m = 0.0");
+    let err = load_src(&src).unwrap_err();
+    let keys: Vec<&str> = err.problems().iter().map(|p| p.key.as_str()).collect();
+    assert!(keys.contains(&"x.screw_lead_mm"), "{keys:?}");
+    assert!(keys.contains(&"lube.interval_travel_m"), "{keys:?}");
+}
+
+#[test]
+fn unknown_keys_are_refused_with_position() {
+    let src = shipped_src().replace("worm_ratio = 75.0", "worm_ratio = 75.0\nworm_raito = 75.0");
+    let err = load_src(&src).unwrap_err();
+    let text = err.to_string();
+    assert!(text.contains("unknown field `worm_raito`"), "{text}");
+    let line = src.lines().position(|l| l.starts_with("worm_raito")).unwrap() + 1;
+    assert!(text.contains(&format!("machine.toml:{line}:")), "{text}");
+}
+
+#[test]
+fn a_missing_key_is_refused() {
+    let src = shipped_src().replace("pressure_timeout_s = 10.0\n", "");
+    let text = load_src(&src).unwrap_err().to_string();
+    assert!(text.contains("missing field `pressure_timeout_s`"), "{text}");
+}
+
+#[test]
+fn two_signals_on_one_bit_are_refused() {
+    let src = shipped_src().replace("coolant_pump = { bit = 3,", "coolant_pump = { bit = 2,");
+    let err = load_src(&src).unwrap_err();
+    let p = &err.problems()[0];
+    assert_eq!(p.key, "io.outputs.coolant_pump.bit");
+    assert!(p.message.contains("io.outputs.lube_pump"), "{}", p.message);
+}
+
+#[test]
+fn a_bit_beyond_the_coupler_is_refused() {
+    let src = shipped_src().replace("feed_hold_button = { bit = 19,", "feed_hold_button = { bit = 24,");
+    let err = load_src(&src).unwrap_err();
+    assert_eq!(err.problems()[0].key, "io.inputs.feed_hold_button.bit");
+}
+
+#[test]
+fn duplicate_node_ids_are_refused() {
+    let src = shipped_src().replace("[io]\ncan_node_id = 5", "[io]\ncan_node_id = 3");
+    let err = load_src(&src).unwrap_err();
+    let p = &err.problems()[0];
+    assert_eq!(p.key, "io.can_node_id");
+    assert!(p.message.contains("x.can_node_id"), "{}", p.message);
+}
+
+#[test]
+fn polarity_must_be_a_named_value() {
+    let src = shipped_src().replace("encoder_polarity = \"normal\"", "encoder_polarity = \"+\"");
+    let text = load_src(&src).unwrap_err().to_string();
+    assert!(text.contains("normal") && text.contains("inverted"), "{text}");
+}
+
+#[test]
+fn an_idle_latency_request_longer_than_a_quarter_cycle_is_refused() {
+    let src = shipped_src().replace("cpu_dma_latency_us = 0", "cpu_dma_latency_us = 300");
+    let err = load_src(&src).unwrap_err();
+    let p = &err.problems()[0];
+    assert_eq!(p.key, "service.cpu_dma_latency_us");
+    assert!(p.message.contains("250"), "{}", p.message);
+    let src = shipped_src().replace("cpu_dma_latency_us = 0", "cpu_dma_latency_us = 250");
+    assert_eq!(load_src(&src).unwrap().service.cpu_dma_latency_us, 250);
+}
