@@ -13,7 +13,7 @@ use hob_control::program::CycleProgram;
 use hob_control::{Command, ControlParams, Controller, State};
 use hob_plant::config::PlantConfig;
 use hob_plant::sim::start_for;
-use hob_process_image::master::{Cyclic, boot};
+use hob_process_image::master::boot;
 use hob_process_image::plan::BusPlan;
 use hob_setup::config::Problems;
 use hob_setup::config::machine::MachineConfig;
@@ -76,7 +76,8 @@ fn bed() -> Bed {
     let vm_bus = bus.endpoint();
     let vm = VmThread::spawn(vm, vm_bus);
     let plan = BusPlan::from_machine(&m);
-    let infos = boot(&plan, &mut bus, Duration::from_millis(500)).unwrap();
+    let booted = boot(&plan, &mut bus, Duration::from_millis(500)).unwrap();
+    let infos = &booted.nodes;
     assert_eq!(infos.len(), 4);
     assert!(
         infos[..3].iter().all(|i| i.csp() && i.profile() == 402),
@@ -85,7 +86,7 @@ fn bed() -> Bed {
     assert_eq!(infos[3].profile(), 401);
     assert_eq!(infos[0].name, "hob-sim drive B (table)");
     let controller = Controller::new(ControlParams::from_machine(&m));
-    let mut master = MasterLoop::new(controller, Cyclic::new(plan), bus.clone());
+    let mut master = MasterLoop::new(controller, booted.cyclic, bus.clone());
     for _ in 0..20_000 {
         master.cycle();
         if master.controller.status().state == State::Idle {

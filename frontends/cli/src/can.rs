@@ -6,7 +6,7 @@ use hob_control::program::CycleProgram;
 use hob_control::{Command, ControlParams, Controller, State};
 use hob_process_image::capture::{check_schedule, parse_candump};
 use hob_process_image::describe::describe;
-use hob_process_image::master::{Cyclic, boot, identify, sdo_read, sdo_write};
+use hob_process_image::master::{boot, identify, sdo_read, sdo_write};
 use hob_process_image::plan::BusPlan;
 use hob_setup::config::Problems;
 use hob_setup::config::machine::MachineConfig;
@@ -402,9 +402,10 @@ pub fn run(machine: &MachineConfig, a: &RunArgs<'_>) -> Result<String, (u8, Stri
     };
     let mut bus = open(a.iface).map_err(|e| (1, e))?;
     let plan = BusPlan::from_machine(machine);
-    let infos = boot(&plan, &mut bus, Duration::from_millis(500)).map_err(|e| (1, format!("boot: {e}")))?;
+    let booted = boot(&plan, &mut bus, Duration::from_millis(500)).map_err(|e| (1, format!("boot: {e}")))?;
+    let infos = &booted.nodes;
     let mut o = String::new();
-    for i in &infos {
+    for i in infos {
         let _ = writeln!(
             o,
             "node {}: \"{}\" 0x{:08X} operational{}",
@@ -416,7 +417,7 @@ pub fn run(machine: &MachineConfig, a: &RunArgs<'_>) -> Result<String, (u8, Stri
     }
     let controller = Controller::new(ControlParams::from_machine(machine));
     let mut r = Runner {
-        m: hob_virtual_machine::runner::MasterLoop::new(controller, Cyclic::new(plan), bus),
+        m: hob_virtual_machine::runner::MasterLoop::new(controller, booted.cyclic, bus),
         states: Vec::new(),
         cycles: 0,
         max_cycles: (a.max_s / plan.cycle_s) as u64,

@@ -222,8 +222,19 @@ pub fn identify(bus: &mut dyn CanBus, node: u8, timeout: Duration) -> Result<Nod
     })
 }
 
+/// A bus that [`boot`] brought up: what each node said it is, and the cyclic exchange.
+/// Only `boot` makes one, so the cyclic exchange cannot start on a bus that was not
+/// configured (the order boot -> cycle is in the types, not in a comment).
+#[derive(Debug)]
+pub struct Booted {
+    /// The nodes in the plan's order, as identified.
+    pub nodes: Vec<NodeInfo>,
+    /// The loop's part of the master, for this plan.
+    pub cyclic: Cyclic,
+}
+
 /// Brings every node of `plan` from power-up to operational (start-up: blocks).
-pub fn boot(plan: &BusPlan, bus: &mut dyn CanBus, timeout: Duration) -> Result<Vec<NodeInfo>, BootError> {
+pub fn boot(plan: &BusPlan, bus: &mut dyn CanBus, timeout: Duration) -> Result<Booted, BootError> {
     let nodes = plan.nodes();
     bus.send(&NmtCommand::ResetCommunication.frame(0))
         .map_err(BootError::Bus)?;
@@ -288,7 +299,10 @@ pub fn boot(plan: &BusPlan, bus: &mut dyn CanBus, timeout: Duration) -> Result<V
             operational[i] = true;
         }
     }
-    Ok(infos)
+    Ok(Booted {
+        nodes: infos,
+        cyclic: Cyclic::new(*plan),
+    })
 }
 
 /// A node's liveness as the master sees it.
@@ -349,7 +363,8 @@ pub struct Cyclic {
 }
 
 impl Cyclic {
-    pub fn new(plan: BusPlan) -> Self {
+    /// Only [`boot`] (and this module's tests) make one.
+    fn new(plan: BusPlan) -> Self {
         Self {
             plan,
             position: [0; 3],

@@ -8,7 +8,7 @@
 use hob_can_transport::shm::open_bus;
 use hob_control::{ControlParams, Controller};
 use hob_ipc::StatsSample;
-use hob_process_image::master::{Cyclic, boot};
+use hob_process_image::master::boot;
 use hob_process_image::plan::BusPlan;
 use hob_rt_os as rt;
 use hob_rt_os::RtReport;
@@ -117,9 +117,9 @@ fn run(args: &Args, machine: MachineConfig) -> Result<(), (u8, String)> {
         .unwrap_or_else(|| machine.can.interface.clone());
     let mut bus = open_bus(&iface, "hob-rt-can").map_err(|e| (1, e))?;
     let plan = BusPlan::from_machine(&machine);
-    let infos = boot(&plan, &mut *bus, Duration::from_millis(500))
+    let booted = boot(&plan, &mut *bus, Duration::from_millis(500))
         .map_err(|e| (1, format!("bus boot on {iface}: {e}")))?;
-    for i in &infos {
+    for i in &booted.nodes {
         eprintln!(
             "hob-rt: node {} \"{}\" operational{}",
             i.node,
@@ -221,7 +221,7 @@ fn run(args: &Args, machine: MachineConfig) -> Result<(), (u8, String)> {
 
     let _ = rt_report.set(report.clone());
     let controller = Controller::new(ControlParams::from_machine(&machine));
-    let mut cyclic = Cyclic::new(plan);
+    let mut cyclic = booted.cyclic;
     if cyclic.hear_own_sync(&mut *bus) {
         eprintln!(
             "hob-rt: {iface} echoes our SYNCs in bus order: each TPDO is matched to the SYNC it answers"
