@@ -211,7 +211,8 @@ pub fn alarm_text(a: &AlarmCode) -> String {
     }
 }
 
-fn coupling_code(c: Coupling) -> u32 {
+/// The code of a coupling state (`StateSample::coupling`).
+pub fn coupling_code(c: Coupling) -> u32 {
     match c {
         Coupling::Disengaged => 0,
         Coupling::Engaging => 1,

@@ -12,63 +12,13 @@ use hob_control::program::CycleProgram;
 use hob_control::{
     Command, ControlParams, Controller, CycleInputs, CycleOutputs, SpindleAngleSource, State, Status,
 };
-use hob_gearing::iso1328::single_pitch_tolerance_um;
 use hob_gearing::units::arcsec_to_um_at_radius;
 use hob_setup::config::machine::MachineConfig;
 use hob_setup::planner::Plan;
 use serde::Serialize;
 
-/// Columns of `trace.csv`, in order.
-///
-/// `sync_err_arcsec` is the true table against the gearbox law for the true spindle angle
-/// and Y (empty unless the gearbox is synchronised); `work_twist_arcsec` is the work's
-/// elastic twist on the table under the cut, which no encoder sees (reported apart).
-pub const TRACE_HEADER: &str = "t_s,state,pass,spindle_deg,table_deg,table_cmd_deg,x_mm,x_cmd_mm,y_mm,y_cmd_mm,sync_err_arcsec,work_twist_arcsec";
-
-/// One trace row.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct TraceRow {
-    pub t_s: f64,
-    pub state: State,
-    pub hold: bool,
-    pub pass: u32,
-    pub spindle_deg: f64,
-    pub table_deg: f64,
-    pub table_cmd_deg: f64,
-    pub x_mm: f64,
-    pub x_cmd_mm: f64,
-    pub y_mm: f64,
-    pub y_cmd_mm: f64,
-    /// True synchronisation error while the gearbox is synchronised.
-    pub sync_err_arcsec: Option<f64>,
-    pub work_twist_arcsec: f64,
-}
-
-impl TraceRow {
-    /// The state word of the trace: `hold` overrides the state while feed hold is on.
-    pub fn state_word(&self) -> &'static str {
-        if self.hold { "hold" } else { self.state.name() }
-    }
-
-    /// The row as CSV (no newline).
-    pub fn csv(&self) -> String {
-        let err = self.sync_err_arcsec.map_or(String::new(), |e| format!("{e:.3}"));
-        format!(
-            "{:.3},{},{},{:.6},{:.6},{:.6},{:.5},{:.5},{:.5},{:.5},{err},{:.3}",
-            self.t_s,
-            self.state_word(),
-            self.pass,
-            self.spindle_deg,
-            self.table_deg,
-            self.table_cmd_deg,
-            self.x_mm,
-            self.x_cmd_mm,
-            self.y_mm,
-            self.y_cmd_mm,
-            self.work_twist_arcsec,
-        )
-    }
-}
+/// The trace format and per-pass statistics are the logger's (`hob log export|report`).
+pub use hob_logger::trace::{PassSummary, SummaryBuilder, TRACE_HEADER, TraceRow};
 
 /// Options of a run.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -93,37 +43,6 @@ impl Default for SimOptions {
             windows_off: false,
         }
     }
-}
-
-/// Synchronisation error statistics of one pass, in the cut.
-#[derive(Debug, Clone, Default, PartialEq, Serialize)]
-pub struct PassSummary {
-    pub pass: u32,
-    pub time_s: f64,
-    pub cut_time_s: f64,
-    pub samples: u64,
-    pub sync_err_rms_arcsec: f64,
-    pub sync_err_max_arcsec: f64,
-    pub sync_err_rms_um: f64,
-    pub sync_err_max_um: f64,
-    /// Mean error (a constant phase offset within the pass: no pitch error).
-    pub sync_err_mean_arcsec: f64,
-    /// Largest deviation from the pass mean.
-    pub sync_err_max_dev_arcsec: f64,
-    pub sync_err_max_dev_um: f64,
-    /// Largest elastic twist of the work on the table in the cut (machine, not control).
-    pub work_twist_max_arcsec: f64,
-    pub work_twist_max_um: f64,
-    #[serde(skip)]
-    sum: f64,
-    #[serde(skip)]
-    sum_sq: f64,
-    #[serde(skip)]
-    min: f64,
-    #[serde(skip)]
-    max: f64,
-    #[serde(skip)]
-    first_t: f64,
 }
 
 /// `summary.json`.
@@ -356,102 +275,35 @@ pub fn workpiece_for(
     }
 }
 
-/// Collects the per-pass statistics of the cut from trace rows.
-#[derive(Debug, Clone, Default)]
-pub struct SummaryBuilder {
-    passes: Vec<PassSummary>,
-    pitch_radius_mm: f64,
-    normal_module_mm: f64,
+/// Per-pass statistics of a plan's gear.
+pub fn summary_builder(plan: &Plan) -> SummaryBuilder {
+    SummaryBuilder::for_gear(plan.pitch_diameter_mm / 2.0, plan.normal_module_mm)
 }
 
-impl SummaryBuilder {
-    pub fn new(plan: &Plan) -> Self {
-        Self::for_gear(plan.pitch_diameter_mm / 2.0, plan.normal_module_mm)
-    }
-
-    /// For a gear known by its pitch radius and normal module (a recorded log).
-    pub fn for_gear(pitch_radius_mm: f64, normal_module_mm: f64) -> Self {
-        Self {
-            passes: Vec::new(),
-            pitch_radius_mm,
-            normal_module_mm,
-        }
-    }
-
-    /// The per-pass statistics, and the ISO 1328-1 grade-5 single pitch tolerance (um).
-    pub fn passes(mut self) -> (Vec<PassSummary>, f64) {
-        let r = self.pitch_radius_mm;
-        for p in &mut self.passes {
-            if p.samples == 0 {
-                continue;
-            }
-            let n = p.samples as f64;
-            let mean = p.sum / n;
-            p.sync_err_rms_arcsec = (p.sum_sq / n).sqrt();
-            p.sync_err_max_arcsec = p.max.abs().max(p.min.abs());
-            p.sync_err_mean_arcsec = mean;
-            p.sync_err_max_dev_arcsec = (p.max - mean).abs().max((p.min - mean).abs());
-            p.sync_err_rms_um = arcsec_to_um_at_radius(p.sync_err_rms_arcsec, r);
-            p.sync_err_max_um = arcsec_to_um_at_radius(p.sync_err_max_arcsec, r);
-            p.sync_err_max_dev_um = arcsec_to_um_at_radius(p.sync_err_max_dev_arcsec, r);
-            p.work_twist_max_um = arcsec_to_um_at_radius(p.work_twist_max_arcsec, r);
-        }
-        let tol = single_pitch_tolerance_um(2.0 * r, self.normal_module_mm, 5);
-        (self.passes, tol)
-    }
-
-    pub fn add(&mut self, row: &TraceRow, period_s: f64) {
-        if row.pass == 0 {
-            return;
-        }
-        let idx = row.pass as usize - 1;
-        while self.passes.len() <= idx {
-            self.passes.push(PassSummary {
-                pass: self.passes.len() as u32 + 1,
-                first_t: row.t_s,
-                min: f64::INFINITY,
-                max: f64::NEG_INFINITY,
-                ..PassSummary::default()
-            });
-        }
-        let p = &mut self.passes[idx];
-        p.time_s = row.t_s - p.first_t + period_s;
-        if row.state == State::Cut && !row.hold {
-            p.cut_time_s += period_s;
-            p.work_twist_max_arcsec = p.work_twist_max_arcsec.max(row.work_twist_arcsec.abs());
-            if let Some(e) = row.sync_err_arcsec {
-                p.samples += 1;
-                p.sum += e;
-                p.sum_sq += e * e;
-                p.min = p.min.min(e);
-                p.max = p.max.max(e);
-            }
-        }
-    }
-
-    pub fn finish(
-        self,
-        options: &SimOptions,
-        total_time_s: f64,
-        completed: bool,
-        fault: Option<String>,
-    ) -> Summary {
-        let r = self.pitch_radius_mm;
-        let (passes, tol) = self.passes();
-        let max_arcsec = passes.iter().map(|p| p.sync_err_max_arcsec).fold(0.0, f64::max);
-        Summary {
-            cross_coupling: options.cross_coupling,
-            predictor: options.angle_source == SpindleAngleSource::Predicted,
-            pitch_radius_mm: r,
-            grade5_single_pitch_um: tol,
-            bound_um: tol / 4.0,
-            max_sync_err_arcsec: max_arcsec,
-            max_sync_err_um: arcsec_to_um_at_radius(max_arcsec, r),
-            passes,
-            total_time_s,
-            completed,
-            fault,
-        }
+/// The run's `summary.json` from the per-pass statistics of its trace.
+pub fn finish_summary(
+    builder: SummaryBuilder,
+    plan_pitch_radius_mm: f64,
+    options: &SimOptions,
+    total_time_s: f64,
+    completed: bool,
+    fault: Option<String>,
+) -> Summary {
+    let r = plan_pitch_radius_mm;
+    let (passes, tol) = builder.passes();
+    let max_arcsec = passes.iter().map(|p| p.sync_err_max_arcsec).fold(0.0, f64::max);
+    Summary {
+        cross_coupling: options.cross_coupling,
+        predictor: options.angle_source == SpindleAngleSource::Predicted,
+        pitch_radius_mm: r,
+        grade5_single_pitch_um: tol,
+        bound_um: tol / 4.0,
+        max_sync_err_arcsec: max_arcsec,
+        max_sync_err_um: arcsec_to_um_at_radius(max_arcsec, r),
+        passes,
+        total_time_s,
+        completed,
+        fault,
     }
 }
 
@@ -474,7 +326,7 @@ pub fn run_program(
     let machine = &machine;
     let mut sim = Simulation::for_program(machine, plant_cfg, program, plan, job);
     sim.controller.set_angle_source(options.angle_source);
-    let mut builder = SummaryBuilder::new(plan);
+    let mut builder = summary_builder(plan);
     let period = sim.period_s;
     let mut both = |row: &TraceRow| {
         builder.add(row, period);
@@ -497,5 +349,12 @@ pub fn run_program(
     let fault = sim.controller.status().fault.map(|f| format!("{f:?}"));
     let completed = completed && fault.is_none();
     let total = sim.time_s();
-    Ok(builder.finish(options, total, completed, fault))
+    Ok(finish_summary(
+        builder,
+        plan.pitch_diameter_mm / 2.0,
+        options,
+        total,
+        completed,
+        fault,
+    ))
 }

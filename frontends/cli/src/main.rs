@@ -3,26 +3,21 @@
 //! Exit status: 0 done; 2 refused (an invalid program or machine configuration, or bad
 //! arguments: the message names the file, position, key and limit); 1 anything else.
 
-mod can;
-mod demo;
-mod doctor;
-mod log;
-mod render;
-mod service;
-mod simulate;
-
 use clap::{Parser, Subcommand};
-use hob_setup::config::LoadError;
+use hob_cli::util::{Failure, emit, load_machine, machine_path, service_result};
+use hob_cli::{can, doctor, lab, render, service};
 use hob_setup::config::machine::MachineConfig;
 use hob_setup::planner::plan_file;
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 use std::process::ExitCode;
 
-/// Default machine configuration, looked up in this order when `--machine` is not given.
-const MACHINE_DEFAULTS: [&str; 2] = ["config/machine.toml", "/etc/hob/machine.toml"];
-
 #[derive(Debug, Parser)]
-#[command(name = "hob", version, about = "hob: CNC for gear hobbing machines")]
+#[command(
+    name = "hob",
+    version,
+    about = "hob: CNC for gear hobbing machines",
+    after_help = "With the simulated machine (the sibling binary hob-lab): hob demo, hob simulate, hob can run; `hob-lab --help` for their options."
+)]
 struct Cli {
     #[command(subcommand)]
     command: Command,
@@ -30,33 +25,6 @@ struct Cli {
 
 #[derive(Debug, Subcommand)]
 enum Command {
-    /// Cut a program on the virtual machine with the real-time service, logger and
-    /// watchdog as separate processes; prints the summary, last line `log: PATH`.
-    Demo {
-        /// Program file [default: config/programs/demo-short-spur-z17-m5.toml].
-        program: Option<PathBuf>,
-        /// Machine configuration [default: config/machine.toml, then /etc/hob/machine.toml].
-        #[arg(long, value_name = "FILE")]
-        machine: Option<PathBuf>,
-        #[arg(long, value_name = "FILE", default_value = "config/plant.toml")]
-        plant: PathBuf,
-        /// CAN interface, or `shm` [default: vcan0 if it exists, else shm].
-        #[arg(long)]
-        iface: Option<String>,
-        /// Log directory [default: hob-logs/demo-UNIXTIME].
-        #[arg(long, value_name = "DIR")]
-        log: Option<PathBuf>,
-        /// No progress bar.
-        #[arg(long)]
-        quiet: bool,
-        /// Bus and watchdog timing exactly as configured (for a PREEMPT_RT PC; a virtual
-        /// machine's stalls trip them).
-        #[arg(long)]
-        strict: bool,
-        /// Without --strict: bus silence tolerated before a fault, ms.
-        #[arg(long, default_value_t = 100)]
-        tolerance_ms: u32,
-    },
     /// Is this PC ready for the 1 ms loop? RT kernel, core isolation, governor, limits,
     /// CAN interface, shared memory, clock source, a short cyclictest; the fix for each.
     Doctor {
@@ -116,39 +84,13 @@ enum Command {
         #[arg(long)]
         json: bool,
     },
-    /// Run a program against the simulated machine; write DIR/trace.csv and DIR/summary.json.
-    Simulate {
-        /// Program file (TOML).
-        program: PathBuf,
-        /// Machine configuration [default: config/machine.toml, then /etc/hob/machine.toml].
-        #[arg(long, value_name = "FILE")]
-        machine: Option<PathBuf>,
-        /// Plant (simulated machine) parameters.
-        #[arg(long, value_name = "FILE", default_value = "config/plant.toml")]
-        plant: PathBuf,
-        /// Cross-coupling compensation off.
-        #[arg(long)]
-        no_ccc: bool,
-        /// Follow the last measured spindle angle instead of the predicted one.
-        #[arg(long)]
-        no_predictor: bool,
-        /// Run the single-mode pass instead of the automatic cycle.
-        #[arg(long)]
-        single: bool,
-        /// For comparisons: synchronism windows never hold the feed or fault the cut.
-        #[arg(long)]
-        no_windows: bool,
-        /// Output directory.
-        #[arg(long, value_name = "DIR", default_value = "out/simulate")]
-        out: PathBuf,
-    },
     /// Worst-case CAN bus load per cycle of the configured PDO set; refused above the limit.
     BusLoad {
         /// Machine configuration [default: config/machine.toml, then /etc/hob/machine.toml].
         #[arg(long, value_name = "FILE")]
         machine: Option<PathBuf>,
     },
-    /// Commissioning tools for the CAN bus (scan, SDO, dump, a run over the bus).
+    /// Commissioning tools for the CAN bus (scan, SDO, dump; `can run` is in hob-lab).
     Can {
         #[command(subcommand)]
         command: CanCommand,
@@ -197,20 +139,6 @@ enum CanCommand {
         #[arg(long)]
         program: Option<PathBuf>,
     },
-    /// Boot the bus, power up, jog, and run a program over it (lockstep with the drives).
-    Run {
-        /// Program to cut after the jogs.
-        program: Option<PathBuf>,
-        /// Jog before the program: AXIS=DISTANCE (x, y in mm; b in deg). Repeatable.
-        #[arg(long, value_name = "AXIS=DISTANCE")]
-        jog: Vec<String>,
-        /// The single-mode pass instead of the automatic cycle.
-        #[arg(long)]
-        single: bool,
-        /// Give up after this much machine time, s.
-        #[arg(long, default_value_t = 600.0)]
-        max_s: f64,
-    },
 }
 
 #[derive(Debug, Subcommand)]
@@ -249,85 +177,22 @@ enum SdoOp {
     },
 }
 
-/// Why a command failed, and with which exit status.
-enum Failure {
-    Refused(LoadError),
-    Other(String),
-    /// Already reported.
-    Exit(u8),
-}
-
 fn main() -> ExitCode {
+    let args: Vec<std::ffi::OsString> = std::env::args_os().skip(1).collect();
+    if lab::is_lab_command(&args) {
+        eprintln!("hob: {}", lab::exec_lab(&args));
+        return ExitCode::FAILURE;
+    }
     let cli = Cli::parse();
     match run(cli.command) {
         Ok(()) => ExitCode::SUCCESS,
-        Err(Failure::Refused(e)) => {
-            eprintln!("hob: refused: {e}");
-            ExitCode::from(2)
-        }
-        Err(Failure::Other(e)) => {
-            eprintln!("hob: error: {e}");
-            ExitCode::FAILURE
-        }
-        Err(Failure::Exit(code)) => ExitCode::from(code),
-    }
-}
-
-fn service_result(r: Result<String, (u8, String)>) -> Result<(), Failure> {
-    match r {
-        Ok(text) => emit(&format!("{}\n", text.trim_end())),
-        Err((2, text)) => {
-            eprintln!("hob: refused: {text}");
-            Err(Failure::Exit(2))
-        }
-        Err((code, text)) => {
-            eprintln!("hob: {text}");
-            Err(Failure::Exit(code))
-        }
+        Err(f) => f.report(),
     }
 }
 
 fn run(command: Command) -> Result<(), Failure> {
     use hob_ipc::command as code;
     match command {
-        Command::Demo {
-            program,
-            machine,
-            plant,
-            iface,
-            log,
-            quiet,
-            strict,
-            tolerance_ms,
-        } => {
-            let machine_file = machine_path(machine.as_deref())?;
-            let machine = MachineConfig::load(&machine_file).map_err(Failure::Refused)?;
-            let program = program.unwrap_or_else(|| PathBuf::from(demo::DEMO_PROGRAM));
-            let args = demo::DemoArgs {
-                program: &program,
-                machine_file: &machine_file,
-                plant: &plant,
-                iface: iface.as_deref(),
-                log_dir: log.as_deref(),
-                quiet,
-                strict,
-                tolerance_ms,
-            };
-            match demo::run(&machine, &args) {
-                Ok(text) => emit(&text),
-                // A refusal (the program, the tolerance, or hob-rt refusing the load or the
-                // start): the reasons on stderr, as every refusal.
-                Err((2, text)) => {
-                    eprintln!("hob: refused: demo: {text}");
-                    Err(Failure::Exit(2))
-                }
-                Err((code, text)) => {
-                    let _ = emit(&text);
-                    eprintln!("hob: demo: {}", text.lines().next().unwrap_or("failed"));
-                    Err(Failure::Exit(code))
-                }
-            }
-        }
         Command::Doctor {
             machine,
             cyclictest_seconds,
@@ -365,7 +230,7 @@ fn run(command: Command) -> Result<(), Failure> {
                     eprintln!("hob: refused: log export: give --csv (the only format)");
                     return Err(Failure::Exit(2));
                 }
-                let text = log::export_csv(&dir).map_err(Failure::Other)?;
+                let text = hob_logger::export::export_csv(&dir).map_err(Failure::Other)?;
                 match out {
                     Some(f) => {
                         std::fs::write(&f, text).map_err(|e| Failure::Other(format!("{}: {e}", f.display())))
@@ -374,8 +239,8 @@ fn run(command: Command) -> Result<(), Failure> {
                 }
             }
             LogCommand::Report { dir } => {
-                let r = log::report(&dir).map_err(Failure::Other)?;
-                emit(&log::report_text(&dir, &r))
+                let r = hob_logger::export::report(&dir).map_err(Failure::Other)?;
+                emit(&hob_logger::export::report_text(&dir, &r))
             }
         },
         Command::Plan {
@@ -390,43 +255,6 @@ fn run(command: Command) -> Result<(), Failure> {
                 emit(&format!("{text}\n"))
             } else {
                 emit(&render::plan_text(&program, &plan))
-            }
-        }
-        Command::Simulate {
-            program,
-            machine,
-            plant,
-            no_ccc,
-            no_predictor,
-            single,
-            no_windows,
-            out,
-        } => {
-            let machine = load_machine(machine.as_deref())?;
-            let options = hob_plant::sim::SimOptions {
-                cross_coupling: !no_ccc,
-                angle_source: if no_predictor {
-                    hob_control::SpindleAngleSource::LastMeasured
-                } else {
-                    hob_control::SpindleAngleSource::Predicted
-                },
-                single,
-                windows_off: no_windows,
-                ..Default::default()
-            };
-            let args = simulate::Args {
-                program: &program,
-                plant: &plant,
-                out: &out,
-                options,
-            };
-            match simulate::run(&machine, &args) {
-                Ok(line) => emit(&line),
-                Err((true, e)) => {
-                    eprintln!("hob: refused: {e}");
-                    Err(Failure::Exit(2))
-                }
-                Err((false, e)) => Err(Failure::Other(e)),
             }
         }
         Command::BusLoad { machine } => {
@@ -457,31 +285,6 @@ fn run(command: Command) -> Result<(), Failure> {
                 }
                 CanCommand::CheckCapture { file, program } => {
                     can::check_capture(&machine, &file, program.as_deref()).map_err(|e| (1, e))
-                }
-                CanCommand::Run {
-                    program,
-                    jog,
-                    single,
-                    max_s,
-                } => {
-                    let jogs = jog
-                        .iter()
-                        .map(|j| parse_jog(j))
-                        .collect::<Result<Vec<_>, _>>()
-                        .map_err(|e| (2, e));
-                    match jogs {
-                        Ok(jogs) => can::run(
-                            &machine,
-                            &can::RunArgs {
-                                iface: &iface,
-                                program: program.as_deref(),
-                                jogs: &jogs,
-                                single,
-                                max_s,
-                            },
-                        ),
-                        Err(e) => Err(e),
-                    }
                 }
             };
             match result {
@@ -546,44 +349,4 @@ fn sdo(iface: &str, op: SdoOp, timeout: std::time::Duration) -> Result<String, (
             can::sdo_write_cmd(iface, node, index, sub as u8, &value, ty, timeout).map_err(|e| (1, e))
         }
     }
-}
-
-fn parse_jog(s: &str) -> Result<(hob_control::fault::Axis, f64), String> {
-    use hob_control::fault::Axis;
-    let (axis, d) = s
-        .split_once('=')
-        .ok_or_else(|| format!("--jog {s}: expected AXIS=DISTANCE"))?;
-    let axis = Axis::parse(axis).ok_or_else(|| format!("--jog {s}: axis {axis} is not x, y or b"))?;
-    let d: f64 = d.parse().map_err(|e| format!("--jog {s}: {e}"))?;
-    Ok((axis, d))
-}
-
-/// Writes to stdout; a reader that went away (`hob plan ... | head`) is not an error.
-fn emit(text: &str) -> Result<(), Failure> {
-    use std::io::Write;
-    let mut out = std::io::stdout().lock();
-    match out.write_all(text.as_bytes()).and_then(|()| out.flush()) {
-        Err(e) if e.kind() != std::io::ErrorKind::BrokenPipe => Err(Failure::Other(format!("stdout: {e}"))),
-        _ => Ok(()),
-    }
-}
-
-fn machine_path(given: Option<&Path>) -> Result<PathBuf, Failure> {
-    if let Some(p) = given {
-        return Ok(p.to_path_buf());
-    }
-    MACHINE_DEFAULTS
-        .iter()
-        .map(PathBuf::from)
-        .find(|p| p.exists())
-        .ok_or_else(|| {
-            Failure::Other(format!(
-                "no machine configuration: give --machine FILE or install one at {}",
-                MACHINE_DEFAULTS.join(" or ")
-            ))
-        })
-}
-
-fn load_machine(given: Option<&Path>) -> Result<MachineConfig, Failure> {
-    MachineConfig::load(&machine_path(given)?).map_err(Failure::Refused)
 }

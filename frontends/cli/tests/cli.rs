@@ -199,82 +199,6 @@ fn a_missing_file_is_refused() {
     );
 }
 
-/// The thesis gear made shallow and narrow so that the whole cycle simulates in a second.
-fn short_spur_src() -> String {
-    spur_src()
-        .replace("face_width_mm = 40.0", "face_width_mm = 4.0")
-        .replace("total_depth_mm = 11.25", "total_depth_mm = 2.0")
-        .replace("finish_allowance_mm = 0.5", "finish_allowance_mm = 0.2")
-        .replace("rough_depths_mm = [6.0, 4.75]\n", "")
-        .replace("rough_passes = 2", "rough_passes = 1")
-        .replace("feed_mm_per_rev = 2.0", "feed_mm_per_rev = 8.0")
-        .replace("feed_mm_per_rev = 1.0", "feed_mm_per_rev = 6.0")
-        .replace("single_depth_mm = 5.0", "single_depth_mm = 1.0")
-}
-
-#[test]
-fn simulate_writes_the_trace_and_the_summary() {
-    let p = temp_program("short.toml", &short_spur_src());
-    let out = std::env::temp_dir().join(format!("hob-cli-sim-{}", std::process::id()));
-    let o = hob(&["simulate", p.to_str().unwrap(), "--out", out.to_str().unwrap()]);
-    assert!(o.status.success(), "{}", text(&o.stderr));
-    let line = text(&o.stdout);
-    assert_eq!(line.lines().count(), 1, "{line}");
-    assert!(line.contains(": done in") && line.contains("bound"), "{line}");
-    let trace = std::fs::read_to_string(out.join("trace.csv")).unwrap();
-    let mut lines = trace.lines();
-    let header = lines.next().unwrap();
-    assert!(header.starts_with(
-        "t_s,state,pass,spindle_deg,table_deg,table_cmd_deg,x_mm,x_cmd_mm,y_mm,y_cmd_mm,sync_err_arcsec"
-    ));
-    let rows: Vec<Vec<&str>> = lines.map(|l| l.split(',').collect()).collect();
-    let cut: Vec<&Vec<&str>> = rows.iter().filter(|r| r[1] == "cut").collect();
-    assert!(cut.len() > 1000);
-    assert!(
-        cut.iter().all(|r| !r[10].is_empty()),
-        "sync error in every cut row"
-    );
-    // One row per 1 ms cycle.
-    let t: Vec<f64> = rows.iter().map(|r| r[0].parse().unwrap()).collect();
-    assert!(t.windows(2).all(|w| (w[1] - w[0] - 0.001).abs() < 1e-6));
-    let summary: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
-    assert_eq!(summary["completed"], true);
-    let passes = summary["passes"].as_array().unwrap();
-    assert_eq!(passes.len(), 2);
-    for p in passes {
-        for key in [
-            "sync_err_rms_arcsec",
-            "sync_err_max_arcsec",
-            "sync_err_rms_um",
-            "sync_err_max_um",
-            "time_s",
-        ] {
-            assert!(p[key].as_f64().is_some(), "{key}");
-        }
-    }
-}
-
-#[test]
-fn simulate_refuses_a_bad_plant_file() {
-    let plant = std::fs::read_to_string(root().join("config/plant.toml"))
-        .unwrap()
-        .replace("inner_step_us = 100", "inner_step_us = 5000");
-    let f = temp_program("plant.toml", &plant);
-    let o = hob(&[
-        "simulate",
-        "config/programs/spur-z17-m5.toml",
-        "--plant",
-        f.to_str().unwrap(),
-    ]);
-    assert_eq!(o.status.code(), Some(2));
-    assert!(
-        text(&o.stderr).contains("simulation.inner_step_us"),
-        "{}",
-        text(&o.stderr)
-    );
-}
-
 #[test]
 fn doctor_reports_every_check_with_a_fix_and_fails_on_a_missing_can_interface() {
     let out = hob(&["doctor", "--cyclictest-seconds", "0", "--json"]);
@@ -315,26 +239,39 @@ fn doctor_reports_every_check_with_a_fix_and_fails_on_a_missing_can_interface() 
 }
 
 #[test]
-fn demo_refuses_a_tolerance_the_machine_file_cannot_take_before_creating_anything() {
-    let log = std::env::temp_dir().join(format!("hob-cli-test-demo-refused-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&log);
-    let log_arg = log.to_str().unwrap();
-    // 600 ms: 600 TPDO misses (limit 100) and a 1200 ms watchdog deadline (limit 1000).
-    assert_refused(
-        &[
-            "demo",
-            "--tolerance-ms",
-            "600",
-            "--iface",
-            "shm",
-            "--log",
-            log_arg,
-        ],
-        &[
-            "can.tpdo_misses_to_fault",
-            "service.watchdog_deadline_ms",
-            "600 ms",
-        ],
+fn the_simulator_commands_are_handed_to_hob_lab_with_their_arguments_unchanged() {
+    // HOB_LAB names the binary `hob` runs in its place: here `echo`, which prints what it got.
+    for args in [
+        &["demo", "--quiet", "--log-dir", "/tmp/x"][..],
+        &["simulate", "p.toml", "--no-ccc"],
+        &["can", "--iface", "vcan0", "run", "p.toml", "--jog", "x=5"],
+    ] {
+        let o = Command::new(env!("CARGO_BIN_EXE_hob"))
+            .args(args)
+            .env("HOB_LAB", "/bin/echo")
+            .output()
+            .expect("run hob");
+        assert!(o.status.success(), "{}", text(&o.stderr));
+        assert_eq!(text(&o.stdout).trim_end(), args.join(" "));
+    }
+    // Without hob-lab beside it, `hob demo` says what is missing and how to get it.
+    let o = Command::new(env!("CARGO_BIN_EXE_hob"))
+        .args(["demo"])
+        .env("HOB_LAB", "/nonexistent/hob-lab")
+        .output()
+        .expect("run hob");
+    assert_eq!(o.status.code(), Some(1));
+    assert!(
+        text(&o.stderr).contains("cargo build --release -p hob-lab"),
+        "{}",
+        text(&o.stderr)
     );
-    assert!(!log.exists(), "no log directory for a refused demo");
+    // A product command is not handed over.
+    let o = Command::new(env!("CARGO_BIN_EXE_hob"))
+        .args(["check"])
+        .current_dir(root())
+        .env("HOB_LAB", "/bin/false")
+        .output()
+        .expect("run hob");
+    assert!(o.status.success(), "{}", text(&o.stderr));
 }

@@ -1,4 +1,6 @@
-//! The log format of `hob-logger` and its reader (used by `hob log export|report`).
+//! The log format of `hob-logger`, its reader, and what is made of a recording: the CSV
+//! export and the per-pass report (`hob log export|report`), in the trace format of
+//! [`trace`] that the simulated machine writes too.
 //!
 //! A log is a directory:
 //! - `state-NNNNNN.hoblog`: state samples. The first line is a header, one line of JSON
@@ -11,7 +13,9 @@
 //! - `logger.json`: written at exit and every second: samples recorded, samples lost,
 //!   events recorded, events lost, files.
 
+pub mod export;
 pub mod format;
+pub mod trace;
 pub mod writer;
 
 pub use format::{FIELDS, decode, encode, read_dir_states, record_bytes};

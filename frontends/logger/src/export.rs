@@ -1,14 +1,12 @@
-//! `hob log export|report`: reading a `hob-logger` directory.
+//! `hob log export|report`: a recorded directory as CSV, and its per-pass statistics.
 
+use crate::trace::{PassSummary, SummaryBuilder, TRACE_HEADER, TraceRow};
 use hob_control::State;
+use hob_control::egb::Coupling;
 use hob_ipc::StateSample;
 use hob_ipc::codec;
-use hob_plant::sim::{SummaryBuilder, TRACE_HEADER, TraceRow};
 use std::fmt::Write as _;
 use std::path::Path;
-
-/// Coupling code of "synchronised" (`codec::coupling_name`).
-const SYNCHRONISED: u32 = 3;
 
 /// The simulation trace's row for a recorded sample (`t0_ns`: the first sample's SYNC).
 pub fn trace_row(s: &StateSample, t0_ns: u64) -> TraceRow {
@@ -24,7 +22,8 @@ pub fn trace_row(s: &StateSample, t0_ns: u64) -> TraceRow {
         x_cmd_mm: s.x_mm.command,
         y_mm: s.y_mm.actual,
         y_cmd_mm: s.y_mm.command,
-        sync_err_arcsec: (s.coupling == SYNCHRONISED).then_some(s.sync_error_arcsec),
+        sync_err_arcsec: (s.coupling == codec::coupling_code(Coupling::Synchronised))
+            .then_some(s.sync_error_arcsec),
         work_twist_arcsec: 0.0,
     }
 }
@@ -36,7 +35,7 @@ const EXTRA: &str =
 /// The CSV text of a log: the simulation trace's columns up to `sync_err_arcsec`, then
 /// the recorded extras (the cycle counter among them).
 pub fn export_csv(dir: &Path) -> Result<String, String> {
-    let states = hob_logger::read_dir_states(dir)?;
+    let states = crate::read_dir_states(dir)?;
     let sim_cols: Vec<&str> = TRACE_HEADER.split(',').collect();
     let upto = sim_cols
         .iter()
@@ -76,7 +75,7 @@ pub struct Report {
     pub missing: u64,
     pub pitch_radius_mm: f64,
     pub grade5_single_pitch_um: f64,
-    pub passes: Vec<hob_plant::sim::PassSummary>,
+    pub passes: Vec<PassSummary>,
 }
 
 /// The loop's cycle period as recorded: SYNC time over cycles from the first sample to the
@@ -91,7 +90,7 @@ fn cycle_period_s(states: &[StateSample]) -> f64 {
 }
 
 pub fn report(dir: &Path) -> Result<Report, String> {
-    let states = hob_logger::read_dir_states(dir)?;
+    let states = crate::read_dir_states(dir)?;
     let gear = states.iter().find(|s| s.pitch_radius_mm > 0.0).ok_or_else(|| {
         format!(
             "{}: no program was loaded while recording: nothing to report per pass",

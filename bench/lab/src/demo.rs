@@ -3,8 +3,7 @@
 //! virtual CAN bus); loads the program, cuts it with a progress bar, prints the summary.
 //! The last line is `log: PATH`.
 
-use crate::log;
-use crate::service;
+use hob_cli::service;
 use hob_control::State;
 use hob_ipc::codec;
 use hob_ipc::{CommandRequest, Ports, StatsSample};
@@ -30,6 +29,20 @@ pub struct DemoArgs<'a> {
     pub strict: bool,
     /// Otherwise: how long the bus may be silent before it is a fault, ms.
     pub tolerance_ms: u32,
+}
+
+/// Where the demo keeps its logs when no `--log-dir` is given: `$XDG_STATE_HOME/hob`, else
+/// `~/.local/state/hob` (never the current directory, which may be a checkout).
+pub fn state_dir() -> Option<PathBuf> {
+    state_dir_in(|k| std::env::var_os(k))
+}
+
+fn state_dir_in(env: impl Fn(&str) -> Option<std::ffi::OsString>) -> Option<PathBuf> {
+    let nonempty = |k: &str| env(k).filter(|v| !v.is_empty()).map(PathBuf::from);
+    nonempty("XDG_STATE_HOME")
+        .filter(|p| p.is_absolute())
+        .or_else(|| nonempty("HOME").map(|h| h.join(".local/state")))
+        .map(|d| d.join("hob"))
 }
 
 fn bar(done: f64, width: usize) -> String {
@@ -78,10 +91,14 @@ pub fn run(machine: &MachineConfig, a: &DemoArgs<'_>) -> Result<String, (u8, Str
     let stamp = std::time::SystemTime::now()
         .duration_since(std::time::UNIX_EPOCH)
         .map_or(0, |d| d.as_secs());
-    let dir = a.log_dir.map_or_else(
-        || PathBuf::from(format!("hob-logs/demo-{stamp}")),
-        Path::to_path_buf,
-    );
+    let dir = match a.log_dir {
+        Some(d) => d.to_path_buf(),
+        None => state_dir()
+            .ok_or_else(|| {
+                fail("no per-user state directory (HOME and XDG_STATE_HOME unset): give --log-dir DIR".into())
+            })?
+            .join(format!("demo-{stamp}")),
+    };
     std::fs::create_dir_all(&dir).map_err(|e| fail(format!("{}: {e}", dir.display())))?;
     let say = |s: &str| {
         if !a.quiet {
@@ -227,8 +244,8 @@ pub fn run(machine: &MachineConfig, a: &DemoArgs<'_>) -> Result<String, (u8, Str
             dir.display()
         );
     }
-    match log::report(&dir) {
-        Ok(r) => o.push_str(&log::report_text(&dir, &r)),
+    match hob_logger::export::report(&dir) {
+        Ok(r) => o.push_str(&hob_logger::export::report_text(&dir, &r)),
         Err(e) => {
             let _ = writeln!(o, "no per-pass report: {e}");
         }
@@ -276,4 +293,30 @@ pub fn run(machine: &MachineConfig, a: &DemoArgs<'_>) -> Result<String, (u8, Str
         return Err((3, o));
     }
     Ok(o)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_log_goes_to_the_per_user_state_directory_never_the_current_one() {
+        let env = |pairs: &'static [(&'static str, &'static str)]| {
+            move |k: &str| pairs.iter().find(|(n, _)| *n == k).map(|(_, v)| v.into())
+        };
+        assert_eq!(
+            state_dir_in(env(&[("XDG_STATE_HOME", "/s"), ("HOME", "/h")])),
+            Some(PathBuf::from("/s/hob"))
+        );
+        assert_eq!(
+            state_dir_in(env(&[("HOME", "/h")])),
+            Some(PathBuf::from("/h/.local/state/hob"))
+        );
+        // A relative XDG_STATE_HOME is invalid (XDG base directory spec): ignored.
+        assert_eq!(
+            state_dir_in(env(&[("XDG_STATE_HOME", "rel"), ("HOME", "/h")])),
+            Some(PathBuf::from("/h/.local/state/hob"))
+        );
+        assert_eq!(state_dir_in(env(&[("XDG_STATE_HOME", "")])), None);
+    }
 }

@@ -1,0 +1,249 @@
+//! `hob-lab`: the commands that need the simulated machine, kept out of the product
+//! binaries. `hob demo`, `hob simulate` and `hob can run` run this binary with the same
+//! arguments; it can be called directly too (`hob-lab demo`).
+//!
+//! Exit status as `hob`: 0 done; 2 refused; 1 anything else.
+
+mod can_run;
+mod demo;
+mod simulate;
+
+use clap::{Parser, Subcommand};
+use hob_cli::util::{Failure, emit, load_machine, machine_path, parse_jog};
+use hob_setup::config::machine::MachineConfig;
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+#[derive(Debug, Parser)]
+#[command(
+    name = "hob",
+    bin_name = "hob",
+    version,
+    about = "hob with the simulated machine: demo, simulate, can run (binary hob-lab)"
+)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Debug, Subcommand)]
+enum Command {
+    /// Cut a program on the virtual machine with the real-time service, logger and
+    /// watchdog as separate processes; prints the summary, last line `log: PATH`.
+    Demo {
+        /// Program file [default: config/programs/demo-short-spur-z17-m5.toml].
+        program: Option<PathBuf>,
+        /// Machine configuration [default: config/machine.toml, then /etc/hob/machine.toml].
+        #[arg(long, value_name = "FILE")]
+        machine: Option<PathBuf>,
+        #[arg(long, value_name = "FILE", default_value = "config/plant.toml")]
+        plant: PathBuf,
+        /// CAN interface, or `shm` [default: vcan0 if it exists, else shm].
+        #[arg(long)]
+        iface: Option<String>,
+        /// Log directory [default: $XDG_STATE_HOME/hob/demo-UNIXTIME, else
+        /// ~/.local/state/hob/demo-UNIXTIME]: never the current directory.
+        #[arg(long = "log-dir", alias = "log", value_name = "DIR")]
+        log: Option<PathBuf>,
+        /// No progress bar.
+        #[arg(long)]
+        quiet: bool,
+        /// Bus and watchdog timing exactly as configured (for a PREEMPT_RT PC; a virtual
+        /// machine's stalls trip them).
+        #[arg(long)]
+        strict: bool,
+        /// Without --strict: bus silence tolerated before a fault, ms.
+        #[arg(long, default_value_t = 100)]
+        tolerance_ms: u32,
+    },
+    /// Run a program against the simulated machine; write DIR/trace.csv and DIR/summary.json.
+    Simulate {
+        /// Program file (TOML).
+        program: PathBuf,
+        /// Machine configuration [default: config/machine.toml, then /etc/hob/machine.toml].
+        #[arg(long, value_name = "FILE")]
+        machine: Option<PathBuf>,
+        /// Plant (simulated machine) parameters.
+        #[arg(long, value_name = "FILE", default_value = "config/plant.toml")]
+        plant: PathBuf,
+        /// Cross-coupling compensation off.
+        #[arg(long)]
+        no_ccc: bool,
+        /// Follow the last measured spindle angle instead of the predicted one.
+        #[arg(long)]
+        no_predictor: bool,
+        /// Run the single-mode pass instead of the automatic cycle.
+        #[arg(long)]
+        single: bool,
+        /// For comparisons: synchronism windows never hold the feed or fault the cut.
+        #[arg(long)]
+        no_windows: bool,
+        /// Output directory.
+        #[arg(long, value_name = "DIR", default_value = "out/simulate")]
+        out: PathBuf,
+    },
+    /// The master over SocketCAN in lockstep with the drives.
+    Can {
+        #[command(subcommand)]
+        command: CanCommand,
+        /// SocketCAN interface [default: can.interface of the machine configuration].
+        #[arg(long, global = true)]
+        iface: Option<String>,
+        /// Machine configuration [default: config/machine.toml, then /etc/hob/machine.toml].
+        #[arg(long, value_name = "FILE", global = true)]
+        machine: Option<PathBuf>,
+        /// SDO timeout per frame, ms (accepted as `hob can` does; the run uses its own).
+        #[arg(long, default_value_t = 100, global = true)]
+        timeout_ms: u64,
+    },
+}
+
+#[derive(Debug, Subcommand)]
+enum CanCommand {
+    /// Boot the bus, power up, jog, and run a program over it (lockstep with the drives).
+    Run {
+        /// Program to cut after the jogs.
+        program: Option<PathBuf>,
+        /// Jog before the program: AXIS=DISTANCE (x, y in mm; b in deg). Repeatable.
+        #[arg(long, value_name = "AXIS=DISTANCE")]
+        jog: Vec<String>,
+        /// The single-mode pass instead of the automatic cycle.
+        #[arg(long)]
+        single: bool,
+        /// Give up after this much machine time, s.
+        #[arg(long, default_value_t = 600.0)]
+        max_s: f64,
+    },
+}
+
+fn main() -> ExitCode {
+    let cli = Cli::parse();
+    match run(cli.command) {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(f) => f.report(),
+    }
+}
+
+fn run(command: Command) -> Result<(), Failure> {
+    match command {
+        Command::Demo {
+            program,
+            machine,
+            plant,
+            iface,
+            log,
+            quiet,
+            strict,
+            tolerance_ms,
+        } => {
+            let machine_file = machine_path(machine.as_deref())?;
+            let machine = MachineConfig::load(&machine_file).map_err(Failure::Refused)?;
+            let program = program.unwrap_or_else(|| PathBuf::from(demo::DEMO_PROGRAM));
+            let args = demo::DemoArgs {
+                program: &program,
+                machine_file: &machine_file,
+                plant: &plant,
+                iface: iface.as_deref(),
+                log_dir: log.as_deref(),
+                quiet,
+                strict,
+                tolerance_ms,
+            };
+            match demo::run(&machine, &args) {
+                Ok(text) => emit(&text),
+                // A refusal (the program, the tolerance, or hob-rt refusing the load or the
+                // start): the reasons on stderr, as every refusal.
+                Err((2, text)) => {
+                    eprintln!("hob: refused: demo: {text}");
+                    Err(Failure::Exit(2))
+                }
+                Err((code, text)) => {
+                    let _ = emit(&text);
+                    eprintln!("hob: demo: {}", text.lines().next().unwrap_or("failed"));
+                    Err(Failure::Exit(code))
+                }
+            }
+        }
+        Command::Simulate {
+            program,
+            machine,
+            plant,
+            no_ccc,
+            no_predictor,
+            single,
+            no_windows,
+            out,
+        } => {
+            let machine = load_machine(machine.as_deref())?;
+            let options = hob_plant::sim::SimOptions {
+                cross_coupling: !no_ccc,
+                angle_source: if no_predictor {
+                    hob_control::SpindleAngleSource::LastMeasured
+                } else {
+                    hob_control::SpindleAngleSource::Predicted
+                },
+                single,
+                windows_off: no_windows,
+                ..Default::default()
+            };
+            let args = simulate::Args {
+                program: &program,
+                plant: &plant,
+                out: &out,
+                options,
+            };
+            match simulate::run(&machine, &args) {
+                Ok(line) => emit(&line),
+                Err((true, e)) => {
+                    eprintln!("hob: refused: {e}");
+                    Err(Failure::Exit(2))
+                }
+                Err((false, e)) => Err(Failure::Other(e)),
+            }
+        }
+        Command::Can {
+            command,
+            iface,
+            machine,
+            timeout_ms: _,
+        } => {
+            let machine = load_machine(machine.as_deref())?;
+            let iface = iface.unwrap_or_else(|| machine.can.interface.clone());
+            let result = match command {
+                CanCommand::Run {
+                    program,
+                    jog,
+                    single,
+                    max_s,
+                } => {
+                    let jogs = jog
+                        .iter()
+                        .map(|j| parse_jog(j))
+                        .collect::<Result<Vec<_>, _>>()
+                        .map_err(|e| (2, e));
+                    match jogs {
+                        Ok(jogs) => can_run::run(
+                            &machine,
+                            &can_run::RunArgs {
+                                iface: &iface,
+                                program: program.as_deref(),
+                                jogs: &jogs,
+                                single,
+                                max_s,
+                            },
+                        ),
+                        Err(e) => Err(e),
+                    }
+                }
+            };
+            match result {
+                Ok(text) => emit(&text),
+                Err((code, text)) => {
+                    let _ = emit(&text);
+                    eprintln!("hob: {}", text.lines().last().unwrap_or("failed"));
+                    Err(Failure::Exit(code))
+                }
+            }
+        }
+    }
+}

@@ -1,0 +1,182 @@
+//! Runs the real `hob-lab` binary (`hob demo`, `hob simulate`): exit status, message, files.
+#![allow(clippy::unwrap_used)]
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+fn root() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../..")
+}
+
+fn hob(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_hob-lab"))
+        .args(args)
+        .current_dir(root())
+        .output()
+        .expect("run hob-lab")
+}
+
+fn text(b: &[u8]) -> String {
+    String::from_utf8_lossy(b).into_owned()
+}
+
+/// Writes `src` to a fresh temporary file.
+fn temp_program(name: &str, src: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("hob-lab-test-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).expect("temp dir");
+    let path = dir.join(name);
+    std::fs::write(&path, src).expect("write program");
+    path
+}
+
+fn toml_file(rel: &str) -> toml::Table {
+    std::fs::read_to_string(root().join(rel))
+        .unwrap()
+        .parse()
+        .unwrap()
+}
+
+/// The table holding the last part of a dotted key, and that part; panics if a part is missing.
+fn parent<'a>(t: &'a mut toml::Table, key: &'a str) -> (&'a mut toml::Table, &'a str) {
+    let mut parts: Vec<&str> = key.split('.').collect();
+    let last = parts.pop().unwrap();
+    let mut cur = t;
+    for p in parts {
+        cur = cur
+            .get_mut(p)
+            .and_then(toml::Value::as_table_mut)
+            .unwrap_or_else(|| panic!("{key}: no table {p}"));
+    }
+    (cur, last)
+}
+
+/// Sets an existing key (a key that is not there fails the test: the file changed).
+fn set(t: &mut toml::Table, key: &str, v: toml::Value) {
+    let (table, last) = parent(t, key);
+    let old = table
+        .get_mut(last)
+        .unwrap_or_else(|| panic!("{key}: no such key"));
+    *old = v;
+}
+
+fn remove(t: &mut toml::Table, key: &str) {
+    let (table, last) = parent(t, key);
+    table.remove(last).unwrap_or_else(|| panic!("{key}: no such key"));
+}
+
+fn assert_refused(args: &[&str], needles: &[&str]) {
+    let out = hob(args);
+    assert_eq!(
+        out.status.code(),
+        Some(2),
+        "stdout {} stderr {}",
+        text(&out.stdout),
+        text(&out.stderr)
+    );
+    let err = text(&out.stderr);
+    for n in needles {
+        assert!(err.contains(n), "{n:?} not in: {err}");
+    }
+}
+
+/// The thesis gear made shallow and narrow so that the whole cycle simulates in a second:
+/// typed edits of the parsed file, each key checked to exist.
+fn short_spur_src() -> String {
+    let mut t = toml_file("config/programs/spur-z17-m5.toml");
+    set(&mut t, "workpiece.face_width_mm", 4.0.into());
+    set(&mut t, "strategy.total_depth_mm", 2.0.into());
+    set(&mut t, "strategy.finish_allowance_mm", 0.2.into());
+    remove(&mut t, "strategy.rough_depths_mm");
+    set(&mut t, "strategy.rough_passes", 1.into());
+    set(&mut t, "strategy.rough.feed_mm_per_rev", 8.0.into());
+    set(&mut t, "strategy.finish.feed_mm_per_rev", 6.0.into());
+    set(&mut t, "cycle.single_depth_mm", 1.0.into());
+    toml::to_string(&t).unwrap()
+}
+
+#[test]
+fn simulate_writes_the_trace_and_the_summary() {
+    let p = temp_program("short.toml", &short_spur_src());
+    let out = std::env::temp_dir().join(format!("hob-cli-sim-{}", std::process::id()));
+    let o = hob(&["simulate", p.to_str().unwrap(), "--out", out.to_str().unwrap()]);
+    assert!(o.status.success(), "{}", text(&o.stderr));
+    let line = text(&o.stdout);
+    assert_eq!(line.lines().count(), 1, "{line}");
+    assert!(line.contains(": done in") && line.contains("bound"), "{line}");
+    let trace = std::fs::read_to_string(out.join("trace.csv")).unwrap();
+    let mut lines = trace.lines();
+    let header = lines.next().unwrap();
+    assert!(header.starts_with(
+        "t_s,state,pass,spindle_deg,table_deg,table_cmd_deg,x_mm,x_cmd_mm,y_mm,y_cmd_mm,sync_err_arcsec"
+    ));
+    let rows: Vec<Vec<&str>> = lines.map(|l| l.split(',').collect()).collect();
+    let cut: Vec<&Vec<&str>> = rows.iter().filter(|r| r[1] == "cut").collect();
+    assert!(cut.len() > 1000);
+    assert!(
+        cut.iter().all(|r| !r[10].is_empty()),
+        "sync error in every cut row"
+    );
+    // One row per 1 ms cycle.
+    let t: Vec<f64> = rows.iter().map(|r| r[0].parse().unwrap()).collect();
+    assert!(t.windows(2).all(|w| (w[1] - w[0] - 0.001).abs() < 1e-6));
+    let summary: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
+    assert_eq!(summary["completed"], true);
+    let passes = summary["passes"].as_array().unwrap();
+    assert_eq!(passes.len(), 2);
+    for p in passes {
+        for key in [
+            "sync_err_rms_arcsec",
+            "sync_err_max_arcsec",
+            "sync_err_rms_um",
+            "sync_err_max_um",
+            "time_s",
+        ] {
+            assert!(p[key].as_f64().is_some(), "{key}");
+        }
+    }
+}
+
+#[test]
+fn simulate_refuses_a_bad_plant_file() {
+    let mut plant = toml_file("config/plant.toml");
+    set(&mut plant, "simulation.inner_step_us", 5000.into());
+    let f = temp_program("plant.toml", &toml::to_string(&plant).unwrap());
+    let o = hob(&[
+        "simulate",
+        "config/programs/spur-z17-m5.toml",
+        "--plant",
+        f.to_str().unwrap(),
+    ]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(
+        text(&o.stderr).contains("simulation.inner_step_us"),
+        "{}",
+        text(&o.stderr)
+    );
+}
+
+#[test]
+fn demo_refuses_a_tolerance_the_machine_file_cannot_take_before_creating_anything() {
+    let log = std::env::temp_dir().join(format!("hob-cli-test-demo-refused-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&log);
+    let log_arg = log.to_str().unwrap();
+    // 600 ms: 600 TPDO misses (limit 100) and a 1200 ms watchdog deadline (limit 1000).
+    assert_refused(
+        &[
+            "demo",
+            "--tolerance-ms",
+            "600",
+            "--iface",
+            "shm",
+            "--log-dir",
+            log_arg,
+        ],
+        &[
+            "can.tpdo_misses_to_fault",
+            "service.watchdog_deadline_ms",
+            "600 ms",
+        ],
+    );
+    assert!(!log.exists(), "no log directory for a refused demo");
+}
