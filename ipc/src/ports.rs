@@ -10,6 +10,7 @@ use iceoryx2::port::publisher::Publisher;
 use iceoryx2::port::server::Server;
 use iceoryx2::port::subscriber::Subscriber;
 use iceoryx2::port::update_connections::UpdateConnections;
+use iceoryx2::port::{LoanError, ReceiveError, SendError};
 use iceoryx2::prelude::{NodeBuilder, NodeName, ServiceName, SignalHandlingMode};
 use std::time::{Duration, Instant};
 
@@ -270,6 +271,38 @@ pub fn command_server(
     Ok(server)
 }
 
+/// A failure of an endpoint of the virtual CAN bus in the cycle: iceoryx2's reason, a
+/// `Copy` value (nothing is formatted or allocated when it happens); [`std::fmt::Display`]
+/// words it for the operator, outside the cycle.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum CanError {
+    Send(SendError),
+    Receive(ReceiveError),
+}
+
+impl CanError {
+    /// Whether trying again later may succeed: the publisher had no sample free.
+    pub fn is_transient(self) -> bool {
+        matches!(
+            self,
+            CanError::Send(SendError::LoanError(
+                LoanError::OutOfMemory | LoanError::ExceedsMaxLoans
+            ))
+        )
+    }
+}
+
+impl std::fmt::Display for CanError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            CanError::Send(e) => write!(f, "virtual CAN send: {e:?}"),
+            CanError::Receive(e) => write!(f, "virtual CAN receive: {e:?}"),
+        }
+    }
+}
+
+impl std::error::Error for CanError {}
+
 /// One endpoint of the shared-memory virtual CAN bus: every frame published reaches every
 /// other endpoint; an endpoint never receives its own frames. Used where the kernel has
 /// no CAN (no vcan): the same CANopen code runs on top of it.
@@ -312,8 +345,9 @@ pub fn open_can_port(name: &str) -> Result<CanPort, BusError> {
 }
 
 impl CanPort {
-    /// Publishes one frame; never blocks (a slow endpoint loses its oldest frames).
-    pub fn send(&self, id: u16, data: &[u8]) -> Result<(), BusError> {
+    /// Publishes one frame; never blocks (a slow endpoint loses its oldest frames). Runs in
+    /// the cycle: a failure is a [`CanError`], copied, nothing allocated.
+    pub fn send(&self, id: u16, data: &[u8]) -> Result<(), CanError> {
         let len = data.len().min(8);
         let mut d = [0u8; 8];
         d[..len].copy_from_slice(&data[..len]);
@@ -325,20 +359,23 @@ impl CanPort {
             _pad: [0; 5],
             data: d,
         };
-        self.publisher
-            .send_copy(s)
-            .map(|_| ())
-            .map_err(|_| BusError("virtual CAN send".into()))
+        self.publisher.send_copy(s).map(|_| ()).map_err(Self::send_error)
     }
 
-    /// The next frame from another endpoint, if one is waiting.
-    pub fn try_recv(&self) -> Result<Option<CanFrameSample>, BusError> {
+    /// What a failed send reports (in the cycle): iceoryx2's reason, copied; no text.
+    pub fn send_error(e: SendError) -> CanError {
+        CanError::Send(e)
+    }
+
+    /// The next frame from another endpoint, if one is waiting (in the cycle: a failure is
+    /// a [`CanError`]).
+    pub fn try_recv(&self) -> Result<Option<CanFrameSample>, CanError> {
         loop {
             match self.subscriber.receive() {
                 Ok(Some(s)) if s.origin == self.origin => continue,
                 Ok(Some(s)) => return Ok(Some(*s)),
                 Ok(None) => return Ok(None),
-                Err(_) => return Err(BusError("virtual CAN receive".into())),
+                Err(e) => return Err(CanError::Receive(e)),
             }
         }
     }

@@ -30,7 +30,14 @@ impl CanBus for ShmCan {
     fn send(&mut self, f: &Frame) -> Result<(), BusError> {
         self.port
             .send(f.id, &f.data[..usize::from(f.len.min(8))])
-            .map_err(|_| BusError::Full)
+            .map_err(|e| {
+                // No sample free: a full queue (try again next cycle); else the bus is down.
+                if e.is_transient() {
+                    BusError::Full
+                } else {
+                    BusError::Down
+                }
+            })
     }
 
     fn try_recv(&mut self) -> Result<Option<Frame>, BusError> {
