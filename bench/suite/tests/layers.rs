@@ -1,0 +1,240 @@
+//! The layering of the workspace, checked on `cargo metadata`: which crates may depend on
+//! which, which crates may have no I/O dependency, and that the product binaries link no
+//! simulator. ARCHITECTURE.md draws the same layers.
+#![allow(clippy::unwrap_used)]
+
+use std::collections::{BTreeMap, BTreeSet};
+
+/// Every workspace crate and the workspace crates it may depend on directly (normal
+/// dependencies; dev-dependencies are free). Bottom up: wire and pure logic, then the I/O
+/// edges, then the processes, then the test bench.
+const ALLOWED: &[(&str, &[&str])] = &[
+    // Pure: units and gearing, set-up, control core, CANopen, this machine's process image.
+    ("hob-gearing", &[]),
+    ("hob-setup", &["hob-gearing"]),
+    ("hob-control", &["hob-gearing", "hob-setup"]),
+    ("hob-canopen", &[]),
+    ("hob-process-image", &["hob-canopen", "hob-control", "hob-setup"]),
+    // I/O edges: the contract between processes, the CAN transports, the OS real-time helpers.
+    ("hob-ipc", &["hob-control"]),
+    ("hob-can-transport", &["hob-canopen", "hob-ipc"]),
+    ("hob-rt-os", &[]),
+    // Processes (the product).
+    (
+        "hob-service",
+        &[
+            "hob-gearing",
+            "hob-setup",
+            "hob-control",
+            "hob-canopen",
+            "hob-process-image",
+            "hob-can-transport",
+            "hob-rt-os",
+            "hob-ipc",
+        ],
+    ),
+    ("hob-logger", &["hob-gearing", "hob-control", "hob-ipc", "hob-rt-os"]),
+    (
+        "hob-watchdog",
+        &["hob-canopen", "hob-can-transport", "hob-control", "hob-setup", "hob-process-image", "hob-ipc", "hob-rt-os"],
+    ),
+    (
+        "hob-cli",
+        &[
+            "hob-gearing",
+            "hob-setup",
+            "hob-control",
+            "hob-canopen",
+            "hob-process-image",
+            "hob-can-transport",
+            "hob-ipc",
+            "hob-logger",
+        ],
+    ),
+    // The test bench: the simulated machine, the virtual machine on the bus, the commands
+    // that need them, the benchmarks.
+    ("hob-plant", &["hob-gearing", "hob-setup", "hob-control", "hob-logger"]),
+    (
+        "hob-virtual-machine",
+        &["hob-canopen", "hob-can-transport", "hob-control", "hob-plant", "hob-process-image", "hob-rt-os", "hob-setup"],
+    ),
+    (
+        "hob-lab",
+        &[
+            "hob-cli",
+            "hob-can-transport",
+            "hob-control",
+            "hob-ipc",
+            "hob-logger",
+            "hob-plant",
+            "hob-process-image",
+            "hob-setup",
+            "hob-virtual-machine",
+        ],
+    ),
+    (
+        "hob-bench",
+        &[
+            "hob-can-transport",
+            "hob-control",
+            "hob-ipc",
+            "hob-plant",
+            "hob-process-image",
+            "hob-rt-os",
+            "hob-service",
+            "hob-setup",
+            "hob-virtual-machine",
+        ],
+    ),
+];
+
+/// Crates without I/O: the only outside crates they may use (normal dependencies).
+const PURE: &[(&str, &[&str])] = &[
+    ("hob-gearing", &["serde"]),
+    ("hob-setup", &["serde", "toml"]),
+    ("hob-control", &["serde"]),
+    ("hob-canopen", &[]),
+    ("hob-process-image", &[]),
+];
+
+/// What the product links: never the simulated machine, the virtual machine or the lab.
+const PRODUCT: &[&str] = &["hob-service", "hob-logger", "hob-watchdog", "hob-cli"];
+const SIMULATORS: &[&str] = &["hob-plant", "hob-virtual-machine", "hob-lab", "hob-bench"];
+
+struct Workspace {
+    /// Workspace crate -> its workspace dependencies (normal).
+    internal: BTreeMap<String, BTreeSet<String>>,
+    /// Workspace crate -> its outside dependencies (normal).
+    external: BTreeMap<String, BTreeSet<String>>,
+}
+
+fn workspace() -> Workspace {
+    let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
+    let out = std::process::Command::new(cargo)
+        .args(["metadata", "--format-version", "1", "--no-deps", "--offline"])
+        .current_dir(env!("CARGO_MANIFEST_DIR"))
+        .output()
+        .expect("cargo metadata");
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let packages = v["packages"].as_array().unwrap();
+    let names: BTreeSet<String> = packages
+        .iter()
+        .map(|p| p["name"].as_str().unwrap().to_string())
+        .collect();
+    let mut ws = Workspace {
+        internal: BTreeMap::new(),
+        external: BTreeMap::new(),
+    };
+    for p in packages {
+        let name = p["name"].as_str().unwrap().to_string();
+        let (mut int, mut ext) = (BTreeSet::new(), BTreeSet::new());
+        for d in p["dependencies"].as_array().unwrap() {
+            if !d["kind"].is_null() {
+                continue; // dev and build dependencies
+            }
+            let dep = d["name"].as_str().unwrap().to_string();
+            if names.contains(&dep) {
+                int.insert(dep);
+            } else {
+                ext.insert(dep);
+            }
+        }
+        ws.internal.insert(name.clone(), int);
+        ws.external.insert(name, ext);
+    }
+    ws
+}
+
+fn closure(ws: &Workspace, root: &str) -> BTreeSet<String> {
+    let mut seen = BTreeSet::new();
+    let mut todo = vec![root.to_string()];
+    while let Some(c) = todo.pop() {
+        for d in ws.internal.get(&c).into_iter().flatten() {
+            if seen.insert(d.clone()) {
+                todo.push(d.clone());
+            }
+        }
+    }
+    seen
+}
+
+/// The rule breaches (empty when the workspace keeps its layers).
+fn breaches(ws: &Workspace) -> Vec<String> {
+    let mut out = Vec::new();
+    let allowed: BTreeMap<&str, &[&str]> = ALLOWED.iter().copied().collect();
+    for (name, deps) in &ws.internal {
+        let Some(ok) = allowed.get(name.as_str()) else {
+            out.push(format!("{name}: a crate the layer rules do not know (add it to ALLOWED)"));
+            continue;
+        };
+        for d in deps {
+            if !ok.contains(&d.as_str()) {
+                out.push(format!("{name} depends on {d}, which its layer may not use"));
+            }
+        }
+    }
+    for (name, ok) in PURE {
+        for d in closure(ws, name).iter().chain([name.to_string()].iter()) {
+            for e in ws.external.get(d).into_iter().flatten() {
+                let allowed_here = PURE
+                    .iter()
+                    .find(|(n, _)| n == d)
+                    .is_some_and(|(_, list)| list.contains(&e.as_str()));
+                if !allowed_here || (d == name && !ok.contains(&e.as_str())) {
+                    out.push(format!("{name} must have no I/O dependency, but {d} uses {e}"));
+                }
+            }
+            if !PURE.iter().any(|(n, _)| n == d) {
+                out.push(format!("{name} is pure but depends on {d}, which is not"));
+            }
+        }
+    }
+    for p in PRODUCT {
+        for d in closure(ws, p) {
+            if SIMULATORS.contains(&d.as_str()) {
+                out.push(format!("the product crate {p} links {d}"));
+            }
+        }
+    }
+    out
+}
+
+#[test]
+fn the_workspace_keeps_its_layers() {
+    let ws = workspace();
+    let b = breaches(&ws);
+    assert!(b.is_empty(), "layer rules broken:\n{}", b.join("\n"));
+    // The rules know every crate, and every crate of the rules exists.
+    for (name, _) in ALLOWED {
+        assert!(ws.internal.contains_key(*name), "{name} is in the rules but not in the workspace");
+    }
+}
+
+#[test]
+fn canopen_does_not_import_the_control_core() {
+    let ws = workspace();
+    let c = closure(&ws, "hob-canopen");
+    assert!(c.is_empty(), "hob-canopen depends on {c:?}");
+}
+
+#[test]
+fn a_breach_of_each_kind_is_reported() {
+    // The check must be able to fail: the same rules on a workspace with one breach each.
+    let mut ws = workspace();
+    ws.internal.get_mut("hob-canopen").unwrap().insert("hob-control".into());
+    ws.external.get_mut("hob-control").unwrap().insert("nix".into());
+    ws.internal.get_mut("hob-cli").unwrap().insert("hob-plant".into());
+    ws.internal.insert("hob-new".into(), BTreeSet::new());
+    let b = breaches(&ws).join("\n");
+    for needle in [
+        "hob-canopen depends on hob-control",
+        "hob-control must have no I/O dependency, but hob-control uses nix",
+        "hob-process-image must have no I/O dependency, but hob-control uses nix",
+        "hob-cli depends on hob-plant",
+        "the product crate hob-cli links hob-plant",
+        "hob-new: a crate the layer rules do not know",
+    ] {
+        assert!(b.contains(needle), "{needle:?} not reported in:\n{b}");
+    }
+}
