@@ -305,6 +305,15 @@ pub fn boot(plan: &BusPlan, bus: &mut dyn CanBus, timeout: Duration) -> Result<B
     })
 }
 
+/// The cycles of silence that reach `plan`'s heartbeat timeout: ceil(timeout / period), in
+/// integers (the period in whole nanoseconds, at least 1), so that every period counts the
+/// timeout, also one that does not divide it.
+fn heartbeat_cycles(plan: &BusPlan) -> u32 {
+    let period_ns = ((plan.cycle_s * 1e9).round() as u64).max(1);
+    let timeout_ns = u64::from(plan.heartbeat_timeout_ms) * 1_000_000;
+    u32::try_from(timeout_ns.div_ceil(period_ns)).unwrap_or(u32::MAX)
+}
+
 /// A node's liveness as the master sees it.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub struct Liveness {
@@ -354,6 +363,9 @@ pub struct Cyclic {
     outputs_age: u32,
     analog_age: u32,
     liveness: [Liveness; 4],
+    /// Cycles of silence that reach the heartbeat timeout: ceil(timeout / period), in
+    /// whole nanoseconds, computed once ([`heartbeat_cycles`]).
+    heartbeat_cycles: u32,
     cycle: u64,
     events: [Option<BusEvent>; BUS_EVENTS],
     event_count: usize,
@@ -388,6 +400,7 @@ impl Cyclic {
             outputs_age: u32::MAX,
             analog_age: u32::MAX,
             liveness: [Liveness::default(); 4],
+            heartbeat_cycles: heartbeat_cycles(&plan),
             cycle: 0,
             events: [None; BUS_EVENTS],
             event_count: 0,
@@ -519,12 +532,13 @@ impl Cyclic {
     /// whose TPDO did not arrive keeps its last value and is marked not fresh.
     pub fn inputs(&mut self) -> CycleInputs {
         self.cycle += 1;
-        let timeout = u32::from(self.plan.heartbeat_timeout_ms);
-        let cycle_ms = (self.plan.cycle_s * 1000.0).max(1e-3);
+        // A node is lost at the first cycle whose silence (the cycles since its heartbeat's
+        // own cycle, which counts 1) reaches the timeout: once, when the count passes it.
+        let lost_at = self.heartbeat_cycles.saturating_add(1);
         for i in 0..4 {
             let l = &mut self.liveness[i];
             l.cycles_since_heartbeat = l.cycles_since_heartbeat.saturating_add(1);
-            if f64::from(l.cycles_since_heartbeat) * cycle_ms == f64::from(timeout) + cycle_ms {
+            if l.cycles_since_heartbeat == lost_at {
                 let node = self.plan.nodes()[i];
                 self.event(BusEvent::HeartbeatLost { node });
             }
@@ -561,8 +575,7 @@ impl Cyclic {
             };
             self.fresh[i] = false;
         }
-        let io_alive =
-            u64::from(self.liveness[3].cycles_since_heartbeat) as f64 * cycle_ms <= f64::from(timeout);
+        let io_alive = self.liveness[3].cycles_since_heartbeat < lost_at;
         CycleInputs {
             io_valid: self.inputs_seen && io_alive,
             spindle_counts: self.spindle,

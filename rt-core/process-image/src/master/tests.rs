@@ -134,3 +134,56 @@ fn a_burst_of_late_answers_is_not_current_until_the_last_sync_is_answered() {
     assert!(i.table.fresh);
     assert_eq!(i.table.position_counts, 3);
 }
+
+/// Runs a master with cycle period `period_us` whose nodes (and the I/O coupler's inputs)
+/// were heard once, then fall silent. Returns the heartbeat timeout (ms), the cycles after
+/// which each `HeartbeatLost` fired (with its node) and the first cycle the I/O inputs
+/// were no longer valid.
+fn silence(period_us: u32) -> (u32, Vec<(u32, u8)>, Option<u32>) {
+    let mut plan = BusPlan::from_machine(&shipped_for_tests());
+    plan.cycle_s = f64::from(period_us) * 1e-6;
+    let timeout_ms = u32::from(plan.heartbeat_timeout_ms);
+    let mut m = Cyclic::new(plan);
+    for node in plan.nodes() {
+        m.receive(&NmtState::Operational.heartbeat(node));
+    }
+    m.receive(&plan.io.inputs.pack(&[0, 0, 0]));
+    let mut lost = Vec::new();
+    let mut io_invalid = None;
+    let mut events = [None; BUS_EVENTS];
+    let cycles = 4 * timeout_ms * 1000 / period_us;
+    for k in 1..=cycles {
+        if !m.inputs().io_valid && io_invalid.is_none() {
+            io_invalid = Some(k);
+        }
+        let n = m.take_events(&mut events);
+        for e in events[..n].iter().flatten() {
+            if let BusEvent::HeartbeatLost { node } = e {
+                lost.push((k, *node));
+            }
+        }
+    }
+    (timeout_ms, lost, io_invalid)
+}
+
+/// Heartbeat loss fires once per node, at the first cycle whose silence (the cycles since
+/// the heartbeat's own cycle) reaches the timeout: also for a period that does not divide
+/// the timeout (1.5 ms into 250 ms), where comparing floats never matched.
+#[test]
+fn heartbeat_loss_fires_once_at_the_timeout_for_any_period() {
+    for period_us in [1000u32, 1500, 2000, 3000, 700] {
+        let (timeout_ms, lost, io_invalid) = silence(period_us);
+        // The first cycle k whose silence (k - 1 periods) reaches the timeout.
+        let expected = (1..)
+            .find(|k| (k - 1) * period_us >= timeout_ms * 1000)
+            .unwrap_or(0);
+        let plan = BusPlan::from_machine(&shipped_for_tests());
+        let want: Vec<(u32, u8)> = plan.nodes().iter().map(|n| (expected, *n)).collect();
+        assert_eq!(lost, want, "period {period_us} us, timeout {timeout_ms} ms");
+        assert_eq!(
+            io_invalid,
+            Some(expected),
+            "period {period_us} us: I/O invalid with the loss"
+        );
+    }
+}
