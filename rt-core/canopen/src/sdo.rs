@@ -2,6 +2,7 @@
 //! words, a client state machine (no I/O, fixed buffer) and a server for object
 //! dictionaries (used by the simulated nodes).
 
+use super::bus::BusError;
 use super::frame::{Frame, sdo_rx_id, sdo_tx_id};
 
 /// Largest object the client transfers (segmented), bytes.
@@ -78,6 +79,8 @@ pub enum SdoError {
     Protocol { index: u16, sub: u8 },
     /// More data than the client's buffer.
     TooLong { index: u16, sub: u8 },
+    /// A request of the transfer could not be sent: the bus's reason.
+    Send { index: u16, sub: u8, error: BusError },
 }
 
 impl std::fmt::Display for SdoError {
@@ -97,6 +100,9 @@ impl std::fmt::Display for SdoError {
             }
             SdoError::TooLong { index, sub } => {
                 write!(f, "SDO {index:04X}:{sub:02X}: more than {SDO_MAX} bytes")
+            }
+            SdoError::Send { index, sub, error } => {
+                write!(f, "SDO {index:04X}:{sub:02X}: request not sent: {error}")
             }
         }
     }

@@ -127,8 +127,10 @@ fn transfer(
     first: Frame,
     timeout: Duration,
 ) -> Result<(), SdoError> {
-    bus.send(&first)
-        .map_err(|_| SdoError::Timeout { index: 0, sub: 0 })?;
+    // The object of the transfer, from its initiate request.
+    let (index, sub) = (u16::from_le_bytes([first.data[1], first.data[2]]), first.data[3]);
+    let not_sent = |error| SdoError::Send { index, sub, error };
+    bus.send(&first).map_err(not_sent)?;
     let mut deadline = Instant::now() + timeout;
     loop {
         let f = match recv_until(bus, deadline) {
@@ -136,15 +138,13 @@ fn transfer(
             _ => {
                 let abort = client.abort(AbortCode::TIMEOUT);
                 let _ = bus.send(&abort);
-                let (index, sub) = (u16::from_le_bytes([first.data[1], first.data[2]]), first.data[3]);
                 return Err(SdoError::Timeout { index, sub });
             }
         };
         match client.on_frame(&f) {
             Progress::Ignored => {}
             Progress::Send(next) => {
-                bus.send(&next)
-                    .map_err(|_| SdoError::Timeout { index: 0, sub: 0 })?;
+                bus.send(&next).map_err(not_sent)?;
                 deadline = Instant::now() + timeout;
             }
             Progress::Uploaded | Progress::Downloaded => return Ok(()),

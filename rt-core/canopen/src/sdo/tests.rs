@@ -200,3 +200,16 @@ proptest! {
         prop_assert_eq!(c.data(), &data[..]);
     }
 }
+
+#[test]
+fn a_request_not_sent_names_the_object_and_the_bus_reason() {
+    let e = SdoError::Send {
+        index: 0x6040,
+        sub: 0,
+        error: crate::bus::BusError::Full,
+    };
+    assert_eq!(
+        e.to_string(),
+        "SDO 6040:00: request not sent: transmit queue full"
+    );
+}

@@ -187,3 +187,52 @@ fn heartbeat_loss_fires_once_at_the_timeout_for_any_period() {
         );
     }
 }
+
+/// A bus that takes `accept` frames, answers with `replies` and then refuses every send.
+#[derive(Debug)]
+struct RefusingBus {
+    accept: usize,
+    replies: std::collections::VecDeque<Frame>,
+}
+
+impl CanBus for RefusingBus {
+    fn send(&mut self, _: &Frame) -> Result<(), BusError> {
+        if self.accept == 0 {
+            return Err(BusError::Down);
+        }
+        self.accept -= 1;
+        Ok(())
+    }
+
+    fn try_recv(&mut self) -> Result<Option<Frame>, BusError> {
+        Ok(self.replies.pop_front())
+    }
+}
+
+/// A request the bus refused is not a timeout: the error names the bus's reason and the
+/// object, for the first request and for a later segment alike.
+#[test]
+fn a_refused_sdo_request_reports_the_bus_error_and_the_object() {
+    let t = Duration::from_millis(20);
+    let mut bus = RefusingBus {
+        accept: 0,
+        replies: Default::default(),
+    };
+    let e = sdo_read(&mut bus, 2, 0x1008, 0, t).unwrap_err();
+    let text = e.to_string();
+    assert!(
+        text.contains("1008:00") && text.contains("interface down"),
+        "{text}"
+    );
+    // A segmented download: the initiate goes out and is answered, the first segment is refused.
+    let mut bus = RefusingBus {
+        accept: 1,
+        replies: [Frame::new(0x584, &[0x60, 0x00, 0x20, 0x00, 0, 0, 0, 0])].into(),
+    };
+    let e = sdo_write(&mut bus, 4, 0x2000, 0, b"Y axis, hob head", t).unwrap_err();
+    let text = e.to_string();
+    assert!(
+        text.contains("2000:00") && text.contains("interface down"),
+        "{text}"
+    );
+}
