@@ -15,7 +15,8 @@
 
 use hob_can_transport::shm::open_bus;
 use hob_canopen::bus::CanBus;
-use hob_canopen::frame::Frame;
+use hob_canopen::cia402::{command, object};
+use hob_canopen::frame::{Cob, Frame};
 use hob_canopen::sdo::SdoClient;
 use hob_control::State;
 use hob_control::fault::Fault;
@@ -29,8 +30,6 @@ use std::path::PathBuf;
 use std::process::ExitCode;
 use std::sync::atomic::Ordering;
 
-const CONTROLWORD: u16 = 0x6040;
-const QUICK_STOP: u16 = 0x0002;
 const POLL_NS: u64 = 1_000_000;
 
 #[derive(Debug)]
@@ -98,7 +97,9 @@ fn reaction(plan: &BusPlan) -> Vec<Frame> {
         frames.push(f);
     }
     for node in plan.drives.map(|d| d.node) {
-        if let Ok(f) = SdoClient::new(node).download(CONTROLWORD, 0, &QUICK_STOP.to_le_bytes()) {
+        if let Ok(f) =
+            SdoClient::new(node).download(object::CONTROLWORD, 0, &command::QUICK_STOP.to_le_bytes())
+        {
             frames.push(f);
         }
     }
@@ -228,7 +229,7 @@ fn act(bus: &mut Box<dyn CanBus>, frames: &[Frame], why: Trip, cycle: u64) {
     let end = now_ns() + 50_000_000;
     while now_ns() < end && acks.len() < frames.len() {
         match bus.try_recv() {
-            Ok(Some(f)) if (0x581..=0x5FF).contains(&f.id) => {
+            Ok(Some(f)) if matches!(Cob::of(f.id), Cob::SdoTx(n) if n > 0) => {
                 acks.push(format!("0x{:03X}:{:02X}", f.id, f.data[0]))
             }
             Ok(_) => std::thread::sleep(std::time::Duration::from_micros(200)),
