@@ -33,10 +33,21 @@ const ALLOWED: &[(&str, &[&str])] = &[
             "hob-ipc",
         ],
     ),
-    ("hob-logger", &["hob-gearing", "hob-control", "hob-ipc", "hob-rt-os"]),
+    (
+        "hob-logger",
+        &["hob-gearing", "hob-control", "hob-ipc", "hob-rt-os"],
+    ),
     (
         "hob-watchdog",
-        &["hob-canopen", "hob-can-transport", "hob-control", "hob-setup", "hob-process-image", "hob-ipc", "hob-rt-os"],
+        &[
+            "hob-canopen",
+            "hob-can-transport",
+            "hob-control",
+            "hob-setup",
+            "hob-process-image",
+            "hob-ipc",
+            "hob-rt-os",
+        ],
     ),
     (
         "hob-cli",
@@ -53,10 +64,21 @@ const ALLOWED: &[(&str, &[&str])] = &[
     ),
     // The test bench: the simulated machine, the virtual machine on the bus, the commands
     // that need them, the benchmarks.
-    ("hob-plant", &["hob-gearing", "hob-setup", "hob-control", "hob-logger"]),
+    (
+        "hob-plant",
+        &["hob-gearing", "hob-setup", "hob-control", "hob-logger"],
+    ),
     (
         "hob-virtual-machine",
-        &["hob-canopen", "hob-can-transport", "hob-control", "hob-plant", "hob-process-image", "hob-rt-os", "hob-setup"],
+        &[
+            "hob-canopen",
+            "hob-can-transport",
+            "hob-control",
+            "hob-plant",
+            "hob-process-image",
+            "hob-rt-os",
+            "hob-setup",
+        ],
     ),
     (
         "hob-lab",
@@ -165,7 +187,9 @@ fn breaches(ws: &Workspace) -> Vec<String> {
     let allowed: BTreeMap<&str, &[&str]> = ALLOWED.iter().copied().collect();
     for (name, deps) in &ws.internal {
         let Some(ok) = allowed.get(name.as_str()) else {
-            out.push(format!("{name}: a crate the layer rules do not know (add it to ALLOWED)"));
+            out.push(format!(
+                "{name}: a crate the layer rules do not know (add it to ALLOWED)"
+            ));
             continue;
         };
         for d in deps {
@@ -207,7 +231,10 @@ fn the_workspace_keeps_its_layers() {
     assert!(b.is_empty(), "layer rules broken:\n{}", b.join("\n"));
     // The rules know every crate, and every crate of the rules exists.
     for (name, _) in ALLOWED {
-        assert!(ws.internal.contains_key(*name), "{name} is in the rules but not in the workspace");
+        assert!(
+            ws.internal.contains_key(*name),
+            "{name} is in the rules but not in the workspace"
+        );
     }
 }
 
@@ -222,7 +249,10 @@ fn canopen_does_not_import_the_control_core() {
 fn a_breach_of_each_kind_is_reported() {
     // The check must be able to fail: the same rules on a workspace with one breach each.
     let mut ws = workspace();
-    ws.internal.get_mut("hob-canopen").unwrap().insert("hob-control".into());
+    ws.internal
+        .get_mut("hob-canopen")
+        .unwrap()
+        .insert("hob-control".into());
     ws.external.get_mut("hob-control").unwrap().insert("nix".into());
     ws.internal.get_mut("hob-cli").unwrap().insert("hob-plant".into());
     ws.internal.insert("hob-new".into(), BTreeSet::new());

@@ -7,6 +7,7 @@
 //! - [`commands`]: the command thread (request-response server; parses and checks
 //!   programs) and its mailboxes to the loop.
 //! - [`stats`]: the loop's timing histograms and their hand-over to the stats thread.
+//! - [`lifecycle`]: configure -> activate -> run -> stop, in the order the types allow.
 //!
 //! Below it: `hob_rt_os` (memory lock, pinning, SCHED_FIFO, the clock, the allocation
 //! guard), `hob_ipc` (the services and the wire codec), `hob_process_image` (the bus),
@@ -14,4 +15,5 @@
 
 pub mod commands;
 pub mod cycle;
+pub mod lifecycle;
 pub mod stats;

@@ -1,0 +1,534 @@
+//! The life of `hob-rt`, in the order the types allow and no other:
+//!
+//! 1. [`configure`] -> [`Configured`]: the machine file (validated), the CAN bus opened and
+//!    booted (may block and fail; nothing real-time yet);
+//! 2. [`Configured::activate`] -> [`Active`]: the shared-memory ports, then the helper
+//!    threads (commands, stats) with their own ports, then the real-time set-up of this
+//!    thread ([`RealTime::enter`] takes the ports and the started helpers as proof: memory
+//!    is locked only after every mapping exists, and the helpers never inherit the loop's
+//!    core and priority);
+//! 3. [`Active::run`] -> [`Stopped`]: the loop, until a termination signal or N cycles;
+//! 4. [`Stopped::finish`]: the helpers joined, the summary printed, the histograms written.
+
+use crate::commands::{self, ThreadMailbox};
+use crate::cycle::{LoopCounters, RtLoop};
+use crate::stats::{self, LoopTiming, StatsTiming, Timing};
+use hob_can_transport::shm::open_bus;
+use hob_canopen::bus::CanBus;
+use hob_control::{ControlParams, Controller, Status};
+use hob_ipc::iceoryx2;
+use hob_ipc::{EventSample, StateSample, StatsSample, Svc};
+use hob_process_image::master::{Booted, boot};
+use hob_process_image::plan::BusPlan;
+use hob_rt_os::alloc_guard;
+use hob_rt_os::{IdleLatencyRequest, RtReport};
+use hob_setup::config::machine::MachineConfig;
+use serde::Serialize;
+use std::path::Path;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::{Arc, OnceLock};
+use std::thread::JoinHandle;
+use std::time::Duration;
+
+/// Why start-up or shut-down failed: the exit status and the reason.
+pub type Failure = (u8, String);
+
+/// What the command line chose.
+#[derive(Debug, Clone, Default)]
+pub struct Settings {
+    /// CAN interface (`can0`, `vcan0`, `shm`); `None`: the machine file's.
+    pub iface: Option<String>,
+    /// Refuse to run without the full real-time set-up (exit status 3).
+    pub require_rt: bool,
+}
+
+/// Stage 1: the machine is known and its bus is up.
+pub struct Configured {
+    machine: MachineConfig,
+    iface: String,
+    bus: Box<dyn CanBus>,
+    booted: Booted,
+    require_rt: bool,
+}
+
+/// Opens the bus the machine file (or `settings`) names and boots every node on it.
+pub fn configure(machine: MachineConfig, settings: &Settings) -> Result<Configured, Failure> {
+    let iface = settings
+        .iface
+        .clone()
+        .unwrap_or_else(|| machine.can.interface.clone());
+    let mut bus = open_bus(&iface, "hob-rt-can").map_err(|e| (1, e))?;
+    let plan = BusPlan::from_machine(&machine);
+    let booted = boot(&plan, &mut *bus, Duration::from_millis(500))
+        .map_err(|e| (1, format!("bus boot on {iface}: {e}")))?;
+    for i in &booted.nodes {
+        eprintln!(
+            "hob-rt: node {} \"{}\" operational{}",
+            i.node,
+            i.name,
+            if i.csp() { ", CSP" } else { "" }
+        );
+    }
+    Ok(Configured {
+        machine,
+        iface,
+        bus,
+        booted,
+        require_rt: settings.require_rt,
+    })
+}
+
+/// The loop's shared-memory ports (made before the memory lock: with `MCL_FUTURE` and a
+/// small `RLIMIT_MEMLOCK` later mappings would fail).
+pub struct LoopPorts {
+    _node: iceoryx2::node::Node<Svc>,
+    state: iceoryx2::port::publisher::Publisher<Svc, StateSample, ()>,
+    events: iceoryx2::port::publisher::Publisher<Svc, EventSample, ()>,
+}
+
+impl LoopPorts {
+    fn open() -> Result<Self, Failure> {
+        let node = hob_ipc::node("hob-rt").map_err(|e| (1, e.to_string()))?;
+        let state = hob_ipc::open_state(&node)
+            .and_then(|s| hob_ipc::publisher(&s, "state publisher"))
+            .map_err(|e| (1, e.to_string()))?;
+        let events = hob_ipc::open_events(&node)
+            .and_then(|s| hob_ipc::publisher(&s, "events publisher"))
+            .map_err(|e| (1, e.to_string()))?;
+        Ok(Self {
+            _node: node,
+            state,
+            events,
+        })
+    }
+}
+
+/// The command and stats threads, started and ready (their ports open, off the loop's core).
+#[derive(Debug)]
+pub struct Helpers {
+    stop: Arc<AtomicBool>,
+    commands: JoinHandle<()>,
+    stats: JoinHandle<Timing>,
+    rt_report: Arc<OnceLock<RtReport>>,
+}
+
+impl Helpers {
+    fn start(
+        machine: &MachineConfig,
+        iface: &str,
+        thread_box: ThreadMailbox,
+        stats_timing: StatsTiming,
+        counters: &Arc<LoopCounters>,
+    ) -> Result<Self, Failure> {
+        let stop = Arc::new(AtomicBool::new(false));
+        let rt_report: Arc<OnceLock<RtReport>> = Arc::new(OnceLock::new());
+        let (ready_tx, ready_rx) = std::sync::mpsc::channel::<()>();
+        let commands = {
+            let stop = Arc::clone(&stop);
+            let machine = machine.clone();
+            let ready_tx = ready_tx.clone();
+            std::thread::Builder::new()
+                .name("hob-rt-commands".into())
+                .spawn(move || {
+                    let ready = || {
+                        let _ = ready_tx.send(());
+                    };
+                    hob_rt_os::keep_off_core(machine.service.loop_core);
+                    if let Err(e) = commands::serve(&machine, &thread_box, &stop, ready) {
+                        eprintln!("hob-rt: {e}");
+                    }
+                })
+                .map_err(|e| (1, format!("command thread: {e}")))?
+        };
+        let stats = {
+            let stop = Arc::clone(&stop);
+            let counters = Arc::clone(counters);
+            let period_ns = u64::from(machine.control.cycle_period_us) * 1000;
+            let rt_report = Arc::clone(&rt_report);
+            let bus_kind = u8::from(iface == "shm");
+            let loop_core = machine.service.loop_core;
+            std::thread::Builder::new()
+                .name("hob-rt-stats".into())
+                .spawn(move || {
+                    hob_rt_os::keep_off_core(loop_core);
+                    stats_loop(
+                        stats_timing,
+                        &counters,
+                        &stop,
+                        period_ns,
+                        &rt_report,
+                        bus_kind,
+                        &ready_tx,
+                    )
+                })
+                .map_err(|e| (1, format!("stats thread: {e}")))?
+        };
+        let ready = (0..2).all(|_| ready_rx.recv_timeout(Duration::from_secs(10)).is_ok());
+        if !ready {
+            return Err((1, "the command and stats threads did not start".into()));
+        }
+        Ok(Self {
+            stop,
+            commands,
+            stats,
+            rt_report,
+        })
+    }
+}
+
+/// The real-time set-up of the loop's thread, held while the loop runs.
+#[derive(Debug)]
+pub struct RealTime {
+    pub report: RtReport,
+    pub kernel_preempt_rt: bool,
+    _idle_request: Option<IdleLatencyRequest>,
+}
+
+impl RealTime {
+    /// Locks memory, pre-faults the stack, pins this thread and makes it SCHED_FIFO, and
+    /// holds the idle-state request. Needs the ports and the started helpers: what must
+    /// exist before the memory is locked and the thread becomes real-time.
+    pub fn enter(_ports: &LoopPorts, _helpers: &Helpers, machine: &MachineConfig) -> Self {
+        let mut report = RtReport::default();
+        alloc_guard::prepare_pool();
+        hob_rt_os::lock_memory(&mut report);
+        hob_rt_os::prefault_stack(512 * 1024);
+        hob_rt_os::pin(machine.service.loop_core, &mut report);
+        hob_rt_os::set_fifo(machine.service.loop_priority, &mut report);
+        let idle = hob_rt_os::hold_cpu_dma_latency(machine.service.cpu_dma_latency_us, &mut report);
+        Self {
+            report,
+            kernel_preempt_rt: hob_rt_os::kernel_is_preempt_rt(),
+            _idle_request: idle,
+        }
+    }
+
+    fn announce(&self) {
+        if !self.report.is_complete() {
+            eprintln!("hob-rt: ************************************************************");
+            eprintln!("hob-rt: DEGRADED: the loop runs without full real-time set-up:");
+            for p in &self.report.problems {
+                eprintln!("hob-rt:   - {p}");
+            }
+            eprintln!("hob-rt: ************************************************************");
+        }
+        if !self.kernel_preempt_rt {
+            eprintln!(
+                "hob-rt: note: the kernel is not PREEMPT_RT (/sys/kernel/realtime): latencies are not bounded"
+            );
+        }
+    }
+
+    fn summary(&self, iface: &str) -> String {
+        let r = &self.report;
+        format!(
+            "hob-rt started on {iface}: {}, {}, {}{}{}",
+            r.fifo_priority
+                .map_or("no SCHED_FIFO".into(), |p| format!("SCHED_FIFO {p}")),
+            r.core.map_or("not pinned".into(), |c| format!("core {c}")),
+            if r.memory_locked {
+                "memory locked"
+            } else {
+                "memory not locked"
+            },
+            r.cpu_dma_latency_us
+                .map_or(", idle states not limited".into(), |us| format!(
+                    ", idle exit latency <= {us} us"
+                )),
+            if self.kernel_preempt_rt {
+                ", PREEMPT_RT"
+            } else {
+                ""
+            }
+        )
+    }
+}
+
+/// Stage 2: everything set up, the loop about to run.
+pub struct Active {
+    /// The loop's iceoryx2 node: outlives its publishers (dropped with [`Stopped`]).
+    _node: iceoryx2::node::Node<Svc>,
+    machine: MachineConfig,
+    iface: String,
+    helpers: Helpers,
+    realtime: RealTime,
+    counters: Arc<LoopCounters>,
+    rt_loop: RtLoop<Box<dyn CanBus>>,
+}
+
+impl Configured {
+    /// Ports, helper threads, then the real-time set-up (exit status 3 with
+    /// `--require-rt` when it is incomplete).
+    pub fn activate(self) -> Result<Active, Failure> {
+        let Configured {
+            machine,
+            iface,
+            mut bus,
+            booted,
+            require_rt,
+        } = self;
+        let ports = LoopPorts::open()?;
+        let (thread_box, loop_box) = commands::mailboxes();
+        let (loop_timing, stats_timing): (LoopTiming, StatsTiming) = stats::circulation();
+        let counters = Arc::new(LoopCounters::default());
+        let helpers = Helpers::start(&machine, &iface, thread_box, stats_timing, &counters)?;
+        let realtime = RealTime::enter(&ports, &helpers, &machine);
+        realtime.announce();
+        if require_rt && !realtime.report.is_complete() {
+            helpers.stop.store(true, Ordering::Relaxed);
+            return Err((3, "--require-rt: refusing to run degraded".into()));
+        }
+        let _ = helpers.rt_report.set(realtime.report.clone());
+        let mut cyclic = booted.cyclic;
+        if cyclic.hear_own_sync(&mut *bus) {
+            eprintln!(
+                "hob-rt: {iface} echoes our SYNCs in bus order: each TPDO is matched to the SYNC it answers"
+            );
+        } else {
+            eprintln!(
+                "hob-rt: {iface} cannot echo our SYNCs in order: TPDOs are matched by counting the SYNCs each drive owes"
+            );
+        }
+        let controller = Controller::new(ControlParams::from_machine(&machine));
+        let LoopPorts {
+            _node: node,
+            state,
+            events,
+        } = ports;
+        let rt_loop = RtLoop::new(
+            controller,
+            cyclic,
+            bus,
+            state,
+            events,
+            loop_box,
+            loop_timing,
+            Arc::clone(&counters),
+        );
+        Ok(Active {
+            _node: node,
+            machine,
+            iface,
+            helpers,
+            realtime,
+            counters,
+            rt_loop,
+        })
+    }
+}
+
+/// Stage 3: the loop has stopped.
+pub struct Stopped {
+    _node: iceoryx2::node::Node<Svc>,
+    machine: MachineConfig,
+    iface: String,
+    helpers: Helpers,
+    realtime: RealTime,
+    counters: Arc<LoopCounters>,
+    status: Status,
+}
+
+impl Active {
+    /// Runs the loop until `stop` is set (a termination signal) or `max_cycles` have run.
+    pub fn run(mut self, stop: &AtomicBool, max_cycles: Option<u64>) -> Stopped {
+        let summary = self.realtime.summary(&self.iface);
+        eprintln!("hob-rt: {summary}");
+        self.rt_loop.message(&summary);
+        self.rt_loop.run(stop, max_cycles);
+        self.rt_loop.message("hob-rt stopped");
+        let status = self.rt_loop.controller.status();
+        Stopped {
+            _node: self._node,
+            machine: self.machine,
+            iface: self.iface,
+            helpers: self.helpers,
+            realtime: self.realtime,
+            counters: self.counters,
+            status,
+        }
+    }
+}
+
+/// `hob-rt.json`: what a run did, for the benchmarks and the gate.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct RunSummary {
+    pub cycles: u64,
+    pub overruns: u64,
+    pub period_ns: u64,
+    pub fifo_priority: u32,
+    pub core: i64,
+    pub memory_locked: bool,
+    pub cpu_dma_latency_us: Option<u32>,
+    pub preempt_rt: bool,
+    pub iface: String,
+    pub system_allocations_in_cycles: u64,
+    pub pool_blocks_in_cycles: u64,
+    pub final_state: String,
+}
+
+impl Stopped {
+    /// Joins the helpers, prints the run's figures and, given `hgrm`, writes the histograms
+    /// and `hob-rt.json` there.
+    pub fn finish(self, hgrm: Option<&Path>) -> Result<(), Failure> {
+        self.helpers.stop.store(true, Ordering::Relaxed);
+        let _ = self.helpers.commands.join();
+        let total = self
+            .helpers
+            .stats
+            .join()
+            .map_err(|_| (1, "stats thread panicked".to_string()))?;
+        let overruns = self.counters.overruns.load(Ordering::Relaxed);
+        let (allocations, pool_blocks) = alloc_guard::counts().unwrap_or((0, 0));
+        eprintln!(
+            "hob-rt: stopped in state {} after {} cycles, {overruns} overruns; in cycles: {allocations} system heap allocations, {pool_blocks} pool blocks",
+            self.status.state.name(),
+            self.status.cycle,
+        );
+        let w = stats::percentiles(&total.wake_ns);
+        let c = stats::percentiles(&total.compute_ns);
+        eprintln!(
+            "hob-rt: wake latency us: p50 {:.1} p99 {:.1} p99.9 {:.1} max {:.1}; compute us: p50 {:.1} p99.99 {:.1} max {:.1}",
+            w.p50_ns as f64 / 1e3,
+            w.p99_ns as f64 / 1e3,
+            w.p999_ns as f64 / 1e3,
+            w.max_ns as f64 / 1e3,
+            c.p50_ns as f64 / 1e3,
+            c.p9999_ns as f64 / 1e3,
+            c.max_ns as f64 / 1e3
+        );
+        let Some(dir) = hgrm else { return Ok(()) };
+        let r = &self.realtime.report;
+        let summary = RunSummary {
+            cycles: total.wake_ns.len(),
+            overruns,
+            period_ns: u64::from(self.machine.control.cycle_period_us) * 1000,
+            fifo_priority: r.fifo_priority.unwrap_or(0),
+            core: r.core.map_or(-1, i64::from),
+            memory_locked: r.memory_locked,
+            cpu_dma_latency_us: r.cpu_dma_latency_us,
+            preempt_rt: self.realtime.kernel_preempt_rt,
+            iface: self.iface.clone(),
+            system_allocations_in_cycles: allocations,
+            pool_blocks_in_cycles: pool_blocks,
+            final_state: self.status.state.name().to_string(),
+        };
+        let json = serde_json::to_string(&summary).map_err(|e| (1, format!("hob-rt.json: {e}")))? + "\n";
+        std::fs::create_dir_all(dir).map_err(|e| (1, format!("{}: {e}", dir.display())))?;
+        let files = [
+            ("wake.hgrm", stats::hgrm(&total.wake_ns)),
+            ("compute.hgrm", stats::hgrm(&total.compute_ns)),
+            ("wake.hist", stats::counts_text(&total.wake_ns)),
+            ("compute.hist", stats::counts_text(&total.compute_ns)),
+            ("hob-rt.json", json),
+        ];
+        for (name, text) in files {
+            let p = dir.join(name);
+            std::fs::write(&p, text).map_err(|e| (1, format!("{}: {e}", p.display())))?;
+        }
+        Ok(())
+    }
+}
+
+fn stats_loop(
+    mut timing: StatsTiming,
+    counters: &LoopCounters,
+    stop: &AtomicBool,
+    period_ns: u64,
+    report: &OnceLock<RtReport>,
+    bus_kind: u8,
+    ready: &std::sync::mpsc::Sender<()>,
+) -> Timing {
+    let publisher = hob_ipc::node("hob-rt-stats")
+        .and_then(|n| {
+            let p = hob_ipc::publisher(&hob_ipc::open_stats(&n)?, "stats publisher")?;
+            Ok((n, p))
+        })
+        .map_err(|e| eprintln!("hob-rt: stats publisher: {e}"))
+        .ok();
+    let _ = ready.send(());
+    let empty = RtReport::default();
+    while !stop.load(Ordering::Relaxed) {
+        timing.wait(Duration::from_millis(500));
+        if let Some((_, p)) = &publisher {
+            let report = report.get().unwrap_or(&empty);
+            let s = StatsSample {
+                cycle: counters.cycle.load(Ordering::Relaxed),
+                period_ns,
+                overruns: counters.overruns.load(Ordering::Relaxed),
+                tx_errors: counters.tx_errors.load(Ordering::Relaxed),
+                system_allocations_in_cycle: alloc_guard::counts().map_or(u64::MAX, |c| c.0),
+                pool_allocations_in_cycle: alloc_guard::counts().map_or(0, |c| c.1),
+                fifo_priority: report.fifo_priority.map_or(0, |p| p as i32),
+                core: report.core.map_or(-1, |c| c as i32),
+                memory_locked: u8::from(report.memory_locked),
+                cpu_dma_latency_us: report.cpu_dma_latency_us.map_or(-1, |us| us as i32),
+                bus_kind,
+                ..timing.sample()
+            };
+            let _ = p.send_copy(s);
+        }
+    }
+    timing.collect();
+    timing.total
+}
+
+impl std::fmt::Debug for Configured {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Configured")
+            .field("iface", &self.iface)
+            .finish_non_exhaustive()
+    }
+}
+
+impl std::fmt::Debug for LoopPorts {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("LoopPorts").finish_non_exhaustive()
+    }
+}
+
+impl std::fmt::Debug for Active {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Active").finish_non_exhaustive()
+    }
+}
+
+impl std::fmt::Debug for Stopped {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Stopped").finish_non_exhaustive()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_run_summary_is_json_with_any_interface_name() {
+        // The old hand-written JSON used Rust's escape_default, which is not JSON: a quote
+        // or a non-ASCII character in the interface name broke the file.
+        let s = RunSummary {
+            cycles: 3,
+            overruns: 0,
+            period_ns: 1_000_000,
+            fifo_priority: 80,
+            core: -1,
+            memory_locked: true,
+            cpu_dma_latency_us: None,
+            preempt_rt: false,
+            iface: "can\"0\\é\u{1}".into(),
+            system_allocations_in_cycles: 0,
+            pool_blocks_in_cycles: 0,
+            final_state: "idle".into(),
+        };
+        let text = serde_json::to_string(&s).unwrap_or_default();
+        let v: serde_json::Value = serde_json::from_str(&text).unwrap_or_default();
+        assert_eq!(v["iface"], "can\"0\\é\u{1}");
+        assert_eq!(v["cpu_dma_latency_us"], serde_json::Value::Null);
+        assert_eq!(v["core"], -1);
+        let old = format!("{{\"iface\": \"{}\"}}", "can\"0\\é\u{1}".escape_default());
+        assert!(
+            serde_json::from_str::<serde_json::Value>(&old).map_or(true, |v| v["iface"] != "can\"0\\é\u{1}"),
+            "escape_default happened to be JSON for this name"
+        );
+    }
+}
