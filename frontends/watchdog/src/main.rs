@@ -4,7 +4,7 @@
 //! or the loop reports that it lost the machine (faulted with a drive or the I/O coupler
 //! gone from the bus), it
 //! 1. switches every digital output of the I/O coupler off by SDO, PC-OK among them: the
-//!    safety relay chain opens (domain.md section 6), the drives lose power (STO), the VFD
+//!    safety relay chain opens (docs/domain.md section 6), the drives lose power (STO), the VFD
 //!    stops; the spindle reference goes to 0 V;
 //! 2. sends quick stop (controlword 0x0002) to every drive by SDO;
 //!

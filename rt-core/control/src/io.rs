@@ -1,4 +1,4 @@
-//! The I/O coupler's process image as named signals (domain.md section 6). Polarity is
+//! The I/O coupler's process image as named signals (docs/domain.md section 6). Polarity is
 //! applied here, once: the rest of the controller sees "active" or not.
 
 use hob_setup::config::machine::{Active, DigitalBinding, IoMap};

@@ -1,7 +1,7 @@
 //! The spindle angle from a quantised encoder: unwrap, observe, predict.
 //!
 //! The table must follow the spindle angle at the instant its command takes effect, one
-//! cycle plus the drive delay after the angle was latched (domain.md section 3: one
+//! cycle plus the drive delay after the angle was latched (docs/domain.md section 3: one
 //! cycle late is ~55 um at the pitch circle at 212 rpm). A third-order tracking observer
 //! (a critically damped g-h-k filter) estimates angle, speed and acceleration from the
 //! counts; quantisation (1 count = 0.036 deg) is noise it filters, not an error it keeps.

@@ -1,4 +1,4 @@
-//! The sequencer: the three cycles of domain.md section 5 with all their steps, rough and
+//! The sequencer: the three cycles of docs/domain.md section 5 with all their steps, rough and
 //! finishing passes, single mode, feed hold, cycle stop, return to start; peripherals
 //! (coolant, X clamp, spindle); and the fault reaction: retract X first with the gearbox
 //! engaged, then stop, then drop the PC-OK relay.

@@ -1,4 +1,4 @@
-//! Approach length of the hob before the face (domain.md section 5).
+//! Approach length of the hob before the face (docs/domain.md section 5).
 
 /// Axial distance from the face at which a hob of tip diameter `tool_diameter_mm` and
 /// length `tool_length_mm`, swivelled by `swivel_deg`, first touches the blank with the

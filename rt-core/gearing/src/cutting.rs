@@ -1,4 +1,4 @@
-//! Cutting speeds and the spindle drive chain (domain.md sections 2 and 3).
+//! Cutting speeds and the spindle drive chain (docs/domain.md sections 2 and 3).
 
 use std::f64::consts::PI;
 

@@ -1,4 +1,4 @@
-//! The electronic-gearbox law (domain.md section 3):
+//! The electronic-gearbox law (docs/domain.md section 3):
 //!
 //! ```text
 //! phi_B = phi_B0 + s_i (z0/z) (theta_C - theta_C0) + s_d 360 sin(beta) / (pi m_n z) (Y - Y0)

@@ -1,5 +1,5 @@
 //! ISO 1328-1:2013 tolerances, to express the controller's error in the user's terms
-//! (domain.md section 9).
+//! (docs/domain.md section 9).
 
 /// Single pitch tolerance `f_p` in micrometres for accuracy grade `grade` (1..=11):
 /// `f_p = (0.001 d + 0.4 m_n + 5) * sqrt(2)^(grade - 5)`, unrounded.

@@ -1,4 +1,4 @@
-//! X-axis shapes along the face width (domain.md section 4): crowning and 2D contour.
+//! X-axis shapes along the face width (docs/domain.md section 4): crowning and 2D contour.
 //!
 //! Both give an X offset (mm, negative = deeper, i.e. a smaller centre distance) as a
 //! function of the position along the face, `face_mm` = 0 at the bottom face of the

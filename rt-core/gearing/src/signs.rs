@@ -1,5 +1,5 @@
 //! Every sign of the hobbing set-up as a named input, and the one place that turns names
-//! into +1/-1 (domain.md section 3: a wrong sign makes scrap, silently).
+//! into +1/-1 (docs/domain.md section 3: a wrong sign makes scrap, silently).
 //!
 //! ## Frame (the convention every sign below refers to)
 //!

@@ -34,7 +34,7 @@ mod tests {
 
     #[test]
     fn one_arcsec_at_42_5_mm_is_0_21_um() {
-        // domain.md section 9.
+        // docs/domain.md section 9.
         let um = arcsec_to_um_at_radius(1.0, 42.5);
         assert!((um - 0.206).abs() < 0.001, "{um}");
         assert!((um_to_arcsec_at_radius(um, 42.5) - 1.0).abs() < 1e-12);

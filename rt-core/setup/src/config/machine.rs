@@ -312,7 +312,7 @@ pub struct AnalogBinding {
 }
 
 /// The CANopen I/O coupler (CiA 401) and every signal of the machine on it
-/// (domain.md section 6).
+/// (docs/domain.md section 6).
 #[derive(Debug, Clone, PartialEq, Deserialize, Serialize)]
 #[serde(deny_unknown_fields)]
 pub struct IoMap {

@@ -1,5 +1,5 @@
 //! The hobbing planner: turns a program on a machine into everything the operator and the
-//! controller need (domain.md sections 3-5): gearbox ratio, differential, hob swivel, and
+//! controller need (docs/domain.md sections 3-5): gearbox ratio, differential, hob swivel, and
 //! per pass the depth, X position, speeds, VFD set-point, Y stroke and times. A program the
 //! machine cannot cut is refused here, each problem named by the key to change.
 //!
