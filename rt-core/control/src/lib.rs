@@ -276,7 +276,7 @@ struct Measured {
 /// The control core.
 #[derive(Debug, Clone)]
 pub struct Controller {
-    p: ControlParams,
+    params: ControlParams,
     angle_source: SpindleAngleSource,
     program: Option<CycleProgram>,
     unwrap: [Unwrapper; 4],
@@ -288,9 +288,9 @@ pub struct Controller {
     /// Targets (B, X, Y) of the last two cycles: the drive follows the older one at SYNC.
     history: [[f64; 3]; 2],
     misses: [u32; 3],
-    m: Measured,
+    measured: Measured,
     last_spindle_for_gearbox_deg: f64,
-    seq: sequencer::Sequencer,
+    sequencer: sequencer::Sequencer,
     fault: Option<Fault>,
     lube: Lube,
     outputs: Outputs,
@@ -309,7 +309,7 @@ impl Controller {
     /// A controller for the machine; allocates nothing after this.
     pub fn new(p: ControlParams) -> Self {
         Self {
-            p,
+            params: p,
             angle_source: SpindleAngleSource::Predicted,
             program: None,
             unwrap: [Unwrapper::default(); 4],
@@ -320,9 +320,9 @@ impl Controller {
             table_cmd_deg: 0.0,
             history: [[0.0; 3]; 2],
             misses: [0; 3],
-            m: Measured::default(),
+            measured: Measured::default(),
             last_spindle_for_gearbox_deg: 0.0,
-            seq: sequencer::Sequencer::default(),
+            sequencer: sequencer::Sequencer::default(),
             fault: None,
             lube: Lube::new(p.lube),
             outputs: Outputs::default(),
@@ -342,12 +342,12 @@ impl Controller {
 
     /// Turns cross-coupling on or off (before a cycle).
     pub fn set_cross_coupling(&mut self, on: bool) {
-        self.p.gearbox.ccc_enabled = on;
+        self.params.gearbox.ccc_enabled = on;
         self.gearbox.set_cross_coupling(on);
     }
 
     pub fn params(&self) -> &ControlParams {
-        &self.p
+        &self.params
     }
 
     pub fn program(&self) -> Option<&CycleProgram> {
@@ -382,34 +382,34 @@ impl Controller {
         self.measure(input);
         if !self.started {
             self.started = true;
-            self.x = Profile::at(self.m.x_mm);
-            self.y = Profile::at(self.m.y_mm);
-            self.gearbox = Gearbox::new(self.p.gearbox, self.m.table_deg);
-            self.table_cmd_deg = self.m.table_deg;
-            self.history = [[self.m.table_deg, self.m.x_mm, self.m.y_mm]; 2];
-            self.last_spindle_for_gearbox_deg = self.m.spindle_for_gearbox_deg;
+            self.x = Profile::at(self.measured.x_mm);
+            self.y = Profile::at(self.measured.y_mm);
+            self.gearbox = Gearbox::new(self.params.gearbox, self.measured.table_deg);
+            self.table_cmd_deg = self.measured.table_deg;
+            self.history = [[self.measured.table_deg, self.measured.x_mm, self.measured.y_mm]; 2];
+            self.last_spindle_for_gearbox_deg = self.measured.spindle_for_gearbox_deg;
         }
         self.supervise(input);
         let (x_before, y_before) = (self.x.position, self.y.position);
         self.trim_spindle();
         self.sequence();
         if let Err(f) = self.lube.step(
-            self.p.period_s,
+            self.params.period_s,
             self.x.position - x_before,
             self.y.position - y_before,
-            self.m.inputs.lube_pressure_ok,
+            self.measured.inputs.lube_pressure_ok,
         ) {
             self.raise(f);
         }
         self.table_cmd_deg = self.gearbox.step(
-            self.m.spindle_for_gearbox_deg,
+            self.measured.spindle_for_gearbox_deg,
             self.y.position,
-            self.m.spindle_deg,
-            self.m.table_deg,
-            self.m.y_mm,
-            self.p.period_s,
+            self.measured.spindle_deg,
+            self.measured.table_deg,
+            self.measured.y_mm,
+            self.params.period_s,
         );
-        self.last_spindle_for_gearbox_deg = self.m.spindle_for_gearbox_deg;
+        self.last_spindle_for_gearbox_deg = self.measured.spindle_for_gearbox_deg;
         self.check_soft_limits();
         self.history = [
             self.history[1],
@@ -419,9 +419,9 @@ impl Controller {
     }
 
     fn measure(&mut self, input: &CycleInputs) {
-        let prev = self.m;
+        let prev = self.measured;
         let spindle = self
-            .p
+            .params
             .spindle
             .to_units(self.unwrap[0].update(input.spindle_counts));
         // The spindle encoder rides on the B drive's TPDO: without it this cycle the
@@ -432,22 +432,28 @@ impl Controller {
             self.observer.coast()
         };
         let for_gearbox = match self.angle_source {
-            SpindleAngleSource::Predicted => est.predict_deg(self.p.horizon_s),
+            SpindleAngleSource::Predicted => est.predict_deg(self.params.horizon_s),
             SpindleAngleSource::LastMeasured => spindle,
         };
-        self.m = Measured {
+        self.measured = Measured {
             spindle_deg: est.angle_deg,
             spindle_speed_deg_s: est.speed_deg_s,
             spindle_for_gearbox_deg: for_gearbox,
             table_deg: self
-                .p
+                .params
                 .table
                 .to_units(self.unwrap[1].update(input.table.position_counts)),
-            x_mm: self.p.x.to_units(self.unwrap[2].update(input.x.position_counts)),
-            y_mm: self.p.y.to_units(self.unwrap[3].update(input.y.position_counts)),
+            x_mm: self
+                .params
+                .x
+                .to_units(self.unwrap[2].update(input.x.position_counts)),
+            y_mm: self
+                .params
+                .y
+                .to_units(self.unwrap[3].update(input.y.position_counts)),
             drives_enabled: [input.table.enabled, input.x.enabled, input.y.enabled],
             inputs: if input.io_valid {
-                self.p.io.decode(input.digital_inputs)
+                self.params.io.decode(input.digital_inputs)
             } else {
                 Inputs::default()
             },
@@ -459,21 +465,21 @@ impl Controller {
             let [h0, h1] = self.history;
             let moved = |k: usize| h1[k] - h0[k];
             if !input.table.fresh {
-                self.m.table_deg = prev.table_deg + moved(0);
+                self.measured.table_deg = prev.table_deg + moved(0);
             }
             if !input.x.fresh {
-                self.m.x_mm = prev.x_mm + moved(1);
+                self.measured.x_mm = prev.x_mm + moved(1);
             }
             if !input.y.fresh {
-                self.m.y_mm = prev.y_mm + moved(2);
+                self.measured.y_mm = prev.y_mm + moved(2);
             }
         }
     }
 
     /// Supervision: safety chain, limits, drives, feedback, following errors.
     fn supervise(&mut self, input: &CycleInputs) {
-        let i = self.m.inputs;
-        let active = self.seq.drives_should_be_enabled();
+        let i = self.measured.inputs;
+        let active = self.sequencer.drives_should_be_enabled();
         if !input.io_valid && active {
             self.raise(Fault::IoLost);
         }
@@ -504,17 +510,22 @@ impl Controller {
                 self.raise(Fault::DriveFault { axis });
             }
             self.misses[k] = if fb.fresh { 0 } else { self.misses[k] + 1 };
-            if self.misses[k] >= self.p.feedback_misses_to_fault {
+            if self.misses[k] >= self.params.feedback_misses_to_fault {
                 self.raise(Fault::FeedbackLost { axis });
             }
         }
         self.enable_age_s = if active {
-            self.enable_age_s + self.p.period_s
+            self.enable_age_s + self.params.period_s
         } else {
             0.0
         };
         if active && self.enable_age_s > DRIVE_ENABLE_TIMEOUT_S {
-            for (enabled, axis) in self.m.drives_enabled.into_iter().zip([Axis::B, Axis::X, Axis::Y]) {
+            for (enabled, axis) in self
+                .measured
+                .drives_enabled
+                .into_iter()
+                .zip([Axis::B, Axis::X, Axis::Y])
+            {
                 if !enabled {
                     self.raise(Fault::DriveNotEnabled { axis });
                 }
@@ -524,12 +535,20 @@ impl Controller {
             let [b, x, y] = self.history[0];
             let errors = [
                 (
-                    self.m.table_deg - b,
-                    self.p.table_max_following_error_deg,
+                    self.measured.table_deg - b,
+                    self.params.table_max_following_error_deg,
                     Axis::B,
                 ),
-                (self.m.x_mm - x, self.p.x_limits.max_following_error_mm, Axis::X),
-                (self.m.y_mm - y, self.p.y_limits.max_following_error_mm, Axis::Y),
+                (
+                    self.measured.x_mm - x,
+                    self.params.x_limits.max_following_error_mm,
+                    Axis::X,
+                ),
+                (
+                    self.measured.y_mm - y,
+                    self.params.y_limits.max_following_error_mm,
+                    Axis::Y,
+                ),
             ];
             for (error, limit, axis) in errors {
                 if error.abs() > limit {
@@ -542,17 +561,17 @@ impl Controller {
     /// The VFD runs open loop and its motor slips under load: a slow integral trim keeps
     /// the measured speed on the set speed. Bounded; learned value kept between runs.
     fn trim_spindle(&mut self) {
-        let set = self.seq.spindle_set_rpm;
+        let set = self.sequencer.spindle_set_rpm;
         let sign = self.program.map_or(1.0, |p| p.spindle_sign);
-        let actual = self.m.spindle_speed_deg_s / 6.0 * sign;
+        let actual = self.measured.spindle_speed_deg_s / 6.0 * sign;
         if set > 0.0 && actual > 0.5 * set {
             let error = (set - actual) / set;
-            self.spindle_trim = (self.spindle_trim + SPINDLE_TRIM_PER_S * self.p.period_s * error)
+            self.spindle_trim = (self.spindle_trim + SPINDLE_TRIM_PER_S * self.params.period_s * error)
                 .clamp(SPINDLE_TRIM_RANGE.0, SPINDLE_TRIM_RANGE.1);
         }
-        let within = set > 0.0 && (actual - set).abs() <= self.p.spindle_tolerance * set;
+        let within = set > 0.0 && (actual - set).abs() <= self.params.spindle_tolerance * set;
         self.spindle_at_speed_s = if within {
-            self.spindle_at_speed_s + self.p.period_s
+            self.spindle_at_speed_s + self.params.period_s
         } else {
             0.0
         };
@@ -560,10 +579,12 @@ impl Controller {
 
     fn check_soft_limits(&mut self) {
         for (axis, pos, lim) in [
-            (Axis::X, self.x.position, self.p.x_limits),
-            (Axis::Y, self.y.position, self.p.y_limits),
+            (Axis::X, self.x.position, self.params.x_limits),
+            (Axis::Y, self.y.position, self.params.y_limits),
         ] {
-            if !(lim.soft_min_mm..=lim.soft_max_mm).contains(&pos) && self.seq.drives_should_be_enabled() {
+            if !(lim.soft_min_mm..=lim.soft_max_mm).contains(&pos)
+                && self.sequencer.drives_should_be_enabled()
+            {
                 self.raise(Fault::SoftLimit { axis, position: pos });
                 let clamped = pos.clamp(lim.soft_min_mm, lim.soft_max_mm);
                 let p = if axis == Axis::X { &mut self.x } else { &mut self.y };
@@ -574,36 +595,36 @@ impl Controller {
     }
 
     fn outputs(&mut self) -> CycleOutputs {
-        let enabled = self.seq.drives_should_be_enabled() && self.m.inputs.safety_chain_closed;
-        let spindle_rpm = self.seq.spindle_set_rpm;
+        let enabled = self.sequencer.drives_should_be_enabled() && self.measured.inputs.safety_chain_closed;
+        let spindle_rpm = self.sequencer.spindle_set_rpm;
         let program_sign = self.program.map_or(1.0, |p| p.spindle_sign);
         let running = spindle_rpm > 0.0;
-        let forward = program_sign * self.p.spindle.sign > 0.0;
+        let forward = program_sign * self.params.spindle.sign > 0.0;
         self.outputs = Outputs {
-            pc_ok_relay: self.seq.pc_ok(self.fault),
+            pc_ok_relay: self.sequencer.pc_ok(self.fault),
             pc_reset_relay: self.fault.is_none(),
             lube_pump: self.lube.pump_on(),
-            coolant_pump: self.seq.coolant,
-            x_clamp: self.seq.clamp,
+            coolant_pump: self.sequencer.coolant,
+            x_clamp: self.sequencer.clamp,
             spindle_run_forward: running && forward,
             spindle_run_reverse: running && !forward,
             fault_lamp: self.fault.is_some(),
         };
-        let v_table = (self.table_cmd_deg - self.history[0][0]) / (2.0 * self.p.period_s);
+        let v_table = (self.table_cmd_deg - self.history[0][0]) / (2.0 * self.params.period_s);
         CycleOutputs {
-            table_target_counts: self.p.table.to_counts(self.table_cmd_deg),
-            x_target_counts: self.p.x.to_counts(self.x.position),
-            y_target_counts: self.p.y.to_counts(self.y.position),
-            table_velocity_counts_s: v_table * self.p.table.counts_per_unit * self.p.table.sign,
-            x_velocity_counts_s: self.x.velocity * self.p.x.counts_per_unit * self.p.x.sign,
-            y_velocity_counts_s: self.y.velocity * self.p.y.counts_per_unit * self.p.y.sign,
+            table_target_counts: self.params.table.to_counts(self.table_cmd_deg),
+            x_target_counts: self.params.x.to_counts(self.x.position),
+            y_target_counts: self.params.y.to_counts(self.y.position),
+            table_velocity_counts_s: v_table * self.params.table.counts_per_unit * self.params.table.sign,
+            x_velocity_counts_s: self.x.velocity * self.params.x.counts_per_unit * self.params.x.sign,
+            y_velocity_counts_s: self.y.velocity * self.params.y.counts_per_unit * self.params.y.sign,
             drives_enabled: enabled,
-            digital_outputs: self.p.io.encode(&self.outputs),
+            digital_outputs: self.params.io.encode(&self.outputs),
             spindle_analog_v: self
-                .p
+                .params
                 .spindle_drive
                 .analog_out_v(spindle_rpm * self.spindle_trim)
-                .clamp(0.0, self.p.spindle_drive.analog_full_scale_v),
+                .clamp(0.0, self.params.spindle_drive.analog_full_scale_v),
         }
     }
 
@@ -612,27 +633,27 @@ impl Controller {
         let s = self.gearbox.status();
         Status {
             cycle: self.cycle,
-            state: self.seq.state,
-            hold: self.seq.hold,
-            pass: self.seq.pass_number(),
-            tooth: self.seq.tooth,
-            spindle_deg: self.m.spindle_deg,
-            spindle_rpm: self.m.spindle_speed_deg_s / 6.0,
-            spindle_set_rpm: self.seq.spindle_set_rpm,
-            table_deg: self.m.table_deg,
+            state: self.sequencer.state,
+            hold: self.sequencer.hold,
+            pass: self.sequencer.pass_number(),
+            tooth: self.sequencer.tooth,
+            spindle_deg: self.measured.spindle_deg,
+            spindle_rpm: self.measured.spindle_speed_deg_s / 6.0,
+            spindle_set_rpm: self.sequencer.spindle_set_rpm,
+            table_deg: self.measured.table_deg,
             table_cmd_deg: self.table_cmd_deg,
-            x_mm: self.m.x_mm,
+            x_mm: self.measured.x_mm,
             x_cmd_mm: self.x.position,
-            y_mm: self.m.y_mm,
+            y_mm: self.measured.y_mm,
             y_cmd_mm: self.y.position,
             coupling: self.gearbox.coupling(),
             sync_error_arcsec: s.error_deg * 3600.0,
             ccc_arcsec: s.ccc_deg * 3600.0,
             fault: self.fault,
-            inputs: self.m.inputs,
+            inputs: self.measured.inputs,
             outputs: self.outputs,
-            drives_enabled: self.m.drives_enabled,
-            drives_silent: self.misses.map(|m| m >= self.p.feedback_misses_to_fault),
+            drives_enabled: self.measured.drives_enabled,
+            drives_silent: self.misses.map(|m| m >= self.params.feedback_misses_to_fault),
         }
     }
 
@@ -643,7 +664,7 @@ impl Controller {
 
     /// Whether every drive reports "operation enabled".
     pub fn drives_ready(&self) -> bool {
-        self.m.drives_enabled.iter().all(|e| *e)
+        self.measured.drives_enabled.iter().all(|e| *e)
     }
 
     /// Lubrication cycles completed since power-up.

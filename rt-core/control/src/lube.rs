@@ -14,7 +14,7 @@ pub struct LubeParams {
 /// The lubrication cycle.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Lube {
-    p: LubeParams,
+    params: LubeParams,
     running: bool,
     elapsed_s: f64,
     confirmed: bool,
@@ -27,7 +27,7 @@ impl Lube {
     /// Starts with the power-up lubrication due.
     pub fn new(p: LubeParams) -> Self {
         Self {
-            p,
+            params: p,
             running: true,
             elapsed_s: 0.0,
             confirmed: false,
@@ -54,7 +54,7 @@ impl Lube {
     pub fn step(&mut self, dt_s: f64, dx_mm: f64, dy_mm: f64, pressure_ok: bool) -> Result<(), Fault> {
         self.travel_mm[0] += dx_mm.abs();
         self.travel_mm[1] += dy_mm.abs();
-        if !self.running && self.travel_mm() >= self.p.interval_mm {
+        if !self.running && self.travel_mm() >= self.params.interval_mm {
             self.running = true;
             self.elapsed_s = 0.0;
             self.confirmed = false;
@@ -64,11 +64,11 @@ impl Lube {
         }
         self.elapsed_s += dt_s;
         self.confirmed |= pressure_ok;
-        if !self.confirmed && self.elapsed_s > self.p.pressure_timeout_s {
+        if !self.confirmed && self.elapsed_s > self.params.pressure_timeout_s {
             self.running = false;
             return Err(Fault::LubeTimeout);
         }
-        if self.confirmed && self.elapsed_s >= self.p.pump_run_s {
+        if self.confirmed && self.elapsed_s >= self.params.pump_run_s {
             self.running = false;
             self.travel_mm = [0.0; 2];
             self.cycles_done += 1;

@@ -179,14 +179,14 @@ impl Sequencer {
 impl Controller {
     /// Loads a program (built outside the loop). Refused during a cycle or a fault.
     pub fn load(&mut self, program: CycleProgram) -> Result<(), Refusal> {
-        if self.seq.state.in_cycle() {
+        if self.sequencer.state.in_cycle() {
             return Err(Refusal::CycleRunning);
         }
         let params = GearboxParams {
             ratio_signed: program.ratio_signed,
             differential_signed_deg_per_mm: program.differential_signed_deg_per_mm,
             pitch_deg: program.pitch_deg(),
-            ..self.p.gearbox
+            ..self.params.gearbox
         };
         let same_law = self.program.is_some_and(|old| {
             old.ratio_signed == program.ratio_signed
@@ -213,7 +213,7 @@ impl Controller {
     }
 
     fn try_command(&mut self, cmd: Command) -> Result<(), Refusal> {
-        let state = self.seq.state;
+        let state = self.sequencer.state;
         match cmd {
             Command::Reset => {
                 if self.fault.is_none() {
@@ -241,42 +241,42 @@ impl Controller {
                 if single && program.single().is_none() {
                     return Err(Refusal::NoSingleDepth);
                 }
-                if !self.m.inputs.safety_chain_closed {
+                if !self.measured.inputs.safety_chain_closed {
                     return Err(Refusal::SafetyChainOpen);
                 }
                 if !self.drives_ready() {
                     return Err(Refusal::DrivesNotEnabled);
                 }
-                self.seq.single = single;
-                self.seq.pass_index = 0;
-                self.seq.tooth = 0;
-                self.seq.stopping = false;
-                self.seq.hold = false;
+                self.sequencer.single = single;
+                self.sequencer.pass_index = 0;
+                self.sequencer.tooth = 0;
+                self.sequencer.stopping = false;
+                self.sequencer.hold = false;
                 self.enter(State::ToSafe);
                 Ok(())
             }
             Command::FeedHold => {
-                if !state.in_cycle() || self.seq.hold {
+                if !state.in_cycle() || self.sequencer.hold {
                     return Err(Refusal::NothingToDo);
                 }
-                self.seq.hold = true;
+                self.sequencer.hold = true;
                 Ok(())
             }
             Command::Resume => {
-                if !self.seq.hold {
+                if !self.sequencer.hold {
                     return Err(Refusal::NothingToDo);
                 }
-                self.seq.hold = false;
+                self.sequencer.hold = false;
                 Ok(())
             }
             Command::Stop => {
-                if !state.in_cycle() && state != State::Jog && self.seq.spindle_set_rpm == 0.0 {
+                if !state.in_cycle() && state != State::Jog && self.sequencer.spindle_set_rpm == 0.0 {
                     return Err(Refusal::NothingToDo);
                 }
-                self.seq.hold = false;
-                self.seq.stopping = true;
+                self.sequencer.hold = false;
+                self.sequencer.stopping = true;
                 match state {
-                    State::Idle => self.seq.spindle_set_rpm = 0.0,
+                    State::Idle => self.sequencer.spindle_set_rpm = 0.0,
                     State::Jog => self.enter(State::Idle),
                     s if s.tool_in_work() || s == State::Infeed => self.leave_cut(),
                     State::Home | State::Disengage | State::SpindleDown => {}
@@ -304,8 +304,8 @@ impl Controller {
                     Axis::B => distance,
                 };
                 let lim = match axis {
-                    Axis::X => Some(self.p.x_limits),
-                    Axis::Y => Some(self.p.y_limits),
+                    Axis::X => Some(self.params.x_limits),
+                    Axis::Y => Some(self.params.y_limits),
                     Axis::B => None,
                 };
                 if let Some(l) = lim
@@ -316,8 +316,8 @@ impl Controller {
                 if axis == Axis::B {
                     self.gearbox.move_table_by(distance);
                 }
-                self.seq.jog_axis = Some(axis);
-                self.seq.jog_target = target;
+                self.sequencer.jog_axis = Some(axis);
+                self.sequencer.jog_target = target;
                 self.enter(State::Jog);
                 Ok(())
             }
@@ -329,17 +329,17 @@ impl Controller {
                         Refusal::CycleRunning
                     });
                 }
-                if !(rpm.is_finite() && rpm > 0.0 && rpm <= self.p.spindle_max_rpm) {
+                if !(rpm.is_finite() && rpm > 0.0 && rpm <= self.params.spindle_max_rpm) {
                     return Err(Refusal::BadValue);
                 }
-                self.seq.spindle_set_rpm = rpm;
+                self.sequencer.spindle_set_rpm = rpm;
                 Ok(())
             }
             Command::SpindleOff => {
                 if state.in_cycle() {
                     return Err(Refusal::CycleRunning);
                 }
-                self.seq.spindle_set_rpm = 0.0;
+                self.sequencer.spindle_set_rpm = 0.0;
                 Ok(())
             }
             Command::NewBlank => {
@@ -353,26 +353,26 @@ impl Controller {
     }
 
     fn enter(&mut self, to: State) {
-        let from = self.seq.state;
+        let from = self.sequencer.state;
         if from != to {
-            self.seq.state = to;
-            self.seq.state_time_s = 0.0;
+            self.sequencer.state = to;
+            self.sequencer.state_time_s = 0.0;
             self.event(EventKind::StateChanged { from, to });
         }
     }
 
     /// Starts the fault reaction.
     pub(super) fn seq_on_fault(&mut self, f: Fault) {
-        let state = self.seq.state;
-        self.seq.hold = false;
+        let state = self.sequencer.state;
+        self.sequencer.hold = false;
         if matches!(state, State::Init | State::Idle | State::Jog | State::Faulted) {
-            self.seq.spindle_set_rpm = 0.0;
+            self.sequencer.spindle_set_rpm = 0.0;
             self.enter(State::Faulted);
             return;
         }
         if !f.table_can_follow() {
             // The table cannot follow: stop the spindle at once, pull out if X can.
-            self.seq.spindle_set_rpm = 0.0;
+            self.sequencer.spindle_set_rpm = 0.0;
             self.gearbox.disengage();
         }
         if (state.tool_in_work() || state == State::Infeed) && f.x_can_move() {
@@ -384,16 +384,16 @@ impl Controller {
 
     fn current_pass(&self) -> Option<PassSetpoint> {
         let program = self.program?;
-        if self.seq.single {
+        if self.sequencer.single {
             program.single()
         } else {
-            program.passes().get(self.seq.pass_index).copied()
+            program.passes().get(self.sequencer.pass_index).copied()
         }
     }
 
     fn pass_count(&self) -> usize {
         match self.program {
-            Some(_) if self.seq.single => 1,
+            Some(_) if self.sequencer.single => 1,
             Some(p) => p.passes().len(),
             None => 0,
         }
@@ -409,32 +409,33 @@ impl Controller {
 
     /// Steps X towards `target` at rapid (or `speed`), pausing on feed hold.
     fn move_x(&mut self, target: f64, speed_mm_s: f64) -> bool {
-        let l = self.p.x_limits;
-        if self.seq.hold {
-            self.x.step_stop(l.accel_mm_s2, self.p.period_s);
+        let l = self.params.x_limits;
+        if self.sequencer.hold {
+            self.x.step_stop(l.accel_mm_s2, self.params.period_s);
             return false;
         }
         self.x
-            .step_towards(target, speed_mm_s, l.accel_mm_s2, self.p.period_s)
+            .step_towards(target, speed_mm_s, l.accel_mm_s2, self.params.period_s)
     }
 
     /// Steps Y towards `target` at rapid, slower while the gearbox couples the table to
     /// Y (the differential must not drive the table beyond its speed).
     fn move_y(&mut self, target: f64) -> bool {
-        let l = self.p.y_limits;
-        if self.seq.hold {
-            self.y.step_stop(l.accel_mm_s2, self.p.period_s);
+        let l = self.params.y_limits;
+        if self.sequencer.hold {
+            self.y.step_stop(l.accel_mm_s2, self.params.period_s);
             return false;
         }
         let g = self.gearbox.params();
         let mut speed = l.rapid_mm_s;
         let d = g.differential_signed_deg_per_mm.abs();
         if d > 0.0 && self.gearbox.coupling() != Coupling::Disengaged {
-            let base = (g.ratio_signed * self.m.spindle_speed_deg_s).abs();
-            let spare = (0.9 * self.p.table_max_deg_s - base).max(0.0);
+            let base = (g.ratio_signed * self.measured.spindle_speed_deg_s).abs();
+            let spare = (0.9 * self.params.table_max_deg_s - base).max(0.0);
             speed = speed.min(spare / d).max(0.1);
         }
-        self.y.step_towards(target, speed, l.accel_mm_s2, self.p.period_s)
+        self.y
+            .step_towards(target, speed, l.accel_mm_s2, self.params.period_s)
     }
 
     fn spindle_at_speed(&self) -> bool {
@@ -442,15 +443,15 @@ impl Controller {
     }
 
     fn spindle_stopped(&self) -> bool {
-        (self.m.spindle_speed_deg_s / 6.0).abs() < SPINDLE_STOPPED_RPM
+        (self.measured.spindle_speed_deg_s / 6.0).abs() < SPINDLE_STOPPED_RPM
     }
 
     /// One cycle of the sequencer.
     pub(super) fn sequence(&mut self) {
-        let dt = self.p.period_s;
-        self.seq.state_time_s += dt;
-        let state = self.seq.state;
-        self.seq.coolant = matches!(
+        let dt = self.params.period_s;
+        self.sequencer.state_time_s += dt;
+        let state = self.sequencer.state;
+        self.sequencer.coolant = matches!(
             state,
             State::Infeed
                 | State::Plunge
@@ -459,7 +460,7 @@ impl Controller {
                 | State::Cut
                 | State::Unclamp
                 | State::Retract
-        ) && self.seq.spindle_set_rpm > 0.0;
+        ) && self.sequencer.spindle_set_rpm > 0.0;
         let status = self.gearbox.status();
         if state.tool_in_work()
             && self.gearbox.coupling() == Coupling::Synchronised
@@ -473,9 +474,9 @@ impl Controller {
         match state {
             State::Init | State::Idle | State::Jog | State::Faulted => return self.sequence_idle(),
             State::Disengage => {
-                self.seq.clamp = false;
-                self.x.step_stop(self.p.x_limits.accel_mm_s2, dt);
-                self.y.step_stop(self.p.y_limits.accel_mm_s2, dt);
+                self.sequencer.clamp = false;
+                self.x.step_stop(self.params.x_limits.accel_mm_s2, dt);
+                self.y.step_stop(self.params.y_limits.accel_mm_s2, dt);
                 self.gearbox.disengage();
                 if self.gearbox.coupling() == Coupling::Disengaged && !self.gearbox.table_moving() {
                     self.enter(State::SpindleDown);
@@ -483,24 +484,24 @@ impl Controller {
                 return;
             }
             State::SpindleDown => {
-                self.seq.spindle_set_rpm = 0.0;
+                self.sequencer.spindle_set_rpm = 0.0;
                 if self.spindle_stopped() {
-                    if !self.seq.stopping {
+                    if !self.sequencer.stopping {
                         self.event(EventKind::CycleDone);
                     }
-                    self.seq.stopping = false;
+                    self.sequencer.stopping = false;
                     self.enter(State::Idle);
                 }
                 return;
             }
             State::FaultStop => {
-                self.seq.clamp = false;
-                self.seq.spindle_set_rpm = 0.0;
-                self.x.step_stop(self.p.x_limits.accel_mm_s2, dt);
-                self.y.step_stop(self.p.y_limits.accel_mm_s2, dt);
+                self.sequencer.clamp = false;
+                self.sequencer.spindle_set_rpm = 0.0;
+                self.x.step_stop(self.params.x_limits.accel_mm_s2, dt);
+                self.y.step_stop(self.params.y_limits.accel_mm_s2, dt);
                 self.gearbox.disengage();
                 let stopped = self.gearbox.coupling() == Coupling::Disengaged && self.spindle_stopped();
-                if stopped || self.seq.state_time_s > STOP_TIMEOUT_S {
+                if stopped || self.sequencer.state_time_s > STOP_TIMEOUT_S {
                     self.enter(State::Faulted);
                 }
                 return;
@@ -510,16 +511,16 @@ impl Controller {
         let (Some(program), Some(pass)) = (self.program, self.current_pass()) else {
             // A cycle state without a program cannot happen (loading is refused in a
             // cycle); stop safely if it ever does.
-            self.seq.stopping = true;
+            self.sequencer.stopping = true;
             self.enter(State::Disengage);
             return;
         };
-        let rapid_x = self.p.x_limits.rapid_mm_s;
+        let rapid_x = self.params.x_limits.rapid_mm_s;
         match state {
             State::Init | State::Idle | State::Jog | State::Faulted => self.sequence_idle(),
             State::Disengage | State::SpindleDown | State::FaultStop => {}
             State::ToSafe => {
-                self.seq.clamp = false;
+                self.sequencer.clamp = false;
                 if self.move_x(program.x_safe_mm, rapid_x) {
                     self.enter(State::ToStart);
                 }
@@ -530,17 +531,17 @@ impl Controller {
                 }
             }
             State::SpindleUp => {
-                if self.seq.hold {
+                if self.sequencer.hold {
                     return;
                 }
-                self.seq.spindle_set_rpm = pass.spindle_rpm;
+                self.sequencer.spindle_set_rpm = pass.spindle_rpm;
                 if self.spindle_at_speed() {
                     self.event(EventKind::PassStarted {
-                        pass: self.seq.pass_index as u32 + 1,
+                        pass: self.sequencer.pass_index as u32 + 1,
                     });
                     self.enter(State::Engage);
-                } else if self.seq.state_time_s > self.p.spindle_start_timeout_s {
-                    let actual_rpm = self.m.spindle_speed_deg_s.abs() / 6.0;
+                } else if self.sequencer.state_time_s > self.params.spindle_start_timeout_s {
+                    let actual_rpm = self.measured.spindle_speed_deg_s.abs() / 6.0;
                     self.raise(Fault::SpindleSpeed {
                         set_rpm: pass.spindle_rpm,
                         actual_rpm,
@@ -555,9 +556,9 @@ impl Controller {
                 {
                     self.event(EventKind::PhaseRecorded { phase_deg });
                 }
-                if self.gearbox.ready_to_cut() && !self.seq.hold {
+                if self.gearbox.ready_to_cut() && !self.sequencer.hold {
                     self.enter(State::Infeed);
-                } else if self.seq.state_time_s > SYNC_TIMEOUT_S {
+                } else if self.sequencer.state_time_s > SYNC_TIMEOUT_S {
                     let error_arcsec = self.gearbox.status().error_deg * 3600.0;
                     self.raise(Fault::SyncLost { error_arcsec });
                 }
@@ -569,7 +570,7 @@ impl Controller {
                     self.x_in_cut(&program, &pass)
                 };
                 if self.move_x(target, rapid_x) {
-                    self.seq.rev_start_deg = self.m.spindle_deg;
+                    self.sequencer.rev_start_deg = self.measured.spindle_deg;
                     if program.cycle == CycleKind::RadialPlunge {
                         self.enter(State::Plunge);
                     } else {
@@ -580,37 +581,38 @@ impl Controller {
             State::Plunge => {
                 let target = self.x_in_cut(&program, &pass);
                 if self.move_x(target, program.plunge_feed_mm_min / 60.0) {
-                    self.seq.rev_start_deg = self.m.spindle_deg;
+                    self.sequencer.rev_start_deg = self.measured.spindle_deg;
                     self.enter(State::ExtraRev);
                 }
             }
             State::ExtraRev => {
-                let table_turn = (program.ratio_signed * (self.m.spindle_deg - self.seq.rev_start_deg)).abs();
+                let table_turn =
+                    (program.ratio_signed * (self.measured.spindle_deg - self.sequencer.rev_start_deg)).abs();
                 if table_turn >= 360.0 {
                     self.enter_cut_or_clamp(&program);
                 }
             }
             State::Clamp => {
-                self.seq.clamp = true;
-                if self.m.inputs.x_clamp_closed {
-                    self.seq.feed_scale = 0.0;
+                self.sequencer.clamp = true;
+                if self.measured.inputs.x_clamp_closed {
+                    self.sequencer.feed_scale = 0.0;
                     self.enter(State::Cut);
-                } else if self.seq.state_time_s > self.p.clamp_timeout_s {
+                } else if self.sequencer.state_time_s > self.params.clamp_timeout_s {
                     self.raise(Fault::ClampTimeout);
                 }
             }
             State::Cut => self.sequence_cut(&program, &pass),
             State::Unclamp => {
-                self.seq.clamp = false;
-                if !self.m.inputs.x_clamp_closed {
+                self.sequencer.clamp = false;
+                if !self.measured.inputs.x_clamp_closed {
                     self.enter(State::Retract);
-                } else if self.seq.state_time_s > self.p.clamp_timeout_s {
+                } else if self.sequencer.state_time_s > self.params.clamp_timeout_s {
                     self.raise(Fault::ClampTimeout);
                 }
             }
             State::Retract => {
                 if self.move_x(program.x_safe_mm, rapid_x) {
-                    if self.seq.stopping {
+                    if self.sequencer.stopping {
                         self.enter(State::Disengage);
                     } else if program.cycle == CycleKind::ToothByTooth {
                         self.enter(State::Return);
@@ -627,17 +629,17 @@ impl Controller {
             }
             State::Index => {
                 if !self.gearbox.table_moving() {
-                    self.seq.tooth += 1;
-                    if self.seq.tooth < program.teeth {
+                    self.sequencer.tooth += 1;
+                    if self.sequencer.tooth < program.teeth {
                         self.enter(State::Infeed);
                     } else {
-                        self.seq.tooth = 0;
+                        self.sequencer.tooth = 0;
                         self.next_pass();
                     }
                 }
             }
             State::Home => {
-                let start = if self.seq.single {
+                let start = if self.sequencer.single {
                     pass.y_start_mm
                 } else {
                     program.passes()[0].y_start_mm
@@ -647,15 +649,15 @@ impl Controller {
                 }
             }
             State::FaultRetract => {
-                self.seq.clamp = false;
-                self.seq.feed_scale = 0.0;
-                self.y.step_stop(self.p.y_limits.accel_mm_s2, dt);
-                let unclamped =
-                    !self.m.inputs.x_clamp_closed || self.seq.state_time_s > self.p.clamp_timeout_s;
+                self.sequencer.clamp = false;
+                self.sequencer.feed_scale = 0.0;
+                self.y.step_stop(self.params.y_limits.accel_mm_s2, dt);
+                let unclamped = !self.measured.inputs.x_clamp_closed
+                    || self.sequencer.state_time_s > self.params.clamp_timeout_s;
                 if unclamped
                     && self
                         .x
-                        .step_towards(program.x_safe_mm, rapid_x, self.p.x_limits.accel_mm_s2, dt)
+                        .step_towards(program.x_safe_mm, rapid_x, self.params.x_limits.accel_mm_s2, dt)
                 {
                     self.enter(State::FaultStop);
                 }
@@ -671,7 +673,7 @@ impl Controller {
 
     /// Into the cut: X clamped first unless it moves in the cut (crowning, contour).
     fn enter_cut_or_clamp(&mut self, program: &CycleProgram) {
-        self.seq.feed_scale = 0.0;
+        self.sequencer.feed_scale = 0.0;
         self.enter(if program.shape.moves_x() {
             State::Cut
         } else {
@@ -680,15 +682,17 @@ impl Controller {
     }
 
     fn sequence_cut(&mut self, program: &CycleProgram, pass: &PassSetpoint) {
-        let dt = self.p.period_s;
-        let want = if self.seq.hold { 0.0 } else { 1.0 };
+        let dt = self.params.period_s;
+        let want = if self.sequencer.hold { 0.0 } else { 1.0 };
         let ramp = dt / FEED_RAMP_S;
-        self.seq.feed_scale += (want - self.seq.feed_scale).clamp(-ramp, ramp);
+        self.sequencer.feed_scale += (want - self.sequencer.feed_scale).clamp(-ramp, ramp);
         // Y is tied to the spindle: it advances with the spindle's turning, never with time.
-        let spindle_delta =
-            program.spindle_sign * (self.m.spindle_for_gearbox_deg - self.last_spindle_for_gearbox_deg);
-        let dy =
-            program.feed_sign * pass.feed_mm_per_spindle_deg * spindle_delta.max(0.0) * self.seq.feed_scale;
+        let spindle_delta = program.spindle_sign
+            * (self.measured.spindle_for_gearbox_deg - self.last_spindle_for_gearbox_deg);
+        let dy = program.feed_sign
+            * pass.feed_mm_per_spindle_deg
+            * spindle_delta.max(0.0)
+            * self.sequencer.feed_scale;
         let before = self.y.position;
         let mut y = before + dy;
         let done = (pass.y_end_mm - y) * program.feed_sign <= 0.0;
@@ -708,8 +712,8 @@ impl Controller {
     }
 
     fn next_pass(&mut self) {
-        if self.seq.pass_index + 1 < self.pass_count() && !self.seq.stopping {
-            self.seq.pass_index += 1;
+        if self.sequencer.pass_index + 1 < self.pass_count() && !self.sequencer.stopping {
+            self.sequencer.pass_index += 1;
             self.enter(State::ToStart);
         } else {
             self.enter(State::Home);
@@ -718,17 +722,17 @@ impl Controller {
 
     /// Outside a cycle: follow the actual positions when the drives are off, run jogs.
     fn sequence_idle(&mut self) {
-        let dt = self.p.period_s;
-        match self.seq.state {
+        let dt = self.params.period_s;
+        match self.sequencer.state {
             State::Init | State::Faulted => {
-                self.seq.clamp = false;
-                self.seq.spindle_set_rpm = 0.0;
-                if !self.seq.drives_should_be_enabled() {
+                self.sequencer.clamp = false;
+                self.sequencer.spindle_set_rpm = 0.0;
+                if !self.sequencer.drives_should_be_enabled() {
                     // Drives are off: the commands follow the machine, so enabling never
                     // jumps. Once they are being enabled the commands hold still.
-                    self.x = super::profile::Profile::at(self.m.x_mm);
-                    self.y = super::profile::Profile::at(self.m.y_mm);
-                    let table = self.m.table_deg;
+                    self.x = super::profile::Profile::at(self.measured.x_mm);
+                    self.y = super::profile::Profile::at(self.measured.y_mm);
+                    let table = self.measured.table_deg;
                     let g = *self.gearbox.params();
                     let recorded = self.gearbox.recorded_phase_deg();
                     self.gearbox = super::egb::Gearbox::new(g, table);
@@ -736,30 +740,30 @@ impl Controller {
                         self.gearbox.restore_recorded_phase(r);
                     }
                 }
-                self.seq.init_ready = self.seq.state == State::Init
-                    && self.m.inputs.safety_chain_closed
+                self.sequencer.init_ready = self.sequencer.state == State::Init
+                    && self.measured.inputs.safety_chain_closed
                     && self.lube.cycles_done() > 0
                     && self.fault.is_none();
-                if self.seq.init_ready && self.drives_ready() {
+                if self.sequencer.init_ready && self.drives_ready() {
                     self.enter(State::Idle);
                 }
             }
             State::Jog => {
-                let done = match self.seq.jog_axis {
+                let done = match self.sequencer.jog_axis {
                     Some(Axis::X) => {
-                        let l = self.p.x_limits;
+                        let l = self.params.x_limits;
                         self.x
-                            .step_towards(self.seq.jog_target, l.rapid_mm_s / 2.0, l.accel_mm_s2, dt)
+                            .step_towards(self.sequencer.jog_target, l.rapid_mm_s / 2.0, l.accel_mm_s2, dt)
                     }
                     Some(Axis::Y) => {
-                        let l = self.p.y_limits;
+                        let l = self.params.y_limits;
                         self.y
-                            .step_towards(self.seq.jog_target, l.rapid_mm_s / 2.0, l.accel_mm_s2, dt)
+                            .step_towards(self.sequencer.jog_target, l.rapid_mm_s / 2.0, l.accel_mm_s2, dt)
                     }
                     Some(Axis::B) | None => !self.gearbox.table_moving(),
                 };
                 if done {
-                    self.seq.jog_axis = None;
+                    self.sequencer.jog_axis = None;
                     self.enter(State::Idle);
                 }
             }
