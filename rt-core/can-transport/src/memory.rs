@@ -103,33 +103,19 @@ impl CanBus for MemoryBus {
     }
 }
 
+// Delivery, order, own SYNC and a full queue: the conformance suite
+// (tests/conformance.rs). The capture is this bus's own.
 #[cfg(test)]
 mod tests {
     use super::*;
 
     #[test]
-    fn memory_bus_delivers_to_every_other_endpoint_in_order() {
+    fn the_capture_logs_every_frame_on_the_bus() {
         let mut a = MemoryBus::new(16);
-        let mut b = a.endpoint();
         let mut c = a.endpoint();
         a.capture();
         a.send(&Frame::new(0x80, &[])).unwrap();
-        a.send(&Frame::new(0x181, &[1])).unwrap();
-        assert_eq!(a.try_recv().unwrap(), None, "no echo");
-        assert_eq!(b.try_recv().unwrap(), Some(Frame::new(0x80, &[])));
-        assert_eq!(b.try_recv().unwrap(), Some(Frame::new(0x181, &[1])));
-        assert_eq!(c.try_recv().unwrap(), Some(Frame::new(0x80, &[])));
         c.send(&Frame::new(0x702, &[5])).unwrap();
-        assert_eq!(a.try_recv().unwrap(), Some(Frame::new(0x702, &[5])));
-        assert_eq!(a.captured().len(), 3);
-    }
-
-    #[test]
-    fn a_full_queue_refuses_without_blocking() {
-        let mut a = MemoryBus::new(2);
-        let _b = a.endpoint();
-        a.send(&Frame::new(1, &[])).unwrap();
-        a.send(&Frame::new(2, &[])).unwrap();
-        assert_eq!(a.send(&Frame::new(3, &[])), Err(BusError::Full));
+        assert_eq!(a.captured(), vec![Frame::new(0x80, &[]), Frame::new(0x702, &[5])]);
     }
 }

@@ -9,6 +9,7 @@ use std::io::ErrorKind;
 use std::os::fd::AsRawFd;
 
 const ENETDOWN: i32 = 100;
+const ENOBUFS: i32 = 105;
 
 /// A raw SocketCAN socket in non-blocking mode.
 #[derive(Debug)]
@@ -59,6 +60,8 @@ fn os(e: std::io::Error) -> BusError {
         _ => match e.raw_os_error() {
             // ENETDOWN: the interface was taken down.
             Some(ENETDOWN) => BusError::Down,
+            // ENOBUFS: the interface's transmit queue is full (a real controller under load).
+            Some(ENOBUFS) => BusError::Full,
             Some(n) => BusError::Os(n),
             None => BusError::Os(0),
         },
@@ -92,7 +95,8 @@ impl CanBus for SocketCan {
     /// are on the bus: on vcan at once, on a controller with echo when transmitted, in
     /// order with the frames received. Filters keep out the other frames this master
     /// sends (NMT, RPDOs, SDO requests): what passes is SYNC and EMCY, TPDO 1-4, SDO
-    /// responses and heartbeats, from any node.
+    /// responses and heartbeats, from any node, this socket's own among them (its own
+    /// heartbeat comes back too; the master ignores it). The conformance suite checks it.
     fn echo_own_sync(&mut self) -> bool {
         let node_to_master = [0x080, 0x180, 0x280, 0x380, 0x480, 0x580, 0x700];
         let filters: Vec<CanFilter> = node_to_master
