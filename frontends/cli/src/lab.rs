@@ -50,7 +50,8 @@ pub fn exec_lab(args: &[OsString]) -> String {
     if !path.exists() {
         return format!(
             "{}: not found. `hob {}` runs the simulated machine, which is in the binary hob-lab \
-             (build it with `cargo build --release -p hob-lab`; a machine PC does not need it)",
+             (build it with `cargo build --release -p hob-lab`, and for `hob demo` every binary beside it: \
+             `cargo build --release --workspace --bins`; a machine PC does not need them)",
             path.display(),
             args.first().and_then(|a| a.to_str()).unwrap_or("")
         );

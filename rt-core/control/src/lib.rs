@@ -1,11 +1,13 @@
-//! The control core: what the 1 kHz loop computes, as deterministic code with no I/O.
+//! # hob-control: the control core
+//!
+//! What the 1 kHz loop computes, as deterministic code with no I/O.
 //!
 //! [`Controller::step`] runs once per cycle. Its inputs were latched at this cycle's SYNC
 //! (k); its outputs are applied by the drives at the next SYNC (k+1) and reached through
 //! CSP interpolation over the following period, so the spindle angle is predicted one
 //! period plus `control.drive_delay_us` ahead.
 //!
-//! Rules of this module (checked by `tests/no_alloc.rs` with a counting allocator): no
+//! Rules of this crate (checked by `bench/plant/tests/no_alloc.rs` with a counting allocator): no
 //! heap allocation, no lock, no blocking call, no logging, bounded work per call, no
 //! panic. Errors are `Copy` enums ([`fault::Fault`], [`fault::Refusal`]); events go into
 //! a fixed ring ([`events::EventRing`]) that the caller drains.

@@ -1,8 +1,8 @@
 //! # hob-setup: what is done before the loop starts
 //!
 //! Start-up code: it may allocate, block and fail, and refuses everything it cannot accept
-//! with errors that name the key and its position. Pure (no I/O dependency): files are
-//! read by the caller.
+//! with errors that name the key and its position. No I/O dependency: files are read
+//! with `std::fs` at start-up only, never by the loop.
 //!
 //! - [`config`]: the machine configuration (`config/machine.toml`), loaded with serde and
 //!   validated completely;
