@@ -305,13 +305,57 @@ mod tests {
         hob_setup::config::machine::shipped_for_tests()
     }
 
+    /// Worst-case bits of a CAN 2.0A data frame with `n` data bytes, counted field by
+    /// field (ISO 11898-1), not with the library's formula: SOF 1, identifier 11, RTR 1,
+    /// IDE 1, r0 1, DLC 4, data 8n, CRC 15 are the 34 + 8n bits subject to stuffing (at
+    /// worst one stuff bit after the first 5 and then after every 4 more:
+    /// (34 + 8n - 1) / 4); CRC delimiter 1, ACK 2, EOF 7 and intermission 3 are not.
+    fn worst_case_frame_bits(n: usize) -> f64 {
+        let stuffed = 1 + 11 + 1 + 1 + 1 + 4 + 8 * n + 15;
+        let fixed = 1 + 2 + 7 + 3;
+        (stuffed + (stuffed - 1) / 4 + fixed) as f64
+    }
+
     #[test]
     fn the_shipped_schedule_fits_under_the_limit() {
-        let plan = BusPlan::from_machine(&shipped());
+        let m = shipped();
+        let plan = BusPlan::from_machine(&m);
         let load = plan.load();
         assert!(load.load <= plan.bus_load_limit, "{}", load.load);
-        // Cyclic part alone: SYNC, 3 x RPDO (4 bytes), TPDO 8 + 2 x 4 bytes.
-        assert_eq!(55 + 3 * 95 + 135 + 2 * 95, 665);
+        // The schedule derived from the machine file by hand. Cyclic: SYNC (0 bytes),
+        // three target RPDOs (0x607A, 4 bytes), the table's TPDO (0x6064 + spindle
+        // encoder, 8 bytes) and X's and Y's (0x6064, 4 bytes).
+        let f = worst_case_frame_bits;
+        let cyclic = f(0) + 3.0 * f(4) + f(8) + 2.0 * f(4);
+        assert_eq!(cyclic, 665.0, "55 + 3 x 95 + 135 + 2 x 95 bits");
+        let plan_cyclic: f64 = load
+            .traffic
+            .iter()
+            .filter(|t| t.per_cycle == 1.0)
+            .map(|t| t.bits_per_cycle())
+            .sum();
+        assert_eq!(plan_cyclic, cyclic, "{:#?}", load.traffic);
+        // Event-driven, at most once per spacing or inhibit time (cycle / time per cycle):
+        // three controlwords (2 bytes) and the outputs (2) and analog outputs (4) every
+        // event_rpdo_spacing_ms; three statuswords (2) every statusword_inhibit_ms; the
+        // inputs (3) every inputs_inhibit_ms; four nodes' and the master's heartbeats (1)
+        // every heartbeat_ms.
+        let cycle_ms = f64::from(m.control.cycle_period_us) / 1000.0;
+        let every = |ms: u16| cycle_ms / f64::from(ms);
+        let c = &m.can;
+        let event = (3.0 * f(2) + f(2) + f(4)) * every(c.event_rpdo_spacing_ms)
+            + 3.0 * f(2) * every(c.statusword_inhibit_ms)
+            + f(3) * every(c.inputs_inhibit_ms)
+            + 5.0 * f(1) * every(c.heartbeat_ms);
+        let bits = cyclic + event;
+        assert!(
+            (load.bits_per_cycle - bits).abs() < 1e-9,
+            "plan {} bits per cycle, derived {bits}: {:#?}",
+            load.bits_per_cycle,
+            load.traffic
+        );
+        let capacity = f64::from(c.bitrate_bit_s) * cycle_ms / 1000.0;
+        assert!((load.load - bits / capacity).abs() < 1e-12, "{}", load.load);
     }
 
     #[test]
