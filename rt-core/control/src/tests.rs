@@ -7,9 +7,46 @@ fn shipped() -> MachineConfig {
 
 #[test]
 fn prediction_horizon_is_one_cycle_plus_the_drive_delay() {
-    let p = ControlParams::from_machine(&shipped());
-    assert!((p.period_s - 0.001).abs() < 1e-15);
-    assert!((p.horizon_s - 0.002).abs() < 1e-15);
+    // Run the controller on a spindle turning at a constant 120 rpm (20 counts of 10 000
+    // per 1 ms cycle) until the observer has settled: the angle the gearbox follows must
+    // lead the observed angle by the speed times one cycle plus the drive delay, both as
+    // the machine file states them.
+    let m = shipped();
+    let p = ControlParams::from_machine(&m);
+    let mut c = Controller::new(p);
+    let counts_per_cycle = 20;
+    let mut input = CycleInputs {
+        digital_inputs: p.io.encode_inputs(&Inputs {
+            safety_chain_closed: true,
+            ..Inputs::default()
+        }),
+        io_valid: true,
+        ..CycleInputs::default()
+    };
+    input.table.fresh = true;
+    input.x.fresh = true;
+    input.y.fresh = true;
+    for k in 0..3000 {
+        input.spindle_counts = k * counts_per_cycle;
+        c.step(&input);
+    }
+    let cycle_s = f64::from(m.control.cycle_period_us) * 1e-6;
+    let horizon_s = cycle_s + f64::from(m.control.drive_delay_us) * 1e-6;
+    let counts_per_deg = f64::from(m.spindle.encoder_counts_per_rev) / 360.0;
+    let speed_deg_s =
+        m.spindle.encoder_polarity.sign() * f64::from(counts_per_cycle) / counts_per_deg / cycle_s;
+    let lead = c.measured.spindle_for_gearbox_deg - c.measured.spindle_deg;
+    assert!(
+        (lead - speed_deg_s * horizon_s).abs() < 1e-6,
+        "the gearbox follows {lead} deg ahead, expected {} deg ({speed_deg_s} deg/s x {horizon_s} s)",
+        speed_deg_s * horizon_s
+    );
+    // Following the last measured angle there is no lead.
+    c.set_angle_source(SpindleAngleSource::LastMeasured);
+    input.spindle_counts = 3000 * counts_per_cycle;
+    c.step(&input);
+    let measured = m.spindle.encoder_polarity.sign() * f64::from(input.spindle_counts) / counts_per_deg;
+    assert!((c.measured.spindle_for_gearbox_deg - measured).abs() < 1.0 / counts_per_deg);
 }
 
 #[test]
