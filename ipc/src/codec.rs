@@ -2,11 +2,14 @@
 //! operator's words for them. The loop uses only the `Copy` encoders (no allocation);
 //! frontends use the decoders and the texts.
 
-use crate::{AlarmCode, EventSample, StateSample, command, event_kind};
+use crate::{AlarmCode, EventSample, StateSample, bus_event, bus_kind, command, event_kind, send_error};
+use hob_canopen::bus::BusError;
+use hob_canopen::emcy::emcy_text;
 use hob_control::egb::Coupling;
 use hob_control::events::{Event, EventKind};
 use hob_control::fault::{Axis, End, Fault, Refusal};
 use hob_control::{Command, State, Status};
+use hob_process_image::master::BusEvent;
 
 /// Every state, in code order (code = index).
 pub const STATES: [State; 22] = [
@@ -375,14 +378,117 @@ pub fn event_text(e: &EventSample) -> String {
         ),
         event_kind::PROGRAM_LOADED => "program loaded".into(),
         event_kind::CYCLE_DONE => "cycle done".into(),
-        event_kind::MESSAGE | event_kind::BUS => e.text(),
+        event_kind::BUS => bus_event_text(e),
+        event_kind::MESSAGE => e.text(),
         k => format!("event kind {k}"),
+    }
+}
+
+/// A bus event of the loop's CANopen master as an event sample (in the cycle: numbers
+/// only, nothing formatted; [`event_text`] words it).
+pub fn bus_event_sample(cycle: u64, be: &BusEvent) -> EventSample {
+    let mut e = EventSample {
+        kind: event_kind::BUS,
+        cycle,
+        ..EventSample::default()
+    };
+    match *be {
+        BusEvent::Emcy(m) => {
+            e.a = u32::from(m.node);
+            e.b = bus_event::EMCY;
+            e.value = f64::from(m.code);
+        }
+        BusEvent::HeartbeatLost { node } => {
+            e.a = u32::from(node);
+            e.b = bus_event::HEARTBEAT_LOST;
+        }
+        BusEvent::TpdoMissing { node, in_a_row } => {
+            e.a = u32::from(node);
+            e.b = bus_event::TPDO_MISSING;
+            e.value = f64::from(in_a_row);
+        }
+        BusEvent::SendFailed(err) => {
+            e.b = bus_event::SEND_FAILED;
+            (e.a, e.value) = match err {
+                BusError::Full => (send_error::QUEUE_FULL, 0.0),
+                BusError::Down => (send_error::INTERFACE_DOWN, 0.0),
+                BusError::Os(errno) => (send_error::OS, f64::from(errno)),
+            };
+        }
+    }
+    e
+}
+
+/// The operator's words for a bus event.
+pub fn bus_event_text(e: &EventSample) -> String {
+    let node = e.a;
+    match e.b {
+        bus_event::EMCY => {
+            let code = e.value as u16;
+            format!("EMCY node {node} 0x{code:04X}: {}", emcy_text(code))
+        }
+        bus_event::HEARTBEAT_LOST => format!("heartbeat of node {node} lost"),
+        bus_event::TPDO_MISSING => format!("TPDO of node {node} missing {} cycles in a row", e.value),
+        bus_event::SEND_FAILED => {
+            let why = match e.a {
+                send_error::QUEUE_FULL => BusError::Full.to_string(),
+                send_error::INTERFACE_DOWN => BusError::Down.to_string(),
+                _ => BusError::Os(e.value as i32).to_string(),
+            };
+            format!("CAN send failed: {why}")
+        }
+        b => format!("bus event {b} of node {node}"),
+    }
+}
+
+/// The name of a [`bus_kind`] code.
+pub fn bus_kind_name(k: u8) -> &'static str {
+    match k {
+        bus_kind::SHARED_MEMORY => "shm",
+        _ => "socketcan",
     }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn every_bus_event_is_worded_from_its_numbers() {
+        use hob_canopen::emcy::Emcy;
+        let cases = [
+            (
+                BusEvent::Emcy(Emcy {
+                    node: 3,
+                    code: 0x8611,
+                    register: 0,
+                    vendor: [0; 5],
+                }),
+                format!("EMCY node 3 0x8611: {}", emcy_text(0x8611)),
+            ),
+            (
+                BusEvent::HeartbeatLost { node: 5 },
+                "heartbeat of node 5 lost".into(),
+            ),
+            (
+                BusEvent::TpdoMissing { node: 2, in_a_row: 4 },
+                "TPDO of node 2 missing 4 cycles in a row".into(),
+            ),
+            (
+                BusEvent::SendFailed(BusError::Full),
+                "CAN send failed: transmit queue full".into(),
+            ),
+            (
+                BusEvent::SendFailed(BusError::Os(105)),
+                "CAN send failed: OS error 105".into(),
+            ),
+        ];
+        for (be, text) in cases {
+            let e = bus_event_sample(7, &be);
+            assert_eq!((e.kind, e.cycle, e.text_len), (event_kind::BUS, 7, 0), "{be:?}");
+            assert_eq!(event_text(&e), text);
+        }
+    }
 
     #[test]
     fn every_state_round_trips() {

@@ -25,8 +25,9 @@ mod ports;
 mod types;
 
 pub use ports::{
-    BusError, CanPort, Client, Ports, PubSub, STATE_BUFFER, command_server, instance, node, open_can,
-    open_can_port, open_command, open_events, open_state, open_stats, publisher, service_name, use_instance,
+    BusError, CAN_BUFFER, CanError, CanPort, Client, Ports, PubSub, STATE_BUFFER, command_server, instance,
+    node, open_can, open_can_port, open_command, open_events, open_state, open_stats, publisher,
+    service_name, use_instance,
 };
 pub use types::*;
 

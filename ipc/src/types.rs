@@ -114,8 +114,33 @@ pub mod event_kind {
     pub const CYCLE_DONE: u32 = 9;
     /// A message of the service (start-up, privileges, shutdown).
     pub const MESSAGE: u32 = 10;
-    /// The service's CANopen master saw something (EMCY, heartbeat lost/back).
+    /// The service's CANopen master saw something: `b` is a [`super::bus_event`] code.
     pub const BUS: u32 = 11;
+}
+
+/// What a [`event_kind::BUS`] event's `b` says happened; `a` is the node, `value` the
+/// code, count or OS error that goes with it.
+pub mod bus_event {
+    /// An emergency message: `value` is its error code.
+    pub const EMCY: u32 = 1;
+    pub const HEARTBEAT_LOST: u32 = 2;
+    /// `value` cycles in a row without the node's synchronous TPDO.
+    pub const TPDO_MISSING: u32 = 3;
+    /// A frame could not be sent: `a` is a [`super::send_error`] code, `value` the errno.
+    pub const SEND_FAILED: u32 = 4;
+}
+
+/// Why a frame could not be sent ([`bus_event::SEND_FAILED`]).
+pub mod send_error {
+    pub const QUEUE_FULL: u32 = 1;
+    pub const INTERFACE_DOWN: u32 = 2;
+    pub const OS: u32 = 3;
+}
+
+/// Which CAN bus the loop's frames are on ([`StatsSample::bus_kind`]).
+pub mod bus_kind {
+    pub const SOCKETCAN: u8 = 0;
+    pub const SHARED_MEMORY: u8 = 1;
 }
 
 /// An event of the loop. `a`, `b`, `value` depend on `kind`.
@@ -190,7 +215,7 @@ pub struct StatsSample {
     pub fifo_priority: i32,
     pub core: i32,
     pub memory_locked: u8,
-    /// Frames on the CAN bus: 0 SocketCAN, 1 shared-memory virtual CAN.
+    /// Frames on the CAN bus: a [`bus_kind`] code.
     pub bus_kind: u8,
     pub _pad: [u8; 2],
     /// The idle-state exit latency the loop holds the CPUs to, us (-1: not held).

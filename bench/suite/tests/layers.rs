@@ -16,7 +16,7 @@ const ALLOWED: &[(&str, &[&str])] = &[
     ("hob-canopen", &[]),
     ("hob-process-image", &["hob-canopen", "hob-control", "hob-setup"]),
     // I/O edges: the contract between processes, the CAN transports, the OS real-time helpers.
-    ("hob-ipc", &["hob-control"]),
+    ("hob-ipc", &["hob-control", "hob-canopen", "hob-process-image"]),
     ("hob-can-transport", &["hob-canopen", "hob-ipc"]),
     ("hob-rt-os", &[]),
     // Processes (the product).

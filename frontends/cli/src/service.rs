@@ -158,7 +158,7 @@ pub fn status_text(s: &Snapshot) -> String {
                 } else {
                     "idle states NOT limited".into()
                 },
-                if x.bus_kind == 1 {
+                if x.bus_kind == hob_ipc::bus_kind::SHARED_MEMORY {
                     "shared-memory virtual CAN"
                 } else {
                     "SocketCAN"
@@ -219,7 +219,7 @@ pub fn status_json(s: &Snapshot) -> String {
             "pool_allocations_in_cycle": x.pool_allocations_in_cycle,
             "fifo_priority": x.fifo_priority, "core": x.core, "memory_locked": x.memory_locked != 0,
             "cpu_dma_latency_us": (x.cpu_dma_latency_us >= 0).then_some(x.cpu_dma_latency_us),
-            "bus": if x.bus_kind == 1 { "shm" } else { "socketcan" },
+            "bus": codec::bus_kind_name(x.bus_kind),
         })
     });
     let events: Vec<serde_json::Value> = s

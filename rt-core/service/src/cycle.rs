@@ -9,11 +9,10 @@
 use crate::commands::{LoopMailbox, Mail};
 use crate::stats::LoopTiming;
 use hob_canopen::bus::CanBus;
-use hob_canopen::emcy::emcy_text;
 use hob_control::{Controller, CycleOutputs, State};
 use hob_ipc::codec;
 use hob_ipc::iceoryx2::port::publisher::Publisher;
-use hob_ipc::{EVENT_TEXT_BYTES, EventSample, StateSample, Svc, event_kind};
+use hob_ipc::{EventSample, StateSample, Svc, event_kind};
 use hob_process_image::master::{BUS_EVENTS, BusEvent, Cyclic};
 use hob_rt_os::alloc_guard;
 use hob_rt_os::{now_ns, sleep_until_ns};
@@ -31,25 +30,6 @@ pub struct LoopCounters {
     pub cycle: AtomicU64,
     pub overruns: AtomicU64,
     pub tx_errors: AtomicU64,
-}
-
-/// Writes formatted text into a fixed buffer (cut when full), allocation-free.
-struct FixedText<'a> {
-    buf: &'a mut [u8; EVENT_TEXT_BYTES],
-    len: usize,
-}
-
-impl std::fmt::Write for FixedText<'_> {
-    fn write_str(&mut self, s: &str) -> std::fmt::Result {
-        let room = EVENT_TEXT_BYTES - self.len;
-        let mut n = s.len().min(room);
-        while !s.is_char_boundary(n) {
-            n -= 1;
-        }
-        self.buf[self.len..self.len + n].copy_from_slice(&s.as_bytes()[..n]);
-        self.len += n;
-        Ok(())
-    }
 }
 
 /// Everything the loop owns.
@@ -122,42 +102,9 @@ impl<B: CanBus> RtLoop<B> {
         }
         let n = self.cyclic.take_events(&mut self.bus_events);
         for i in 0..n {
-            let Some(be) = self.bus_events[i] else { continue };
-            let mut e = EventSample {
-                kind: event_kind::BUS,
-                cycle,
-                ..EventSample::default()
-            };
-            let mut w = FixedText {
-                buf: &mut e.text,
-                len: 0,
-            };
-            use std::fmt::Write as _;
-            let _ = match be {
-                BusEvent::Emcy(m) => {
-                    e.a = u32::from(m.node);
-                    e.b = 1;
-                    e.value = f64::from(m.code);
-                    write!(w, "EMCY node {} 0x{:04X}: {}", m.node, m.code, emcy_text(m.code))
-                }
-                BusEvent::HeartbeatLost { node } => {
-                    e.a = u32::from(node);
-                    e.b = 2;
-                    write!(w, "heartbeat of node {node} lost")
-                }
-                BusEvent::TpdoMissing { node, in_a_row } => {
-                    e.a = u32::from(node);
-                    e.b = 3;
-                    e.value = f64::from(in_a_row);
-                    write!(w, "TPDO of node {node} missing {in_a_row} cycles in a row")
-                }
-                BusEvent::SendFailed(err) => {
-                    e.b = 4;
-                    write!(w, "CAN send failed: {err}")
-                }
-            };
-            e.text_len = w.len as u32;
-            self.publish_event(e);
+            if let Some(be) = self.bus_events[i] {
+                self.publish_event(codec::bus_event_sample(cycle, &be));
+            }
         }
     }
 

@@ -145,7 +145,11 @@ impl Helpers {
             let counters = Arc::clone(counters);
             let period_ns = u64::from(machine.control.cycle_period_us) * 1000;
             let rt_report = Arc::clone(&rt_report);
-            let bus_kind = u8::from(iface == "shm");
+            let bus_kind = if iface == "shm" {
+                hob_ipc::bus_kind::SHARED_MEMORY
+            } else {
+                hob_ipc::bus_kind::SOCKETCAN
+            };
             let loop_core = machine.service.loop_core;
             std::thread::Builder::new()
                 .name("hob-rt-stats".into())
