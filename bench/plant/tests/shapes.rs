@@ -15,6 +15,14 @@ fn check(edits: &[(&str, &str)], expected_offset_mm: impl Fn(f64) -> f64) {
     let (job, cycle, plan) = short_spur(&all);
     let mut sim = powered_up(&job, &cycle, &plan);
     let r = run_cycle(&mut sim, false, 600.0);
+    assert!(
+        r.events
+            .iter()
+            .any(|e| e.kind == hob_control::events::EventKind::CycleDone),
+        "the cycle must finish (every pass cut): {:?} {:?}",
+        r.states(),
+        r.faults()
+    );
     let mut worst_cmd = 0.0f64;
     let mut worst_actual = 0.0f64;
     let mut checked = 0;
