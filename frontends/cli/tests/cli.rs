@@ -29,6 +29,28 @@ fn temp_program(name: &str, src: &str) -> PathBuf {
     path
 }
 
+fn toml_file(rel: &str) -> toml::Table {
+    std::fs::read_to_string(root().join(rel))
+        .unwrap()
+        .parse()
+        .unwrap()
+}
+
+/// Sets an existing dotted key of a parsed file (a key that is not there fails the test:
+/// the file changed).
+fn set(t: &mut toml::Table, key: &str, v: toml::Value) {
+    let mut parts: Vec<&str> = key.split('.').collect();
+    let last = parts.pop().unwrap();
+    let mut cur = t;
+    for p in parts {
+        cur = cur
+            .get_mut(p)
+            .and_then(toml::Value::as_table_mut)
+            .unwrap_or_else(|| panic!("{key}: no table {p}"));
+    }
+    *cur.get_mut(last).unwrap_or_else(|| panic!("{key}: no such key")) = v;
+}
+
 fn spur_src() -> String {
     std::fs::read_to_string(root().join("config/programs/spur-z17-m5.toml")).expect("example")
 }
@@ -274,4 +296,43 @@ fn the_simulator_commands_are_handed_to_hob_lab_with_their_arguments_unchanged()
         .output()
         .expect("run hob");
     assert!(o.status.success(), "{}", text(&o.stderr));
+    assert!(
+        text(&o.stdout).starts_with("config/machine.toml: ok"),
+        "hob checked the machine itself: {}",
+        text(&o.stdout)
+    );
+}
+
+#[test]
+fn bus_load_of_the_shipped_machine_is_under_its_limit() {
+    let out = hob(&["bus-load"]);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    let s = text(&out.stdout);
+    assert!(
+        s.lines()
+            .any(|l| l.starts_with("total 695.9 of 1000 bits per cycle: 69.6 % (limit 70 %)")),
+        "{s}"
+    );
+}
+
+#[test]
+fn bus_load_above_the_limit_exits_2_naming_the_key() {
+    // The shipped PDO set needs 69.6 % of the bus; a machine that allows 60 % refuses it.
+    let mut m = toml_file("config/machine.toml");
+    set(&mut m, "can.bus_load_limit", 0.6.into());
+    let f = temp_program("bus-load-machine.toml", &toml::to_string(&m).unwrap());
+    let out = hob(&["bus-load", "--machine", f.to_str().unwrap()]);
+    assert_eq!(
+        out.status.code(),
+        Some(2),
+        "stdout {} stderr {}",
+        text(&out.stdout),
+        text(&out.stderr)
+    );
+    let err = text(&out.stderr);
+    assert!(
+        err.contains("bus load 69.6 % is above can.bus_load_limit = 60 %"),
+        "{err}"
+    );
+    assert!(out.stdout.is_empty(), "nothing on stdout for a refusal");
 }
