@@ -142,17 +142,95 @@ fn simulate_refuses_a_bad_plant_file() {
     let mut plant = toml_file("config/plant.toml");
     set(&mut plant, "simulation.inner_step_us", 5000.into());
     let f = temp_program("plant.toml", &toml::to_string(&plant).unwrap());
-    let o = hob(&[
-        "simulate",
-        "config/programs/spur-z17-m5.toml",
-        "--plant",
-        f.to_str().unwrap(),
-    ]);
-    assert_eq!(o.status.code(), Some(2));
+    let out = std::env::temp_dir().join(format!("hob-lab-sim-refused-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&out);
+    assert_refused(
+        &[
+            "simulate",
+            "config/programs/spur-z17-m5.toml",
+            "--plant",
+            f.to_str().unwrap(),
+            "--out",
+            out.to_str().unwrap(),
+        ],
+        &[f.to_str().unwrap(), "simulation.inner_step_us"],
+    );
+    assert!(!out.exists(), "nothing written for a refused simulation");
+}
+
+/// `hob simulate` of the short spur job with `flags`: the one-line report and summary.json.
+fn simulate(label: &str, flags: &[&str]) -> (String, serde_json::Value) {
+    let p = temp_program("short-flags.toml", &short_spur_src());
+    let out = std::env::temp_dir().join(format!("hob-lab-sim-{label}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&out);
+    let mut args = vec!["simulate", p.to_str().unwrap(), "--out", out.to_str().unwrap()];
+    args.extend_from_slice(flags);
+    let o = hob(&args);
+    assert!(o.status.success(), "{label}: {}", text(&o.stderr));
+    let summary: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
+    (text(&o.stdout), summary)
+}
+
+fn max_um(s: &serde_json::Value) -> f64 {
+    s["max_sync_err_um"].as_f64().unwrap()
+}
+
+#[test]
+fn simulate_flags_change_what_the_summary_reports_as_documented() {
+    // docs/accuracy.md: with both parts the error is within the bound; without
+    // cross-coupling a constant lag remains (larger); without the predictor (its windows
+    // widened, else it faults) the table follows a 2 ms old angle (far larger).
+    let (line, full) = simulate("full", &[]);
+    assert_eq!(full["completed"], true, "{line}");
+    assert_eq!(full["cross_coupling"], true);
+    assert_eq!(full["predictor"], true);
+    assert_eq!(full["passes"].as_array().unwrap().len(), 2, "{line}");
+    assert!(max_um(&full) <= full["bound_um"].as_f64().unwrap(), "{line}");
+    assert!(line.contains("ccc on, predictor on"), "{line}");
+
+    let (line, no_ccc) = simulate("no-ccc", &["--no-ccc"]);
+    assert_eq!(no_ccc["completed"], true, "{line}");
+    assert_eq!(no_ccc["cross_coupling"], false);
+    assert!(line.contains("ccc off, predictor on"), "{line}");
     assert!(
-        text(&o.stderr).contains("simulation.inner_step_us"),
-        "{}",
-        text(&o.stderr)
+        max_um(&no_ccc) > 2.0 * max_um(&full),
+        "without CCC {} um, with {} um",
+        max_um(&no_ccc),
+        max_um(&full)
+    );
+
+    // Without the predictor the error leaves the coarse window: the cycle faults.
+    let (line, no_pred) = simulate("no-predictor", &["--no-predictor"]);
+    assert_eq!(no_pred["predictor"], false);
+    assert_eq!(no_pred["completed"], false, "{line}");
+    assert!(
+        no_pred["fault"]
+            .as_str()
+            .is_some_and(|f| f.starts_with("SyncLost")),
+        "{line} {}",
+        no_pred["fault"]
+    );
+    assert!(line.contains(": FAULT "), "{line}");
+
+    // --no-windows lets it run to the end, and shows what the predictor is worth.
+    let (line, no_pred_open) = simulate("no-predictor-no-windows", &["--no-predictor", "--no-windows"]);
+    assert_eq!(no_pred_open["completed"], true, "{line}");
+    assert!(line.contains("predictor off (last measured angle)"), "{line}");
+    assert!(
+        max_um(&no_pred_open) > 10.0 * max_um(&full),
+        "without the predictor {} um, with {} um",
+        max_um(&no_pred_open),
+        max_um(&full)
+    );
+
+    // --single: the single-mode pass only.
+    let (line, single) = simulate("single", &["--single"]);
+    assert_eq!(single["completed"], true, "{line}");
+    assert_eq!(single["passes"].as_array().unwrap().len(), 1, "{line}");
+    assert!(
+        single["total_time_s"].as_f64().unwrap() < full["total_time_s"].as_f64().unwrap(),
+        "{line}"
     );
 }
 
