@@ -73,6 +73,41 @@ fn wait_for(
     }
 }
 
+/// The binaries the demo starts beside itself.
+const SIBLINGS: [&str; 4] = ["hob-rt", "hob-sim", "hob-logger", "hob-watchdog"];
+
+/// Run by `cargo run` (which names itself in `CARGO`), the demo first has cargo build the
+/// binaries it starts, in its own profile: `cargo run --release -p hob-lab -- demo` is the
+/// whole quick start on a fresh clone. Run as an installed binary, it builds nothing.
+fn build_siblings(say: &dyn Fn(&str)) -> Result<(), String> {
+    let Some(cargo) = std::env::var_os("CARGO") else {
+        return Ok(());
+    };
+    let me = std::env::current_exe().map_err(|e| e.to_string())?;
+    let profile_dir = me.parent().and_then(Path::file_name).and_then(|n| n.to_str());
+    // The whole workspace's binaries: the same features (and so the same artifacts) as the
+    // build of the test command and of the README's install.
+    let mut c = Command::new(cargo);
+    c.args(["build", "--workspace", "--bins"]);
+    match profile_dir {
+        Some("release") => {
+            c.arg("--release");
+        }
+        Some("debug") => {}
+        _ => return Ok(()), // not in a cargo target directory: nothing to build
+    }
+    say(&format!(
+        "building {} (cargo build, once)",
+        SIBLINGS.join(", ")
+    ));
+    let status = c.status().map_err(|e| format!("cargo build: {e}"))?;
+    if status.success() {
+        Ok(())
+    } else {
+        Err(format!("cargo build of the demo's binaries failed ({status})"))
+    }
+}
+
 pub fn run(machine: &MachineConfig, a: &DemoArgs<'_>) -> Result<String, (u8, String)> {
     let fail = |e: String| (1, e);
     let plan = hob_setup::planner::plan_file(a.program, machine).map_err(|e| (2, e.to_string()))?;
@@ -123,6 +158,7 @@ pub fn run(machine: &MachineConfig, a: &DemoArgs<'_>) -> Result<String, (u8, Str
             write_machine(&dir, text).map_err(fail)?
         }
     };
+    build_siblings(&say).map_err(fail)?;
     let mut procs = Processes::default();
     let machine_file = machine_path.to_str().unwrap_or("config/machine.toml");
     let cmd = |name: &str| -> Result<Command, (u8, String)> {
