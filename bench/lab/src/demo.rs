@@ -96,10 +96,7 @@ fn build_siblings(say: &dyn Fn(&str)) -> Result<(), String> {
         Some("debug") => {}
         _ => return Ok(()), // not in a cargo target directory: nothing to build
     }
-    say(&format!(
-        "building {} (cargo build, once)",
-        SIBLINGS.join(", ")
-    ));
+    say(&format!("building {} (cargo build, once)", SIBLINGS.join(", ")));
     let status = c.status().map_err(|e| format!("cargo build: {e}"))?;
     if status.success() {
         Ok(())

@@ -12,7 +12,7 @@
 //!   the accuracy summary of `hob simulate`.
 
 pub mod config;
-pub mod machine;
+pub mod plant;
 pub mod servo;
 pub mod sim;
 pub mod spindle;

@@ -5,7 +5,7 @@
 //! The trace row of cycle k holds the plant's true positions at SYNC k.
 
 use crate::config::PlantConfig;
-use crate::machine::{Injection, Plant, Start, Workpiece};
+use crate::plant::{Injection, Plant, Start, Workpiece};
 use hob_control::egb::Coupling;
 use hob_control::events::Event;
 use hob_control::program::CycleProgram;

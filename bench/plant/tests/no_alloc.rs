@@ -8,7 +8,7 @@ mod common;
 
 use hob_control::fault::Axis;
 use hob_control::{Command, CycleOutputs, State};
-use hob_plant::machine::Injection;
+use hob_plant::plant::Injection;
 use hob_plant::sim::Simulation;
 use std::alloc::{GlobalAlloc, Layout, System};
 use std::cell::Cell;

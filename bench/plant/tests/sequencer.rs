@@ -10,7 +10,7 @@ use hob_control::egb::Coupling;
 use hob_control::events::EventKind;
 use hob_control::fault::{Axis, End, Fault, Refusal};
 use hob_control::{Command, State};
-use hob_plant::machine::Injection;
+use hob_plant::plant::Injection;
 
 use State::*;
 

@@ -17,7 +17,7 @@ use hob_control::fault::Axis;
 use hob_control::program::CycleProgram;
 use hob_control::{Command, Controller, CycleInputs, CycleOutputs, State};
 use hob_plant::config::PlantConfig;
-use hob_plant::machine::Injection;
+use hob_plant::plant::Injection;
 use hob_plant::sim::Simulation;
 use hob_setup::config::Problems;
 use hob_setup::config::machine::MachineConfig;

@@ -10,8 +10,8 @@
 //! [`machine::VirtualMachine`] is transport-free (frames in, frames out); [`runner`] puts
 //! it and the master on a bus, in one process (tests) or as the `hob-sim` process.
 
-pub mod machine;
 pub mod node;
 pub mod od;
 pub mod procs;
 pub mod runner;
+pub mod virtual_machine;

@@ -6,7 +6,7 @@
 //!   the virtual machine: after each SYNC it waits (up to a timeout) for the drives' TPDOs,
 //!   so runs are reproducible on a loaded or emulated machine. Timing plays no part.
 
-use crate::machine::{VirtualMachine, VmFault};
+use crate::virtual_machine::{VirtualMachine, VmFault};
 use hob_canopen::bus::{BusError, CanBus};
 use hob_canopen::frame::{Frame, SYNC};
 use hob_control::{Controller, CycleOutputs};

@@ -19,8 +19,8 @@ use hob_setup::config::Problems;
 use hob_setup::config::machine::MachineConfig;
 use hob_setup::job::Program;
 use hob_setup::planner;
-use hob_virtual_machine::machine::{VirtualMachine, VmFault};
 use hob_virtual_machine::runner::{MasterLoop, VmThread};
+use hob_virtual_machine::virtual_machine::{VirtualMachine, VmFault};
 use std::path::{Path, PathBuf};
 use std::time::Duration;
 
@@ -282,7 +282,7 @@ fn assert_nothing_enabled(bed: Bed) {
 
 #[test]
 fn drive_fault_on_y_in_the_cut_retracts_first_then_stops() {
-    let (bed, states) = fault_in_cut(VmFault::Plant(hob_plant::machine::Injection::DriveFault(Axis::Y)));
+    let (bed, states) = fault_in_cut(VmFault::Plant(hob_plant::plant::Injection::DriveFault(Axis::Y)));
     assert_eq!(
         states,
         vec![State::Cut, State::FaultRetract, State::FaultStop, State::Faulted]
@@ -309,7 +309,7 @@ fn a_silent_table_drive_is_noticed_and_the_machine_stops() {
 
 #[test]
 fn emergency_stop_in_the_cut_retracts_within_the_stop_delay() {
-    let (bed, states) = fault_in_cut(VmFault::Plant(hob_plant::machine::Injection::EmergencyStop));
+    let (bed, states) = fault_in_cut(VmFault::Plant(hob_plant::plant::Injection::EmergencyStop));
     assert_eq!(
         states,
         vec![State::Cut, State::FaultRetract, State::FaultStop, State::Faulted]

@@ -15,7 +15,7 @@ use hob_canopen::frame::Frame;
 use hob_canopen::nmt::NmtState;
 use hob_control::fault::Axis;
 use hob_plant::config::PlantConfig;
-use hob_plant::machine::{Injection, Plant, Start};
+use hob_plant::plant::{Injection, Plant, Start};
 use hob_process_image::plan::{ANALOG_OUTPUTS, BusPlan, DIGITAL_INPUTS, DIGITAL_OUTPUTS};
 use hob_setup::config::machine::MachineConfig;
 use std::collections::VecDeque;
