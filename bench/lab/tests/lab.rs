@@ -1,82 +1,22 @@
 //! Runs the real `hob-lab` binary (`hob demo`, `hob simulate`): exit status, message, files.
 #![allow(clippy::unwrap_used)]
 
-use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+#[path = "../../../frontends/cli/tests/support/mod.rs"]
+mod support;
 
-fn root() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("../..")
-}
+use std::process::Output;
+use support::{remove, set, text, toml_file};
 
 fn hob(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_hob-lab"))
-        .args(args)
-        .current_dir(root())
-        .output()
-        .expect("run hob-lab")
-}
-
-fn text(b: &[u8]) -> String {
-    String::from_utf8_lossy(b).into_owned()
-}
-
-/// Writes `src` to a fresh temporary file.
-fn temp_program(name: &str, src: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("hob-lab-test-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).expect("temp dir");
-    let path = dir.join(name);
-    std::fs::write(&path, src).expect("write program");
-    path
-}
-
-fn toml_file(rel: &str) -> toml::Table {
-    std::fs::read_to_string(root().join(rel))
-        .unwrap()
-        .parse()
-        .unwrap()
-}
-
-/// The table holding the last part of a dotted key, and that part; panics if a part is missing.
-fn parent<'a>(t: &'a mut toml::Table, key: &'a str) -> (&'a mut toml::Table, &'a str) {
-    let mut parts: Vec<&str> = key.split('.').collect();
-    let last = parts.pop().unwrap();
-    let mut cur = t;
-    for p in parts {
-        cur = cur
-            .get_mut(p)
-            .and_then(toml::Value::as_table_mut)
-            .unwrap_or_else(|| panic!("{key}: no table {p}"));
-    }
-    (cur, last)
-}
-
-/// Sets an existing key (a key that is not there fails the test: the file changed).
-fn set(t: &mut toml::Table, key: &str, v: toml::Value) {
-    let (table, last) = parent(t, key);
-    let old = table
-        .get_mut(last)
-        .unwrap_or_else(|| panic!("{key}: no such key"));
-    *old = v;
-}
-
-fn remove(t: &mut toml::Table, key: &str) {
-    let (table, last) = parent(t, key);
-    table.remove(last).unwrap_or_else(|| panic!("{key}: no such key"));
+    support::run(env!("CARGO_BIN_EXE_hob-lab"), args)
 }
 
 fn assert_refused(args: &[&str], needles: &[&str]) {
-    let out = hob(args);
-    assert_eq!(
-        out.status.code(),
-        Some(2),
-        "stdout {} stderr {}",
-        text(&out.stdout),
-        text(&out.stderr)
-    );
-    let err = text(&out.stderr);
-    for n in needles {
-        assert!(err.contains(n), "{n:?} not in: {err}");
-    }
+    support::assert_refused(env!("CARGO_BIN_EXE_hob-lab"), args, needles);
+}
+
+fn temp_program(name: &str, src: &str) -> std::path::PathBuf {
+    support::temp_file(name, src)
 }
 
 /// The thesis gear made shallow and narrow so that the whole cycle simulates in a second:

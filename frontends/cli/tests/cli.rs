@@ -1,58 +1,29 @@
 //! Runs the real `hob` binary on good and bad programs: exit status and message.
 #![allow(clippy::unwrap_used)]
 
-use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+mod support;
 
-fn root() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("../..")
-}
+use std::path::Path;
+use std::process::{Command, Output};
+use support::{edited, root, set, text, toml_file};
 
 fn hob(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_hob"))
-        .args(args)
-        .current_dir(root())
-        .output()
-        .expect("run hob")
+    support::run(env!("CARGO_BIN_EXE_hob"), args)
 }
 
-fn text(b: &[u8]) -> String {
-    String::from_utf8_lossy(b).into_owned()
+fn assert_refused(args: &[&str], needles: &[&str]) {
+    support::assert_refused(env!("CARGO_BIN_EXE_hob"), args, needles);
 }
 
-/// Writes `src` to a fresh temporary program file.
-fn temp_program(name: &str, src: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("hob-cli-test-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).expect("temp dir");
-    let path = dir.join(name);
-    std::fs::write(&path, src).expect("write program");
-    path
+fn temp_program(name: &str, src: &str) -> std::path::PathBuf {
+    support::temp_file(name, src)
 }
 
-fn toml_file(rel: &str) -> toml::Table {
-    std::fs::read_to_string(root().join(rel))
-        .unwrap()
-        .parse()
-        .unwrap()
-}
-
-/// Sets an existing dotted key of a parsed file (a key that is not there fails the test:
-/// the file changed).
-fn set(t: &mut toml::Table, key: &str, v: toml::Value) {
-    let mut parts: Vec<&str> = key.split('.').collect();
-    let last = parts.pop().unwrap();
-    let mut cur = t;
-    for p in parts {
-        cur = cur
-            .get_mut(p)
-            .and_then(toml::Value::as_table_mut)
-            .unwrap_or_else(|| panic!("{key}: no table {p}"));
-    }
-    *cur.get_mut(last).unwrap_or_else(|| panic!("{key}: no such key")) = v;
-}
+/// The thesis gear, the example most tests start from.
+const SPUR: &str = "config/programs/spur-z17-m5.toml";
 
 fn spur_src() -> String {
-    std::fs::read_to_string(root().join("config/programs/spur-z17-m5.toml")).expect("example")
+    std::fs::read_to_string(root().join(SPUR)).expect("example")
 }
 
 #[test]
@@ -117,25 +88,9 @@ fn check_without_a_program_checks_the_machine() {
     assert!(text(&out.stdout).contains("config/machine.toml: ok"));
 }
 
-fn assert_refused(args: &[&str], needles: &[&str]) {
-    let out = hob(args);
-    assert_eq!(
-        out.status.code(),
-        Some(2),
-        "stdout {} stderr {}",
-        text(&out.stdout),
-        text(&out.stderr)
-    );
-    let err = text(&out.stderr);
-    for n in needles {
-        assert!(err.contains(n), "missing {n:?} in: {err}");
-    }
-    assert!(out.stdout.is_empty(), "nothing planned on a refusal");
-}
-
 #[test]
 fn refuses_a_table_speed_above_the_machine_naming_field_and_limit() {
-    let p = temp_program("fast-table.toml", &spur_src().replace("teeth = 17", "teeth = 5"));
+    let p = edited(SPUR, "fast-table.toml", &[("workpiece.teeth", 5.into())]);
     let p = p.to_str().unwrap();
     assert_refused(
         &["plan", p],
@@ -146,11 +101,7 @@ fn refuses_a_table_speed_above_the_machine_naming_field_and_limit() {
 
 #[test]
 fn refuses_a_hob_of_another_module() {
-    let src = spur_src().replace(
-        "[tool]\nkind = \"hob\"\nmodule_mm = 5.0",
-        "[tool]\nkind = \"hob\"\nmodule_mm = 4.0",
-    );
-    let p = temp_program("module.toml", &src);
+    let p = edited(SPUR, "module.toml", &[("tool.module_mm", 4.0.into())]);
     assert_refused(
         &["plan", p.to_str().unwrap(), "--json"],
         &["tool.module_mm", "workpiece.module_mm = 5"],
@@ -159,8 +110,11 @@ fn refuses_a_hob_of_another_module() {
 
 #[test]
 fn refuses_an_allowance_not_smaller_than_the_depth() {
-    let src = spur_src().replace("finish_allowance_mm = 0.5", "finish_allowance_mm = 12.0");
-    let p = temp_program("allowance.toml", &src);
+    let p = edited(
+        SPUR,
+        "allowance.toml",
+        &[("strategy.finish_allowance_mm", 12.0.into())],
+    );
     assert_refused(
         &["check", p.to_str().unwrap()],
         &["strategy.finish_allowance_mm", "total_depth_mm = 11.25"],
@@ -169,7 +123,8 @@ fn refuses_an_allowance_not_smaller_than_the_depth() {
 
 #[test]
 fn refuses_rough_depths_that_do_not_add_up() {
-    let p = temp_program("depths.toml", &spur_src().replace("[6.0, 4.75]", "[6.0, 5.0]"));
+    let depths = toml::Value::Array(vec![6.0.into(), 5.0.into()]);
+    let p = edited(SPUR, "depths.toml", &[("strategy.rough_depths_mm", depths)]);
     assert_refused(
         &["check", p.to_str().unwrap()],
         &["strategy.rough_depths_mm", "11 mm", "10.75 mm"],
@@ -178,9 +133,9 @@ fn refuses_rough_depths_that_do_not_add_up() {
 
 #[test]
 fn refuses_zero_teeth_with_the_position() {
-    let src = spur_src().replace("teeth = 17", "teeth = 0");
+    let p = edited(SPUR, "teeth.toml", &[("workpiece.teeth", 0.into())]);
+    let src = std::fs::read_to_string(&p).unwrap();
     let line = src.lines().position(|l| l.starts_with("teeth")).unwrap() + 1;
-    let p = temp_program("teeth.toml", &src);
     assert_refused(
         &["check", p.to_str().unwrap()],
         &[&format!("teeth.toml:{line}:1: workpiece.teeth"), "(is 0)"],
@@ -198,10 +153,11 @@ fn refuses_a_typo() {
 
 #[test]
 fn refuses_a_broken_machine_file() {
-    let machine = std::fs::read_to_string(root().join("config/machine.toml"))
-        .unwrap()
-        .replace("max_table_rpm = 14.1", "max_table_rpm = 60.0");
-    let m = temp_program("machine.toml", &machine);
+    let m = edited(
+        "config/machine.toml",
+        "machine.toml",
+        &[("table.max_table_rpm", 60.0.into())],
+    );
     assert_refused(
         &[
             "plan",
