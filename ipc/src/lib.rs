@@ -1,4 +1,4 @@
-//! hob's shared-memory bus: the message types and service names that `hob-rt` and every
+//! hob's shared-memory services (iceoryx2): the message types and service names that `hob-rt` and every
 //! frontend (HMI, CLI, logger, safety watchdog) share, and how each service is opened so
 //! that every process uses the same settings.
 //!
@@ -25,7 +25,7 @@ mod ports;
 mod types;
 
 pub use ports::{
-    BusError, CAN_BUFFER, CanError, CanPort, Client, Ports, PubSub, STATE_BUFFER, command_server, instance,
+    CAN_BUFFER, CanError, CanPort, Client, IpcError, Ports, PubSub, STATE_BUFFER, command_server, instance,
     node, open_can, open_can_port, open_command, open_events, open_state, open_stats, publisher,
     service_name, use_instance,
 };

@@ -26,18 +26,18 @@ const MAX_PORTS: usize = 8;
 
 /// A failure to set up a port: start-up only, with iceoryx2's reason.
 #[derive(Debug, Clone, PartialEq, Eq)]
-pub struct BusError(pub String);
+pub struct IpcError(pub String);
 
-impl std::fmt::Display for BusError {
+impl std::fmt::Display for IpcError {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        write!(f, "shared-memory bus: {}", self.0)
+        write!(f, "shared-memory services: {}", self.0)
     }
 }
 
-impl std::error::Error for BusError {}
+impl std::error::Error for IpcError {}
 
-fn err<E: std::fmt::Debug>(what: &str) -> impl FnOnce(E) -> BusError + '_ {
-    move |e| BusError(format!("{what}: {e:?}"))
+fn err<E: std::fmt::Debug>(what: &str) -> impl FnOnce(E) -> IpcError + '_ {
+    move |e| IpcError(format!("{what}: {e:?}"))
 }
 
 static INSTANCE: std::sync::OnceLock<String> = std::sync::OnceLock::new();
@@ -60,14 +60,14 @@ pub fn instance() -> String {
 }
 
 /// `hob/<instance>/<what>`.
-pub fn service_name(what: &str) -> Result<ServiceName, BusError> {
+pub fn service_name(what: &str) -> Result<ServiceName, IpcError> {
     let s = format!("hob/{}/{what}", instance());
     ServiceName::new(&s).map_err(err("service name"))
 }
 
 /// A node named `name`, after removing what processes killed earlier left behind.
 /// Signals are left to the process (iceoryx2 installs no handler).
-pub fn node(name: &str) -> Result<Node<Svc>, BusError> {
+pub fn node(name: &str) -> Result<Node<Svc>, IpcError> {
     // iceoryx2 warns on stderr when it finds no iceoryx2.toml; its defaults are ours.
     iceoryx2::prelude::set_log_level(iceoryx2::prelude::LogLevel::Error);
     let node_name = NodeName::new(name).map_err(err("node name"))?;
@@ -86,7 +86,7 @@ pub fn node(name: &str) -> Result<Node<Svc>, BusError> {
 pub type PubSub<T> = iceoryx2::service::port_factory::publish_subscribe::PortFactory<Svc, T, ()>;
 
 /// A publisher on `service`, connected to the subscribers that exist already.
-pub fn publisher<T>(service: &PubSub<T>, what: &str) -> Result<Publisher<Svc, T, ()>, BusError>
+pub fn publisher<T>(service: &PubSub<T>, what: &str) -> Result<Publisher<Svc, T, ()>, IpcError>
 where
     T: std::fmt::Debug + iceoryx2::prelude::ZeroCopySend + 'static,
 {
@@ -95,7 +95,7 @@ where
     Ok(p)
 }
 
-fn pub_sub<T>(node: &Node<Svc>, what: &str, buffer: usize, history: usize) -> Result<PubSub<T>, BusError>
+fn pub_sub<T>(node: &Node<Svc>, what: &str, buffer: usize, history: usize) -> Result<PubSub<T>, IpcError>
 where
     T: std::fmt::Debug + iceoryx2::prelude::ZeroCopySend + 'static,
 {
@@ -110,19 +110,19 @@ where
         .map_err(err(what))
 }
 
-pub fn open_state(node: &Node<Svc>) -> Result<PubSub<StateSample>, BusError> {
+pub fn open_state(node: &Node<Svc>) -> Result<PubSub<StateSample>, IpcError> {
     pub_sub(node, "state", STATE_BUFFER, 0)
 }
 
-pub fn open_events(node: &Node<Svc>) -> Result<PubSub<EventSample>, BusError> {
+pub fn open_events(node: &Node<Svc>) -> Result<PubSub<EventSample>, IpcError> {
     pub_sub(node, "events", EVENT_BUFFER, EVENT_HISTORY)
 }
 
-pub fn open_stats(node: &Node<Svc>) -> Result<PubSub<StatsSample>, BusError> {
+pub fn open_stats(node: &Node<Svc>) -> Result<PubSub<StatsSample>, IpcError> {
     pub_sub(node, "stats", 16, 1)
 }
 
-pub fn open_can(node: &Node<Svc>) -> Result<PubSub<CanFrameSample>, BusError> {
+pub fn open_can(node: &Node<Svc>) -> Result<PubSub<CanFrameSample>, IpcError> {
     pub_sub(node, "can", CAN_BUFFER, 0)
 }
 
@@ -134,7 +134,7 @@ type ReqRes = iceoryx2::service::port_factory::request_response::PortFactory<
     (),
 >;
 
-pub fn open_command(node: &Node<Svc>) -> Result<ReqRes, BusError> {
+pub fn open_command(node: &Node<Svc>) -> Result<ReqRes, IpcError> {
     node.service_builder(&service_name("command")?)
         .request_response::<CommandRequest, CommandResponse>()
         .max_clients(MAX_PORTS)
@@ -157,7 +157,7 @@ pub struct Ports {
 }
 
 impl Ports {
-    pub fn subscribe(name: &str) -> Result<Self, BusError> {
+    pub fn subscribe(name: &str) -> Result<Self, IpcError> {
         let node = node(name)?;
         let state = open_state(&node)?
             .subscriber_builder()
@@ -229,7 +229,7 @@ pub struct Client {
 }
 
 impl Client {
-    pub fn connect(name: &str) -> Result<Self, BusError> {
+    pub fn connect(name: &str) -> Result<Self, IpcError> {
         let node = node(name)?;
         let client = open_command(&node)?
             .client_builder()
@@ -240,7 +240,7 @@ impl Client {
     }
 
     /// Sends `req` and waits up to `timeout` for the answer.
-    pub fn request(&self, req: &CommandRequest, timeout: Duration) -> Result<CommandResponse, BusError> {
+    pub fn request(&self, req: &CommandRequest, timeout: Duration) -> Result<CommandResponse, IpcError> {
         let end = Instant::now() + timeout;
         let pending = self.client.send_copy(*req).map_err(err("send request"))?;
         loop {
@@ -248,7 +248,7 @@ impl Client {
                 return Ok(*r);
             }
             if Instant::now() >= end {
-                return Err(BusError(format!(
+                return Err(IpcError(format!(
                     "no answer from hob-rt within {} ms (is it running? HOB_INSTANCE={})",
                     timeout.as_millis(),
                     instance()
@@ -262,7 +262,7 @@ impl Client {
 /// The server side of the command service (`hob-rt`'s command thread).
 pub fn command_server(
     node: &Node<Svc>,
-) -> Result<Server<Svc, CommandRequest, (), CommandResponse, ()>, BusError> {
+) -> Result<Server<Svc, CommandRequest, (), CommandResponse, ()>, IpcError> {
     let server = open_command(node)?
         .server_builder()
         .create()
@@ -316,7 +316,7 @@ pub struct CanPort {
 }
 
 /// Opens an endpoint of the virtual CAN bus.
-pub fn open_can_port(name: &str) -> Result<CanPort, BusError> {
+pub fn open_can_port(name: &str) -> Result<CanPort, IpcError> {
     let node = node(name)?;
     let service = open_can(&node)?;
     let publisher = service

@@ -1,7 +1,7 @@
 //! Putting the virtual machine and the master on a bus.
 //!
 //! - [`serve`]: the virtual machine's loop on any transport (a thread in tests, the
-//!   `hob-sim` process on vcan or the shared-memory bus).
+//!   `hob-sim` process on vcan or the shared-memory virtual CAN).
 //! - [`MasterLoop`]: the controller and the cyclic master over a bus, in lockstep with
 //!   the virtual machine: after each SYNC it waits (up to a timeout) for the drives' TPDOs,
 //!   so runs are reproducible on a loaded or emulated machine. Timing plays no part.

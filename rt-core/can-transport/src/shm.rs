@@ -14,7 +14,7 @@ pub struct ShmCan {
 
 impl ShmCan {
     /// Opens an endpoint (start-up only).
-    pub fn open(name: &str) -> Result<Self, hob_ipc::BusError> {
+    pub fn open(name: &str) -> Result<Self, hob_ipc::IpcError> {
         Ok(Self {
             port: hob_ipc::open_can_port(name)?,
         })
@@ -62,7 +62,7 @@ pub fn open_bus(iface: &str, node_name: &str) -> Result<Box<dyn CanBus>, String>
 }
 
 /// The bus `hob demo` and the tests use when none is named: `vcan0` if the kernel has it,
-/// else the shared-memory bus.
+/// else the shared-memory virtual CAN.
 pub fn default_iface() -> &'static str {
     if std::path::Path::new("/sys/class/net/vcan0").exists() {
         "vcan0"

@@ -179,7 +179,7 @@ conformance!(memory, Memory);
 conformance!(shm, Shm);
 conformance!(socketcan, Socket);
 
-/// A failed send on the shared-memory bus (iceoryx2's error mapped to ours) allocates
+/// A failed send on the shared-memory virtual CAN (iceoryx2's error mapped to ours) allocates
 /// nothing, and still says what happened outside the cycle. iceoryx2 0.10's send cannot
 /// be made to fail from outside (a full subscriber queue overflows safely, a missing
 /// subscriber is no error), so the mapping `CanPort::send` uses is tested directly.

@@ -448,7 +448,7 @@ impl Cyclic {
     /// Asks `bus` to deliver our own SYNCs among the received frames, in bus order
     /// ([`CanBus::echo_own_sync`]; start-up only). Where it can, a TPDO answers the SYNC
     /// heard last before it, so a late answer is never taken for this cycle's; where it
-    /// cannot (the shared-memory bus), the count of SYNCs owed decides. Returns which.
+    /// cannot (the shared-memory virtual CAN), the count of SYNCs owed decides. Returns which.
     pub fn hear_own_sync(&mut self, bus: &mut dyn CanBus) -> bool {
         self.own_sync_heard = bus.echo_own_sync();
         self.own_sync_heard

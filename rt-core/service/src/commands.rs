@@ -142,7 +142,7 @@ pub fn serve(
     mailbox: &ThreadMailbox,
     stop: &AtomicBool,
     ready: impl FnOnce(),
-) -> Result<(), hob_ipc::BusError> {
+) -> Result<(), hob_ipc::IpcError> {
     let node = hob_ipc::node("hob-rt-commands")?;
     let server = hob_ipc::command_server(&node)?;
     ready();
@@ -153,7 +153,7 @@ pub fn serve(
                 let _ = active.send_copy(response);
             }
             Ok(None) => std::thread::sleep(Duration::from_millis(2)),
-            Err(e) => return Err(hob_ipc::BusError(format!("command server: {e:?}"))),
+            Err(e) => return Err(hob_ipc::IpcError(format!("command server: {e:?}"))),
         }
     }
     Ok(())

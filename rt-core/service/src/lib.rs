@@ -1,7 +1,7 @@
 //! # hob-service: `hob-rt`, the real-time service
 //!
 //! `hob-rt`, the real-time service: the control core and the CANopen master in a pinned
-//! SCHED_FIFO loop at 1 kHz, publishing on the shared-memory bus (`hob_ipc`).
+//! SCHED_FIFO loop at 1 kHz, publishing on the shared-memory services (`hob_ipc`).
 //!
 //! - [`cycle`]: the loop itself (no allocation, lock, blocking call or logging inside).
 //! - [`commands`]: the command thread (request-response server; parses and checks

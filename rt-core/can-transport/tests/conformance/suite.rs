@@ -37,7 +37,7 @@ pub trait Transport {
 /// Whatever keeps a test's bus to itself while it runs (a lock, held).
 pub type Guard = Option<std::sync::MutexGuard<'static, ()>>;
 
-/// How long a frame may take to arrive (vcan delivers at once, the shared-memory bus too;
+/// How long a frame may take to arrive (vcan delivers at once, the shared-memory virtual CAN too;
 /// this is the margin for a loaded host) and how long "nothing more comes" is watched.
 const ARRIVE: Duration = Duration::from_secs(2);
 const QUIET: Duration = Duration::from_millis(50);

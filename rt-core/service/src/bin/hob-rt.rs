@@ -27,7 +27,7 @@ const USAGE: &str =
                   (percentile text, us), wake.hist, compute.hist (every value, ns) and
                   hob-rt.json (cycles, overruns, real-time set-up)
 
-Environment: HOB_INSTANCE names the shared-memory bus instance (default main).";
+Environment: HOB_INSTANCE names the instance of the shared-memory services (default main).";
 
 #[derive(Debug, Default)]
 struct Args {
