@@ -1,305 +1,468 @@
-//! The control core's types to and from the bus's plain numbers (`hob_ipc`), and the
-//! operator's words for them. The loop uses only the `Copy` encoders (no allocation);
-//! frontends use the decoders and the texts.
+//! Every code of the contract between processes, as the number it is on the wire, and its
+//! text: sequencer states, refusals, alarms (faults) with their axis and end, gearbox
+//! couplings, commands, event kinds and bus events. Frontends decode with these and print
+//! these texts, from the numbers alone, so a code reads the same everywhere; the loop's
+//! side encodes its control core's types to them (`hob_service::encode`, exhaustive
+//! matches: a new state without a code does not compile).
+//!
+//! The numbers are the wire format: never renumber one, only add new ones.
 
-use crate::{AlarmCode, EventSample, StateSample, bus_event, bus_kind, command, event_kind, send_error};
+use crate::{AlarmCode, EventSample, bus_event, bus_kind, command, event_kind, send_error};
 use hob_canopen::bus::BusError;
 use hob_canopen::emcy::emcy_text;
-use hob_control::egb::Coupling;
-use hob_control::events::{Event, EventKind};
-use hob_control::fault::{Axis, End, Fault, Refusal};
-use hob_control::{Command, State, Status};
-use hob_process_image::master::BusEvent;
 
-/// Every state, in code order (code = index).
-pub const STATES: [State; 22] = [
-    State::Init,
-    State::Idle,
-    State::Jog,
-    State::ToSafe,
-    State::ToStart,
-    State::SpindleUp,
-    State::Engage,
-    State::Infeed,
-    State::Plunge,
-    State::ExtraRev,
-    State::Clamp,
-    State::Cut,
-    State::Unclamp,
-    State::Retract,
-    State::Return,
-    State::Index,
-    State::Home,
-    State::Disengage,
-    State::SpindleDown,
-    State::FaultRetract,
-    State::FaultStop,
-    State::Faulted,
-];
-
-pub fn state_code(s: State) -> u32 {
-    STATES.iter().position(|&x| x == s).unwrap_or(0) as u32
+/// A sequencer state ([`crate::StateSample::state`], [`event_kind::STATE_CHANGED`]'s `a` and `b`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+#[repr(u32)]
+pub enum State {
+    Init = 0,
+    Idle = 1,
+    Jog = 2,
+    ToSafe = 3,
+    ToStart = 4,
+    SpindleUp = 5,
+    Engage = 6,
+    Infeed = 7,
+    Plunge = 8,
+    ExtraRev = 9,
+    Clamp = 10,
+    Cut = 11,
+    Unclamp = 12,
+    Retract = 13,
+    Return = 14,
+    Index = 15,
+    Home = 16,
+    Disengage = 17,
+    SpindleDown = 18,
+    FaultRetract = 19,
+    FaultStop = 20,
+    Faulted = 21,
 }
 
-pub fn state_from_code(c: u32) -> Option<State> {
-    STATES.get(c as usize).copied()
+impl State {
+    /// Every state, in code order (`ALL[c].code() == c`).
+    pub const ALL: [State; 22] = [
+        State::Init,
+        State::Idle,
+        State::Jog,
+        State::ToSafe,
+        State::ToStart,
+        State::SpindleUp,
+        State::Engage,
+        State::Infeed,
+        State::Plunge,
+        State::ExtraRev,
+        State::Clamp,
+        State::Cut,
+        State::Unclamp,
+        State::Retract,
+        State::Return,
+        State::Index,
+        State::Home,
+        State::Disengage,
+        State::SpindleDown,
+        State::FaultRetract,
+        State::FaultStop,
+        State::Faulted,
+    ];
+
+    pub const fn code(self) -> u32 {
+        self as u32
+    }
+
+    pub fn from_code(c: u32) -> Option<State> {
+        Self::ALL.get(c as usize).copied()
+    }
+
+    /// The state's word (the trace's `state` column, `hob status`).
+    pub const fn name(self) -> &'static str {
+        match self {
+            State::Init => "init",
+            State::Idle => "idle",
+            State::Jog => "jog",
+            State::ToSafe => "safe",
+            State::ToStart => "start",
+            State::SpindleUp => "spin",
+            State::Engage => "sync",
+            State::Infeed => "infeed",
+            State::Plunge => "plunge",
+            State::ExtraRev => "rev",
+            State::Clamp => "clamp",
+            State::Cut => "cut",
+            State::Unclamp => "unclamp",
+            State::Retract => "retract",
+            State::Return => "return",
+            State::Index => "index",
+            State::Home => "home",
+            State::Disengage => "disengage",
+            State::SpindleDown => "spindown",
+            State::FaultRetract => "f_retract",
+            State::FaultStop => "f_stop",
+            State::Faulted => "fault",
+        }
+    }
 }
 
 /// The state's name, or `?<code>` for a code this build does not know.
 pub fn state_name(c: u32) -> String {
-    state_from_code(c).map_or_else(|| format!("?{c}"), |s| s.name().to_string())
+    State::from_code(c).map_or_else(|| format!("?{c}"), |s| s.name().to_string())
 }
 
-pub const REFUSALS: [Refusal; 10] = [
-    Refusal::NoProgram,
-    Refusal::CycleRunning,
-    Refusal::Faulted,
-    Refusal::NotReady,
-    Refusal::NothingToDo,
-    Refusal::OutsideSoftLimits,
-    Refusal::NoSingleDepth,
-    Refusal::BadValue,
-    Refusal::SafetyChainOpen,
-    Refusal::DrivesNotEnabled,
+/// Why the loop refused a command ([`crate::CommandResponse::refusal`], the `b` of
+/// [`event_kind::REFUSED`]). Codes start at 1; 0: the request itself was malformed or the
+/// program failed its check.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+#[repr(u32)]
+pub enum Refusal {
+    NoProgram = 1,
+    CycleRunning = 2,
+    Faulted = 3,
+    NotReady = 4,
+    NothingToDo = 5,
+    OutsideSoftLimits = 6,
+    NoSingleDepth = 7,
+    BadValue = 8,
+    SafetyChainOpen = 9,
+    DrivesNotEnabled = 10,
+}
+
+impl Refusal {
+    /// Every refusal, in code order (`ALL[i].code() == i + 1`).
+    pub const ALL: [Refusal; 10] = [
+        Refusal::NoProgram,
+        Refusal::CycleRunning,
+        Refusal::Faulted,
+        Refusal::NotReady,
+        Refusal::NothingToDo,
+        Refusal::OutsideSoftLimits,
+        Refusal::NoSingleDepth,
+        Refusal::BadValue,
+        Refusal::SafetyChainOpen,
+        Refusal::DrivesNotEnabled,
+    ];
+
+    pub const fn code(self) -> u32 {
+        self as u32
+    }
+
+    pub fn from_code(c: u32) -> Option<Refusal> {
+        c.checked_sub(1).and_then(|i| Self::ALL.get(i as usize).copied())
+    }
+
+    pub const fn name(self) -> &'static str {
+        match self {
+            Refusal::NoProgram => "no-program",
+            Refusal::CycleRunning => "cycle-running",
+            Refusal::Faulted => "faulted",
+            Refusal::NotReady => "not-ready",
+            Refusal::NothingToDo => "nothing-to-do",
+            Refusal::OutsideSoftLimits => "outside-soft-limits",
+            Refusal::NoSingleDepth => "no-single-depth",
+            Refusal::BadValue => "bad-value",
+            Refusal::SafetyChainOpen => "safety-chain-open",
+            Refusal::DrivesNotEnabled => "drives-not-enabled",
+        }
+    }
+
+    /// What the operator reads for a refusal.
+    pub const fn text(self) -> &'static str {
+        match self {
+            Refusal::NoProgram => "no program loaded: load one first (hob load PROGRAM)",
+            Refusal::CycleRunning => "a cycle is running: stop it first",
+            Refusal::Faulted => "the machine is in fault: remove the cause, then reset",
+            Refusal::NotReady => "power-up not finished (lubrication, safety chain, drives)",
+            Refusal::NothingToDo => "nothing to do in this state",
+            Refusal::OutsideSoftLimits => "the move would leave the soft limits",
+            Refusal::NoSingleDepth => "the program has no single-mode depth",
+            Refusal::BadValue => "the value is not a finite number in range",
+            Refusal::SafetyChainOpen => "the safety chain is open: close it with the reset button first",
+            Refusal::DrivesNotEnabled => "not every drive reports \"operation enabled\" yet",
+        }
+    }
+}
+
+/// The text of a refusal code (`?<code>` for one this build does not know).
+pub fn refusal_text(c: u32) -> String {
+    Refusal::from_code(c).map_or_else(|| format!("?{c}"), |r| r.text().to_string())
+}
+
+/// An axis ([`AlarmCode::axis`], [`crate::CommandRequest::axis`]; 0: none).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+#[repr(u8)]
+pub enum Axis {
+    B = 1,
+    X = 2,
+    Y = 3,
+}
+
+impl Axis {
+    pub const ALL: [Axis; 3] = [Axis::B, Axis::X, Axis::Y];
+
+    pub const fn code(self) -> u8 {
+        self as u8
+    }
+
+    pub fn from_code(c: u8) -> Option<Axis> {
+        c.checked_sub(1).and_then(|i| Self::ALL.get(i as usize).copied())
+    }
+
+    pub const fn name(self) -> &'static str {
+        match self {
+            Axis::B => "B",
+            Axis::X => "X",
+            Axis::Y => "Y",
+        }
+    }
+
+    /// The unit of the axis's positions and distances.
+    pub const fn unit(self) -> &'static str {
+        match self {
+            Axis::B => "deg",
+            Axis::X | Axis::Y => "mm",
+        }
+    }
+
+    /// The axis of a name as an operator types it (`x`, `Y`, `b`).
+    pub fn parse(name: &str) -> Option<Axis> {
+        match name.to_ascii_lowercase().as_str() {
+            "b" => Some(Axis::B),
+            "x" => Some(Axis::X),
+            "y" => Some(Axis::Y),
+            _ => None,
+        }
+    }
+}
+
+/// Which end of an axis ([`AlarmCode::end`]; 0: none).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+#[repr(u8)]
+pub enum End {
+    Min = 1,
+    Max = 2,
+}
+
+impl End {
+    pub const ALL: [End; 2] = [End::Min, End::Max];
+
+    pub const fn code(self) -> u8 {
+        self as u8
+    }
+
+    pub fn from_code(c: u8) -> Option<End> {
+        c.checked_sub(1).and_then(|i| Self::ALL.get(i as usize).copied())
+    }
+
+    pub const fn name(self) -> &'static str {
+        match self {
+            End::Min => "min",
+            End::Max => "max",
+        }
+    }
+}
+
+/// What stopped the machine ([`AlarmCode::code`]; 0: no alarm). Which of the alarm's
+/// `axis`, `end`, `value_a`, `value_b` it uses is in [`Fault::text`].
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+#[repr(u32)]
+pub enum Fault {
+    SafetyChainOpen = 1,
+    EmergencyStop = 2,
+    /// `axis`, `end`.
+    HardwareLimit = 3,
+    /// `axis`, `value_a`: the commanded position.
+    SoftLimit = 4,
+    /// `axis`, `value_a`: the error.
+    FollowingError = 5,
+    /// `axis`.
+    DriveFault = 6,
+    VfdFault = 7,
+    /// `value_a`: the error, arcsec.
+    SyncLost = 8,
+    /// `value_a`: set, `value_b`: actual, rpm.
+    SpindleSpeed = 9,
+    LubeTimeout = 10,
+    ClampTimeout = 11,
+    /// `axis`.
+    FeedbackLost = 12,
+    IoLost = 13,
+    /// `axis`.
+    DriveNotEnabled = 14,
+}
+
+impl Fault {
+    /// Every fault, in code order (`ALL[i].code() == i + 1`).
+    pub const ALL: [Fault; 14] = [
+        Fault::SafetyChainOpen,
+        Fault::EmergencyStop,
+        Fault::HardwareLimit,
+        Fault::SoftLimit,
+        Fault::FollowingError,
+        Fault::DriveFault,
+        Fault::VfdFault,
+        Fault::SyncLost,
+        Fault::SpindleSpeed,
+        Fault::LubeTimeout,
+        Fault::ClampTimeout,
+        Fault::FeedbackLost,
+        Fault::IoLost,
+        Fault::DriveNotEnabled,
+    ];
+
+    pub const fn code(self) -> u32 {
+        self as u32
+    }
+
+    pub fn from_code(c: u32) -> Option<Fault> {
+        c.checked_sub(1).and_then(|i| Self::ALL.get(i as usize).copied())
+    }
+
+    pub const fn name(self) -> &'static str {
+        match self {
+            Fault::SafetyChainOpen => "safety-chain-open",
+            Fault::EmergencyStop => "emergency-stop",
+            Fault::HardwareLimit => "hardware-limit",
+            Fault::SoftLimit => "soft-limit",
+            Fault::FollowingError => "following-error",
+            Fault::DriveFault => "drive-fault",
+            Fault::VfdFault => "vfd-fault",
+            Fault::SyncLost => "sync-lost",
+            Fault::SpindleSpeed => "spindle-speed",
+            Fault::LubeTimeout => "lube-timeout",
+            Fault::ClampTimeout => "clamp-timeout",
+            Fault::FeedbackLost => "feedback-lost",
+            Fault::IoLost => "io-lost",
+            Fault::DriveNotEnabled => "drive-not-enabled",
+        }
+    }
+
+    /// Whether the fault names an axis (its alarm is incomplete without one).
+    pub const fn has_axis(self) -> bool {
+        matches!(
+            self,
+            Fault::HardwareLimit
+                | Fault::SoftLimit
+                | Fault::FollowingError
+                | Fault::DriveFault
+                | Fault::FeedbackLost
+                | Fault::DriveNotEnabled
+        )
+    }
+
+    /// The fault of an alarm: `None` for code 0, an unknown code, or a fault that names an
+    /// axis without a valid one.
+    pub fn of(a: &AlarmCode) -> Option<Fault> {
+        let f = Fault::from_code(a.code)?;
+        (!f.has_axis() || Axis::from_code(a.axis).is_some()).then_some(f)
+    }
+
+    /// What the operator reads for an alarm of this fault (its axis, end and values
+    /// from `a`); `None` if the fault names an axis and `a` has none.
+    pub fn text(self, a: &AlarmCode) -> Option<String> {
+        let axis = Axis::from_code(a.axis);
+        let (va, vb) = (a.value_a, a.value_b);
+        Some(match self {
+            Fault::SafetyChainOpen => "safety chain open".into(),
+            Fault::EmergencyStop => "emergency stop pressed".into(),
+            Fault::HardwareLimit => {
+                // End 1 is min; anything else reads as max (as it always has).
+                let end = if End::from_code(a.end) == Some(End::Min) {
+                    End::Min
+                } else {
+                    End::Max
+                };
+                format!("hardware limit {} {}", axis?.name(), end.name())
+            }
+            Fault::SoftLimit => {
+                let axis = axis?;
+                format!("soft limit {}: {va:.3} {}", axis.name(), axis.unit())
+            }
+            Fault::FollowingError => {
+                let axis = axis?;
+                format!("following error {}: {va:.4} {}", axis.name(), axis.unit())
+            }
+            Fault::DriveFault => format!("drive fault {}", axis?.name()),
+            Fault::VfdFault => "spindle VFD fault".into(),
+            Fault::SyncLost => format!("synchronisation lost: {va:.1} arcsec outside the coarse window"),
+            Fault::SpindleSpeed => format!("spindle did not reach {va:.1} rpm (is {vb:.1} rpm)"),
+            Fault::LubeTimeout => "lubrication pressure not confirmed in time".into(),
+            Fault::ClampTimeout => "X clamp did not report in time".into(),
+            Fault::FeedbackLost => format!("feedback of drive {} lost (bus)", axis?.name()),
+            Fault::IoLost => "I/O coupler lost (bus)".into(),
+            Fault::DriveNotEnabled => format!("drive {} not in \"operation enabled\"", axis?.name()),
+        })
+    }
+}
+
+/// The text of an alarm ("" for none, `alarm code <c>` for one this build cannot word).
+pub fn alarm_text(a: &AlarmCode) -> String {
+    if a.code == 0 {
+        return String::new();
+    }
+    Fault::of(a)
+        .and_then(|f| f.text(a))
+        .unwrap_or_else(|| format!("alarm code {}", a.code))
+}
+
+/// Where the gearbox is ([`crate::StateSample::coupling`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+#[repr(u32)]
+pub enum Coupling {
+    Disengaged = 0,
+    Engaging = 1,
+    Phasing = 2,
+    Synchronised = 3,
+    Disengaging = 4,
+}
+
+impl Coupling {
+    /// Every coupling, in code order (`ALL[c].code() == c`).
+    pub const ALL: [Coupling; 5] = [
+        Coupling::Disengaged,
+        Coupling::Engaging,
+        Coupling::Phasing,
+        Coupling::Synchronised,
+        Coupling::Disengaging,
+    ];
+
+    pub const fn code(self) -> u32 {
+        self as u32
+    }
+
+    pub fn from_code(c: u32) -> Option<Coupling> {
+        Self::ALL.get(c as usize).copied()
+    }
+
+    pub const fn name(self) -> &'static str {
+        match self {
+            Coupling::Disengaged => "disengaged",
+            Coupling::Engaging => "engaging",
+            Coupling::Phasing => "phasing",
+            Coupling::Synchronised => "synchronised",
+            Coupling::Disengaging => "disengaging",
+        }
+    }
+}
+
+/// The name of a coupling code (`?` for one this build does not know).
+pub fn coupling_name(c: u32) -> &'static str {
+    Coupling::from_code(c).map_or("?", Coupling::name)
+}
+
+/// Every [`command`] code, in code order.
+pub const COMMANDS: [u32; 10] = [
+    command::LOAD_PROGRAM,
+    command::START,
+    command::FEED_HOLD,
+    command::RESUME,
+    command::STOP,
+    command::RESET,
+    command::JOG,
+    command::SPINDLE_ON,
+    command::SPINDLE_OFF,
+    command::NEW_BLANK,
 ];
 
-/// Refusal codes start at 1 (0: the request itself was malformed or the program failed its check).
-pub fn refusal_code(r: Refusal) -> u32 {
-    REFUSALS.iter().position(|&x| x == r).map_or(0, |i| i as u32 + 1)
-}
-
-pub fn refusal_from_code(c: u32) -> Option<Refusal> {
-    c.checked_sub(1).and_then(|i| REFUSALS.get(i as usize).copied())
-}
-
-/// What the operator reads for a refusal.
-pub fn refusal_text(r: Refusal) -> &'static str {
-    match r {
-        Refusal::NoProgram => "no program loaded: load one first (hob load PROGRAM)",
-        Refusal::CycleRunning => "a cycle is running: stop it first",
-        Refusal::Faulted => "the machine is in fault: remove the cause, then reset",
-        Refusal::NotReady => "power-up not finished (lubrication, safety chain, drives)",
-        Refusal::NothingToDo => "nothing to do in this state",
-        Refusal::OutsideSoftLimits => "the move would leave the soft limits",
-        Refusal::NoSingleDepth => "the program has no single-mode depth",
-        Refusal::BadValue => "the value is not a finite number in range",
-        Refusal::SafetyChainOpen => "the safety chain is open: close it with the reset button first",
-        Refusal::DrivesNotEnabled => "not every drive reports \"operation enabled\" yet",
-    }
-}
-
-fn axis_code(a: Axis) -> u8 {
-    match a {
-        Axis::B => 1,
-        Axis::X => 2,
-        Axis::Y => 3,
-    }
-}
-
-pub fn axis_from_code(c: u8) -> Option<Axis> {
-    match c {
-        1 => Some(Axis::B),
-        2 => Some(Axis::X),
-        3 => Some(Axis::Y),
-        _ => None,
-    }
-}
-
-/// Encodes a fault (`None`: code 0).
-pub fn alarm(f: Option<Fault>) -> AlarmCode {
-    let mut a = AlarmCode::default();
-    let Some(f) = f else { return a };
-    let (code, axis, end, va, vb) = match f {
-        Fault::SafetyChainOpen => (1, None, 0, 0.0, 0.0),
-        Fault::EmergencyStop => (2, None, 0, 0.0, 0.0),
-        Fault::HardwareLimit { axis, end } => (3, Some(axis), if end == End::Min { 1 } else { 2 }, 0.0, 0.0),
-        Fault::SoftLimit { axis, position } => (4, Some(axis), 0, position, 0.0),
-        Fault::FollowingError { axis, error } => (5, Some(axis), 0, error, 0.0),
-        Fault::DriveFault { axis } => (6, Some(axis), 0, 0.0, 0.0),
-        Fault::VfdFault => (7, None, 0, 0.0, 0.0),
-        Fault::SyncLost { error_arcsec } => (8, None, 0, error_arcsec, 0.0),
-        Fault::SpindleSpeed { set_rpm, actual_rpm } => (9, None, 0, set_rpm, actual_rpm),
-        Fault::LubeTimeout => (10, None, 0, 0.0, 0.0),
-        Fault::ClampTimeout => (11, None, 0, 0.0, 0.0),
-        Fault::FeedbackLost { axis } => (12, Some(axis), 0, 0.0, 0.0),
-        Fault::IoLost => (13, None, 0, 0.0, 0.0),
-        Fault::DriveNotEnabled { axis } => (14, Some(axis), 0, 0.0, 0.0),
-    };
-    a.code = code;
-    a.axis = axis.map_or(0, axis_code);
-    a.end = end;
-    a.value_a = va;
-    a.value_b = vb;
-    a
-}
-
-/// Decodes an alarm (`None` for code 0 or an unknown code).
-pub fn fault_from_alarm(a: &AlarmCode) -> Option<Fault> {
-    let axis = axis_from_code(a.axis);
-    Some(match a.code {
-        1 => Fault::SafetyChainOpen,
-        2 => Fault::EmergencyStop,
-        3 => Fault::HardwareLimit {
-            axis: axis?,
-            end: if a.end == 1 { End::Min } else { End::Max },
-        },
-        4 => Fault::SoftLimit {
-            axis: axis?,
-            position: a.value_a,
-        },
-        5 => Fault::FollowingError {
-            axis: axis?,
-            error: a.value_a,
-        },
-        6 => Fault::DriveFault { axis: axis? },
-        7 => Fault::VfdFault,
-        8 => Fault::SyncLost {
-            error_arcsec: a.value_a,
-        },
-        9 => Fault::SpindleSpeed {
-            set_rpm: a.value_a,
-            actual_rpm: a.value_b,
-        },
-        10 => Fault::LubeTimeout,
-        11 => Fault::ClampTimeout,
-        12 => Fault::FeedbackLost { axis: axis? },
-        13 => Fault::IoLost,
-        14 => Fault::DriveNotEnabled { axis: axis? },
-        _ => return None,
-    })
-}
-
-fn unit(a: Axis) -> &'static str {
-    if a == Axis::B { "deg" } else { "mm" }
-}
-
-/// What the operator reads for a fault.
-pub fn fault_text(f: Fault) -> String {
-    match f {
-        Fault::SafetyChainOpen => "safety chain open".into(),
-        Fault::EmergencyStop => "emergency stop pressed".into(),
-        Fault::HardwareLimit { axis, end } => format!(
-            "hardware limit {} {}",
-            axis.name(),
-            if end == End::Min { "min" } else { "max" }
-        ),
-        Fault::SoftLimit { axis, position } => {
-            format!("soft limit {}: {position:.3} {}", axis.name(), unit(axis))
-        }
-        Fault::FollowingError { axis, error } => {
-            format!("following error {}: {error:.4} {}", axis.name(), unit(axis))
-        }
-        Fault::DriveFault { axis } => format!("drive fault {}", axis.name()),
-        Fault::VfdFault => "spindle VFD fault".into(),
-        Fault::SyncLost { error_arcsec } => {
-            format!("synchronisation lost: {error_arcsec:.1} arcsec outside the coarse window")
-        }
-        Fault::SpindleSpeed { set_rpm, actual_rpm } => {
-            format!("spindle did not reach {set_rpm:.1} rpm (is {actual_rpm:.1} rpm)")
-        }
-        Fault::LubeTimeout => "lubrication pressure not confirmed in time".into(),
-        Fault::ClampTimeout => "X clamp did not report in time".into(),
-        Fault::FeedbackLost { axis } => format!("feedback of drive {} lost (bus)", axis.name()),
-        Fault::IoLost => "I/O coupler lost (bus)".into(),
-        Fault::DriveNotEnabled { axis } => format!("drive {} not in \"operation enabled\"", axis.name()),
-    }
-}
-
-/// The text of an encoded alarm ("" for none).
-pub fn alarm_text(a: &AlarmCode) -> String {
-    match (a.code, fault_from_alarm(a)) {
-        (0, _) => String::new(),
-        (_, Some(f)) => fault_text(f),
-        (c, None) => format!("alarm code {c}"),
-    }
-}
-
-/// The code of a coupling state (`StateSample::coupling`).
-pub fn coupling_code(c: Coupling) -> u32 {
-    match c {
-        Coupling::Disengaged => 0,
-        Coupling::Engaging => 1,
-        Coupling::Phasing => 2,
-        Coupling::Synchronised => 3,
-        Coupling::Disengaging => 4,
-    }
-}
-
-pub fn coupling_name(c: u32) -> &'static str {
-    ["disengaged", "engaging", "phasing", "synchronised", "disengaging"]
-        .get(c as usize)
-        .copied()
-        .unwrap_or("?")
-}
-
-fn bits(b: [bool; 3]) -> u8 {
-    b.iter()
-        .enumerate()
-        .fold(0, |acc, (i, &on)| acc | (u8::from(on) << i))
-}
-
-/// Fills a state sample from the controller's status (allocation-free). Timing, I/O
-/// image and counters are the loop's to fill.
-pub fn fill_state(s: &mut StateSample, st: &Status, passes_total: u32, program_loaded: bool) {
-    s.cycle = st.cycle;
-    s.state = state_code(st.state);
-    s.hold = u8::from(st.hold);
-    s.program_loaded = u8::from(program_loaded);
-    s.drives_enabled = bits(st.drives_enabled);
-    s.drives_silent = bits(st.drives_silent);
-    s.pass = st.pass;
-    s.passes_total = passes_total;
-    s.tooth = st.tooth;
-    s.coupling = coupling_code(st.coupling);
-    s.table_deg.actual = st.table_deg;
-    s.table_deg.command = st.table_cmd_deg;
-    s.x_mm.actual = st.x_mm;
-    s.x_mm.command = st.x_cmd_mm;
-    s.y_mm.actual = st.y_mm;
-    s.y_mm.command = st.y_cmd_mm;
-    s.spindle_deg = st.spindle_deg;
-    s.spindle_rpm = st.spindle_rpm;
-    s.spindle_set_rpm = st.spindle_set_rpm;
-    s.sync_error_arcsec = st.sync_error_arcsec;
-    s.ccc_arcsec = st.ccc_arcsec;
-    s.alarm = alarm(st.fault);
-}
-
-/// A command's code and arguments: (code, single, axis, value).
-pub fn command_code(c: Command) -> (u32, u8, u8, f64) {
-    match c {
-        Command::Start { single } => (command::START, u8::from(single), 0, 0.0),
-        Command::FeedHold => (command::FEED_HOLD, 0, 0, 0.0),
-        Command::Resume => (command::RESUME, 0, 0, 0.0),
-        Command::Stop => (command::STOP, 0, 0, 0.0),
-        Command::Reset => (command::RESET, 0, 0, 0.0),
-        Command::Jog { axis, distance } => (command::JOG, 0, axis_code(axis), distance),
-        Command::SpindleOn { rpm } => (command::SPINDLE_ON, 0, 0, rpm),
-        Command::SpindleOff => (command::SPINDLE_OFF, 0, 0, 0.0),
-        Command::NewBlank => (command::NEW_BLANK, 0, 0, 0.0),
-    }
-}
-
-/// A command from its code and arguments (`None`: LOAD_PROGRAM, unknown code, bad axis).
-pub fn command_from_code(code: u32, single: u8, axis: u8, value: f64) -> Option<Command> {
-    Some(match code {
-        command::START => Command::Start { single: single != 0 },
-        command::FEED_HOLD => Command::FeedHold,
-        command::RESUME => Command::Resume,
-        command::STOP => Command::Stop,
-        command::RESET => Command::Reset,
-        command::JOG => Command::Jog {
-            axis: axis_from_code(axis)?,
-            distance: value,
-        },
-        command::SPINDLE_ON => Command::SpindleOn { rpm: value },
-        command::SPINDLE_OFF => Command::SpindleOff,
-        command::NEW_BLANK => Command::NewBlank,
-        _ => return None,
-    })
-}
-
-/// The command's name as the CLI spells it.
+/// The command's name as the CLI spells it (`?` for a code this build does not know).
 pub fn command_name(code: u32) -> &'static str {
     match code {
         command::LOAD_PROGRAM => "load",
@@ -316,50 +479,37 @@ pub fn command_name(code: u32) -> &'static str {
     }
 }
 
-/// Encodes a control-core event (allocation-free).
-pub fn event_sample(seq: u64, e: &Event) -> EventSample {
-    let mut s = EventSample {
-        seq,
-        cycle: e.cycle,
-        ..EventSample::default()
-    };
-    match e.kind {
-        EventKind::StateChanged { from, to } => {
-            s.kind = event_kind::STATE_CHANGED;
-            s.a = state_code(from);
-            s.b = state_code(to);
-        }
-        EventKind::Fault(f) => {
-            s.kind = event_kind::ALARM;
-            s.alarm = alarm(Some(f));
-        }
-        EventKind::FaultCleared => s.kind = event_kind::ALARM_CLEARED,
-        EventKind::PassStarted { pass } => {
-            s.kind = event_kind::PASS_STARTED;
-            s.a = pass;
-        }
-        EventKind::PhaseRecorded { phase_deg } => {
-            s.kind = event_kind::PHASE_RECORDED;
-            s.value = phase_deg;
-        }
-        EventKind::Accepted(c) => {
-            s.kind = event_kind::ACCEPTED;
-            let (code, single, axis, value) = command_code(c);
-            s.a = code;
-            s.b = u32::from(single) | (u32::from(axis) << 8);
-            s.value = value;
-        }
-        EventKind::Refused { command, reason } => {
-            s.kind = event_kind::REFUSED;
-            let (code, _, _, value) = command_code(command);
-            s.a = code;
-            s.b = refusal_code(reason);
-            s.value = value;
-        }
-        EventKind::ProgramLoaded => s.kind = event_kind::PROGRAM_LOADED,
-        EventKind::CycleDone => s.kind = event_kind::CYCLE_DONE,
-    }
-    s
+/// Every [`event_kind`] code, in code order.
+pub const EVENT_KINDS: [u32; 11] = [
+    event_kind::STATE_CHANGED,
+    event_kind::ALARM,
+    event_kind::ALARM_CLEARED,
+    event_kind::PASS_STARTED,
+    event_kind::PHASE_RECORDED,
+    event_kind::ACCEPTED,
+    event_kind::REFUSED,
+    event_kind::PROGRAM_LOADED,
+    event_kind::CYCLE_DONE,
+    event_kind::MESSAGE,
+    event_kind::BUS,
+];
+
+/// The name of an [`event_kind`] code (`None` for one this build does not know).
+pub fn event_kind_name(k: u32) -> Option<&'static str> {
+    Some(match k {
+        event_kind::STATE_CHANGED => "state-changed",
+        event_kind::ALARM => "alarm",
+        event_kind::ALARM_CLEARED => "alarm-cleared",
+        event_kind::PASS_STARTED => "pass-started",
+        event_kind::PHASE_RECORDED => "phase-recorded",
+        event_kind::ACCEPTED => "accepted",
+        event_kind::REFUSED => "refused",
+        event_kind::PROGRAM_LOADED => "program-loaded",
+        event_kind::CYCLE_DONE => "cycle-done",
+        event_kind::MESSAGE => "message",
+        event_kind::BUS => "bus",
+        _ => return None,
+    })
 }
 
 /// One line for an event (logger, `hob status --watch`, HMI).
@@ -374,7 +524,7 @@ pub fn event_text(e: &EventSample) -> String {
         event_kind::REFUSED => format!(
             "refused: {}: {}",
             command_name(e.a),
-            refusal_from_code(e.b).map_or("?", refusal_text)
+            Refusal::from_code(e.b).map_or("?", Refusal::text)
         ),
         event_kind::PROGRAM_LOADED => "program loaded".into(),
         event_kind::CYCLE_DONE => "cycle done".into(),
@@ -384,42 +534,26 @@ pub fn event_text(e: &EventSample) -> String {
     }
 }
 
-/// A bus event of the loop's CANopen master as an event sample (in the cycle: numbers
-/// only, nothing formatted; [`event_text`] words it).
-pub fn bus_event_sample(cycle: u64, be: &BusEvent) -> EventSample {
-    let mut e = EventSample {
-        kind: event_kind::BUS,
-        cycle,
-        ..EventSample::default()
-    };
-    match *be {
-        BusEvent::Emcy(m) => {
-            e.a = u32::from(m.node);
-            e.b = bus_event::EMCY;
-            e.value = f64::from(m.code);
-        }
-        BusEvent::HeartbeatLost { node } => {
-            e.a = u32::from(node);
-            e.b = bus_event::HEARTBEAT_LOST;
-        }
-        BusEvent::TpdoMissing { node, in_a_row } => {
-            e.a = u32::from(node);
-            e.b = bus_event::TPDO_MISSING;
-            e.value = f64::from(in_a_row);
-        }
-        BusEvent::SendFailed(err) => {
-            e.b = bus_event::SEND_FAILED;
-            (e.a, e.value) = match err {
-                BusError::Full => (send_error::QUEUE_FULL, 0.0),
-                BusError::Down => (send_error::INTERFACE_DOWN, 0.0),
-                BusError::Os(errno) => (send_error::OS, f64::from(errno)),
-            };
-        }
-    }
-    e
+/// Every [`bus_event`] code, in code order.
+pub const BUS_EVENTS: [u32; 4] = [
+    bus_event::EMCY,
+    bus_event::HEARTBEAT_LOST,
+    bus_event::TPDO_MISSING,
+    bus_event::SEND_FAILED,
+];
+
+/// The name of a [`bus_event`] code (`None` for one this build does not know).
+pub fn bus_event_name(b: u32) -> Option<&'static str> {
+    Some(match b {
+        bus_event::EMCY => "emcy",
+        bus_event::HEARTBEAT_LOST => "heartbeat-lost",
+        bus_event::TPDO_MISSING => "tpdo-missing",
+        bus_event::SEND_FAILED => "send-failed",
+        _ => return None,
+    })
 }
 
-/// The operator's words for a bus event.
+/// The operator's words for a bus event ([`event_kind::BUS`]).
 pub fn bus_event_text(e: &EventSample) -> String {
     let node = e.a;
     match e.b {
@@ -452,102 +586,170 @@ pub fn bus_kind_name(k: u8) -> &'static str {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use std::collections::BTreeSet;
+
+    fn distinct<'a>(names: impl IntoIterator<Item = &'a str>) -> bool {
+        let names: Vec<&str> = names.into_iter().collect();
+        names.iter().collect::<BTreeSet<_>>().len() == names.len() && names.iter().all(|n| !n.is_empty())
+    }
 
     #[test]
-    fn every_bus_event_is_worded_from_its_numbers() {
-        use hob_canopen::emcy::Emcy;
-        let cases = [
-            (
-                BusEvent::Emcy(Emcy {
-                    node: 3,
-                    code: 0x8611,
-                    register: 0,
-                    vendor: [0; 5],
-                }),
-                format!("EMCY node 3 0x8611: {}", emcy_text(0x8611)),
-            ),
-            (
-                BusEvent::HeartbeatLost { node: 5 },
-                "heartbeat of node 5 lost".into(),
-            ),
-            (
-                BusEvent::TpdoMissing { node: 2, in_a_row: 4 },
-                "TPDO of node 2 missing 4 cycles in a row".into(),
-            ),
-            (
-                BusEvent::SendFailed(BusError::Full),
-                "CAN send failed: transmit queue full".into(),
-            ),
-            (
-                BusEvent::SendFailed(BusError::Os(105)),
-                "CAN send failed: OS error 105".into(),
-            ),
-        ];
-        for (be, text) in cases {
-            let e = bus_event_sample(7, &be);
-            assert_eq!((e.kind, e.cycle, e.text_len), (event_kind::BUS, 7, 0), "{be:?}");
-            assert_eq!(event_text(&e), text);
+    fn every_code_is_its_position_and_round_trips() {
+        for (i, s) in State::ALL.into_iter().enumerate() {
+            assert_eq!(s.code(), i as u32);
+            assert_eq!(State::from_code(s.code()), Some(s));
+        }
+        for (i, r) in Refusal::ALL.into_iter().enumerate() {
+            assert_eq!(r.code(), i as u32 + 1);
+            assert_eq!(Refusal::from_code(r.code()), Some(r));
+        }
+        for (i, f) in Fault::ALL.into_iter().enumerate() {
+            assert_eq!(f.code(), i as u32 + 1);
+            assert_eq!(Fault::from_code(f.code()), Some(f));
+        }
+        for (i, c) in Coupling::ALL.into_iter().enumerate() {
+            assert_eq!(c.code(), i as u32);
+            assert_eq!(Coupling::from_code(c.code()), Some(c));
+        }
+        for (i, a) in Axis::ALL.into_iter().enumerate() {
+            assert_eq!(a.code(), i as u8 + 1);
+            assert_eq!(Axis::from_code(a.code()), Some(a));
+            assert_eq!(Axis::parse(&a.name().to_lowercase()), Some(a));
+        }
+        for (i, e) in End::ALL.into_iter().enumerate() {
+            assert_eq!(e.code(), i as u8 + 1);
+            assert_eq!(End::from_code(e.code()), Some(e));
+        }
+        for (i, c) in COMMANDS.into_iter().enumerate() {
+            assert_eq!(c, i as u32 + 1);
+        }
+        for (i, k) in EVENT_KINDS.into_iter().enumerate() {
+            assert_eq!(k, i as u32 + 1);
+        }
+        for (i, b) in BUS_EVENTS.into_iter().enumerate() {
+            assert_eq!(b, i as u32 + 1);
         }
     }
 
     #[test]
-    fn every_state_round_trips() {
-        for s in STATES {
-            assert_eq!(state_from_code(state_code(s)), Some(s));
-        }
-        assert_eq!(state_from_code(99), None);
+    fn every_code_has_a_distinct_name() {
+        assert!(distinct(State::ALL.map(State::name)));
+        assert!(distinct(Refusal::ALL.map(Refusal::name)));
+        assert!(distinct(Refusal::ALL.map(Refusal::text)));
+        assert!(distinct(Fault::ALL.map(Fault::name)));
+        assert!(distinct(Coupling::ALL.map(Coupling::name)));
+        assert!(distinct(Axis::ALL.map(Axis::name)));
+        assert!(distinct(End::ALL.map(End::name)));
+        assert!(distinct(COMMANDS.map(command_name)));
+        assert!(distinct(EVENT_KINDS.map(|k| event_kind_name(k).unwrap())));
+        assert!(distinct(BUS_EVENTS.map(|b| bus_event_name(b).unwrap())));
+        // Every alarm reads differently, given an axis and values.
+        let texts: Vec<String> = Fault::ALL
+            .iter()
+            .map(|f| {
+                let a = AlarmCode {
+                    code: f.code(),
+                    axis: Axis::X.code(),
+                    end: End::Min.code(),
+                    value_a: 1.0,
+                    value_b: 2.0,
+                    ..AlarmCode::default()
+                };
+                alarm_text(&a)
+            })
+            .collect();
+        assert!(distinct(texts.iter().map(String::as_str)), "{texts:?}");
     }
 
     #[test]
-    fn every_refusal_round_trips_and_0_is_none() {
-        for r in REFUSALS {
-            assert_eq!(refusal_from_code(refusal_code(r)), Some(r));
-        }
-        assert_eq!(refusal_from_code(0), None);
+    fn unknown_codes_decode_to_none() {
+        assert_eq!(State::from_code(22), None);
+        assert_eq!(state_name(99), "?99");
+        assert_eq!(Refusal::from_code(0), None);
+        assert_eq!(Refusal::from_code(11), None);
+        assert_eq!(refusal_text(42), "?42");
+        assert_eq!(Fault::from_code(0), None);
+        assert_eq!(Fault::from_code(15), None);
+        assert_eq!(Coupling::from_code(5), None);
+        assert_eq!(coupling_name(5), "?");
+        assert_eq!(Axis::from_code(0), None);
+        assert_eq!(Axis::from_code(4), None);
+        assert_eq!(Axis::parse("z"), None);
+        assert_eq!(End::from_code(0), None);
+        assert_eq!(End::from_code(3), None);
+        assert_eq!(command_name(0), "?");
+        assert_eq!(command_name(11), "?");
+        assert_eq!(event_kind_name(0), None);
+        assert_eq!(event_kind_name(12), None);
+        assert_eq!(bus_event_name(5), None);
+        let e = EventSample {
+            kind: 99,
+            ..EventSample::default()
+        };
+        assert_eq!(event_text(&e), "event kind 99");
     }
 
     #[test]
-    fn faults_round_trip() {
-        let faults = [
-            Fault::SafetyChainOpen,
-            Fault::HardwareLimit {
-                axis: Axis::Y,
-                end: End::Min,
-            },
-            Fault::FollowingError {
-                axis: Axis::X,
-                error: 0.25,
-            },
-            Fault::SpindleSpeed {
-                set_rpm: 119.0,
-                actual_rpm: 80.0,
-            },
-            Fault::DriveNotEnabled { axis: Axis::B },
-            Fault::IoLost,
-        ];
-        for f in faults {
-            assert_eq!(fault_from_alarm(&alarm(Some(f))), Some(f));
-        }
-        assert_eq!(fault_from_alarm(&alarm(None)), None);
-        assert_eq!(alarm_text(&alarm(None)), "");
+    fn alarms_are_worded_from_their_numbers() {
+        assert_eq!(alarm_text(&AlarmCode::default()), "");
+        let a = |code: u32, axis: u8, end: u8, va: f64, vb: f64| AlarmCode {
+            code,
+            axis,
+            end,
+            value_a: va,
+            value_b: vb,
+            ..AlarmCode::default()
+        };
+        assert_eq!(alarm_text(&a(3, 3, 1, 0.0, 0.0)), "hardware limit Y min");
+        assert_eq!(alarm_text(&a(3, 1, 2, 0.0, 0.0)), "hardware limit B max");
+        assert_eq!(alarm_text(&a(4, 1, 0, 12.5, 0.0)), "soft limit B: 12.500 deg");
+        assert_eq!(alarm_text(&a(5, 2, 0, 0.25, 0.0)), "following error X: 0.2500 mm");
+        assert_eq!(
+            alarm_text(&a(9, 0, 0, 119.0, 80.0)),
+            "spindle did not reach 119.0 rpm (is 80.0 rpm)"
+        );
+        // A fault that names an axis, without one; an unknown code.
+        assert_eq!(alarm_text(&a(12, 0, 0, 0.0, 0.0)), "alarm code 12");
+        assert_eq!(Fault::of(&a(12, 0, 0, 0.0, 0.0)), None);
+        assert_eq!(Fault::of(&a(13, 0, 0, 0.0, 0.0)), Some(Fault::IoLost));
+        assert_eq!(alarm_text(&a(77, 0, 0, 0.0, 0.0)), "alarm code 77");
     }
 
     #[test]
-    fn commands_round_trip() {
-        let cmds = [
-            Command::Start { single: true },
-            Command::Jog {
-                axis: Axis::B,
-                distance: -12.5,
-            },
-            Command::SpindleOn { rpm: 100.0 },
-            Command::NewBlank,
-        ];
-        for c in cmds {
-            let (code, single, axis, value) = command_code(c);
-            assert_eq!(command_from_code(code, single, axis, value), Some(c));
-        }
-        assert_eq!(command_from_code(command::JOG, 0, 9, 1.0), None);
-        assert_eq!(command_from_code(command::LOAD_PROGRAM, 0, 0, 0.0), None);
+    fn events_are_worded_from_their_numbers() {
+        let e = |kind: u32, a: u32, b: u32| EventSample {
+            kind,
+            a,
+            b,
+            ..EventSample::default()
+        };
+        assert_eq!(
+            event_text(&e(
+                event_kind::STATE_CHANGED,
+                State::Idle.code(),
+                State::Cut.code()
+            )),
+            "state idle -> cut"
+        );
+        assert_eq!(
+            event_text(&e(event_kind::STATE_CHANGED, 1, 40)),
+            "state idle -> ?40"
+        );
+        assert_eq!(
+            event_text(&e(event_kind::REFUSED, command::START, Refusal::NoProgram.code())),
+            "refused: start: no program loaded: load one first (hob load PROGRAM)"
+        );
+        assert_eq!(
+            event_text(&e(event_kind::REFUSED, command::START, 0)),
+            "refused: start: ?"
+        );
+        assert_eq!(
+            event_text(&e(event_kind::ACCEPTED, command::JOG, 0)),
+            "accepted: jog"
+        );
+        let mut bus = e(event_kind::BUS, 5, bus_event::HEARTBEAT_LOST);
+        assert_eq!(event_text(&bus), "heartbeat of node 5 lost");
+        bus.b = 9;
+        assert_eq!(event_text(&bus), "bus event 9 of node 5");
     }
 }

@@ -16,9 +16,11 @@
 //! watchdog waits on it with its own deadline, so the loop never calls `notify()` (a
 //! syscall per cycle) for anybody.
 //!
-//! The types here are plain numbers; [`codec`] turns the control core's types into them
-//! and back, and gives every code its text (states, faults, refusals, events, commands):
-//! the loop encodes with it, every frontend decodes with it.
+//! The types here are plain numbers; [`codec`] names every code (states, faults and
+//! alarms, refusals, couplings, commands, events, bus events) with the number it is on
+//! the wire, and gives each its text. This crate is the bottom layer: it knows no control
+//! core. The loop encodes its control core's types to these codes (`hob_service::encode`);
+//! every frontend decodes with [`codec`] and prints its texts.
 
 pub mod codec;
 mod ports;

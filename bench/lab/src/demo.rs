@@ -4,8 +4,7 @@
 //! The last line is `log: PATH`.
 
 use hob_cli::service;
-use hob_control::State;
-use hob_ipc::codec;
+use hob_ipc::codec::{self, State};
 use hob_ipc::{CommandRequest, Ports, StatsSample};
 use hob_setup::config::machine::MachineConfig;
 use hob_virtual_machine::procs::{Processes, relaxed_machine_text, sibling, write_machine};
@@ -60,7 +59,7 @@ fn wait_for(
     let end = Instant::now() + timeout;
     loop {
         if let Some(s) = ports.wait_state(Duration::from_millis(200))
-            && codec::state_from_code(s.state).is_some_and(&ok)
+            && State::from_code(s.state).is_some_and(&ok)
         {
             return Ok(());
         }
@@ -221,7 +220,7 @@ pub fn run(machine: &MachineConfig, a: &DemoArgs<'_>) -> Result<String, (u8, Str
                 procs.dead().unwrap_or_else(|| "hob-rt stopped publishing".into()),
             ));
         };
-        let state = codec::state_from_code(s.state).unwrap_or(State::Init);
+        let state = State::from_code(s.state).unwrap_or(State::Init);
         let c0 = *start_cycle.get_or_insert(s.cycle);
         left_idle |= state != State::Idle;
         if state == State::Faulted {

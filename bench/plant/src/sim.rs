@@ -10,15 +10,19 @@ use hob_control::egb::Coupling;
 use hob_control::events::Event;
 use hob_control::program::CycleProgram;
 use hob_control::{
-    Command, ControlParams, Controller, CycleInputs, CycleOutputs, SpindleAngleSource, State, Status,
+    Command, ControlParams, Controller, CycleInputs, CycleOutputs, SpindleAngleSource, Status,
 };
 use hob_gearing::units::arcsec_to_um_at_radius;
 use hob_setup::config::machine::MachineConfig;
 use hob_setup::planner::Plan;
 use serde::Serialize;
 
+/// A trace row's state: the sequencer state's code in the contract between processes
+/// (`hob_ipc::codec::State`), encoded from the controller's by `hob_service::encode::state`.
+pub use hob_ipc::codec::State as RowState;
 /// The trace format and per-pass statistics are the logger's (`hob log export|report`).
 pub use hob_logger::trace::{PassSummary, SummaryBuilder, TRACE_HEADER, TraceRow};
+use hob_service::encode;
 
 /// Options of a run.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -164,7 +168,7 @@ impl Simulation {
         };
         TraceRow {
             t_s,
-            state: s.state,
+            state: encode::state(s.state),
             hold: s.hold,
             pass: s.pass,
             spindle_deg: self.plant.spindle_deg(),
@@ -195,7 +199,7 @@ impl Simulation {
         while self.cycle < end {
             let row = self.step_with(step);
             sink(&row);
-            if row.state == State::Idle {
+            if row.state == RowState::Idle {
                 return true;
             }
         }
@@ -344,7 +348,7 @@ pub fn run_program(
     })
     .map_err(|r| format!("start refused: {r:?}"))?;
     let completed = sim.run_until(options.max_time_s, &mut both, &mut |row, _| {
-        matches!(row.state, State::Idle | State::Faulted)
+        matches!(row.state, RowState::Idle | RowState::Faulted)
     });
     let fault = sim.controller.status().fault.map(|f| format!("{f:?}"));
     let completed = completed && fault.is_none();

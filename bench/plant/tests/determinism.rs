@@ -9,7 +9,8 @@ mod common;
 
 use hob_control::events::EventKind;
 use hob_control::program::CycleProgram;
-use hob_control::{Command, ControlParams, Controller, CycleInputs, CycleOutputs, State};
+use hob_control::{Command, ControlParams, Controller, CycleInputs, CycleOutputs};
+use hob_plant::sim::RowState as State;
 use hob_plant::sim::Simulation;
 
 /// Every cycle of one run, and where the commands were given.

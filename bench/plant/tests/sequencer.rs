@@ -6,11 +6,13 @@
 mod common;
 
 use common::{Run, in_order, powered_up, run, run_cycle, short_spur};
+use hob_control::Command;
 use hob_control::egb::Coupling;
 use hob_control::events::EventKind;
 use hob_control::fault::{Axis, End, Fault, Refusal};
-use hob_control::{Command, State};
 use hob_plant::plant::Injection;
+use hob_plant::sim::RowState as State;
+use hob_service::encode;
 
 use State::*;
 
@@ -22,7 +24,7 @@ fn start_and_cut(sim: &mut hob_plant::sim::Simulation, cycles: u32) {
         cut_seen += u32::from(r.state == Cut);
         cut_seen > cycles
     });
-    assert_eq!(sim.controller.status().state, Cut);
+    assert_eq!(encode::state(sim.controller.status().state), Cut);
 }
 
 fn cycle_done(r: &Run) -> bool {
@@ -256,7 +258,7 @@ fn refused_commands_change_nothing() {
         }),
         Err(Refusal::BadValue)
     );
-    assert_eq!(sim.controller.status().state, Idle);
+    assert_eq!(encode::state(sim.controller.status().state), Idle);
     sim.command(Command::Start { single: false }).unwrap();
     run(&mut sim, 300.0, |r| r.state == Cut);
     assert_eq!(
@@ -272,7 +274,7 @@ fn refused_commands_change_nothing() {
     );
     assert_eq!(sim.command(Command::NewBlank), Err(Refusal::CycleRunning));
     assert_eq!(sim.controller.load(cycle), Err(Refusal::CycleRunning));
-    assert_eq!(sim.controller.status().state, Cut);
+    assert_eq!(encode::state(sim.controller.status().state), Cut);
     sim.step();
     let refused = sim
         .events

@@ -5,7 +5,7 @@
 mod common;
 
 use common::{powered_up, run_cycle, short_spur};
-use hob_control::State;
+use hob_plant::sim::RowState as State;
 
 const BOTTOM_MM: f64 = 50.0;
 

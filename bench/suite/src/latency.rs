@@ -8,8 +8,7 @@
 use crate::hist::{self, Summary};
 use crate::plot::{self, Series};
 use crate::system::{self, SystemInfo};
-use hob_control::State;
-use hob_ipc::codec;
+use hob_ipc::codec::State;
 use hob_ipc::{CommandRequest, Ports, command};
 use hob_service::stats;
 use hob_setup::config::machine::MachineConfig;
@@ -236,7 +235,7 @@ fn run_loop(a: &Args, machine_file: &Path, cycles: u64) -> Result<u32, String> {
                 passes += 1;
             }
             last_pass = s.pass;
-            if codec::state_from_code(s.state) == Some(State::Idle) {
+            if State::from_code(s.state) == Some(State::Idle) {
                 if !loaded {
                     let r = client
                         .request(&load, Duration::from_secs(3))

@@ -18,6 +18,7 @@ use hob_control::program::CycleProgram;
 use hob_control::{Command, Controller, CycleInputs, CycleOutputs, State};
 use hob_plant::config::PlantConfig;
 use hob_plant::plant::Injection;
+use hob_plant::sim::RowState;
 use hob_plant::sim::Simulation;
 use hob_setup::config::Problems;
 use hob_setup::config::machine::MachineConfig;
@@ -191,7 +192,7 @@ fn run_scenarios(
                     distance: 5.0,
                 })
                 .map_err(|r| format!("jog refused: {r:?}"))?;
-                sim.run_until_with(s.max_s, &mut |_| {}, &mut |r, _| r.state == State::Idle, step);
+                sim.run_until_with(s.max_s, &mut |_| {}, &mut |r, _| r.state == RowState::Idle, step);
                 continue;
             }
             Extra::None | Extra::FaultInCut(_) => {}
@@ -208,7 +209,7 @@ fn run_scenarios(
                 s.max_s,
                 &mut |_| {},
                 &mut |r, _| {
-                    if r.state == State::Cut {
+                    if r.state == RowState::Cut {
                         cut_s += period;
                     }
                     cut_s >= after_s
@@ -220,7 +221,7 @@ fn run_scenarios(
         sim.run_until_with(
             s.max_s,
             &mut |_| {},
-            &mut |r, _| matches!(r.state, State::Idle | State::Faulted) && r.t_s > 1.0,
+            &mut |r, _| matches!(r.state, RowState::Idle | RowState::Faulted) && r.t_s > 1.0,
             step,
         );
         // A few cycles at rest (Idle or Faulted) after the end.

@@ -9,14 +9,16 @@ use std::collections::{BTreeMap, BTreeSet};
 /// dependencies; dev-dependencies are free). Bottom up: wire and pure logic, then the I/O
 /// edges, then the processes, then the test bench.
 const ALLOWED: &[(&str, &[&str])] = &[
+    // The wire: the contract between processes (message types, every code and its text).
+    // It knows no control core; only CANopen's pure words for EMCY codes and send errors.
+    ("hob-ipc", &["hob-canopen"]),
     // Pure: units and gearing, set-up, control core, CANopen, this machine's process image.
     ("hob-gearing", &[]),
     ("hob-setup", &["hob-gearing"]),
     ("hob-control", &["hob-gearing", "hob-setup"]),
     ("hob-canopen", &[]),
     ("hob-process-image", &["hob-canopen", "hob-control", "hob-setup"]),
-    // I/O edges: the contract between processes, the CAN transports, the OS real-time helpers.
-    ("hob-ipc", &["hob-control", "hob-canopen", "hob-process-image"]),
+    // I/O edges: the CAN transports, the OS real-time helpers.
     ("hob-can-transport", &["hob-canopen", "hob-ipc"]),
     ("hob-rt-os", &[]),
     // Processes (the product).
@@ -33,16 +35,12 @@ const ALLOWED: &[(&str, &[&str])] = &[
             "hob-ipc",
         ],
     ),
-    (
-        "hob-logger",
-        &["hob-gearing", "hob-control", "hob-ipc", "hob-rt-os"],
-    ),
+    ("hob-logger", &["hob-gearing", "hob-ipc", "hob-rt-os"]),
     (
         "hob-watchdog",
         &[
             "hob-canopen",
             "hob-can-transport",
-            "hob-control",
             "hob-setup",
             "hob-process-image",
             "hob-ipc",
@@ -66,7 +64,14 @@ const ALLOWED: &[(&str, &[&str])] = &[
     // that need them, the benchmarks.
     (
         "hob-plant",
-        &["hob-gearing", "hob-setup", "hob-control", "hob-logger"],
+        &[
+            "hob-gearing",
+            "hob-setup",
+            "hob-control",
+            "hob-ipc",
+            "hob-logger",
+            "hob-service",
+        ],
     ),
     (
         "hob-virtual-machine",
@@ -246,6 +251,26 @@ fn canopen_does_not_import_the_control_core() {
 }
 
 #[test]
+fn the_contract_between_processes_is_the_bottom_layer() {
+    // No control core, set-up, gearing or process image below the wire: every frontend
+    // decodes a code without linking them.
+    let ws = workspace();
+    let c = closure(&ws, "hob-ipc");
+    assert!(c.iter().all(|d| d == "hob-canopen"), "hob-ipc depends on {c:?}");
+    for frontend in ["hob-logger", "hob-watchdog"] {
+        assert!(
+            !ws.internal[frontend].contains("hob-control"),
+            "{frontend} depends on hob-control directly"
+        );
+    }
+    let logger = closure(&ws, "hob-logger");
+    assert!(
+        !logger.contains("hob-control") && !logger.contains("hob-setup"),
+        "hob-logger links {logger:?}"
+    );
+}
+
+#[test]
 fn a_breach_of_each_kind_is_reported() {
     // The check must be able to fail: the same rules on a workspace with one breach each.
     let mut ws = workspace();
@@ -256,6 +281,10 @@ fn a_breach_of_each_kind_is_reported() {
     ws.external.get_mut("hob-control").unwrap().insert("nix".into());
     ws.internal.get_mut("hob-cli").unwrap().insert("hob-plant".into());
     ws.internal.insert("hob-new".into(), BTreeSet::new());
+    ws.internal
+        .get_mut("hob-ipc")
+        .unwrap()
+        .insert("hob-control".into());
     let b = breaches(&ws).join("\n");
     for needle in [
         "hob-canopen depends on hob-control",
@@ -264,6 +293,7 @@ fn a_breach_of_each_kind_is_reported() {
         "hob-cli depends on hob-plant",
         "the product crate hob-cli links hob-plant",
         "hob-new: a crate the layer rules do not know",
+        "hob-ipc depends on hob-control",
     ] {
         assert!(b.contains(needle), "{needle:?} not reported in:\n{b}");
     }

@@ -2,7 +2,6 @@
 //! same shared-memory interfaces as every frontend (the HMI included): the `state`,
 //! `events` and `stats` streams, and the `command` request-response service.
 
-use hob_control::fault::Axis;
 use hob_ipc::codec;
 use hob_ipc::{CommandRequest, CommandResponse, EventSample, Ports, StateSample, StatsSample, command};
 use std::fmt::Write as _;
@@ -43,12 +42,10 @@ pub fn start(single: bool) -> CommandRequest {
 }
 
 pub fn jog(axis: &str, distance: f64) -> Result<CommandRequest, (u8, String)> {
-    let axis = Axis::parse(axis).ok_or_else(|| (2, format!("jog: axis {axis} is not x, y or b")))?;
-    let (code, single, axis, value) = codec::command_code(hob_control::Command::Jog { axis, distance });
-    let mut r = CommandRequest::new(code);
-    r.single = single;
-    r.axis = axis;
-    r.value = value;
+    let axis = codec::Axis::parse(axis).ok_or_else(|| (2, format!("jog: axis {axis} is not x, y or b")))?;
+    let mut r = CommandRequest::new(command::JOG);
+    r.axis = axis.code();
+    r.value = distance;
     Ok(r)
 }
 

@@ -1,10 +1,8 @@
 //! `hob log export|report`: a recorded directory as CSV, and its per-pass statistics.
 
 use crate::trace::{PassSummary, SummaryBuilder, TRACE_HEADER, TraceRow};
-use hob_control::State;
-use hob_control::egb::Coupling;
 use hob_ipc::StateSample;
-use hob_ipc::codec;
+use hob_ipc::codec::{self, Coupling, State};
 use std::fmt::Write as _;
 use std::path::Path;
 
@@ -12,7 +10,7 @@ use std::path::Path;
 pub fn trace_row(s: &StateSample, t0_ns: u64) -> TraceRow {
     TraceRow {
         t_s: s.sync_time_ns.saturating_sub(t0_ns) as f64 * 1e-9,
-        state: codec::state_from_code(s.state).unwrap_or(State::Init),
+        state: State::from_code(s.state).unwrap_or(State::Init),
         hold: s.hold != 0,
         pass: s.pass,
         spindle_deg: s.spindle_deg,
@@ -22,8 +20,7 @@ pub fn trace_row(s: &StateSample, t0_ns: u64) -> TraceRow {
         x_cmd_mm: s.x_mm.command,
         y_mm: s.y_mm.actual,
         y_cmd_mm: s.y_mm.command,
-        sync_err_arcsec: (s.coupling == codec::coupling_code(Coupling::Synchronised))
-            .then_some(s.sync_error_arcsec),
+        sync_err_arcsec: (s.coupling == Coupling::Synchronised.code()).then_some(s.sync_error_arcsec),
         work_twist_arcsec: 0.0,
     }
 }

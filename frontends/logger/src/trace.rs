@@ -2,9 +2,9 @@
 //! export` writes from a recording and the simulated machine writes from a run, and what
 //! `hob log report` and the demo judge the cut by.
 
-use hob_control::State;
 use hob_gearing::iso1328::single_pitch_tolerance_um;
 use hob_gearing::units::arcsec_to_um_at_radius;
+use hob_ipc::codec::State;
 use serde::Serialize;
 
 /// Columns of `trace.csv`, in order.
@@ -18,6 +18,8 @@ pub const TRACE_HEADER: &str = "t_s,state,pass,spindle_deg,table_deg,table_cmd_d
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct TraceRow {
     pub t_s: f64,
+    /// The sequencer state, as its code in the contract between processes (the simulated
+    /// machine encodes the control core's state with `hob_service::encode::state`).
     pub state: State,
     pub hold: bool,
     pub pass: u32,

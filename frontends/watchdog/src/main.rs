@@ -18,10 +18,8 @@ use hob_canopen::bus::CanBus;
 use hob_canopen::cia402::{command, object};
 use hob_canopen::frame::{Cob, Frame};
 use hob_canopen::sdo::SdoClient;
-use hob_control::State;
-use hob_control::fault::Fault;
-use hob_ipc::StateSample;
-use hob_ipc::codec;
+use hob_ipc::codec::{self, Fault, State};
+use hob_ipc::{AlarmCode, StateSample};
 use hob_process_image::plan::{ANALOG_OUTPUTS, BusPlan, DIGITAL_OUTPUTS};
 use hob_rt_os as rt;
 use hob_rt_os::{RtReport, now_ns, sleep_until_ns};
@@ -68,17 +66,17 @@ fn parse_args() -> Result<Args, String> {
 #[derive(Debug, Clone, Copy, PartialEq)]
 enum Trip {
     Silent { silence_ms: f64 },
-    LoopLostMachine(Fault),
+    LoopLostMachine(AlarmCode),
 }
 
 /// The loop reports that it lost the machine: faulted with a drive's feedback or the I/O
 /// coupler gone (it can no longer make the machine safe by itself).
-fn lost_machine(s: &StateSample) -> Option<Fault> {
-    if codec::state_from_code(s.state) != Some(State::Faulted) {
+fn lost_machine(s: &StateSample) -> Option<AlarmCode> {
+    if State::from_code(s.state) != Some(State::Faulted) {
         return None;
     }
-    match codec::fault_from_alarm(&s.alarm)? {
-        f @ (Fault::FeedbackLost { .. } | Fault::IoLost) => Some(f),
+    match Fault::of(&s.alarm)? {
+        Fault::FeedbackLost | Fault::IoLost => Some(s.alarm),
         _ => None,
     }
 }
@@ -194,8 +192,8 @@ fn run(args: &Args, machine: &MachineConfig) -> Result<(), String> {
             }
             last_cycle = Some(s.cycle);
             last_seen_ns = now;
-            if !tripped && let Some(f) = lost_machine(&s) {
-                act(&mut bus, &frames, Trip::LoopLostMachine(f), s.cycle);
+            if !tripped && let Some(a) = lost_machine(&s) {
+                act(&mut bus, &frames, Trip::LoopLostMachine(a), s.cycle);
                 tripped = true;
             }
         } else if !tripped && last_cycle.is_some() && now - last_seen_ns > deadline_ns {
@@ -238,7 +236,7 @@ fn act(bus: &mut Box<dyn CanBus>, frames: &[Frame], why: Trip, cycle: u64) {
     }
     let reason = match why {
         Trip::Silent { silence_ms } => format!("loop silent for {silence_ms:.1} ms after cycle {cycle}"),
-        Trip::LoopLostMachine(f) => format!("loop reports it lost the machine: {}", codec::fault_text(f)),
+        Trip::LoopLostMachine(a) => format!("loop reports it lost the machine: {}", codec::alarm_text(&a)),
     };
     eprintln!(
         "hob-watchdog: TRIPPED: {reason}: I/O coupler outputs off (PC-OK dropped, safety chain opens), \

@@ -8,6 +8,7 @@
 //! loop's side, and this thread polls instead of parking: no thread ever waits on them,
 //! so the loop's calls never lock nor wake anybody (no syscall).
 
+use crate::encode;
 use hob_control::Command;
 use hob_control::fault::Refusal;
 use hob_control::program::CycleProgram;
@@ -56,7 +57,7 @@ pub fn to_mail(req: &CommandRequest, machine: &MachineConfig) -> Result<Mail, St
     if req.command == command::LOAD_PROGRAM {
         return build_program(&req.name(), &req.text(), machine).map(Mail::Load);
     }
-    codec::command_from_code(req.command, req.single, req.axis, req.value)
+    encode::command_from_code(req.command, req.single, req.axis, req.value)
         .map(Mail::Command)
         .ok_or_else(|| format!("unknown command {} (axis code {})", req.command, req.axis))
 }
@@ -129,8 +130,8 @@ pub fn answer(req: &CommandRequest, machine: &MachineConfig, mailbox: &ThreadMai
         }
         Ok(Err(r)) => CommandResponse::new(
             false,
-            codec::refusal_code(r),
-            &format!("{what} refused: {}", codec::refusal_text(r)),
+            encode::refusal(r).code(),
+            &format!("{what} refused: {}", encode::refusal(r).text()),
         ),
         Err(text) => CommandResponse::new(false, 0, &format!("{what} not done: {text}")),
     }

@@ -7,10 +7,10 @@
 //! (a slow one loses its oldest samples, the loop never notices).
 
 use crate::commands::{LoopMailbox, Mail};
+use crate::encode;
 use crate::stats::LoopTiming;
 use hob_canopen::bus::CanBus;
 use hob_control::{Controller, CycleOutputs, State};
-use hob_ipc::codec;
 use hob_ipc::iceoryx2::port::publisher::Publisher;
 use hob_ipc::{EventSample, StateSample, Svc, event_kind};
 use hob_process_image::master::{BUS_EVENTS, BusEvent, Cyclic};
@@ -97,13 +97,13 @@ impl<B: CanBus> RtLoop<B> {
 
     fn publish_events(&mut self, cycle: u64) {
         while let Some(ev) = self.controller.events().pop() {
-            let s = codec::event_sample(0, &ev);
+            let s = encode::event_sample(0, &ev);
             self.publish_event(s);
         }
         let n = self.cyclic.take_events(&mut self.bus_events);
         for i in 0..n {
             if let Some(be) = self.bus_events[i] {
-                self.publish_event(codec::bus_event_sample(cycle, &be));
+                self.publish_event(encode::bus_event_sample(cycle, &be));
             }
         }
     }
@@ -140,7 +140,7 @@ impl<B: CanBus> RtLoop<B> {
         let compute_ns = now_ns().saturating_sub(wake_ns);
         let wake_latency_ns = wake_ns.saturating_sub(deadline_ns);
         let mut s = StateSample::default();
-        codec::fill_state(&mut s, &status, passes, loaded);
+        encode::fill_state(&mut s, &status, passes, loaded);
         s.sync_time_ns = sync_ns;
         s.digital_inputs = inputs.digital_inputs;
         s.digital_outputs = self.outputs.digital_outputs;

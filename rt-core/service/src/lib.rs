@@ -6,6 +6,8 @@
 //! - [`cycle`]: the loop itself (no allocation, lock, blocking call or logging inside).
 //! - [`commands`]: the command thread (request-response server; parses and checks
 //!   programs) and its mailboxes to the loop.
+//! - [`encode`]: the control core's types to the codes of `hob_ipc::codec` (exhaustive
+//!   matches, no allocation), and a request back to a `hob_control::Command`.
 //! - [`stats`]: the loop's timing histograms and their hand-over to the stats thread.
 //! - [`lifecycle`]: configure -> activate -> run -> stop, in the order the types allow.
 //!
@@ -15,5 +17,6 @@
 
 pub mod commands;
 pub mod cycle;
+pub mod encode;
 pub mod lifecycle;
 pub mod stats;

@@ -2,11 +2,11 @@
 //! programs (optionally edited), a powered-up simulation.
 #![allow(dead_code, clippy::unwrap_used)]
 
+use hob_control::Command;
 use hob_control::events::Event;
 use hob_control::program::CycleProgram;
-use hob_control::{Command, State};
 use hob_plant::config::PlantConfig;
-use hob_plant::sim::{Simulation, TraceRow, start_for, workpiece_for};
+use hob_plant::sim::{RowState as State, Simulation, TraceRow, start_for, workpiece_for};
 use hob_setup::config::Problems;
 use hob_setup::config::machine::MachineConfig;
 use hob_setup::job::Program;

@@ -1,0 +1,363 @@
+//! Every control-core value encodes to a code whose `hob_ipc::codec` text is what the
+//! codec printed for it when it still took the control core's types (the operator's words
+//! do not change), and decodes back where the loop has a decoder.
+
+use super::*;
+use hob_canopen::emcy::{Emcy, emcy_text};
+use hob_ipc::codec::{alarm_text, event_text};
+
+/// The texts as the old codec (`hob_ipc::codec` on the control core's types) printed them.
+mod old {
+    use hob_control::Command;
+    use hob_control::fault::{Axis, End, Fault, Refusal};
+
+    fn unit(a: Axis) -> &'static str {
+        if a == Axis::B { "deg" } else { "mm" }
+    }
+
+    pub fn fault_text(f: Fault) -> String {
+        match f {
+            Fault::SafetyChainOpen => "safety chain open".into(),
+            Fault::EmergencyStop => "emergency stop pressed".into(),
+            Fault::HardwareLimit { axis, end } => format!(
+                "hardware limit {} {}",
+                axis.name(),
+                if end == End::Min { "min" } else { "max" }
+            ),
+            Fault::SoftLimit { axis, position } => {
+                format!("soft limit {}: {position:.3} {}", axis.name(), unit(axis))
+            }
+            Fault::FollowingError { axis, error } => {
+                format!("following error {}: {error:.4} {}", axis.name(), unit(axis))
+            }
+            Fault::DriveFault { axis } => format!("drive fault {}", axis.name()),
+            Fault::VfdFault => "spindle VFD fault".into(),
+            Fault::SyncLost { error_arcsec } => {
+                format!("synchronisation lost: {error_arcsec:.1} arcsec outside the coarse window")
+            }
+            Fault::SpindleSpeed { set_rpm, actual_rpm } => {
+                format!("spindle did not reach {set_rpm:.1} rpm (is {actual_rpm:.1} rpm)")
+            }
+            Fault::LubeTimeout => "lubrication pressure not confirmed in time".into(),
+            Fault::ClampTimeout => "X clamp did not report in time".into(),
+            Fault::FeedbackLost { axis } => format!("feedback of drive {} lost (bus)", axis.name()),
+            Fault::IoLost => "I/O coupler lost (bus)".into(),
+            Fault::DriveNotEnabled { axis } => format!("drive {} not in \"operation enabled\"", axis.name()),
+        }
+    }
+
+    pub fn refusal_text(r: Refusal) -> &'static str {
+        match r {
+            Refusal::NoProgram => "no program loaded: load one first (hob load PROGRAM)",
+            Refusal::CycleRunning => "a cycle is running: stop it first",
+            Refusal::Faulted => "the machine is in fault: remove the cause, then reset",
+            Refusal::NotReady => "power-up not finished (lubrication, safety chain, drives)",
+            Refusal::NothingToDo => "nothing to do in this state",
+            Refusal::OutsideSoftLimits => "the move would leave the soft limits",
+            Refusal::NoSingleDepth => "the program has no single-mode depth",
+            Refusal::BadValue => "the value is not a finite number in range",
+            Refusal::SafetyChainOpen => "the safety chain is open: close it with the reset button first",
+            Refusal::DrivesNotEnabled => "not every drive reports \"operation enabled\" yet",
+        }
+    }
+
+    pub fn command_name(c: Command) -> &'static str {
+        match c {
+            Command::Start { .. } => "start",
+            Command::FeedHold => "hold",
+            Command::Resume => "resume",
+            Command::Stop => "stop",
+            Command::Reset => "reset",
+            Command::Jog { .. } => "jog",
+            Command::SpindleOn { .. } => "spindle on",
+            Command::SpindleOff => "spindle off",
+            Command::NewBlank => "new blank",
+        }
+    }
+}
+
+/// The old table of states, code = index.
+const OLD_STATES: [State; 22] = [
+    State::Init,
+    State::Idle,
+    State::Jog,
+    State::ToSafe,
+    State::ToStart,
+    State::SpindleUp,
+    State::Engage,
+    State::Infeed,
+    State::Plunge,
+    State::ExtraRev,
+    State::Clamp,
+    State::Cut,
+    State::Unclamp,
+    State::Retract,
+    State::Return,
+    State::Index,
+    State::Home,
+    State::Disengage,
+    State::SpindleDown,
+    State::FaultRetract,
+    State::FaultStop,
+    State::Faulted,
+];
+
+/// The old table of refusals, code = index + 1.
+const OLD_REFUSALS: [Refusal; 10] = [
+    Refusal::NoProgram,
+    Refusal::CycleRunning,
+    Refusal::Faulted,
+    Refusal::NotReady,
+    Refusal::NothingToDo,
+    Refusal::OutsideSoftLimits,
+    Refusal::NoSingleDepth,
+    Refusal::BadValue,
+    Refusal::SafetyChainOpen,
+    Refusal::DrivesNotEnabled,
+];
+
+const AXES: [Axis; 3] = [Axis::B, Axis::X, Axis::Y];
+
+/// Every fault variant, with every axis and end.
+fn every_fault() -> Vec<Fault> {
+    let mut v = vec![
+        Fault::SafetyChainOpen,
+        Fault::EmergencyStop,
+        Fault::VfdFault,
+        Fault::SyncLost { error_arcsec: 61.25 },
+        Fault::SpindleSpeed {
+            set_rpm: 119.0,
+            actual_rpm: 80.04,
+        },
+        Fault::LubeTimeout,
+        Fault::ClampTimeout,
+        Fault::IoLost,
+    ];
+    for axis in AXES {
+        for end in [End::Min, End::Max] {
+            v.push(Fault::HardwareLimit { axis, end });
+        }
+        v.push(Fault::SoftLimit {
+            axis,
+            position: -12.3456,
+        });
+        v.push(Fault::FollowingError { axis, error: 0.25 });
+        v.push(Fault::DriveFault { axis });
+        v.push(Fault::FeedbackLost { axis });
+        v.push(Fault::DriveNotEnabled { axis });
+    }
+    v
+}
+
+fn every_command() -> Vec<Command> {
+    let mut v = vec![
+        Command::Start { single: false },
+        Command::Start { single: true },
+        Command::FeedHold,
+        Command::Resume,
+        Command::Stop,
+        Command::Reset,
+        Command::SpindleOn { rpm: 100.0 },
+        Command::SpindleOff,
+        Command::NewBlank,
+    ];
+    for axis in AXES {
+        v.push(Command::Jog {
+            axis,
+            distance: -12.5,
+        });
+    }
+    v
+}
+
+#[test]
+fn every_state_has_its_old_code_and_word() {
+    for (i, s) in OLD_STATES.into_iter().enumerate() {
+        let c = state(s);
+        assert_eq!(c.code(), i as u32, "{s:?}");
+        assert_eq!(c.name(), s.name(), "{s:?}");
+        assert_eq!(state_of(c), s);
+    }
+    // Every code of the contract is some state, and back.
+    for c in codec::State::ALL {
+        assert_eq!(state(state_of(c)), c);
+    }
+}
+
+#[test]
+fn every_refusal_has_its_old_code_and_text() {
+    for (i, r) in OLD_REFUSALS.into_iter().enumerate() {
+        let c = refusal(r);
+        assert_eq!(c.code(), i as u32 + 1, "{r:?}");
+        assert_eq!(c.text(), old::refusal_text(r));
+        assert_eq!(codec::refusal_text(c.code()), old::refusal_text(r));
+        assert_eq!(refusal_of(c), r);
+    }
+    for c in codec::Refusal::ALL {
+        assert_eq!(refusal(refusal_of(c)), c);
+    }
+}
+
+#[test]
+fn every_fault_has_its_old_text_and_round_trips() {
+    let faults = every_fault();
+    assert_eq!(faults.len(), 8 + 3 * 7);
+    let mut codes = std::collections::BTreeSet::new();
+    for f in faults {
+        let a = alarm(Some(f));
+        codes.insert(a.code);
+        assert_eq!(alarm_text(&a), old::fault_text(f), "{f:?}");
+        assert_eq!(fault_of(&a), Some(f));
+    }
+    // Every fault code of the contract is used.
+    assert_eq!(codes.len(), codec::Fault::ALL.len());
+    assert_eq!(alarm(None), AlarmCode::default());
+    assert_eq!(alarm_text(&alarm(None)), "");
+    assert_eq!(fault_of(&alarm(None)), None);
+}
+
+#[test]
+fn the_old_alarm_numbers_are_kept() {
+    let a = alarm(Some(Fault::HardwareLimit {
+        axis: Axis::Y,
+        end: End::Min,
+    }));
+    assert_eq!((a.code, a.axis, a.end), (3, 3, 1));
+    let a = alarm(Some(Fault::SpindleSpeed {
+        set_rpm: 119.0,
+        actual_rpm: 80.0,
+    }));
+    assert_eq!((a.code, a.value_a, a.value_b), (9, 119.0, 80.0));
+    assert_eq!(alarm(Some(Fault::DriveNotEnabled { axis: Axis::B })).code, 14);
+    assert_eq!(alarm(Some(Fault::FeedbackLost { axis: Axis::X })).axis, 2);
+}
+
+#[test]
+fn every_coupling_has_its_old_code_and_name() {
+    let old = [
+        (Coupling::Disengaged, "disengaged"),
+        (Coupling::Engaging, "engaging"),
+        (Coupling::Phasing, "phasing"),
+        (Coupling::Synchronised, "synchronised"),
+        (Coupling::Disengaging, "disengaging"),
+    ];
+    for (i, (c, name)) in old.into_iter().enumerate() {
+        assert_eq!(coupling(c).code(), i as u32);
+        assert_eq!(codec::coupling_name(coupling(c).code()), name);
+    }
+}
+
+#[test]
+fn every_command_round_trips_with_its_old_name() {
+    for c in every_command() {
+        let (code, single, axis, value) = command_code(c);
+        assert_eq!(codec::command_name(code), old::command_name(c), "{c:?}");
+        assert_eq!(command_from_code(code, single, axis, value), Some(c));
+    }
+    assert_eq!(command_code(Command::Start { single: true }), (2, 1, 0, 0.0));
+    assert_eq!(
+        command_code(Command::Jog {
+            axis: Axis::Y,
+            distance: 1.5
+        }),
+        (7, 0, 3, 1.5)
+    );
+    assert_eq!(command_from_code(command::JOG, 0, 9, 1.0), None);
+    assert_eq!(command_from_code(command::LOAD_PROGRAM, 0, 0, 0.0), None);
+    assert_eq!(command_from_code(99, 0, 0, 0.0), None);
+}
+
+#[test]
+fn every_event_has_its_old_text() {
+    let mut cases: Vec<(EventKind, String)> = vec![
+        (EventKind::FaultCleared, "alarm cleared".into()),
+        (EventKind::PassStarted { pass: 3 }, "pass 3 started".into()),
+        (
+            EventKind::PhaseRecorded { phase_deg: 12.34567 },
+            "tooth phase recorded: 12.3457 deg".into(),
+        ),
+        (EventKind::ProgramLoaded, "program loaded".into()),
+        (EventKind::CycleDone, "cycle done".into()),
+    ];
+    for (from, to) in OLD_STATES.into_iter().zip(OLD_STATES.into_iter().rev()) {
+        cases.push((
+            EventKind::StateChanged { from, to },
+            format!("state {} -> {}", from.name(), to.name()),
+        ));
+    }
+    for f in every_fault() {
+        cases.push((EventKind::Fault(f), format!("ALARM {}", old::fault_text(f))));
+    }
+    for c in every_command() {
+        cases.push((
+            EventKind::Accepted(c),
+            format!("accepted: {}", old::command_name(c)),
+        ));
+        for r in OLD_REFUSALS {
+            cases.push((
+                EventKind::Refused {
+                    command: c,
+                    reason: r,
+                },
+                format!("refused: {}: {}", old::command_name(c), old::refusal_text(r)),
+            ));
+        }
+    }
+    for (kind, text) in cases {
+        let e = event_sample(42, &Event { cycle: 7, kind });
+        assert_eq!((e.seq, e.cycle, e.text_len), (42, 7, 0), "{kind:?}");
+        assert_eq!(event_text(&e), text, "{kind:?}");
+    }
+    // Accepted carries its arguments.
+    let e = event_sample(
+        0,
+        &Event {
+            cycle: 0,
+            kind: EventKind::Accepted(Command::Jog {
+                axis: Axis::X,
+                distance: 2.0,
+            }),
+        },
+    );
+    assert_eq!((e.a, e.b, e.value), (command::JOG, 2 << 8, 2.0));
+}
+
+#[test]
+fn every_bus_event_is_worded_from_its_numbers() {
+    let cases = [
+        (
+            BusEvent::Emcy(Emcy {
+                node: 3,
+                code: 0x8611,
+                register: 0,
+                vendor: [0; 5],
+            }),
+            format!("EMCY node 3 0x8611: {}", emcy_text(0x8611)),
+        ),
+        (
+            BusEvent::HeartbeatLost { node: 5 },
+            "heartbeat of node 5 lost".into(),
+        ),
+        (
+            BusEvent::TpdoMissing { node: 2, in_a_row: 4 },
+            "TPDO of node 2 missing 4 cycles in a row".into(),
+        ),
+        (
+            BusEvent::SendFailed(BusError::Full),
+            "CAN send failed: transmit queue full".into(),
+        ),
+        (
+            BusEvent::SendFailed(BusError::Down),
+            "CAN send failed: interface down".into(),
+        ),
+        (
+            BusEvent::SendFailed(BusError::Os(105)),
+            "CAN send failed: OS error 105".into(),
+        ),
+    ];
+    for (be, text) in cases {
+        let e = bus_event_sample(7, &be);
+        assert_eq!((e.kind, e.cycle, e.text_len), (event_kind::BUS, 7, 0), "{be:?}");
+        assert_eq!(event_text(&e), text);
+    }
+}
