@@ -581,7 +581,9 @@ impl Drop for Bench {
         if std::thread::panicking() {
             eprintln!("the test failed; the processes' logs:\n{}", self.tails());
         }
-        for p in &mut self.procs {
+        // The last started first: the watchdog and the logger before the loop, the loop
+        // before the machine (a watchdog outliving the loop would trip on the way out).
+        for p in self.procs.iter_mut().rev() {
             let _ = p.child.kill();
             let _ = p.child.wait();
         }
