@@ -160,6 +160,8 @@ pub struct Status {
     /// hob-rt's CLOCK_MONOTONIC at this cycle's SYNC.
     pub sync_time_ns: u64,
     pub state: String,
+    /// Feed hold is on.
+    pub hold: bool,
     pub program_loaded: bool,
     /// Empty when there is none.
     pub alarm: String,

@@ -215,6 +215,52 @@ fn service_session() {
         assert_eq!(b.status().state, "cut", "the state after the refusal");
         o.text
     });
+    b.step("feed hold and resume through the service", |b| {
+        b.hob_ok(&["hold"]);
+        let s = b.status();
+        assert!(
+            s.hold && s.state == "cut",
+            "after hob hold: state {}, hold {}",
+            s.state,
+            s.hold
+        );
+        let again = b.hob(&["hold"]);
+        assert_eq!(again.code, Some(2), "a second hob hold: {}", again.text);
+        assert!(
+            again.text.contains("nothing to do"),
+            "a second hob hold: {}",
+            again.text
+        );
+        b.hob_ok(&["resume"]);
+        let s = b.status();
+        assert!(
+            !s.hold && s.state == "cut",
+            "after hob resume: state {}, hold {}",
+            s.state,
+            s.hold
+        );
+        let again = b.hob(&["resume"]);
+        assert_eq!(again.code, Some(2), "a second hob resume: {}", again.text);
+        String::new()
+    });
+    b.step(
+        "cycle stop through the service: out of the cut to idle, then cutting again",
+        |b| {
+            b.hob_ok(&["stop"]);
+            let s = b.wait_state("idle", STATE_TIMEOUT);
+            assert!(s.alarm.is_empty(), "alarm after the stop: {}", s.alarm);
+            let again = b.hob(&["reset"]);
+            assert_eq!(again.code, Some(2), "hob reset without a fault: {}", again.text);
+            assert!(
+                again.text.contains("nothing to do"),
+                "hob reset without a fault: {}",
+                again.text
+            );
+            b.hob_ok(&["start"]);
+            b.wait_state("cut", STATE_TIMEOUT);
+            String::new()
+        },
+    );
     b.step("kill -9 logger and CLI: the loop keeps its pace, no alarm", |b| {
         let cli = b.spawn(
             "hob status --watch",
@@ -372,6 +418,13 @@ fn silent_machine_mid_cut() {
     let mut b = Bench::new("silent_machine_mid_cut");
     let machine = b.session_machine().write(&b.art.join("machine.toml"));
     let (sim, _rt) = start_service(&mut b, &machine, 2);
+    let iface = b.iface.clone();
+    let wd = b.spawn(
+        "hob-watchdog",
+        "hob-watchdog",
+        &["--iface", &iface, "--machine", &path(&machine)],
+        "watchdog2.txt",
+    );
     b.step("second session: power-up, load, start, cutting", |b| {
         b.wait_state("idle", STATE_TIMEOUT);
         b.hob_ok(&["load", &program_arg()]);
@@ -402,6 +455,95 @@ fn silent_machine_mid_cut() {
             format!("{}, alarm {}", s.state, s.alarm)
         },
     );
+    b.step("the loop reports it lost the machine: the watchdog trips", |b| {
+        let s = b.wait_state("fault", STATE_TIMEOUT);
+        let log = b.log_of(wd);
+        let trip = b.wait_for("the watchdog's trip report", Duration::from_secs(30), |_| {
+            let text = std::fs::read_to_string(&log).map_err(|e| e.to_string())?;
+            WatchdogTrip::find(&text).ok_or_else(|| "no trip reported yet".to_string())
+        });
+        assert!(trip.tripped, "{trip:?}");
+        assert!(
+            trip.reason
+                .starts_with("loop reports it lost the machine: feedback of drive "),
+            "the watchdog's reason: {} (the loop's alarm: {})",
+            trip.reason,
+            s.alarm
+        );
+        trip.reason
+    });
+    b.step("reset through the service clears the fault", |b| {
+        b.hob_ok(&["reset"]);
+        let s = b.wait_for("the state after the reset", STATE_TIMEOUT, |b| {
+            let s = b.try_status()?;
+            if s.state == "fault" {
+                Err(format!("state {}", s.state))
+            } else {
+                Ok(s)
+            }
+        });
+        assert!(s.alarm.is_empty(), "alarm after the reset: {}", s.alarm);
+        s.state
+    });
+}
+
+/// `hob-rt --require-rt` refuses to run without the real-time set-up (exit status 3),
+/// after the bus is booted and before the loop starts: here without the capabilities and
+/// limits for SCHED_FIFO and the memory lock (`prlimit`, `setpriv`, from util-linux).
+#[test]
+#[ignore = "needs the release binaries and a bus; ci/test runs it (--ignored --test-threads=1)"]
+fn require_rt_refuses_to_run_degraded() {
+    assert!(
+        which("prlimit") && which("setpriv"),
+        "prlimit and setpriv (util-linux) are needed"
+    );
+    let mut b = Bench::new("require_rt_refuses_to_run_degraded");
+    let machine = path(&b.session_machine().write(&b.art.join("machine.toml")));
+    let (iface, program) = (b.iface.clone(), program_arg());
+    b.spawn(
+        "hob-sim",
+        "hob-sim",
+        &["--iface", &iface, "--machine", &machine, "--program", &program],
+        "sim.txt",
+    );
+    std::thread::sleep(Duration::from_millis(300));
+    let rt = b.bin.join("hob-rt").display().to_string();
+    let mut cmd = b.command_any(
+        "prlimit",
+        &[
+            "--rtprio=0:0",
+            "--memlock=65536:65536",
+            "--",
+            "setpriv",
+            "--bounding-set=-sys_nice,-ipc_lock",
+            "--",
+            &rt,
+            "--iface",
+            &iface,
+            "--machine",
+            &machine,
+            "--require-rt",
+        ],
+    );
+    cmd.env("HOB_INSTANCE", &b.instance);
+    let p = b.spawn_cmd("hob-rt --require-rt", cmd, "rt.txt");
+    b.step("exit status 3, saying why", |b| {
+        let st = b.wait_exit(p, STATE_TIMEOUT);
+        let log = std::fs::read_to_string(b.log_of(p)).unwrap();
+        assert_eq!(st.code(), Some(3), "hob-rt --require-rt: {st}\n{log}");
+        assert!(
+            log.contains("operational"),
+            "the bus was not booted first:\n{log}"
+        );
+        assert!(
+            log.contains("DEGRADED") && log.contains("--require-rt: refusing to run degraded"),
+            "{log}"
+        );
+        log.lines()
+            .filter(|l| l.contains("  - "))
+            .collect::<Vec<_>>()
+            .join("; ")
+    });
 }
 
 fn which(exe: &str) -> bool {
