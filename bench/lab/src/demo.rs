@@ -72,6 +72,21 @@ fn wait_for(
     }
 }
 
+/// The machine file the demo runs on: with `--strict` the configured one as it is (`None`:
+/// nothing written, the tolerance not looked at); else a copy with the bus and watchdog
+/// timing relaxed by `tolerance_ms` for a virtual machine's stalls, refused (`Err`, the
+/// keys) when its validation refuses it.
+fn machine_for_demo(
+    strict: bool,
+    machine_file: &Path,
+    tolerance_ms: u32,
+) -> Result<Option<(String, String)>, String> {
+    if strict {
+        return Ok(None);
+    }
+    relaxed_machine_text(machine_file, tolerance_ms).map(Some)
+}
+
 /// The binaries the demo starts beside itself.
 const SIBLINGS: [&str; 4] = ["hob-rt", "hob-sim", "hob-logger", "hob-watchdog"];
 
@@ -112,11 +127,7 @@ pub fn run(machine: &MachineConfig, a: &DemoArgs<'_>) -> Result<String, (u8, Str
         str::to_string,
     );
     // Refused before anything is created: a tolerance the machine file's validation refuses.
-    let relaxed = if a.strict {
-        None
-    } else {
-        Some(relaxed_machine_text(a.machine_file, a.tolerance_ms).map_err(|e| (2, e))?)
-    };
+    let relaxed = machine_for_demo(a.strict, a.machine_file, a.tolerance_ms).map_err(|e| (2, e))?;
     let instance = std::env::var("HOB_INSTANCE").unwrap_or_else(|_| format!("demo-{}", std::process::id()));
     hob_ipc::use_instance(&instance);
     let stamp = std::time::SystemTime::now()
@@ -330,6 +341,22 @@ pub fn run(machine: &MachineConfig, a: &DemoArgs<'_>) -> Result<String, (u8, Str
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn strict_runs_on_the_configured_machine_file_as_it_is() {
+        let m = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../config/machine.toml");
+        // --strict: no relaxed copy, and the tolerance is not even looked at.
+        assert_eq!(machine_for_demo(true, &m, 600), Ok(None));
+        // Without it: a relaxed copy that differs from the file, and a tolerance its
+        // validation refuses is refused with the keys.
+        let (text, note) = machine_for_demo(false, &m, 100)
+            .unwrap_or_default()
+            .unwrap_or_default();
+        assert_ne!(text, std::fs::read_to_string(&m).unwrap_or_default());
+        assert!(note.contains("100"), "{note}");
+        let refused = machine_for_demo(false, &m, 600).unwrap_err();
+        assert!(refused.contains("can.tpdo_misses_to_fault"), "{refused}");
+    }
 
     #[test]
     fn the_log_goes_to_the_per_user_state_directory_never_the_current_one() {

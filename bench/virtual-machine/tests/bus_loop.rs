@@ -33,17 +33,37 @@ fn machine() -> MachineConfig {
 }
 
 fn short_program(m: &MachineConfig) -> (Program, CycleProgram, planner::Plan) {
-    let src = std::fs::read_to_string(root().join("config/programs/spur-z17-m5.toml"))
+    // The thesis gear made shallow and narrow: typed edits of the parsed file, each key
+    // checked to exist (a text replacement does nothing, silently, when the file changes).
+    let mut t: toml::Table = std::fs::read_to_string(root().join("config/programs/spur-z17-m5.toml"))
         .unwrap()
-        .replace("face_width_mm = 40.0", "face_width_mm = 4.0")
-        .replace("allowance_mm = 2.0", "allowance_mm = 0.5")
-        .replace("total_depth_mm = 11.25", "total_depth_mm = 2.0")
-        .replace("finish_allowance_mm = 0.5", "finish_allowance_mm = 0.2")
-        .replace("rough_depths_mm = [6.0, 4.75]\n", "")
-        .replace("rough_passes = 2", "rough_passes = 1")
-        .replace("feed_mm_per_rev = 2.0", "feed_mm_per_rev = 8.0")
-        .replace("feed_mm_per_rev = 1.0", "feed_mm_per_rev = 6.0")
-        .replace("single_depth_mm = 5.0", "single_depth_mm = 1.0");
+        .parse()
+        .unwrap();
+    let edits: [(&str, Option<toml::Value>); 9] = [
+        ("workpiece.face_width_mm", Some(4.0.into())),
+        ("workpiece.allowance_mm", Some(0.5.into())),
+        ("strategy.total_depth_mm", Some(2.0.into())),
+        ("strategy.finish_allowance_mm", Some(0.2.into())),
+        ("strategy.rough_depths_mm", None),
+        ("strategy.rough_passes", Some(1.into())),
+        ("strategy.rough.feed_mm_per_rev", Some(8.0.into())),
+        ("strategy.finish.feed_mm_per_rev", Some(6.0.into())),
+        ("cycle.single_depth_mm", Some(1.0.into())),
+    ];
+    for (key, value) in edits {
+        let (path, last) = key.rsplit_once('.').unwrap();
+        let table = path.split('.').fold(&mut t, |t, part| {
+            t.get_mut(part)
+                .and_then(toml::Value::as_table_mut)
+                .unwrap_or_else(|| panic!("{key}: no table {part}"))
+        });
+        let old = table.remove(last).unwrap_or_else(|| panic!("{key}: no such key"));
+        if let Some(v) = value {
+            assert_eq!(old.type_str(), v.type_str(), "{key}");
+            table.insert(last.to_string(), v);
+        }
+    }
+    let src = toml::to_string(&t).unwrap();
     let job: Program = toml::from_str(&src).unwrap();
     let mut p = Problems::new();
     let cycle = CycleProgram::build(&job, m, &mut p).unwrap();

@@ -249,10 +249,16 @@ fn act(bus: &mut Box<dyn CanBus>, frames: &[Frame], why: Trip, cycle: u64) {
             format!(", errors: {}", errors.join(", "))
         }
     );
+    // One JSON line for the tests and the logs (serde_json: the reason may hold any text).
     println!(
-        "{{\"tripped\":true,\"reason\":{:?},\"last_cycle\":{cycle},\"frames_sent\":{sent},\"answers\":{},\"errors\":{}}}",
-        reason,
-        acks.len(),
-        errors.len()
+        "{}",
+        serde_json::json!({
+            "tripped": true,
+            "reason": reason,
+            "last_cycle": cycle,
+            "frames_sent": sent,
+            "answers": acks.len(),
+            "errors": errors.len(),
+        })
     );
 }

@@ -6,6 +6,20 @@ fn shipped_path() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("../../config/machine.toml")
 }
 
+/// The shipped file with `from` replaced by `to`; `from` must be there (else the test
+/// would check the shipped file unchanged, and nothing).
+fn shipped_with(edits: &[(&str, &str)]) -> String {
+    let mut s = shipped_src();
+    for (from, to) in edits {
+        assert!(
+            s.contains(from),
+            "{from:?} is not in config/machine.toml: the file changed, the test would check nothing"
+        );
+        s = s.replace(from, to);
+    }
+    s
+}
+
 fn shipped_src() -> String {
     std::fs::read_to_string(shipped_path()).expect("shipped machine.toml")
 }
@@ -43,7 +57,7 @@ fn thesis_servo_motor_speeds() {
 
 #[test]
 fn a_bad_value_is_named_with_its_position() {
-    let src = shipped_src().replace("max_table_rpm = 14.1", "max_table_rpm = 80.0");
+    let src = shipped_with(&[("max_table_rpm = 14.1", "max_table_rpm = 80.0")]);
     let err = load_src(&src).unwrap_err();
     let p = &err.problems()[0];
     assert_eq!(p.key, "table.max_table_rpm");
@@ -59,12 +73,13 @@ fn a_bad_value_is_named_with_its_position() {
 
 #[test]
 fn all_problems_are_reported_at_once() {
-    let src = shipped_src()
-        .replace(
+    let src = shipped_with(&[
+        (
             "screw_lead_mm = 10.0\nmotor_max_rpm = 4000.0\nsoft_limit_min_mm = 25.0",
             "screw_lead_mm = -1.0\nmotor_max_rpm = 4000.0\nsoft_limit_min_mm = 25.0",
-        )
-        .replace("interval_travel_m = 5.0", "interval_travel_m = 0.0");
+        ),
+        ("interval_travel_m = 5.0", "interval_travel_m = 0.0"),
+    ]);
     let err = load_src(&src).unwrap_err();
     let keys: Vec<&str> = err.problems().iter().map(|p| p.key.as_str()).collect();
     assert!(keys.contains(&"x.screw_lead_mm"), "{keys:?}");
@@ -73,7 +88,7 @@ fn all_problems_are_reported_at_once() {
 
 #[test]
 fn unknown_keys_are_refused_with_position() {
-    let src = shipped_src().replace("worm_ratio = 75.0", "worm_ratio = 75.0\nworm_raito = 75.0");
+    let src = shipped_with(&[("worm_ratio = 75.0", "worm_ratio = 75.0\nworm_raito = 75.0")]);
     let err = load_src(&src).unwrap_err();
     let text = err.to_string();
     assert!(text.contains("unknown field `worm_raito`"), "{text}");
@@ -83,14 +98,14 @@ fn unknown_keys_are_refused_with_position() {
 
 #[test]
 fn a_missing_key_is_refused() {
-    let src = shipped_src().replace("pressure_timeout_s = 10.0\n", "");
+    let src = shipped_with(&[("pressure_timeout_s = 10.0\n", "")]);
     let text = load_src(&src).unwrap_err().to_string();
     assert!(text.contains("missing field `pressure_timeout_s`"), "{text}");
 }
 
 #[test]
 fn two_signals_on_one_bit_are_refused() {
-    let src = shipped_src().replace("coolant_pump = { bit = 3,", "coolant_pump = { bit = 2,");
+    let src = shipped_with(&[("coolant_pump = { bit = 3,", "coolant_pump = { bit = 2,")]);
     let err = load_src(&src).unwrap_err();
     let p = &err.problems()[0];
     assert_eq!(p.key, "io.outputs.coolant_pump.bit");
@@ -99,14 +114,14 @@ fn two_signals_on_one_bit_are_refused() {
 
 #[test]
 fn a_bit_beyond_the_coupler_is_refused() {
-    let src = shipped_src().replace("feed_hold_button = { bit = 19,", "feed_hold_button = { bit = 24,");
+    let src = shipped_with(&[("feed_hold_button = { bit = 19,", "feed_hold_button = { bit = 24,")]);
     let err = load_src(&src).unwrap_err();
     assert_eq!(err.problems()[0].key, "io.inputs.feed_hold_button.bit");
 }
 
 #[test]
 fn duplicate_node_ids_are_refused() {
-    let src = shipped_src().replace("[io]\ncan_node_id = 5", "[io]\ncan_node_id = 3");
+    let src = shipped_with(&[("[io]\ncan_node_id = 5", "[io]\ncan_node_id = 3")]);
     let err = load_src(&src).unwrap_err();
     let p = &err.problems()[0];
     assert_eq!(p.key, "io.can_node_id");
@@ -115,18 +130,18 @@ fn duplicate_node_ids_are_refused() {
 
 #[test]
 fn polarity_must_be_a_named_value() {
-    let src = shipped_src().replace("encoder_polarity = \"normal\"", "encoder_polarity = \"+\"");
+    let src = shipped_with(&[("encoder_polarity = \"normal\"", "encoder_polarity = \"+\"")]);
     let text = load_src(&src).unwrap_err().to_string();
     assert!(text.contains("normal") && text.contains("inverted"), "{text}");
 }
 
 #[test]
 fn an_idle_latency_request_longer_than_a_quarter_cycle_is_refused() {
-    let src = shipped_src().replace("cpu_dma_latency_us = 0", "cpu_dma_latency_us = 300");
+    let src = shipped_with(&[("cpu_dma_latency_us = 0", "cpu_dma_latency_us = 300")]);
     let err = load_src(&src).unwrap_err();
     let p = &err.problems()[0];
     assert_eq!(p.key, "service.cpu_dma_latency_us");
     assert!(p.message.contains("250"), "{}", p.message);
-    let src = shipped_src().replace("cpu_dma_latency_us = 0", "cpu_dma_latency_us = 250");
+    let src = shipped_with(&[("cpu_dma_latency_us = 0", "cpu_dma_latency_us = 250")]);
     assert_eq!(load_src(&src).unwrap().service.cpu_dma_latency_us, 250);
 }
