@@ -292,6 +292,8 @@ impl Plant {
             enabled: s.enabled && !s.fault,
             fault: s.fault,
             fresh: true,
+            mode_display: hob_control::DriveMode::CyclicPosition.code(),
+            homing: hob_control::HomingBits::default(),
         };
         let _ = p;
         CycleInputs {

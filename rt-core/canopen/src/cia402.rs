@@ -12,6 +12,76 @@ pub mod object {
     pub const VELOCITY_OFFSET: u16 = 0x60B1;
     pub const INTERPOLATION_PERIOD: u16 = 0x60C2;
     pub const SUPPORTED_MODES: u16 = 0x6502;
+    /// Homing (CiA 402-2 section 12): the position actual value at the home position.
+    pub const HOME_OFFSET: u16 = 0x607C;
+    /// Homing method (i8): 3 and 4 positive home switch, 5 and 6 negative home switch,
+    /// each with the index pulse.
+    pub const HOMING_METHOD: u16 = 0x6098;
+    /// Homing speeds (u32, counts/s): sub 1 while searching the switch, sub 2 while
+    /// searching the index pulse (zero).
+    pub const HOMING_SPEEDS: u16 = 0x6099;
+    /// Homing acceleration (u32, counts/s^2).
+    pub const HOMING_ACCELERATION: u16 = 0x609A;
+}
+
+/// Mode of operation: homing.
+pub const MODE_HOMING: i8 = 6;
+
+/// Controlword bit 4 in homing mode: a rising edge starts the homing operation.
+pub const CW_HOMING_START: u16 = 1 << 4;
+/// Statusword bit 10: target reached (in homing mode: the drive stands still at the end).
+pub const SW_TARGET_REACHED: u16 = 1 << 10;
+/// Statusword bit 12 in homing mode: homing attained.
+pub const SW_HOMING_ATTAINED: u16 = 1 << 12;
+/// Statusword bit 13 in homing mode: homing error.
+pub const SW_HOMING_ERROR: u16 = 1 << 13;
+
+/// The homing methods with a home switch and the index pulse (CiA 402-2 figures 34 to
+/// 37): 3, 4 (switch active on the positive side of its edge), 5, 6 (negative side).
+pub const HOMING_METHODS_SWITCH_AND_INDEX: [i8; 4] = [3, 4, 5, 6];
+
+/// Homing progress as the statusword's mode-specific bits 13, 12, 10 report it
+/// (CiA 402-2 table 62).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum HomingProgress {
+    /// 0 0 0: homing in progress.
+    InProgress,
+    /// 0 0 1: interrupted or not started.
+    NotStarted,
+    /// 0 1 0: homing attained, target not reached (still moving).
+    AttainedMoving,
+    /// 0 1 1: homing completed.
+    Completed,
+    /// 1 x x: homing error (bit 10 says whether the axis stands still).
+    Error,
+}
+
+impl HomingProgress {
+    pub fn from_statusword(sw: u16) -> Self {
+        let (e, a, t) = (
+            sw & SW_HOMING_ERROR != 0,
+            sw & SW_HOMING_ATTAINED != 0,
+            sw & SW_TARGET_REACHED != 0,
+        );
+        match (e, a, t) {
+            (true, _, _) => HomingProgress::Error,
+            (false, false, false) => HomingProgress::InProgress,
+            (false, false, true) => HomingProgress::NotStarted,
+            (false, true, false) => HomingProgress::AttainedMoving,
+            (false, true, true) => HomingProgress::Completed,
+        }
+    }
+
+    /// The statusword bits 13, 12, 10 of this progress.
+    pub fn bits(self) -> u16 {
+        match self {
+            HomingProgress::InProgress => 0,
+            HomingProgress::NotStarted => SW_TARGET_REACHED,
+            HomingProgress::AttainedMoving => SW_HOMING_ATTAINED,
+            HomingProgress::Completed => SW_HOMING_ATTAINED | SW_TARGET_REACHED,
+            HomingProgress::Error => SW_HOMING_ERROR | SW_TARGET_REACHED,
+        }
+    }
 }
 
 /// Mode of operation: cyclic synchronous position.
@@ -200,5 +270,27 @@ mod tests {
         assert!(supports_mode(0x0000_0080, MODE_CSP));
         assert!(!supports_mode(0x0000_0040, MODE_CSP));
         assert!(supports_mode(0x0000_0040, MODE_IP));
+    }
+
+    #[test]
+    fn homing_progress_round_trips_through_the_statusword_bits() {
+        for p in [
+            HomingProgress::InProgress,
+            HomingProgress::NotStarted,
+            HomingProgress::AttainedMoving,
+            HomingProgress::Completed,
+            HomingProgress::Error,
+        ] {
+            // The power-state bits and the others do not change the reading.
+            let sw = PowerState::OperationEnabled.statusword() | p.bits();
+            assert_eq!(HomingProgress::from_statusword(sw), p);
+        }
+        // Bit 13 with or without bit 10: an error either way (moving or standing).
+        assert_eq!(
+            HomingProgress::from_statusword(SW_HOMING_ERROR),
+            HomingProgress::Error
+        );
+        assert!(supports_mode(0x0000_00A0, MODE_HOMING));
+        assert!(!supports_mode(0x0000_0080, MODE_HOMING));
     }
 }

@@ -55,6 +55,43 @@ pub struct AxisFeedback {
     pub fault: bool,
     /// The feedback arrived for this cycle (false: the last value is held).
     pub fresh: bool,
+    /// The mode the drive reports it is in (0x6061, the raw code: 8 cyclic synchronous
+    /// position, 6 homing, anything else is neither).
+    pub mode_display: i8,
+    /// The statusword's bits 13, 12, 10 in homing mode (what they mean in another
+    /// mode is not looked at).
+    pub homing: HomingBits,
+}
+
+/// Homing progress reported by a drive in homing mode (statusword bits 13, 12, 10).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct HomingBits {
+    /// Bit 12: homing attained.
+    pub attained: bool,
+    /// Bit 13: homing error.
+    pub error: bool,
+    /// Bit 10: target reached (the drive stands still).
+    pub target_reached: bool,
+}
+
+/// A drive's mode of operation as the loop asks for it (0x6060).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub enum DriveMode {
+    /// Cyclic synchronous position: the loop's targets every cycle (normal).
+    #[default]
+    CyclicPosition,
+    /// Homing: the drive runs its homing method by itself.
+    Homing,
+}
+
+impl DriveMode {
+    /// The code of 0x6060/0x6061.
+    pub fn code(self) -> i8 {
+        match self {
+            DriveMode::CyclicPosition => 8,
+            DriveMode::Homing => 6,
+        }
+    }
 }
 
 /// Everything latched at this cycle's SYNC.
@@ -85,6 +122,11 @@ pub struct CycleOutputs {
     pub y_velocity_counts_s: f64,
     /// Drives in "operation enabled" (false: disable voltage).
     pub drives_enabled: bool,
+    /// Each drive's mode of operation (B, X, Y); the table always stays in
+    /// cyclic synchronous position.
+    pub drive_modes: [DriveMode; 3],
+    /// Controlword bit 4 (B, X, Y): in homing mode its rising edge starts homing.
+    pub homing_start: [bool; 3],
     /// Raw digital output image of the I/O coupler.
     pub digital_outputs: u32,
     /// Spindle speed reference to the VFD.
@@ -621,6 +663,8 @@ impl Controller {
             x_velocity_counts_s: self.x.velocity * self.params.x.counts_per_unit * self.params.x.sign,
             y_velocity_counts_s: self.y.velocity * self.params.y.counts_per_unit * self.params.y.sign,
             drives_enabled: enabled,
+            drive_modes: [DriveMode::CyclicPosition; 3],
+            homing_start: [false; 3],
             digital_outputs: self.params.io.encode(&self.outputs),
             spindle_analog_v: self
                 .params

@@ -572,6 +572,13 @@ impl Cyclic {
                 fault: matches!(state, PowerState::Fault | PowerState::FaultReactionActive),
                 // The control core counts the misses and faults after the configured number.
                 fresh: current,
+                // The boot confirmed cyclic synchronous position by reading 0x6061.
+                mode_display: cia402::MODE_CSP,
+                homing: hob_control::HomingBits {
+                    attained: self.statusword[i] & cia402::SW_HOMING_ATTAINED != 0,
+                    error: self.statusword[i] & cia402::SW_HOMING_ERROR != 0,
+                    target_reached: self.statusword[i] & cia402::SW_TARGET_REACHED != 0,
+                },
             };
             self.fresh[i] = false;
         }

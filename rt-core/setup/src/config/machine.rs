@@ -48,8 +48,117 @@ pub struct MachineConfig {
     pub y: LinearAxisConfig,
     pub process: ProcessLimits,
     pub lube: LubeConfig,
+    pub jog: JogConfig,
+    pub overrides: OverrideConfig,
     pub io: IoMap,
 }
+
+/// Jogging: before X and Y are referenced, and the dead-man of the continuous jog.
+#[derive(Debug, Clone, PartialEq, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct JogConfig {
+    /// The speed of every X and Y jog until the axis is referenced (no soft limits yet:
+    /// the hardware limit switches are the only protection).
+    pub unreferenced_mm_min: f64,
+    /// A continuous jog runs only while its frontend renews it: after this long without a
+    /// renewal the axis is stopped.
+    pub deadman_timeout_ms: u32,
+}
+
+/// The operator's overrides of the programmed feed and spindle speed, in percent.
+#[derive(Debug, Clone, PartialEq, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct OverrideConfig {
+    pub feed_min_percent: f64,
+    pub feed_max_percent: f64,
+    pub spindle_min_percent: f64,
+    pub spindle_max_percent: f64,
+}
+
+/// CiA 402 homing of a linear axis: the drive finds its home switch and the index pulse
+/// by itself (0x6060 = 6); the position there becomes `home_position_mm` (0x607C).
+#[derive(Debug, Clone, PartialEq, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct HomingConfig {
+    /// 0x6098: 3 or 4 (home switch active on its positive side: the index pulse before
+    /// or after its edge), 5 or 6 (active on its negative side).
+    pub method: i8,
+    /// The axis position at the home position (mm).
+    pub home_position_mm: f64,
+    /// 0x6099 sub 1 and 2: towards the switch, then slowly to the index pulse.
+    pub switch_search_mm_min: f64,
+    pub zero_search_mm_min: f64,
+    /// 0x609A.
+    pub accel_mm_s2: f64,
+    /// Referencing that takes longer is a fault.
+    pub timeout_s: f64,
+}
+
+impl HomingConfig {
+    fn validate(&self, key: &str, axis: &LinearAxisConfig, p: &mut Problems) {
+        let k = |name: &str| format!("{key}.{name}");
+        p.require(
+            HOMING_METHODS.contains(&self.method),
+            &k("method"),
+            || {
+                format!(
+                    "must be a CiA 402 homing method with a home switch and the index pulse: 3, 4, 5 or 6 (is {})",
+                    self.method
+                )
+            },
+        );
+        p.require(
+            self.home_position_mm.is_finite()
+                && (axis.soft_limit_min_mm..=axis.soft_limit_max_mm).contains(&self.home_position_mm),
+            &k("home_position_mm"),
+            || {
+                format!(
+                    "must be within the soft limits {} .. {} mm (is {})",
+                    axis.soft_limit_min_mm, axis.soft_limit_max_mm, self.home_position_mm
+                )
+            },
+        );
+        p.positive(&k("switch_search_mm_min"), self.switch_search_mm_min);
+        p.positive(&k("zero_search_mm_min"), self.zero_search_mm_min);
+        p.positive(&k("accel_mm_s2"), self.accel_mm_s2);
+        p.positive(&k("timeout_s"), self.timeout_s);
+        p.require(
+            self.switch_search_mm_min <= axis.rapid_mm_min,
+            &k("switch_search_mm_min"),
+            || {
+                format!(
+                    "must not exceed rapid_mm_min {} (is {})",
+                    axis.rapid_mm_min, self.switch_search_mm_min
+                )
+            },
+        );
+        p.require(
+            self.zero_search_mm_min <= self.switch_search_mm_min,
+            &k("zero_search_mm_min"),
+            || {
+                format!(
+                    "must not exceed switch_search_mm_min {} (the index pulse is found slowly) (is {})",
+                    self.switch_search_mm_min, self.zero_search_mm_min
+                )
+            },
+        );
+        p.require(
+            self.accel_mm_s2 <= axis.max_accel_mm_s2,
+            &k("accel_mm_s2"),
+            || {
+                format!(
+                    "must not exceed max_accel_mm_s2 {} (is {})",
+                    axis.max_accel_mm_s2, self.accel_mm_s2
+                )
+            },
+        );
+    }
+}
+
+/// The homing methods the controller can use (home switch and index pulse); the same
+/// list as `hob_canopen::cia402::HOMING_METHODS_SWITCH_AND_INDEX` (hob-setup depends on
+/// no protocol crate; a test in hob-process-image compares them).
+pub const HOMING_METHODS: [i8; 4] = [3, 4, 5, 6];
 
 /// The real-time service `hob-rt` and its safety watchdog on the machine PC.
 #[derive(Debug, Clone, PartialEq, Deserialize, Serialize)]
@@ -209,6 +318,7 @@ pub struct LinearAxisConfig {
     pub max_feed_mm_min: f64,
     pub max_accel_mm_s2: f64,
     pub max_following_error_mm: f64,
+    pub homing: HomingConfig,
 }
 
 impl LinearAxisConfig {
@@ -271,6 +381,7 @@ impl LinearAxisConfig {
                 self.motor_max_rpm
             )
         });
+        self.homing.validate(&k("homing"), self, p);
     }
 }
 
@@ -588,6 +699,7 @@ impl MachineConfig {
         self.x.validate("x", p);
         self.y.validate("y", p);
         self.validate_process(p);
+        self.validate_jog_and_overrides(p);
         p.positive("lube.interval_travel_m", self.lube.interval_travel_m);
         p.positive("lube.pressure_timeout_s", self.lube.pressure_timeout_s);
         p.positive("lube.pump_run_s", self.lube.pump_run_s);
@@ -648,6 +760,57 @@ impl MachineConfig {
                 t.motor_max_rpm
             )
         });
+    }
+
+    fn validate_jog_and_overrides(&self, p: &mut Problems) {
+        let j = &self.jog;
+        p.positive("jog.unreferenced_mm_min", j.unreferenced_mm_min);
+        let slowest_rapid = self.x.rapid_mm_min.min(self.y.rapid_mm_min);
+        p.require(
+            j.unreferenced_mm_min <= 0.25 * slowest_rapid,
+            "jog.unreferenced_mm_min",
+            || {
+                format!(
+                    "must be a slow jog, at most a quarter of the slowest rapid ({} mm/min) (is {})",
+                    0.25 * slowest_rapid,
+                    j.unreferenced_mm_min
+                )
+            },
+        );
+        let period_ms = self.control.cycle_period_us / 1000;
+        p.require(
+            (20..=2000).contains(&j.deadman_timeout_ms) && j.deadman_timeout_ms > 2 * period_ms,
+            "jog.deadman_timeout_ms",
+            || {
+                format!(
+                    "must be within 20 .. 2000 ms (a frontend renews the jog every 100 ms) (is {})",
+                    j.deadman_timeout_ms
+                )
+            },
+        );
+        let o = &self.overrides;
+        p.within("overrides.feed_min_percent", o.feed_min_percent, 0.0, 100.0, "%");
+        p.within(
+            "overrides.feed_max_percent",
+            o.feed_max_percent,
+            100.0,
+            200.0,
+            "%",
+        );
+        p.within(
+            "overrides.spindle_min_percent",
+            o.spindle_min_percent,
+            10.0,
+            100.0,
+            "%",
+        );
+        p.within(
+            "overrides.spindle_max_percent",
+            o.spindle_max_percent,
+            100.0,
+            200.0,
+            "%",
+        );
     }
 
     fn validate_process(&self, p: &mut Problems) {
