@@ -572,7 +572,8 @@ impl Cyclic {
                 fault: matches!(state, PowerState::Fault | PowerState::FaultReactionActive),
                 // The control core counts the misses and faults after the configured number.
                 fresh: current,
-                // The boot confirmed cyclic synchronous position by reading 0x6061.
+                // The boot wrote 0x6060 = 8 (CSP); 0x6061 is not mapped into a PDO yet,
+                // so the display is not read back here (branch issue-14 maps it).
                 mode_display: cia402::MODE_CSP,
                 homing: hob_control::HomingBits {
                     attained: self.statusword[i] & cia402::SW_HOMING_ATTAINED != 0,

@@ -299,6 +299,15 @@ fn interpolation_period(cycle_s: f64) -> (u8, i8) {
 
 #[cfg(test)]
 mod tests {
+    #[test]
+    fn the_machine_file_accepts_exactly_the_homing_methods_the_protocol_names() {
+        // hob-setup keeps its own copy (it depends on no protocol crate).
+        assert_eq!(
+            hob_setup::config::machine::HOMING_METHODS,
+            hob_canopen::cia402::HOMING_METHODS_SWITCH_AND_INDEX
+        );
+    }
+
     use super::*;
 
     fn shipped() -> MachineConfig {
