@@ -60,6 +60,7 @@ per_state! {
     Retract => step_in_retract, Return => step_in_return, Index => step_in_index,
     Home => step_in_home, Disengage => step_in_disengage, SpindleDown => step_in_spindledown,
     FaultRetract => step_in_faultretract, FaultStop => step_in_faultstop, Faulted => step_in_faulted,
+    Referencing => step_in_referencing,
 }
 
 /// The name of a state's function in callgrind's output.

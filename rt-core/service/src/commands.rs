@@ -57,9 +57,14 @@ pub fn to_mail(req: &CommandRequest, machine: &MachineConfig) -> Result<Mail, St
     if req.command == command::LOAD_PROGRAM {
         return build_program(&req.name(), &req.text(), machine).map(Mail::Load);
     }
-    encode::command_from_code(req.command, req.single, req.axis, req.value)
+    encode::command_from_code(&encode::Args::from_request(req))
         .map(Mail::Command)
-        .ok_or_else(|| format!("unknown command {} (axis code {})", req.command, req.axis))
+        .ok_or_else(|| {
+            format!(
+                "unknown command {} (axis code {}, direction code {})",
+                req.command, req.axis, req.direction
+            )
+        })
 }
 
 /// The loop's side of the mailboxes.
