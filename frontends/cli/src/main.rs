@@ -68,6 +68,49 @@ enum Command {
         #[arg(allow_hyphen_values = true)]
         distance: f64,
     },
+    /// Continuous jog with a dead-man: renewed every 100 ms for SECONDS (or until the
+    /// process is stopped: killing it stops the axis within the dead-man time).
+    JogHold {
+        axis: String,
+        /// `+` or `-`.
+        #[arg(allow_hyphen_values = true)]
+        direction: String,
+        /// mm/min (deg/min for B); the loop limits it.
+        #[arg(long, default_value_t = 300.0)]
+        speed: f64,
+        #[arg(long, default_value_t = 1.0)]
+        seconds: f64,
+        /// Stop renewing at the end instead of releasing (what a lost frontend does).
+        #[arg(long)]
+        no_release: bool,
+    },
+    /// Reference X and Y (or one of them) by the drives' homing.
+    Home {
+        /// x, y or all.
+        #[arg(default_value = "all")]
+        axes: String,
+    },
+    /// Feed or spindle speed override in percent of the program's.
+    Override {
+        /// feed or spindle.
+        what: String,
+        percent: f64,
+    },
+    /// Touch-off: the hob's tip touches a gauge; sets the work offset of X (the gauge's
+    /// diameter) or Y (the height of its top face above the table face).
+    TouchOff {
+        axis: String,
+        /// X: the gauge's diameter, mm.
+        #[arg(long)]
+        diameter: Option<f64>,
+        /// Y: the gauge's height above the table face, mm.
+        #[arg(long)]
+        height: Option<f64>,
+    },
+    /// Continue the interrupted program from the interrupted pass, on the same part.
+    Continue,
+    /// A new blank is on the table: forget the recorded tooth phase.
+    NewBlank,
     /// Read recorded logs of hob-logger.
     Log {
         #[command(subcommand)]
@@ -224,6 +267,24 @@ fn run(command: Command) -> Result<(), Failure> {
         Command::Jog { axis, distance } => {
             service_result(service::jog(&axis, distance).and_then(|r| service::request(&r)))
         }
+        Command::JogHold {
+            axis,
+            direction,
+            speed,
+            seconds,
+            no_release,
+        } => service_result(service::jog_hold(&axis, &direction, speed, seconds, !no_release)),
+        Command::Home { axes } => service_result(service::home(&axes).and_then(|r| service::request(&r))),
+        Command::Override { what, percent } => {
+            service_result(service::override_request(&what, percent).and_then(|r| service::request(&r)))
+        }
+        Command::TouchOff {
+            axis,
+            diameter,
+            height,
+        } => service_result(service::touch_off(&axis, diameter, height).and_then(|r| service::request(&r))),
+        Command::Continue => service_result(service::request(&service::simple(code::CONTINUE))),
+        Command::NewBlank => service_result(service::request(&service::simple(code::NEW_BLANK))),
         Command::Log { command } => match command {
             LogCommand::Export { dir, csv, out } => {
                 if !csv {
