@@ -26,8 +26,13 @@ pub fn request(req: &CommandRequest) -> Result<String, (u8, String)> {
 
 pub fn load(program: &Path) -> Result<String, (u8, String)> {
     let text = std::fs::read_to_string(program).map_err(|e| (2, format!("{}: {e}", program.display())))?;
-    let name = program.display().to_string();
-    let req = CommandRequest::load_program(&name, &text).map_err(|e| (2, e))?;
+    load_text(&program.display().to_string(), &text)
+}
+
+/// Sends a self-contained program's text (a library tool already resolved:
+/// [`crate::library::load_text`]) under `name`.
+pub fn load_text(name: &str, text: &str) -> Result<String, (u8, String)> {
+    let req = CommandRequest::load_program(name, text).map_err(|e| (2, e))?;
     request(&req)
 }
 

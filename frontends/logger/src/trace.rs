@@ -80,6 +80,11 @@ pub struct PassSummary {
     /// Largest elastic twist of the work on the table in the cut (machine, not control).
     pub work_twist_max_arcsec: f64,
     pub work_twist_max_um: f64,
+    /// Y travelled in the cut (feed hold excluded): what the pass wore the tool by.
+    pub y_travel_in_cut_mm: f64,
+    /// Y of the previous row in the cut of this pass (none after a row out of the cut).
+    #[serde(skip)]
+    last_cut_y_mm: Option<f64>,
     #[serde(skip)]
     sum: f64,
     #[serde(skip)]
@@ -149,6 +154,10 @@ impl SummaryBuilder {
         let p = &mut self.passes[idx];
         p.time_s = row.t_s - p.first_t + period_s;
         if row.state == State::Cut && !row.hold {
+            if let Some(y) = p.last_cut_y_mm {
+                p.y_travel_in_cut_mm += (row.y_mm - y).abs();
+            }
+            p.last_cut_y_mm = Some(row.y_mm);
             p.cut_time_s += period_s;
             p.work_twist_max_arcsec = p.work_twist_max_arcsec.max(row.work_twist_arcsec.abs());
             if let Some(e) = row.sync_err_arcsec {
@@ -158,6 +167,61 @@ impl SummaryBuilder {
                 p.min = p.min.min(e);
                 p.max = p.max.max(e);
             }
+        } else {
+            p.last_cut_y_mm = None;
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn row(t_s: f64, state: State, hold: bool, pass: u32, y_mm: f64) -> TraceRow {
+        TraceRow {
+            t_s,
+            state,
+            hold,
+            pass,
+            spindle_deg: 0.0,
+            table_deg: 0.0,
+            table_cmd_deg: 0.0,
+            x_mm: 0.0,
+            x_cmd_mm: 0.0,
+            y_mm,
+            y_cmd_mm: y_mm,
+            sync_err_arcsec: None,
+            work_twist_arcsec: 0.0,
+        }
+    }
+
+    #[test]
+    fn y_travel_counts_only_the_cut_without_hold() {
+        let mut b = SummaryBuilder::for_gear(42.5, 5.0);
+        let rows = [
+            (State::ToStart, false, 1, 100.0), // the rapid to the start: not cut
+            (State::Cut, false, 1, 90.0),
+            (State::Cut, false, 1, 80.0),
+            (State::Cut, true, 1, 80.0),  // feed hold
+            (State::Cut, false, 1, 78.0), // resumed
+            (State::Retract, false, 1, 150.0),
+            (State::Cut, false, 2, 90.0),
+            (State::Cut, false, 2, 89.5),
+        ];
+        for (i, (state, hold, pass, y)) in rows.into_iter().enumerate() {
+            b.add(&row(i as f64 * 1e-3, state, hold, pass, y), 1e-3);
+        }
+        let (passes, _) = b.passes();
+        assert_eq!(passes.len(), 2);
+        assert!(
+            (passes[0].y_travel_in_cut_mm - 10.0).abs() < 1e-12,
+            "{:?}",
+            passes[0]
+        );
+        assert!(
+            (passes[1].y_travel_in_cut_mm - 0.5).abs() < 1e-12,
+            "{:?}",
+            passes[1]
+        );
     }
 }

@@ -14,8 +14,8 @@ use hob_control::fault::Refusal;
 use hob_control::program::CycleProgram;
 use hob_ipc::codec;
 use hob_ipc::{CommandRequest, CommandResponse, command};
+use hob_setup::config::Problems;
 use hob_setup::config::machine::MachineConfig;
-use hob_setup::config::{Problems, parse_toml};
 use hob_setup::job::Program;
 use std::path::Path;
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -41,7 +41,7 @@ const LOOP_ANSWER: Duration = Duration::from_millis(500);
 /// (file, line, key, limit) as text.
 pub fn build_program(name: &str, text: &str, machine: &MachineConfig) -> Result<CycleProgram, String> {
     let path = Path::new(name);
-    let program: Program = parse_toml(path, text).map_err(|e| e.to_string())?;
+    let program = Program::parse(path, text).map_err(|e| e.to_string())?;
     let mut problems = Problems::new();
     match CycleProgram::build(&program, machine, &mut problems) {
         Some(c) => Ok(c),
