@@ -34,6 +34,7 @@ const ALLOWED: &[(&str, &[&str])] = &[
             "hob-can-transport",
             "hob-rt-os",
             "hob-store",
+            "hob-store",
             "hob-ipc",
         ],
     ),

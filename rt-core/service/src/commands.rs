@@ -31,8 +31,8 @@ pub enum Mail {
     Command(Command),
 }
 
-/// The loop's verdict.
-pub type Verdict = Result<(), Refusal>;
+/// The loop's verdict: accepted with the work offsets after the command, or refused.
+pub type Verdict = Result<hob_control::Offsets, Refusal>;
 
 /// How long a request may wait for the loop (it takes one per cycle).
 const LOOP_ANSWER: Duration = Duration::from_millis(500);
@@ -118,17 +118,61 @@ impl ThreadMailbox {
     }
 }
 
+/// Keeps the offsets of an accepted touch-off in the machine state file (atomically: a
+/// crash or a power loss while writing leaves the previous file whole). Returns the text
+/// for the operator.
+pub fn save_offsets(state_file: &Path, offsets: hob_control::Offsets, cmd: Command) -> String {
+    use hob_store::machine_state::{Loaded, MachineState, load};
+    let previous = match load(state_file) {
+        Ok(Loaded::Calibrated(s)) => Some(s),
+        _ => None,
+    };
+    let (mut diameter, mut height) = previous
+        .as_ref()
+        .map_or((0.0, 0.0), |s| (s.gauge_diameter_mm, s.gauge_height_mm));
+    let axis = match cmd {
+        Command::TouchOff { axis, value_mm } => {
+            if axis == hob_control::fault::Axis::X {
+                diameter = value_mm;
+            } else {
+                height = value_mm;
+            }
+            axis.name()
+        }
+        _ => "?",
+    };
+    let state = MachineState::new(offsets.x_mm, offsets.y_mm, diameter, height);
+    match state.save(state_file) {
+        Ok(()) => format!(
+            "touch-off {axis}: accepted; offsets X {:+.4} mm, Y {:+.4} mm saved in {}",
+            offsets.x_mm,
+            offsets.y_mm,
+            state_file.display()
+        ),
+        Err(e) => format!(
+            "touch-off {axis}: accepted by the loop (offsets X {:+.4} mm, Y {:+.4} mm) but NOT SAVED: {e}; touch off again once the state file can be written",
+            offsets.x_mm, offsets.y_mm
+        ),
+    }
+}
+
 /// The answer to one request.
-pub fn answer(req: &CommandRequest, machine: &MachineConfig, mailbox: &ThreadMailbox) -> CommandResponse {
+pub fn answer(
+    req: &CommandRequest,
+    machine: &MachineConfig,
+    state_file: &Path,
+    mailbox: &ThreadMailbox,
+) -> CommandResponse {
     let what = codec::command_name(req.command);
     let mail = match to_mail(req, machine) {
         Ok(m) => m,
         Err(text) => return CommandResponse::new(false, 0, &format!("{what} refused: {text}")),
     };
     match mailbox.ask(mail) {
-        Ok(Ok(())) => {
+        Ok(Ok(offsets)) => {
             let text = match mail {
                 Mail::Load(p) => format!("loaded {} ({} passes)", req.name(), p.passes().len()),
+                Mail::Command(c @ Command::TouchOff { .. }) => save_offsets(state_file, offsets, c),
                 Mail::Command(_) => format!("{what}: accepted"),
             };
             CommandResponse::new(true, 0, &text)
@@ -145,6 +189,7 @@ pub fn answer(req: &CommandRequest, machine: &MachineConfig, mailbox: &ThreadMai
 /// Serves the `command` service until `stop`; `ready` is called once the server exists.
 pub fn serve(
     machine: &MachineConfig,
+    state_file: &Path,
     mailbox: &ThreadMailbox,
     stop: &AtomicBool,
     ready: impl FnOnce(),
@@ -155,7 +200,7 @@ pub fn serve(
     while !stop.load(Ordering::Relaxed) {
         match server.receive() {
             Ok(Some(active)) => {
-                let response = answer(active.payload(), machine, mailbox);
+                let response = answer(active.payload(), machine, state_file, mailbox);
                 let _ = active.send_copy(response);
             }
             Ok(None) => std::thread::sleep(Duration::from_millis(2)),
