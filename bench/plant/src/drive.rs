@@ -280,6 +280,13 @@ impl Drive {
         self.progress
     }
 
+    /// Controlword bit 4 rose since the last SYNC (the bus delivers every controlword, a
+    /// level sampled at SYNC could miss a fall and rise within one period): the next
+    /// command with bit 4 set is a rising edge.
+    pub fn homing_start_rose(&mut self) {
+        self.start_before = false;
+    }
+
     /// The drive's own fault (EMCY code), if any.
     pub fn fault(&self) -> Option<u16> {
         self.fault

@@ -552,6 +552,9 @@ impl VirtualMachine {
                 homing_start: cw & cia402::CW_HOMING_START != 0 || self.homing_start_seen[i],
                 halt: cw & CW_HALT != 0,
             };
+            if self.homing_start_seen[i] {
+                self.plant.drives[i].homing_start_rose();
+            }
         }
         let io = &self.io.od;
         let dout = io.u32(DIGITAL_OUTPUTS, 1) | io.u32(DIGITAL_OUTPUTS, 2) << 8;
@@ -689,5 +692,7 @@ fn homing_params(od: &Od) -> HomingParams {
     }
 }
 
+#[cfg(test)]
+mod drive_tests;
 #[cfg(test)]
 mod tests;
