@@ -66,6 +66,13 @@ struct Args {
     /// measurements: an answer due when the loop wakes delays it.
     #[arg(long)]
     beside_loop: bool,
+    /// Honest incremental encoders: every drive's counter (0x6064) starts at 0 at power-on
+    /// and X and Y stand at a random position within their travel (from the plant's
+    /// `simulation.seed`); the master must home X and Y (CiA 402 mode 6). The same as
+    /// `simulation.drive_counters = "incremental"` in the plant file. Without either, the
+    /// counters read the machine position as if referenced before.
+    #[arg(long)]
+    incremental: bool,
 }
 
 fn main() -> ExitCode {
@@ -80,7 +87,10 @@ fn main() -> ExitCode {
 
 fn run(a: Args) -> Result<(), String> {
     let machine = MachineConfig::load(&a.machine).map_err(|e| e.to_string())?;
-    let plant = PlantConfig::load(&a.plant).map_err(|e| e.to_string())?;
+    let mut plant = PlantConfig::load(&a.plant).map_err(|e| e.to_string())?;
+    if a.incremental {
+        plant.simulation.drive_counters = hob_plant::config::DriveCounters::Incremental;
+    }
     let mut start = Start {
         x_mm: 150.0,
         y_mm: 150.0,
