@@ -522,10 +522,19 @@ impl Controller {
         let (x_before, y_before) = (self.x.position, self.y.position);
         self.trim_spindle();
         self.sequence();
+        // A drive homing by itself sets its position at the home: that step is no travel
+        // (nor is the homing run, which the loop does not command).
+        let travel = |own: bool, d: f64| if own { 0.0 } else { d };
         if let Err(f) = self.lube.step(
             self.params.period_s,
-            self.x.position - x_before,
-            self.y.position - y_before,
+            travel(
+                self.referencing.drive_on_its_own(Axis::X),
+                self.x.position - x_before,
+            ),
+            travel(
+                self.referencing.drive_on_its_own(Axis::Y),
+                self.y.position - y_before,
+            ),
             self.measured.inputs.lube_pressure_ok,
         ) {
             self.raise(f);
