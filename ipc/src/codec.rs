@@ -779,13 +779,13 @@ mod tests {
 
     #[test]
     fn unknown_codes_decode_to_none() {
-        assert_eq!(State::from_code(22), None);
+        assert_eq!(State::from_code(State::ALL.len() as u32), None);
         assert_eq!(state_name(99), "?99");
         assert_eq!(Refusal::from_code(0), None);
-        assert_eq!(Refusal::from_code(11), None);
+        assert_eq!(Refusal::from_code(Refusal::ALL.len() as u32 + 1), None);
         assert_eq!(refusal_text(42), "?42");
         assert_eq!(Fault::from_code(0), None);
-        assert_eq!(Fault::from_code(15), None);
+        assert_eq!(Fault::from_code(Fault::ALL.len() as u32 + 1), None);
         assert_eq!(Coupling::from_code(5), None);
         assert_eq!(coupling_name(5), "?");
         assert_eq!(Axis::from_code(0), None);
@@ -794,9 +794,9 @@ mod tests {
         assert_eq!(End::from_code(0), None);
         assert_eq!(End::from_code(3), None);
         assert_eq!(command_name(0), "?");
-        assert_eq!(command_name(11), "?");
+        assert_eq!(command_name(COMMANDS.len() as u32 + 1), "?");
         assert_eq!(event_kind_name(0), None);
-        assert_eq!(event_kind_name(12), None);
+        assert_eq!(event_kind_name(EVENT_KINDS.len() as u32 + 1), None);
         assert_eq!(bus_event_name(5), None);
         let e = EventSample {
             kind: 99,

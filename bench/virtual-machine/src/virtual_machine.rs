@@ -110,23 +110,10 @@ fn drive_od(
             Access::Ro,
             &PowerState::SwitchOnDisabled.statusword().to_le_bytes(),
         )
-        // Powered up in cyclic synchronous position (the mode kept from the last run): the
-        // display changes only with the power state here, and the master's boot reads it
-        // back after writing 0x6060 = 8.
-        .set(
-            object::MODES_OF_OPERATION,
-            0,
-            Access::Rw,
-            &[cia402::MODE_CSP as u8],
-        )
-        .set(object::MODES_DISPLAY, 0, Access::Ro, &[cia402::MODE_CSP as u8])
-        // Homing parameters (CiA 402-2 section 12), written by the master at boot.
-        .set(object::HOME_OFFSET, 0, Access::Rw, &0i32.to_le_bytes())
-        .set(object::HOMING_METHOD, 0, Access::Rw, &[0])
-        .set(object::HOMING_SPEEDS, 0, Access::Ro, &[2])
-        .set(object::HOMING_SPEEDS, 1, Access::Rw, &0u32.to_le_bytes())
-        .set(object::HOMING_SPEEDS, 2, Access::Rw, &0u32.to_le_bytes())
-        .set(object::HOMING_ACCELERATION, 0, Access::Rw, &0u32.to_le_bytes())
+        // Powered up with no mode (0): the display follows a mode written to 0x6060 as
+        // soon as it takes effect, in any power state, and the master's boot reads it back.
+        .set(object::MODES_OF_OPERATION, 0, Access::Rw, &[0])
+        .set(object::MODES_DISPLAY, 0, Access::Ro, &[0])
         .set(object::POSITION_ACTUAL, 0, Access::Ro, &0i32.to_le_bytes())
         .set(0x6065, 0, Access::Rw, &FOLLOWING_WINDOW_COUNTS.to_le_bytes())
         .set(object::TARGET_POSITION, 0, Access::Rw, &0i32.to_le_bytes())
@@ -138,6 +125,8 @@ fn drive_od(
         // A vendor-specific text the machine builder may write (axis label).
         .set_rw_str(0x2000, 0, "");
     od.allow_only(object::MODES_OF_OPERATION, 0, modes);
+    // Homing parameters (CiA 402-2 section 12), written by the master at boot: only on a
+    // drive that homes (the table has none, and says so with "object does not exist").
     if let Some(h) = homing {
         od.set(
             object::HOME_OFFSET,

@@ -10,7 +10,7 @@ use hob_canopen::cia402::PowerState;
 use hob_canopen::frame::{Cob, Frame};
 use hob_control::fault::{Axis, Fault};
 use hob_control::program::CycleProgram;
-use hob_control::{Command, ControlParams, Controller, State};
+use hob_control::{Command, ControlParams, Controller, HomeAxes, State};
 use hob_plant::config::PlantConfig;
 use hob_plant::sim::start_for;
 use hob_process_image::master::boot;
@@ -123,6 +123,26 @@ fn bed() -> Bed {
     for _ in 0..2000 {
         master.cycle();
     }
+    // The drives count from wherever they powered up: X and Y reference by their own
+    // homing (CiA 402 mode 6, over the bus) before anything but a slow jog is accepted.
+    master
+        .controller
+        .command(Command::Home { axes: HomeAxes::Both })
+        .unwrap();
+    for _ in 0..120_000 {
+        master.cycle();
+        let s = master.controller.status();
+        if s.state != State::Referencing {
+            break;
+        }
+    }
+    let s = master.controller.status();
+    assert_eq!(
+        (s.state, s.referenced),
+        (State::Idle, [true, true]),
+        "{:?}",
+        s.fault
+    );
     Bed {
         master,
         vm,

@@ -491,7 +491,11 @@ fn homing_gives_up_after_its_timeout() {
 
 #[test]
 fn a_drive_running_into_a_hardware_limit_in_csp_faults_with_an_emcy() {
-    let mut vm = vm_with(&plant_config(), at(245.0, 150.0));
+    // Placed near the limit: an incremental drive powers up wherever the machine stood,
+    // which the plant draws at random; the referenced one starts where it is told.
+    let mut cfg = plant_config();
+    cfg.simulation.drive_counters = hob_plant::config::DriveCounters::Referenced;
+    let mut vm = vm_with(&cfg, at(245.0, 150.0));
     enabled(&mut vm, X, 8);
     let mut target = read(&mut vm, X, object::POSITION_ACTUAL, 0) as i32;
     let mut emcys = Vec::new();
@@ -506,7 +510,7 @@ fn a_drive_running_into_a_hardware_limit_in_csp_faults_with_an_emcy() {
             faulted_at_mm = Some(vm.plant.x_mm());
         }
     }
-    let at_mm = faulted_at_mm.expect("the drive faulted");
+    let at_mm = faulted_at_mm.unwrap_or_else(|| panic!("no fault; X at {} mm", vm.plant.x_mm()));
     assert!((252.0..252.1).contains(&at_mm), "faulted at {at_mm} mm");
     assert_eq!(
         emcys.first(),
