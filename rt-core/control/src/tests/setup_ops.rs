@@ -147,8 +147,8 @@ impl Rig {
     fn step(&mut self) {
         let o = self.out;
         let targets = [o.table_target_counts, o.x_target_counts, o.y_target_counts];
-        for k in 0..3 {
-            self.drives[k].apply(targets[k], o.drive_modes[k], o.homing_start[k], o.drives_enabled);
+        for (k, (drive, target)) in self.drives.iter_mut().zip(targets).enumerate() {
+            drive.apply(target, o.drive_modes[k], o.homing_start[k], o.drives_enabled);
         }
         let input = CycleInputs {
             spindle_counts: 0,
