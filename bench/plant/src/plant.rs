@@ -285,6 +285,22 @@ impl Plant {
         }
     }
 
+    /// Every injected fault repaired, as a technician would (a drive's fault cleared, the
+    /// chain or the emergency stop released, the lube restored, the obstacle removed): the
+    /// drives' own fault state stays until the master's fault reset.
+    pub fn clear_injections(&mut self) {
+        for a in [Axis::B, Axis::X, Axis::Y] {
+            let s = self.servo_mut(a);
+            s.fault = false;
+            s.disturbance_nm = 0.0;
+        }
+        self.chain_open_injected = false;
+        self.estop = false;
+        self.limit = None;
+        self.no_lube_pressure = false;
+        self.spindle.vfd_fault = false;
+    }
+
     fn servo_mut(&mut self, a: Axis) -> &mut Servo {
         match a {
             Axis::B => &mut self.table,

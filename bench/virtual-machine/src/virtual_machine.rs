@@ -34,11 +34,14 @@ pub enum VmFault {
     Silent(u8),
     /// Garbage frames per SYNC: unused identifiers, and used ones with wrong lengths.
     Garbage(u32),
+    /// Every fault injected so far repaired (the bus healthy again, the plant's faults
+    /// cleared; a drive's own fault stays until the master's fault reset).
+    Clear,
 }
 
 impl VmFault {
     /// Parses `drive-fault x`, `estop`, `chain-open`, `limit y min`, `no-lube`,
-    /// `obstruct y`, `vfd-fault`, `drop 0.2`, `delay 3`, `silent 2`, `garbage 4`.
+    /// `obstruct y`, `vfd-fault`, `drop 0.2`, `delay 3`, `silent 2`, `garbage 4`, `clear`.
     pub fn parse(text: &str) -> Result<Self, String> {
         let words: Vec<&str> = text.split_whitespace().collect();
         let axis = |w: Option<&&str>| match w.map(|s| s.to_ascii_lowercase()).as_deref() {
@@ -71,6 +74,7 @@ impl VmFault {
             Some("delay") => VmFault::Delay(num(words.get(1))? as u32),
             Some("silent") => VmFault::Silent(num(words.get(1))? as u8),
             Some("garbage") => VmFault::Garbage(num(words.get(1))? as u32),
+            Some("clear") => VmFault::Clear,
             other => return Err(format!("unknown fault {other:?}")),
         })
     }
@@ -334,6 +338,13 @@ impl VirtualMachine {
             VmFault::Drop(p) => self.drop = p,
             VmFault::Delay(n) => self.delay = n,
             VmFault::Garbage(n) => self.garbage = n,
+            VmFault::Clear => {
+                self.plant.clear_injections();
+                (self.drop, self.delay, self.garbage) = (0.0, 0, 0);
+                for n in self.nodes_mut() {
+                    n.silent = false;
+                }
+            }
             VmFault::Silent(node) => {
                 for n in self.nodes_mut() {
                     if n.id == node {

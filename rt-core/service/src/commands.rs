@@ -129,13 +129,13 @@ pub fn save_offsets(state_file: &Path, offsets: hob_control::Offsets, cmd: Comma
     };
     let (mut diameter, mut height) = previous
         .as_ref()
-        .map_or((0.0, 0.0), |s| (s.gauge_diameter_mm, s.gauge_height_mm));
+        .map_or((None, None), |s| (s.gauge_diameter_mm, s.gauge_height_mm));
     let axis = match cmd {
         Command::TouchOff { axis, value_mm } => {
             if axis == hob_control::fault::Axis::X {
-                diameter = value_mm;
+                diameter = Some(value_mm);
             } else {
-                height = value_mm;
+                height = Some(value_mm);
             }
             axis.name()
         }
@@ -229,6 +229,48 @@ mod tests {
         assert!(e.contains("teeth"), "{e}");
         let e = build_program("x.toml", "[nonsense]\n", &m).unwrap_err();
         assert!(e.contains("x.toml"), "{e}");
+    }
+
+    #[test]
+    fn the_first_touch_off_of_a_set_up_is_saved_and_the_second_keeps_it() {
+        use hob_control::fault::Axis;
+        use hob_store::machine_state::{Loaded, load};
+        let dir = std::env::temp_dir().join(format!("hob-service-touch-off-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        std::fs::create_dir_all(&dir).unwrap();
+        let file = dir.join("machine-state.toml");
+        let x = Command::TouchOff {
+            axis: Axis::X,
+            value_mm: 100.0,
+        };
+        let text = save_offsets(&file, hob_control::Offsets { x_mm: 0.4, y_mm: 0.0 }, x);
+        assert!(text.contains("saved in"), "{text}");
+        let y = Command::TouchOff {
+            axis: Axis::Y,
+            value_mm: 0.0,
+        };
+        let text = save_offsets(
+            &file,
+            hob_control::Offsets {
+                x_mm: 0.4,
+                y_mm: -1.5,
+            },
+            y,
+        );
+        assert!(text.contains("saved in"), "{text}");
+        let Ok(Loaded::Calibrated(s)) = load(&file) else {
+            panic!("{}: not loaded", file.display())
+        };
+        assert_eq!(
+            (
+                s.x_offset_mm,
+                s.y_offset_mm,
+                s.gauge_diameter_mm,
+                s.gauge_height_mm
+            ),
+            (0.4, -1.5, Some(100.0), Some(0.0))
+        );
+        let _ = std::fs::remove_dir_all(&dir);
     }
 
     #[test]

@@ -31,10 +31,14 @@ pub struct MachineState {
     pub y_offset_mm: f64,
     /// When the offsets were set (`YYYY-MM-DDTHH:MM:SSZ`, [`crate::utc`]).
     pub set_at_utc: String,
-    /// Diameter of the gauge (setting mandrel) touched off on X.
-    pub gauge_diameter_mm: f64,
-    /// Height of the gauge touched off on Y.
-    pub gauge_height_mm: f64,
+    /// Diameter of the gauge (setting mandrel) touched off on X; none before X's first
+    /// touch-off.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub gauge_diameter_mm: Option<f64>,
+    /// Height of the gauge touched off on Y (0: the table face itself); none before Y's
+    /// first touch-off.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub gauge_height_mm: Option<f64>,
     /// Free text for the operator (who, which machine state).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub note: Option<String>,
@@ -88,7 +92,12 @@ pub fn load(path: &Path) -> Result<Loaded, LoadError> {
 
 impl MachineState {
     /// A state set now.
-    pub fn new(x_offset_mm: f64, y_offset_mm: f64, gauge_diameter_mm: f64, gauge_height_mm: f64) -> Self {
+    pub fn new(
+        x_offset_mm: f64,
+        y_offset_mm: f64,
+        gauge_diameter_mm: Option<f64>,
+        gauge_height_mm: Option<f64>,
+    ) -> Self {
         Self {
             format_version: FORMAT_VERSION,
             x_offset_mm,
@@ -123,14 +132,23 @@ impl MachineState {
         ] {
             p.within(key, v, -MAX_OFFSET_MM, MAX_OFFSET_MM, "mm");
         }
+        if let Some(v) = self.gauge_diameter_mm {
+            p.positive("gauge_diameter_mm", v);
+        }
+        if let Some(v) = self.gauge_height_mm {
+            p.require(v.is_finite() && v >= 0.0, "gauge_height_mm", || {
+                format!("must be 0 (the table face) or more (is {v})")
+            });
+        }
         for (key, v) in [
             ("gauge_diameter_mm", self.gauge_diameter_mm),
             ("gauge_height_mm", self.gauge_height_mm),
         ] {
-            p.positive(key, v);
-            p.require(v.is_nan() || v <= MAX_GAUGE_MM, key, || {
-                format!("must be at most {MAX_GAUGE_MM} mm (is {v})")
-            });
+            if let Some(v) = v {
+                p.require(v.is_nan() || v <= MAX_GAUGE_MM, key, || {
+                    format!("must be at most {MAX_GAUGE_MM} mm (is {v})")
+                });
+            }
         }
         p.require(crate::utc::is_timestamp(&self.set_at_utc), "set_at_utc", || {
             format!(

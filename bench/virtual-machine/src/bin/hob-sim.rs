@@ -4,7 +4,8 @@
 //! physics of `config/plant.toml`, in lockstep with the master's SYNC. Faults are injected
 //! from the command line (`--fault`, `--fault-in-cut`) or, with `--control`, one per line
 //! on standard input: `drive-fault x`, `estop`, `chain-open`, `limit y min`, `no-lube`,
-//! `obstruct y`, `vfd-fault`, `drop 0.2`, `delay 3`, `silent 2`, `garbage 4`.
+//! `obstruct y`, `vfd-fault`, `drop 0.2`, `delay 3`, `silent 2`, `garbage 4`, and `clear`
+//! (every injected fault repaired).
 
 use clap::Parser;
 use hob_canopen::bus::CanBus;

@@ -46,8 +46,8 @@ fn state(x_offset_mm: f64) -> MachineState {
         x_offset_mm,
         y_offset_mm: 1.5,
         set_at_utc: "2025-03-01T08:15:00Z".into(),
-        gauge_diameter_mm: 40.0,
-        gauge_height_mm: 100.0,
+        gauge_diameter_mm: Some(40.0),
+        gauge_height_mm: Some(100.0),
         note: None,
     }
 }

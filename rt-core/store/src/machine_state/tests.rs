@@ -7,8 +7,8 @@ fn sample() -> MachineState {
         x_offset_mm: 0.125,
         y_offset_mm: -3.5,
         set_at_utc: "2025-03-01T08:15:00Z".into(),
-        gauge_diameter_mm: 40.0,
-        gauge_height_mm: 100.0,
+        gauge_diameter_mm: Some(40.0),
+        gauge_height_mm: Some(100.0),
         note: Some("mandrel 40 h6".into()),
     }
 }
@@ -37,10 +37,33 @@ fn a_saved_state_loads_the_same() {
 
 #[test]
 fn a_new_state_is_stamped_now_and_valid() {
-    let s = MachineState::new(1.0, 2.0, 40.0, 100.0);
+    let s = MachineState::new(1.0, 2.0, Some(40.0), Some(100.0));
     let mut p = Problems::new();
     s.validate(&mut p);
     assert!(p.is_empty(), "{:?}", p.as_slice());
+}
+
+#[test]
+fn one_axis_touched_off_is_a_whole_state_and_saves() {
+    // The first touch-off of a set-up is one axis: the other has no gauge yet.
+    let dir = test_dir("state-one-axis");
+    let path = dir.join("machine-state.toml");
+    let x_only = MachineState::new(0.4, 0.0, Some(100.0), None);
+    x_only.save(&path).expect("saved");
+    assert!(
+        !std::fs::read_to_string(&path)
+            .expect("read")
+            .contains("gauge_height_mm")
+    );
+    assert_eq!(load(&path).expect("loads"), Loaded::Calibrated(x_only));
+    // A gauge of height 0 is the table face itself.
+    let face = MachineState::new(0.4, -1.0, Some(100.0), Some(0.0));
+    face.save(&path).expect("saved");
+    assert_eq!(load(&path).expect("loads"), Loaded::Calibrated(face));
+    let mut below = MachineState::new(0.4, -1.0, Some(100.0), Some(-0.1));
+    assert_eq!(problem_keys(&below), ["gauge_height_mm"]);
+    below.gauge_height_mm = Some(f64::NAN);
+    assert_eq!(problem_keys(&below), ["gauge_height_mm"]);
 }
 
 fn problem_keys(state: &MachineState) -> Vec<String> {
@@ -54,8 +77,8 @@ fn bad_values_are_named_by_key() {
     let mut s = sample();
     s.x_offset_mm = 50.5;
     s.y_offset_mm = f64::NAN;
-    s.gauge_diameter_mm = 0.0;
-    s.gauge_height_mm = 2000.0;
+    s.gauge_diameter_mm = Some(0.0);
+    s.gauge_height_mm = Some(2000.0);
     s.set_at_utc = "yesterday".into();
     s.format_version = 2;
     assert_eq!(
