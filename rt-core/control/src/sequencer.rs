@@ -23,6 +23,13 @@ const SYNC_TIMEOUT_S: f64 = 20.0;
 const SPINDLE_STOPPED_RPM: f64 = 1.0;
 /// X rapids this far outside the blank before the radial plunge at feed.
 const PLUNGE_CLEARANCE_MM: f64 = 1.0;
+/// Fastest change of the spindle speed by its override with the tool in the work (rpm/s,
+/// 60 deg/s^2 of spindle). The VFD's own ramp (80 Hz in 3 s: 83 rpm/s at the spindle)
+/// jerks the spindle observer and the table by about 13 arcsec, above the cut's bound (a
+/// quarter of ISO 1328-1 grade 5: 8.6 arcsec at z = 17, m = 5); the jerk's error scales
+/// with the acceleration, so at 10 rpm/s it adds under 2 arcsec
+/// (`bench/plant/tests/setup_ops.rs`).
+const OVERRIDE_SPINDLE_RPM_S: f64 = 10.0;
 
 /// Sequencer states; `name` is the short word of traces and status.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
@@ -705,10 +712,19 @@ impl Controller {
             return;
         };
         let rapid_x = self.params.x_limits.rapid_mm_s;
-        // The spindle override acts on a running spindle at once; the table follows the
-        // measured spindle and the feed its revolutions, so synchronism holds.
+        // The spindle override acts on a running spindle; the table follows the measured
+        // spindle and the feed its revolutions, so the law holds. With the tool in the
+        // work the change is ramped (OVERRIDE_SPINDLE_RPM_S): at the VFD's own ramp the
+        // jerk throws the table off the law by more than the cut's error bound.
         if self.sequencer.spindle_set_rpm > 0.0 && !matches!(state, State::ToSafe | State::FaultRetract) {
-            self.sequencer.spindle_set_rpm = self.pass_spindle_rpm(&program, &pass);
+            let target = self.pass_spindle_rpm(&program, &pass);
+            let set = self.sequencer.spindle_set_rpm;
+            self.sequencer.spindle_set_rpm = if state.tool_in_work() {
+                let step = OVERRIDE_SPINDLE_RPM_S * self.params.period_s;
+                set + (target - set).clamp(-step, step)
+            } else {
+                target
+            };
         }
         match state {
             State::Init | State::Idle | State::Jog | State::Faulted | State::Referencing => {}
