@@ -180,6 +180,8 @@ impl Simulation {
             y_cmd_mm: s.y_cmd_mm,
             sync_err_arcsec,
             work_twist_arcsec: self.plant.work_twist_arcsec(),
+            feed_override_percent: Some(s.feed_override_percent),
+            spindle_override_percent: Some(s.spindle_override_percent),
         }
     }
 

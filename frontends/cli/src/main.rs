@@ -291,7 +291,8 @@ enum CanCommand {
 #[derive(Debug, Subcommand)]
 enum LogCommand {
     /// Write a recorded log as CSV: the columns of `hob simulate`'s trace.csv up to
-    /// sync_err_arcsec, then the cycle counter and the other recorded values.
+    /// sync_err_arcsec, then the cycle counter and the other recorded values, then the
+    /// feed and spindle overrides in percent (trace.csv's last two columns).
     Export {
         dir: PathBuf,
         /// CSV (the only format; required for clarity).
@@ -301,7 +302,8 @@ enum LogCommand {
         #[arg(long, value_name = "FILE")]
         out: Option<PathBuf>,
     },
-    /// Per-pass synchronisation error statistics of a recorded cut.
+    /// Per-pass synchronisation error statistics of a recorded cut, and the feed and
+    /// spindle override ranges in each pass's cut.
     Report { dir: PathBuf },
 }
 
