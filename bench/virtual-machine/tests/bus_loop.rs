@@ -335,6 +335,36 @@ fn drive_fault_on_y_in_the_cut_retracts_first_then_stops() {
 }
 
 #[test]
+fn a_repaired_drive_is_reset_over_the_bus_and_the_interrupted_pass_continues() {
+    let (mut bed, _) = fault_in_cut(VmFault::Plant(hob_plant::plant::Injection::DriveFault(Axis::Y)));
+    // The cut was in pass 1 (of the short program's rough and finish passes).
+    let pass = bed.master.controller.status().continue_pass;
+    assert_eq!(pass, 1);
+    run_until(&mut bed, 1000, |_| false);
+    // Not repaired: the reset's fault reset does not take, the drive's fault is back.
+    bed.master.controller.command(Command::Reset).unwrap();
+    run_until(&mut bed, 10_000, |s| s == State::Faulted);
+    assert_eq!(
+        bed.master.controller.status().fault,
+        Some(Fault::DriveFault { axis: Axis::Y })
+    );
+    // Repaired (a second later, the safety chain dropped out by then): the master's
+    // fault reset clears it, the drives come up, the pass goes on.
+    run_until(&mut bed, 1000, |_| false);
+    bed.vm.inject(VmFault::Clear);
+    bed.master.controller.command(Command::Reset).unwrap();
+    run_until(&mut bed, 20_000, |s| s == State::Idle || s == State::Faulted);
+    let s = bed.master.controller.status();
+    assert_eq!((s.state, s.fault), (State::Idle, None));
+    assert!(s.table_position_whole, "{s:?}");
+    bed.master.controller.command(Command::Continue).unwrap();
+    run_until(&mut bed, 400_000, |s| s == State::Cut || s == State::Faulted);
+    let s = bed.master.controller.status();
+    assert_eq!((s.state, s.pass, s.fault), (State::Cut, pass, None));
+    let _ = drive_states(bed);
+}
+
+#[test]
 fn a_silent_table_drive_is_noticed_and_the_machine_stops() {
     let (bed, states) = fault_in_cut(VmFault::Silent(2));
     assert!(states.contains(&State::Faulted), "{states:?}");

@@ -659,6 +659,11 @@ impl Controller {
         if !i.safety_chain_closed && active {
             self.raise(Fault::SafetyChainOpen);
         }
+        // After a reset (or at power-up) the drives are brought up from Init: a drive's
+        // fault is cleared by the fault reset the master sends, a few cycles later. A drive
+        // still in fault when the enable time is over has its fault again.
+        let fault_resetting =
+            self.sequencer.state == State::Init && self.enable_age_s <= DRIVE_ENABLE_TIMEOUT_S;
         let drives = [(input.table, Axis::B), (input.x, Axis::X), (input.y, Axis::Y)];
         for (k, (fb, axis)) in drives.into_iter().enumerate() {
             if self.measured.jumped[k] {
@@ -667,7 +672,7 @@ impl Controller {
                 }
                 self.position_lost(axis);
             }
-            if fb.fault {
+            if fb.fault && !fault_resetting {
                 self.raise(Fault::DriveFault { axis });
             }
             self.misses[k] = if fb.fresh { 0 } else { self.misses[k] + 1 };
@@ -681,13 +686,18 @@ impl Controller {
             0.0
         };
         if active && self.enable_age_s > DRIVE_ENABLE_TIMEOUT_S {
-            for (enabled, axis) in self
-                .measured
-                .drives_enabled
-                .into_iter()
-                .zip([Axis::B, Axis::X, Axis::Y])
+            let faulted = [input.table.fault, input.x.fault, input.y.fault];
+            for ((enabled, faulted), axis) in
+                self.measured
+                    .drives_enabled
+                    .into_iter()
+                    .zip(faulted)
+                    .zip([Axis::B, Axis::X, Axis::Y])
             {
-                if !enabled {
+                // A drive whose fault the reset did not clear: its fault is the cause.
+                if faulted {
+                    self.raise(Fault::DriveFault { axis });
+                } else if !enabled {
                     self.raise(Fault::DriveNotEnabled { axis });
                 }
             }

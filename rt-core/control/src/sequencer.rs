@@ -289,6 +289,8 @@ impl Controller {
                     self.lube.request();
                 }
                 self.fault = None;
+                // The drives' enable (and the fault reset) starts over, with its full time.
+                self.enable_age_s = 0.0;
                 self.event(EventKind::FaultCleared);
                 self.enter(State::Init);
                 Ok(())
