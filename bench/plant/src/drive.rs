@@ -51,7 +51,7 @@ pub const EMCY_HARDWARE_LIMIT: u16 = 0x8612;
 const LIMIT_SPEED_COUNTS_S: f64 = 50.0;
 
 /// The homing parameters (0x6098, 0x607C, 0x6099:1/2, 0x609A), in the drive's counts.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub struct HomingParams {
     pub method: i8,
     pub home_offset_counts: i32,
@@ -205,6 +205,18 @@ pub struct Drive {
 }
 
 impl Drive {
+    /// A drive without homing or hardware limits (the table's): cyclic synchronous
+    /// position only, its counter reading `counter_at_power_on` at `physical_counts`.
+    pub fn without_homing(physical_counts: i64, counter_at_power_on: i64) -> Self {
+        Self::new(
+            physical_counts,
+            counter_at_power_on,
+            None,
+            None,
+            HomingParams::default(),
+        )
+    }
+
     /// A drive whose counter reads `counter_at_power_on` with the motor at
     /// `physical_counts`. `geometry` `None`: no homing (cyclic synchronous position only).
     pub fn new(

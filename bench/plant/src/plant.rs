@@ -208,19 +208,7 @@ impl Plant {
         let counters = cfg.simulation.drive_counters;
         let table_physical = table.position_counts();
         let drives = [
-            Drive::new(
-                table_physical,
-                power_on_counter(table_physical, counters),
-                None,
-                None,
-                HomingParams {
-                    method: 0,
-                    home_offset_counts: 0,
-                    switch_speed_counts_s: 0,
-                    zero_speed_counts_s: 0,
-                    accel_counts_s2: 0,
-                },
-            ),
+            Drive::without_homing(table_physical, power_on_counter(table_physical, counters)),
             linear_drive(&machine.x, &cfg.x, &x, counters),
             linear_drive(&machine.y, &cfg.y, &y, counters),
         ];

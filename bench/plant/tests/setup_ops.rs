@@ -14,7 +14,7 @@ use hob_control::fault::{Axis, Fault, Refusal};
 use hob_control::program::CycleProgram;
 use hob_control::{Command, Direction};
 use hob_gearing::units::um_to_arcsec_at_radius;
-use hob_plant::drive::{Drive, HomingParams};
+use hob_plant::drive::Drive;
 use hob_plant::plant::Injection;
 use hob_plant::sim::{RowState as State, SimOptions, Simulation, TraceRow, finish_summary, summary_builder};
 use hob_service::encode;
@@ -552,19 +552,7 @@ fn continue_is_refused_and_nothing_moves_when_the_table_lost_its_position() {
         "the table turned only {counter_deg} deg: no jump to see"
     );
     let physical = sim.plant.table.position_counts();
-    sim.plant.drives[0] = Drive::new(
-        physical,
-        0,
-        None,
-        None,
-        HomingParams {
-            method: 0,
-            home_offset_counts: 0,
-            switch_speed_counts_s: 0,
-            zero_speed_counts_s: 0,
-            accel_counts_s2: 0,
-        },
-    );
+    sim.plant.drives[0] = Drive::without_homing(physical, 0);
     sim.step();
     assert!(!sim.controller.status().table_position_whole);
     repair_and_reset(&mut sim);

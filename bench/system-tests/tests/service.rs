@@ -551,6 +551,9 @@ fn operator_path_from_power_on_to_a_continued_cut() {
         ],
         "rt3.txt",
     );
+    // The logger records every event (a `hob status` started later sees only new ones).
+    let session = b.art.join("session");
+    b.spawn("hob-logger", "hob-logger", &[&session], "logger3.txt");
     let library = path(&b.art.join("library"));
     let float = |v: &toml::Value| v.as_float().or_else(|| v.as_integer().map(|i| i as f64)).unwrap();
     let home_mm = [
@@ -577,6 +580,57 @@ fn operator_path_from_power_on_to_a_continued_cut() {
         );
         format!("X {:.3} mm, Y {:.3} mm", s.x_mm, s.y_mm)
     });
+    b.step(
+        "continuous jog by hob jog-hold; kill -9 of it stops X by the dead-man",
+        |b| {
+            let jog = b.spawn(
+                "hob jog-hold",
+                "hob",
+                &["jog-hold", "x", "-", "--speed", "300", "--seconds", "60"],
+                "jog-hold.txt",
+            );
+            let s0 = b.wait_for("X moving under hob jog-hold", STATE_TIMEOUT, |b| {
+                let s = b.try_status()?;
+                if s.state == "jog" && home_mm[0] - s.x_mm > 0.5 {
+                    Ok(s)
+                } else {
+                    Err(format!("state {}, X {} mm", s.state, s.x_mm))
+                }
+            });
+            b.kill9(jog);
+            let s1 = b.wait_state("idle", STATE_TIMEOUT);
+            std::thread::sleep(Duration::from_secs(1));
+            let s2 = b.status();
+            let events = session.join("events.log");
+            let line = b.wait_for(
+                "the dead-man stop in the logger's events.log",
+                STATE_TIMEOUT,
+                |_| {
+                    let text = std::fs::read_to_string(&events).map_err(|e| e.to_string())?;
+                    text.lines()
+                        .find(|l| l.contains("dead-man"))
+                        .map(str::to_string)
+                        .ok_or_else(|| format!("{} lines, none with dead-man", text.lines().count()))
+                },
+            );
+            assert!(line.contains("jog X stopped"), "{line}");
+            assert!(
+                (s2.x_mm - s1.x_mm).abs() < 0.01,
+                "X still moving after the stop: {} -> {} mm",
+                s1.x_mm,
+                s2.x_mm
+            );
+            let soft_min_mm = float(m.get("x.soft_limit_min_mm"));
+            assert!(
+                s2.x_mm > soft_min_mm + 10.0,
+                "X {} mm: it ran on towards the soft limit {soft_min_mm} mm",
+                s2.x_mm
+            );
+            // After the kill X ran on for the dead-man time (machine file's [jog]) and braking
+            // at 300 mm/min: a fraction of a millimetre, plus how late the kill came.
+            format!("X {:.3} mm when killed, stopped at {:.3} mm", s0.x_mm, s2.x_mm)
+        },
+    );
     b.step("the program into the library and loaded from it", |b| {
         b.hob_ok(&[
             "lib",
@@ -685,8 +739,8 @@ fn operator_path_from_power_on_to_a_continued_cut() {
         "the drive repaired, reset, continue: the interrupted pass is cut again",
         |b| {
             // The safety chain has dropped out by now (the loop opened it at the fault).
-        std::thread::sleep(Duration::from_secs(1));
-        writeln!(faults, "clear").unwrap();
+            std::thread::sleep(Duration::from_secs(1));
+            writeln!(faults, "clear").unwrap();
             b.hob_ok(&["reset"]);
             let s = b.wait_state("idle", STATE_TIMEOUT);
             assert!(s.alarm.is_empty(), "alarm after the reset: {}", s.alarm);
