@@ -37,11 +37,12 @@ pub enum State {
     FaultRetract = 19,
     FaultStop = 20,
     Faulted = 21,
+    Referencing = 22,
 }
 
 impl State {
     /// Every state, in code order (`ALL[c].code() == c`).
-    pub const ALL: [State; 22] = [
+    pub const ALL: [State; 23] = [
         State::Init,
         State::Idle,
         State::Jog,
@@ -64,6 +65,7 @@ impl State {
         State::FaultRetract,
         State::FaultStop,
         State::Faulted,
+        State::Referencing,
     ];
 
     pub const fn code(self) -> u32 {
@@ -99,6 +101,7 @@ impl State {
             State::FaultRetract => "f_retract",
             State::FaultStop => "f_stop",
             State::Faulted => "fault",
+            State::Referencing => "referencing",
         }
     }
 }
@@ -124,11 +127,14 @@ pub enum Refusal {
     BadValue = 8,
     SafetyChainOpen = 9,
     DrivesNotEnabled = 10,
+    NotReferenced = 11,
+    TablePositionLost = 12,
+    JogActive = 13,
 }
 
 impl Refusal {
     /// Every refusal, in code order (`ALL[i].code() == i + 1`).
-    pub const ALL: [Refusal; 10] = [
+    pub const ALL: [Refusal; 13] = [
         Refusal::NoProgram,
         Refusal::CycleRunning,
         Refusal::Faulted,
@@ -139,6 +145,9 @@ impl Refusal {
         Refusal::BadValue,
         Refusal::SafetyChainOpen,
         Refusal::DrivesNotEnabled,
+        Refusal::NotReferenced,
+        Refusal::TablePositionLost,
+        Refusal::JogActive,
     ];
 
     pub const fn code(self) -> u32 {
@@ -161,6 +170,9 @@ impl Refusal {
             Refusal::BadValue => "bad-value",
             Refusal::SafetyChainOpen => "safety-chain-open",
             Refusal::DrivesNotEnabled => "drives-not-enabled",
+            Refusal::NotReferenced => "not-referenced",
+            Refusal::TablePositionLost => "table-position-lost",
+            Refusal::JogActive => "jog-active",
         }
     }
 
@@ -177,6 +189,13 @@ impl Refusal {
             Refusal::BadValue => "the value is not a finite number in range",
             Refusal::SafetyChainOpen => "the safety chain is open: close it with the reset button first",
             Refusal::DrivesNotEnabled => "not every drive reports \"operation enabled\" yet",
+            Refusal::NotReferenced => {
+                "X and Y are not referenced: only referencing (hob home) and slow jogs until they are"
+            }
+            Refusal::TablePositionLost => {
+                "the table lost its position since the tooth phase was recorded: continuing would cut a new set of gaps into this part"
+            }
+            Refusal::JogActive => "a jog is running: release it (or stop) first",
         }
     }
 }
@@ -287,11 +306,53 @@ pub enum Fault {
     IoLost = 13,
     /// `axis`.
     DriveNotEnabled = 14,
+    /// `axis`, `end`: a [`HomingFailure`] code.
+    HomingFailed = 15,
+    /// `axis`.
+    PositionLost = 16,
+}
+
+/// Why referencing failed (the `end` byte of a [`Fault::HomingFailed`] alarm).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+#[repr(u8)]
+pub enum HomingFailure {
+    ModeNotConfirmed = 1,
+    NotStarted = 2,
+    DriveError = 3,
+    Timeout = 4,
+}
+
+impl HomingFailure {
+    pub const ALL: [HomingFailure; 4] = [
+        HomingFailure::ModeNotConfirmed,
+        HomingFailure::NotStarted,
+        HomingFailure::DriveError,
+        HomingFailure::Timeout,
+    ];
+
+    pub const fn code(self) -> u8 {
+        self as u8
+    }
+
+    pub fn from_code(c: u8) -> Option<HomingFailure> {
+        c.checked_sub(1).and_then(|i| Self::ALL.get(i as usize).copied())
+    }
+
+    pub const fn text(self) -> &'static str {
+        match self {
+            HomingFailure::ModeNotConfirmed => "the drive did not confirm the mode of operation (0x6061)",
+            HomingFailure::NotStarted => "the drive did not start homing",
+            HomingFailure::DriveError => {
+                "the drive reported a homing error (home switch not found before a limit?)"
+            }
+            HomingFailure::Timeout => "homing took longer than homing.timeout_s",
+        }
+    }
 }
 
 impl Fault {
     /// Every fault, in code order (`ALL[i].code() == i + 1`).
-    pub const ALL: [Fault; 14] = [
+    pub const ALL: [Fault; 16] = [
         Fault::SafetyChainOpen,
         Fault::EmergencyStop,
         Fault::HardwareLimit,
@@ -306,6 +367,8 @@ impl Fault {
         Fault::FeedbackLost,
         Fault::IoLost,
         Fault::DriveNotEnabled,
+        Fault::HomingFailed,
+        Fault::PositionLost,
     ];
 
     pub const fn code(self) -> u32 {
@@ -332,6 +395,8 @@ impl Fault {
             Fault::FeedbackLost => "feedback-lost",
             Fault::IoLost => "io-lost",
             Fault::DriveNotEnabled => "drive-not-enabled",
+            Fault::HomingFailed => "homing-failed",
+            Fault::PositionLost => "position-lost",
         }
     }
 
@@ -345,6 +410,8 @@ impl Fault {
                 | Fault::DriveFault
                 | Fault::FeedbackLost
                 | Fault::DriveNotEnabled
+                | Fault::HomingFailed
+                | Fault::PositionLost
         )
     }
 
@@ -389,6 +456,23 @@ impl Fault {
             Fault::FeedbackLost => format!("feedback of drive {} lost (bus)", axis?.name()),
             Fault::IoLost => "I/O coupler lost (bus)".into(),
             Fault::DriveNotEnabled => format!("drive {} not in \"operation enabled\"", axis?.name()),
+            Fault::HomingFailed => format!(
+                "referencing {} failed: {}",
+                axis?.name(),
+                HomingFailure::from_code(a.end).map_or("?", HomingFailure::text)
+            ),
+            Fault::PositionLost => {
+                let axis = axis?;
+                let what = if axis == Axis::B {
+                    "the tooth phase of the part on the table is gone"
+                } else {
+                    "reference it again (hob home)"
+                };
+                format!(
+                    "drive {} lost its position (reboot or encoder): {what}",
+                    axis.name()
+                )
+            }
         })
     }
 }
@@ -449,7 +533,7 @@ pub fn coupling_name(c: u32) -> &'static str {
 }
 
 /// Every [`command`] code, in code order.
-pub const COMMANDS: [u32; 10] = [
+pub const COMMANDS: [u32; 17] = [
     command::LOAD_PROGRAM,
     command::START,
     command::FEED_HOLD,
@@ -460,6 +544,13 @@ pub const COMMANDS: [u32; 10] = [
     command::SPINDLE_ON,
     command::SPINDLE_OFF,
     command::NEW_BLANK,
+    command::HOME,
+    command::JOG_CONTINUOUS,
+    command::JOG_RELEASE,
+    command::FEED_OVERRIDE,
+    command::SPINDLE_OVERRIDE,
+    command::TOUCH_OFF,
+    command::CONTINUE,
 ];
 
 /// The command's name as the CLI spells it (`?` for a code this build does not know).
@@ -475,12 +566,19 @@ pub fn command_name(code: u32) -> &'static str {
         command::SPINDLE_ON => "spindle on",
         command::SPINDLE_OFF => "spindle off",
         command::NEW_BLANK => "new blank",
+        command::HOME => "home",
+        command::JOG_CONTINUOUS => "jog continuous",
+        command::JOG_RELEASE => "jog release",
+        command::FEED_OVERRIDE => "feed override",
+        command::SPINDLE_OVERRIDE => "spindle override",
+        command::TOUCH_OFF => "touch-off",
+        command::CONTINUE => "continue",
         _ => "?",
     }
 }
 
 /// Every [`event_kind`] code, in code order.
-pub const EVENT_KINDS: [u32; 11] = [
+pub const EVENT_KINDS: [u32; 14] = [
     event_kind::STATE_CHANGED,
     event_kind::ALARM,
     event_kind::ALARM_CLEARED,
@@ -492,6 +590,9 @@ pub const EVENT_KINDS: [u32; 11] = [
     event_kind::CYCLE_DONE,
     event_kind::MESSAGE,
     event_kind::BUS,
+    event_kind::REFERENCED,
+    event_kind::DEAD_MAN_STOP,
+    event_kind::OFFSET_CHANGED,
 ];
 
 /// The name of an [`event_kind`] code (`None` for one this build does not know).
@@ -508,6 +609,9 @@ pub fn event_kind_name(k: u32) -> Option<&'static str> {
         event_kind::CYCLE_DONE => "cycle-done",
         event_kind::MESSAGE => "message",
         event_kind::BUS => "bus",
+        event_kind::REFERENCED => "referenced",
+        event_kind::DEAD_MAN_STOP => "dead-man-stop",
+        event_kind::OFFSET_CHANGED => "offset-changed",
         _ => return None,
     })
 }
@@ -530,8 +634,20 @@ pub fn event_text(e: &EventSample) -> String {
         event_kind::CYCLE_DONE => "cycle done".into(),
         event_kind::BUS => bus_event_text(e),
         event_kind::MESSAGE => e.text(),
+        event_kind::REFERENCED => format!("{} referenced", axis_name(e.a)),
+        event_kind::DEAD_MAN_STOP => {
+            format!("jog {} stopped: its renewals stopped (dead-man)", axis_name(e.a))
+        }
+        event_kind::OFFSET_CHANGED => format!("touch-off: {} offset {:+.4} mm", axis_name(e.a), e.value),
         k => format!("event kind {k}"),
     }
+}
+
+fn axis_name(code: u32) -> &'static str {
+    u8::try_from(code)
+        .ok()
+        .and_then(Axis::from_code)
+        .map_or("?", Axis::name)
 }
 
 /// Every [`bus_event`] code, in code order.
@@ -663,13 +779,13 @@ mod tests {
 
     #[test]
     fn unknown_codes_decode_to_none() {
-        assert_eq!(State::from_code(22), None);
+        assert_eq!(State::from_code(State::ALL.len() as u32), None);
         assert_eq!(state_name(99), "?99");
         assert_eq!(Refusal::from_code(0), None);
-        assert_eq!(Refusal::from_code(11), None);
+        assert_eq!(Refusal::from_code(Refusal::ALL.len() as u32 + 1), None);
         assert_eq!(refusal_text(42), "?42");
         assert_eq!(Fault::from_code(0), None);
-        assert_eq!(Fault::from_code(15), None);
+        assert_eq!(Fault::from_code(Fault::ALL.len() as u32 + 1), None);
         assert_eq!(Coupling::from_code(5), None);
         assert_eq!(coupling_name(5), "?");
         assert_eq!(Axis::from_code(0), None);
@@ -678,9 +794,9 @@ mod tests {
         assert_eq!(End::from_code(0), None);
         assert_eq!(End::from_code(3), None);
         assert_eq!(command_name(0), "?");
-        assert_eq!(command_name(11), "?");
+        assert_eq!(command_name(COMMANDS.len() as u32 + 1), "?");
         assert_eq!(event_kind_name(0), None);
-        assert_eq!(event_kind_name(12), None);
+        assert_eq!(event_kind_name(EVENT_KINDS.len() as u32 + 1), None);
         assert_eq!(bus_event_name(5), None);
         let e = EventSample {
             kind: 99,

@@ -99,6 +99,20 @@ pub struct StateSample {
     /// the pitch circle and the ISO 1328 tolerance follow from them.
     pub pitch_radius_mm: f64,
     pub normal_module_mm: f64,
+    /// Referenced axes, bit 1 X, bit 2 Y; bit 0: the table's position is whole (its
+    /// tooth phase can be trusted).
+    pub referenced: u8,
+    /// Referencing or jogging under way: 0 none, else the axis code.
+    pub moving_axis: u8,
+    pub _pad2: [u8; 2],
+    /// The pass "continue" would start from (1-based; 0: nothing to continue).
+    pub continue_pass: u32,
+    /// Overrides in percent.
+    pub feed_override_percent: f64,
+    pub spindle_override_percent: f64,
+    /// Work offsets (touch-off), mm.
+    pub x_offset_mm: f64,
+    pub y_offset_mm: f64,
 }
 
 /// Event kinds ([`EventSample::kind`]).
@@ -116,6 +130,12 @@ pub mod event_kind {
     pub const MESSAGE: u32 = 10;
     /// The service's CANopen master saw something: `b` is a [`super::bus_event`] code.
     pub const BUS: u32 = 11;
+    /// An axis is referenced: `a` its axis code.
+    pub const REFERENCED: u32 = 12;
+    /// A continuous jog was stopped by its dead-man: `a` the axis code.
+    pub const DEAD_MAN_STOP: u32 = 13;
+    /// A touch-off set a work offset: `a` the axis code, `value` the offset (mm).
+    pub const OFFSET_CHANGED: u32 = 14;
 }
 
 /// What a [`event_kind::BUS`] event's `b` says happened; `a` is the node, `value` the
@@ -236,6 +256,25 @@ pub mod command {
     pub const SPINDLE_ON: u32 = 8;
     pub const SPINDLE_OFF: u32 = 9;
     pub const NEW_BLANK: u32 = 10;
+    /// `axis`: 0 X then Y, 2 X, 3 Y.
+    pub const HOME: u32 = 11;
+    /// `axis`, `direction`, `value`: speed (mm/min, deg/min for B); renews a running one.
+    pub const JOG_CONTINUOUS: u32 = 12;
+    pub const JOG_RELEASE: u32 = 13;
+    /// `value`: percent.
+    pub const FEED_OVERRIDE: u32 = 14;
+    /// `value`: percent.
+    pub const SPINDLE_OVERRIDE: u32 = 15;
+    /// `axis` (X or Y), `value`: the gauge's diameter (X) or height (Y), mm.
+    pub const TOUCH_OFF: u32 = 16;
+    /// Continue the interrupted program from its interrupted pass.
+    pub const CONTINUE: u32 = 17;
+}
+
+/// Directions of a continuous jog ([`CommandRequest::direction`]).
+pub mod direction {
+    pub const POSITIVE: u8 = 1;
+    pub const NEGATIVE: u8 = 2;
 }
 
 /// A request from a frontend.
@@ -245,9 +284,11 @@ pub struct CommandRequest {
     pub command: u32,
     /// START: 1 for single mode.
     pub single: u8,
-    /// JOG: 1 B, 2 X, 3 Y.
+    /// JOG, JOG_CONTINUOUS, TOUCH_OFF: 1 B, 2 X, 3 Y; HOME: 0 both, 2 X, 3 Y.
     pub axis: u8,
-    pub _pad: [u8; 2],
+    /// JOG_CONTINUOUS: a [`direction`] code.
+    pub direction: u8,
+    pub _pad: [u8; 1],
     /// JOG: distance (mm, or deg for B); SPINDLE_ON: rpm.
     pub value: f64,
     /// LOAD_PROGRAM: the program file's name (for messages) and its TOML text.
@@ -263,7 +304,8 @@ impl CommandRequest {
             command,
             single: 0,
             axis: 0,
-            _pad: [0; 2],
+            direction: 0,
+            _pad: [0; 1],
             value: 0.0,
             name_len: 0,
             text_len: 0,

@@ -3,7 +3,7 @@
 
 use hob_control::fault::Axis;
 use hob_control::program::CycleProgram;
-use hob_control::{Command, ControlParams, Controller, State};
+use hob_control::{Command, ControlParams, Controller, HomeAxes, State};
 use hob_process_image::master::boot;
 use hob_process_image::plan::BusPlan;
 use hob_setup::config::Problems;
@@ -77,6 +77,25 @@ pub fn run(machine: &MachineConfig, a: &RunArgs<'_>) -> Result<String, (u8, Stri
     }
     r.settle();
     let _ = writeln!(o, "power-up done");
+    // The drives count from wherever the machine stood: X and Y reference by their own
+    // homing (CiA 402 mode 6, over the bus) before anything but a slow jog.
+    r.m.controller
+        .command(Command::Home { axes: HomeAxes::Both })
+        .map_err(|e| (2, format!("{o}home refused: {e:?}")))?;
+    while r.step() != State::Idle {
+        if r.out_of_time() || r.m.controller.status().state == State::Faulted {
+            return Err((
+                3,
+                format!(
+                    "{o}referencing did not finish: {:?}",
+                    r.m.controller.status().fault
+                ),
+            ));
+        }
+    }
+    r.settle();
+    let s = r.m.controller.status();
+    let _ = writeln!(o, "referenced: X {:.3} mm, Y {:.3} mm", s.x_mm, s.y_mm);
     for &(axis, distance) in a.jogs {
         let before = r.m.controller.status();
         r.m.controller

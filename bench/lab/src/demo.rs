@@ -5,8 +5,9 @@
 
 use hob_cli::service;
 use hob_ipc::codec::{self, State};
-use hob_ipc::{CommandRequest, Ports, StatsSample};
+use hob_ipc::{CommandRequest, Ports, StateSample, StatsSample};
 use hob_setup::config::machine::MachineConfig;
+use hob_store::library::{Kind, Library};
 use hob_virtual_machine::procs::{Processes, relaxed_machine_text, sibling, write_machine};
 use std::fmt::Write as _;
 use std::io::Write as _;
@@ -54,14 +55,14 @@ fn wait_for(
     procs: &mut Processes,
     timeout: Duration,
     what: &str,
-    ok: impl Fn(State) -> bool,
-) -> Result<(), String> {
+    ok: impl Fn(State, &StateSample) -> bool,
+) -> Result<StateSample, String> {
     let end = Instant::now() + timeout;
     loop {
         if let Some(s) = ports.wait_state(Duration::from_millis(200))
-            && State::from_code(s.state).is_some_and(&ok)
+            && State::from_code(s.state).is_some_and(|st| ok(st, &s))
         {
-            return Ok(());
+            return Ok(s);
         }
         if let Some(d) = procs.dead() {
             return Err(format!("{what}: {d}"));
@@ -195,8 +196,11 @@ pub fn run(machine: &MachineConfig, a: &DemoArgs<'_>) -> Result<String, (u8, Str
     procs
         .spawn("hob-logger", logger, &dir.join("hob-logger.log"))
         .map_err(fail)?;
+    // The demo's own machine state (work offsets), never the machine PC's.
     let mut rt = cmd("hob-rt")?;
-    rt.args(["--iface", &iface, "--machine", machine_file]);
+    rt.args(["--iface", &iface, "--machine", machine_file])
+        .arg("--state-file")
+        .arg(dir.join("machine-state.toml"));
     procs.spawn("hob-rt", rt, &dir.join("hob-rt.log")).map_err(fail)?;
     let mut wd = cmd("hob-watchdog")?;
     wd.args(["--iface", &iface, "--machine", machine_file]);
@@ -207,12 +211,54 @@ pub fn run(machine: &MachineConfig, a: &DemoArgs<'_>) -> Result<String, (u8, Str
     let ports =
         Ports::subscribe(&format!("hob-demo-{}", std::process::id())).map_err(|e| fail(e.to_string()))?;
     say("waiting for power-up (drives enabled, lubrication, safety chain)...");
-    wait_for(&ports, &mut procs, Duration::from_secs(60), "power-up", |s| {
+    wait_for(&ports, &mut procs, Duration::from_secs(60), "power-up", |s, _| {
         s == State::Idle
     })
     .map_err(fail)?;
-    let text = std::fs::read_to_string(a.program).map_err(|e| (2, e.to_string()))?;
-    let req = CommandRequest::load_program(&a.program.display().to_string(), &text).map_err(|e| (2, e))?;
+    // The drives count from wherever the machine stood at power-on: X and Y reference by
+    // their own homing before anything but a slow jog is accepted.
+    say("referencing X and Y (the drives' homing: home switch, then index pulse)...");
+    let home = service::home("all").and_then(|r| service::request(&r));
+    say(&home.map_err(|(c, e)| (c, format!("home: {e}")))?);
+    let referenced = wait_for(
+        &ports,
+        &mut procs,
+        Duration::from_secs(300),
+        "referencing",
+        |s, x| s == State::Idle && x.referenced & 0b110 == 0b110,
+    )
+    .map_err(fail)?;
+    say(&format!(
+        "referenced: X {:.3} mm, Y {:.3} mm",
+        referenced.x_mm.actual, referenced.y_mm.actual
+    ));
+    // The program goes through the demo's own program library, as the shop's would.
+    let library = dir.join("library");
+    let name = a
+        .program
+        .file_stem()
+        .and_then(|s| s.to_str())
+        .unwrap_or("program");
+    let text =
+        std::fs::read_to_string(a.program).map_err(|e| (2, format!("{}: {e}", a.program.display())))?;
+    let lib = Library::open(&library).map_err(|e| fail(e.to_string()))?;
+    if lib
+        .names(Kind::Program)
+        .map_err(|e| fail(e.to_string()))?
+        .iter()
+        .any(|n| n == name)
+    {
+        lib.delete(Kind::Program, name).map_err(|e| fail(e.to_string()))?;
+    }
+    lib.create_program(name, &text, machine)
+        .map_err(|e| (2, format!("library: {e}")))?;
+    let origin = lib.path(Kind::Program, name).map_err(|e| fail(e.to_string()))?;
+    let stored = lib.text(Kind::Program, name).map_err(|e| fail(e.to_string()))?;
+    let text = lib
+        .resolve(&origin, &stored)
+        .map_err(|e| (2, format!("library: {e}")))?;
+    say(&format!("program from the library {}: {name}", library.display()));
+    let req = CommandRequest::load_program(&format!("library program {name}"), &text).map_err(|e| (2, e))?;
     say(&service::request(&req).map_err(|(c, e)| (c, format!("load: {e}")))?);
     say(&service::request(&service::start(false)).map_err(|(c, e)| (c, format!("start: {e}")))?);
 

@@ -22,6 +22,23 @@ pub struct SimulationConfig {
     pub sync_jitter_us: f64,
     pub seed: u64,
     pub safety_stop_delay_s: f64,
+    /// What the drives' position counters (0x6064) read at power-on (see [`DriveCounters`]).
+    pub drive_counters: DriveCounters,
+}
+
+/// What the drives' position counters read at power-on. The encoders are incremental
+/// (2500 lines, docs/domain.md section 2): a real drive's counter starts at an arbitrary
+/// value, and only homing (CiA 402 mode 6) ties it to the machine.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize, Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum DriveCounters {
+    /// The counters read the machine position in counts from power-on, as if the axes had
+    /// been referenced before: what a controller that does not reference assumes.
+    Referenced,
+    /// Honest incremental encoders: every counter starts at 0 at power-on, wherever the
+    /// axis stands; the bus simulator (`hob-sim`) also puts X and Y at a random position
+    /// within their travel (drawn from `simulation.seed`). The controller must home X and Y.
+    Incremental,
 }
 
 #[derive(Debug, Clone, PartialEq, Deserialize, Serialize)]
@@ -66,6 +83,24 @@ pub struct LinearPlant {
     pub velocity_feed_forward: f64,
     pub hardware_limit_margin_mm: f64,
     pub clamp_delay_s: f64,
+    /// The home switch's edge (axis position, mm): the switch is active beyond it on
+    /// `home_switch_active_side`. Homing methods 3 and 4 expect it active on the positive
+    /// side, 5 and 6 on the negative side.
+    pub home_switch_edge_mm: f64,
+    pub home_switch_active_side: Side,
+    /// The motor encoder's index pulse, once per motor revolution (every screw lead /
+    /// motor_to_screw_ratio mm): at this axis position and every revolution from it.
+    pub index_pulse_at_mm: f64,
+    /// The drive gives up homing after this long (homing error, statusword bit 13).
+    pub homing_timeout_s: f64,
+}
+
+/// A side of a point on an axis, in the axis's positive direction (the machine frame).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize, Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Side {
+    Positive,
+    Negative,
 }
 
 #[derive(Debug, Clone, PartialEq, Deserialize, Serialize)]
@@ -150,6 +185,15 @@ impl PlantConfig {
             p.within(&k("friction_coefficient"), a.friction_coefficient, 0.0, 1.0, "");
             p.within(&k("velocity_feed_forward"), a.velocity_feed_forward, 0.0, 1.0, "");
             p.non_negative(&k("clamp_delay_s"), a.clamp_delay_s);
+            p.positive(&k("homing_timeout_s"), a.homing_timeout_s);
+            p.require(
+                a.home_switch_edge_mm.is_finite(),
+                &k("home_switch_edge_mm"),
+                || "must be a number".into(),
+            );
+            p.require(a.index_pulse_at_mm.is_finite(), &k("index_pulse_at_mm"), || {
+                "must be a number".into()
+            });
         }
         p.non_negative(
             "peripherals.lube_pressure_delay_s",

@@ -5,6 +5,9 @@
 //! - [`spindle`]: VFD ramp, induction motor with slip, cutting torque at the gash frequency;
 //! - [`servo`]: CSP drives (targets at SYNC, interpolation), P/PI cascade with velocity
 //!   feed-forward, torque limit, encoder quantisation;
+//! - [`drive`]: what a CiA 402 drive adds: its incremental position counter, the modes
+//!   cyclic synchronous position and homing (methods 3 to 6 on the home switch and the
+//!   index pulse), the fault at a hardware limit;
 //! - [`worklink`]: the work's torsional deflection under the cut (seed 003, about 20 Hz);
 //! - [`machine`]: the whole machine with its I/O (limit switches, lube pressure switch,
 //!   clamp, safety chain with a stop-category-1 delay) and fault injection;
@@ -12,6 +15,7 @@
 //!   the accuracy summary of `hob simulate`.
 
 pub mod config;
+pub mod drive;
 pub mod plant;
 pub mod servo;
 pub mod sim;

@@ -2,14 +2,15 @@
 //! the safety chain, and fault injection. Exchanges with the controller exactly what the
 //! bus carries: raw counts, drive status, raw I/O images, the analog voltage.
 
-use crate::config::PlantConfig;
+use crate::config::{DriveCounters, LinearPlant, PlantConfig, Side};
+use crate::drive::{Drive, DriveCommand, HomeGeometry, HomingParams, MODE_CSP};
 use crate::servo::{Servo, ServoParams};
 use crate::spindle::Spindle;
 use crate::worklink::WorkLink;
 use hob_control::fault::{Axis, End};
 use hob_control::io::{Inputs, IoBits, Outputs};
 use hob_control::{AxisFeedback, ControlParams, CycleInputs, CycleOutputs};
-use hob_setup::config::machine::MachineConfig;
+use hob_setup::config::machine::{LinearAxisConfig, MachineConfig};
 use std::f64::consts::TAU;
 
 const G: f64 = 9.81;
@@ -43,12 +44,35 @@ pub enum Injection {
     VfdFault,
 }
 
-/// Initial positions.
+/// Initial positions: where the machine stands at power-on. What the drives' counters
+/// read there is `simulation.drive_counters` ([`DriveCounters`]).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct Start {
     pub x_mm: f64,
     pub y_mm: f64,
     pub table_deg: f64,
+}
+
+impl Start {
+    /// X and Y at a random position within their soft limits (drawn from `seed`), the
+    /// table at `table_deg`: where an unreferenced machine may stand at power-on.
+    pub fn random_within_travel(machine: &MachineConfig, seed: u64, table_deg: f64) -> Self {
+        let mut rng = seed.wrapping_mul(0x9E37_79B9_7F4A_7C15) | 1;
+        let mut uniform = || {
+            rng ^= rng >> 12;
+            rng ^= rng << 25;
+            rng ^= rng >> 27;
+            (rng.wrapping_mul(0x2545_F491_4F6C_DD1D) >> 11) as f64 / (1u64 << 53) as f64
+        };
+        let within = |a: &LinearAxisConfig, u: f64| {
+            a.soft_limit_min_mm + u * (a.soft_limit_max_mm - a.soft_limit_min_mm)
+        };
+        Self {
+            x_mm: within(&machine.x, uniform()),
+            y_mm: within(&machine.y, uniform()),
+            table_deg,
+        }
+    }
 }
 
 /// The simulated machine.
@@ -61,6 +85,8 @@ pub struct Plant {
     pub table: Servo,
     pub x: Servo,
     pub y: Servo,
+    /// The drives of B, X and Y (counters, modes, homing, hardware-limit faults).
+    pub drives: [Drive; 3],
     /// Torsional deflection of the work on the table under the cut (seed 003).
     pub work: WorkLink,
     spindle_counts_per_rad: f64,
@@ -72,8 +98,10 @@ pub struct Plant {
     inner_s: f64,
     outputs: Outputs,
     analog_v: f64,
-    /// Enable of each drive (B, X, Y) as commanded over the bus.
+    /// Whether each drive's power stage drives its motor (B, X, Y), as of the last SYNC.
     drive_enable: [bool; 3],
+    /// The enable of the last SYNC (a rising edge resets a drive's own fault).
+    enable_before: [bool; 3],
     lube_on_since: Option<f64>,
     clamp_changed_at: f64,
     clamp_closed: bool,
@@ -112,6 +140,49 @@ fn linear_servo(
     (Servo::new(params, start_mm * rad_per_mm, period_s), rad_per_mm)
 }
 
+/// The drive of a linear axis: home switch, index pulse, hardware limits and homing
+/// parameters (as the master configures them from `[x|y.homing]`) in motor counts.
+fn linear_drive(m: &LinearAxisConfig, p: &LinearPlant, servo: &Servo, counters: DriveCounters) -> Drive {
+    let sign = m.polarity.sign();
+    let counts = |mm: f64| mm * m.counts_per_mm() * sign;
+    let pitch = i64::from(m.encoder_counts_per_motor_rev);
+    let geometry = HomeGeometry {
+        switch_edge_counts: counts(p.home_switch_edge_mm),
+        switch_active_positive: (p.home_switch_active_side == Side::Positive) == (sign > 0.0),
+        index_pitch_counts: pitch,
+        index_phase_counts: (counts(p.index_pulse_at_mm).round() as i64).rem_euclid(pitch),
+        timeout_s: p.homing_timeout_s,
+    };
+    let (a, b) = (
+        counts(m.soft_limit_min_mm - p.hardware_limit_margin_mm),
+        counts(m.soft_limit_max_mm + p.hardware_limit_margin_mm),
+    );
+    let h = &m.homing;
+    let per_s = |mm_min: f64| (mm_min / 60.0 * m.counts_per_mm()).round() as u32;
+    let homing = HomingParams {
+        method: h.method,
+        home_offset_counts: counts(h.home_position_mm).round() as i32,
+        switch_speed_counts_s: per_s(h.switch_search_mm_min),
+        zero_speed_counts_s: per_s(h.zero_search_mm_min),
+        accel_counts_s2: (h.accel_mm_s2 * m.counts_per_mm()).round() as u32,
+    };
+    let physical = servo.position_counts();
+    Drive::new(
+        physical,
+        power_on_counter(physical, counters),
+        Some(geometry),
+        Some((a.min(b), a.max(b))),
+        homing,
+    )
+}
+
+fn power_on_counter(physical: i64, counters: DriveCounters) -> i64 {
+    match counters {
+        DriveCounters::Referenced => physical,
+        DriveCounters::Incremental => 0,
+    }
+}
+
 impl Plant {
     pub fn new(cfg: &PlantConfig, machine: &MachineConfig, start: Start, gashes: u32) -> Self {
         let params = ControlParams::from_machine(machine);
@@ -134,6 +205,13 @@ impl Plant {
         let table = Servo::new(table_params, start.table_deg * table_motor_rad_per_deg, period_s);
         let (x, x_rad_per_mm) = linear_servo(&machine.x, &cfg.x, false, period_s, start.x_mm);
         let (y, y_rad_per_mm) = linear_servo(&machine.y, &cfg.y, true, period_s, start.y_mm);
+        let counters = cfg.simulation.drive_counters;
+        let table_physical = table.position_counts();
+        let drives = [
+            Drive::without_homing(table_physical, power_on_counter(table_physical, counters)),
+            linear_drive(&machine.x, &cfg.x, &x, counters),
+            linear_drive(&machine.y, &cfg.y, &y, counters),
+        ];
         let s = &machine.spindle;
         Self {
             cfg: cfg.clone(),
@@ -148,6 +226,7 @@ impl Plant {
             table,
             x,
             y,
+            drives,
             work: WorkLink::new(t.work_link_t1_s, t.work_link_t2_s, t.work_link_stiffness_nm_rad),
             spindle_counts_per_rad: f64::from(s.encoder_counts_per_rev) / TAU,
             table_motor_rad_per_deg,
@@ -159,6 +238,7 @@ impl Plant {
             outputs: Outputs::default(),
             analog_v: 0.0,
             drive_enable: [false; 3],
+            enable_before: [false; 3],
             lube_on_since: None,
             clamp_changed_at: 0.0,
             clamp_closed: false,
@@ -191,6 +271,22 @@ impl Plant {
             Injection::Obstruct(a) => self.servo_mut(a).disturbance_nm = 1e3,
             Injection::VfdFault => self.spindle.vfd_fault = true,
         }
+    }
+
+    /// Every injected fault repaired, as a technician would (a drive's fault cleared, the
+    /// chain or the emergency stop released, the lube restored, the obstacle removed): the
+    /// drives' own fault state stays until the master's fault reset.
+    pub fn clear_injections(&mut self) {
+        for a in [Axis::B, Axis::X, Axis::Y] {
+            let s = self.servo_mut(a);
+            s.fault = false;
+            s.disturbance_nm = 0.0;
+        }
+        self.chain_open_injected = false;
+        self.estop = false;
+        self.limit = None;
+        self.no_lube_pressure = false;
+        self.spindle.vfd_fault = false;
     }
 
     fn servo_mut(&mut self, a: Axis) -> &mut Servo {
@@ -239,27 +335,71 @@ impl Plant {
         self.chain_closed || self.t_s - self.chain_changed_at < self.cfg.simulation.safety_stop_delay_s
     }
 
-    /// At SYNC: the drives and the I/O coupler take the controller's outputs.
+    /// At SYNC: the drives and the I/O coupler take the controller's outputs (targets,
+    /// enable, each drive's mode of operation and controlword bit 4 for homing).
     pub fn apply(&mut self, o: &CycleOutputs) {
         self.apply_io(o.digital_outputs, o.spindle_analog_v);
-        let e = o.drives_enabled;
-        self.apply_drives(
-            [o.table_target_counts, o.x_target_counts, o.y_target_counts],
-            [e; 3],
-        );
+        let targets = [o.table_target_counts, o.x_target_counts, o.y_target_counts];
+        self.apply_drive_commands(&std::array::from_fn(|i| DriveCommand {
+            target_counts: targets[i],
+            enable: o.drives_enabled,
+            mode: o.drive_modes[i].code(),
+            homing_start: o.homing_start[i],
+            halt: false,
+        }));
     }
 
-    /// At SYNC: each drive's target (its own counts, wrapping) and enable (B, X, Y).
-    /// Targets are in each drive's own counts (the controller applied the polarity).
+    /// At SYNC, cyclic synchronous position only: each drive's target (its own counts,
+    /// wrapping) and enable (B, X, Y).
     pub fn apply_drives(&mut self, targets: [i32; 3], enable: [bool; 3]) {
-        self.drive_enable = enable;
-        for (i, s) in [&mut self.table, &mut self.x, &mut self.y]
+        self.apply_drive_commands(&std::array::from_fn(|i| DriveCommand {
+            target_counts: targets[i],
+            enable: enable[i],
+            mode: MODE_CSP,
+            homing_start: false,
+            halt: false,
+        }));
+    }
+
+    /// At SYNC: what each drive (B, X, Y) takes from the bus. Targets are in each drive's
+    /// own counts (the controller applied the polarity). A rising edge of `enable` (the
+    /// master's fault reset and enable) resets a drive's own fault (a hardware limit).
+    pub fn apply_drive_commands(&mut self, c: &[DriveCommand; 3]) {
+        let powered = self.drives_powered();
+        let period_s = self.params.period_s;
+        for (i, (s, d)) in [&mut self.table, &mut self.x, &mut self.y]
             .into_iter()
+            .zip(self.drives.iter_mut())
             .enumerate()
         {
-            s.enabled = enable[i] && s.enabled_power;
-            s.apply_target(unwrap_near(targets[i], s.position_counts()));
+            if c[i].enable && !self.enable_before[i] {
+                d.reset_fault();
+            }
+            self.enable_before[i] = c[i].enable;
+            d.at_sync(s, &c[i], powered, period_s);
+            self.drive_enable[i] = d.active();
         }
+    }
+
+    /// Drive `i` (0 B, 1 X, 2 Y) asks for `mode` (0x6060 written): it takes effect at
+    /// once if the drive implements it (returns whether).
+    pub fn set_drive_mode(&mut self, i: usize, mode: i8) -> bool {
+        let s = match i {
+            0 => &self.table,
+            1 => &self.x,
+            _ => &self.y,
+        };
+        self.drives[i].set_mode(mode, s)
+    }
+
+    /// The counter (0x6064) of drive `i` (0 B, 1 X, 2 Y).
+    pub fn drive_counter(&self, i: usize) -> i64 {
+        let s = match i {
+            0 => &self.table,
+            1 => &self.x,
+            _ => &self.y,
+        };
+        self.drives[i].counter(s.position_counts())
     }
 
     /// The I/O coupler's outputs: raw digital image and the spindle's analog voltage.
@@ -286,21 +426,19 @@ impl Plant {
 
     /// At SYNC: what the drives and the coupler report.
     pub fn latch(&self) -> CycleInputs {
-        let p = self.params;
-        let fb = |s: &Servo| AxisFeedback {
-            position_counts: s.position_counts() as i32,
+        let fb = |s: &Servo, d: &Drive| AxisFeedback {
+            position_counts: d.counter(s.position_counts()) as i32,
             enabled: s.enabled && !s.fault,
-            fault: s.fault,
+            fault: s.fault || d.fault().is_some(),
             fresh: true,
-            mode_display: hob_control::DriveMode::CyclicPosition.code(),
-            homing: hob_control::HomingBits::default(),
+            mode_display: d.mode_display(),
+            homing: d.homing_bits(),
         };
-        let _ = p;
         CycleInputs {
             spindle_counts: self.spindle_counts(),
-            table: fb(&self.table),
-            x: fb(&self.x),
-            y: fb(&self.y),
+            table: fb(&self.table, &self.drives[0]),
+            x: fb(&self.x, &self.drives[1]),
+            y: fb(&self.y, &self.drives[2]),
             digital_inputs: self.io.encode_inputs(&self.inputs()),
             io_valid: true,
         }
@@ -459,9 +597,4 @@ impl Plant {
     pub fn table_motor_rad_per_deg(&self) -> f64 {
         self.table_motor_rad_per_deg
     }
-}
-
-/// The 64-bit count nearest to `reference` whose low 32 bits are `wrapped`'s.
-fn unwrap_near(wrapped: i32, reference: i64) -> i64 {
-    reference + i64::from(wrapped.wrapping_sub(reference as i32))
 }

@@ -78,6 +78,11 @@ impl Servo {
         (self.motor_rad * self.p.counts_per_rad).floor() as i64
     }
 
+    /// Motor speed, encoder counts per second.
+    pub fn velocity_counts_s(&self) -> f64 {
+        self.motor_rad_s * self.p.counts_per_rad
+    }
+
     /// At SYNC: the new target takes effect, interpolated over the next period.
     pub fn apply_target(&mut self, target_counts: i64) {
         self.target_prev_counts = self.target_counts;

@@ -10,7 +10,7 @@ use hob_control::egb::Coupling;
 use hob_control::events::Event;
 use hob_control::program::CycleProgram;
 use hob_control::{
-    Command, ControlParams, Controller, CycleInputs, CycleOutputs, SpindleAngleSource, Status,
+    Command, ControlParams, Controller, CycleInputs, CycleOutputs, HomeAxes, SpindleAngleSource, Status,
 };
 use hob_gearing::units::arcsec_to_um_at_radius;
 use hob_setup::config::machine::MachineConfig;
@@ -180,10 +180,13 @@ impl Simulation {
             y_cmd_mm: s.y_cmd_mm,
             sync_err_arcsec,
             work_twist_arcsec: self.plant.work_twist_arcsec(),
+            feed_override_percent: Some(s.feed_override_percent),
+            spindle_override_percent: Some(s.spindle_override_percent),
         }
     }
 
-    /// Runs until the controller leaves power-up (or `max_s` passes).
+    /// Runs until the machine is ready to cut (or `max_s` passes): power-up, then X and
+    /// Y referenced by their drives' homing, as an operator does after power-on.
     pub fn power_up(&mut self, max_s: f64, sink: &mut dyn FnMut(&TraceRow)) -> bool {
         self.power_up_with(max_s, sink, &mut |c, i| c.step(i))
     }
@@ -196,11 +199,21 @@ impl Simulation {
         step: &mut dyn FnMut(&mut Controller, &CycleInputs) -> CycleOutputs,
     ) -> bool {
         let end = self.cycle + (max_s / self.period_s) as u64;
+        let mut homing_asked = false;
         while self.cycle < end {
             let row = self.step_with(step);
             sink(&row);
             if row.state == RowState::Idle {
-                return true;
+                let s = self.controller.status();
+                if s.referenced == [true, true] {
+                    return true;
+                }
+                if homing_asked || self.command(Command::Home { axes: HomeAxes::Both }).is_err() {
+                    return false;
+                }
+                homing_asked = true;
+            } else if row.state == RowState::Faulted {
+                return false;
             }
         }
         false
@@ -336,8 +349,15 @@ pub fn run_program(
         builder.add(row, period);
         sink(row);
     };
-    if !sim.power_up(60.0, &mut both) {
-        return Err("the machine did not leave power-up within 60 s".into());
+    if !sim.power_up(180.0, &mut both) {
+        let s = sim.controller.status();
+        return Err(format!(
+            "the machine was not powered up and referenced within 180 s (state {}, referenced X {} Y {}, fault {:?})",
+            s.state.name(),
+            s.referenced[0],
+            s.referenced[1],
+            s.fault
+        ));
     }
     sim.controller
         .load(*program)

@@ -19,6 +19,8 @@ struct Recording {
     outputs: Vec<CycleOutputs>,
     /// Cycles stepped before the program was loaded and started.
     started_at: usize,
+    /// Cycles stepped before referencing was asked for (power-up asks once idle).
+    homed_at: usize,
     cycle: CycleProgram,
     params: ControlParams,
 }
@@ -38,10 +40,22 @@ fn record() -> Recording {
         o
     };
     let mut started_at = 0;
+    let mut homed_at = None;
     assert!(
-        sim.power_up_with(30.0, &mut |_| started_at += 1, &mut step),
+        sim.power_up_with(
+            120.0,
+            &mut |row| {
+                started_at += 1;
+                // Power-up asks for referencing after the cycle whose row first says idle.
+                if homed_at.is_none() && row.state == State::Idle {
+                    homed_at = Some(started_at);
+                }
+            },
+            &mut step
+        ),
         "power-up"
     );
+    let homed_at = homed_at.expect("idle before referencing");
     sim.controller.load(cycle).unwrap();
     sim.command(Command::Start { single: false }).unwrap();
     let done = sim.run_until_with(
@@ -61,6 +75,7 @@ fn record() -> Recording {
         inputs,
         outputs,
         started_at,
+        homed_at,
         cycle,
         params: ControlParams::from_machine(&machine),
     }
@@ -101,6 +116,12 @@ fn replay(r: &Recording, inputs: &[CycleInputs]) -> Vec<CycleOutputs> {
     let mut c = Controller::new(r.params);
     let mut out = Vec::with_capacity(inputs.len());
     for (k, i) in inputs.iter().enumerate() {
+        if k == r.homed_at {
+            c.command(Command::Home {
+                axes: hob_control::HomeAxes::Both,
+            })
+            .unwrap();
+        }
         if k == r.started_at {
             c.load(r.cycle).unwrap();
             c.command(Command::Start { single: false }).unwrap();

@@ -7,7 +7,7 @@
 mod common;
 
 use hob_control::fault::Axis;
-use hob_control::{Command, CycleOutputs, State};
+use hob_control::{Command, CycleOutputs, Direction, HomeAxes, State};
 use hob_plant::plant::Injection;
 use hob_plant::sim::Simulation;
 use std::alloc::{GlobalAlloc, Layout, System};
@@ -96,6 +96,16 @@ impl Driver {
     }
 
     fn command(&mut self, cmd: Command) {
+        let _ = self.answer(cmd);
+    }
+
+    /// A command that must be accepted (else its state would not be exercised).
+    fn accepted(&mut self, cmd: Command) {
+        let result = self.answer(cmd);
+        assert_eq!(result, Ok(()), "{cmd:?}");
+    }
+
+    fn answer(&mut self, cmd: Command) -> Result<(), hob_control::fault::Refusal> {
         let c = &mut self.sim.controller;
         let result = counted(|| c.command(cmd));
         println!(
@@ -103,6 +113,7 @@ impl Driver {
             self.t as f64 * 0.001,
             c.status().state
         );
+        result
     }
 }
 
@@ -161,6 +172,38 @@ fn the_control_step_never_allocates() {
     d.sim.plant.y.fault = false;
     d.command(Command::Reset);
     d.until(30.0, |s| s == State::Idle);
+    // The operator's set-up functions: continue the interrupted pass, referencing again,
+    // a continuous jog released and one stopped by its dead-man, touch-off, overrides in
+    // the cut.
+    d.accepted(Command::Continue);
+    d.until(300.0, |s| s == State::Cut);
+    d.accepted(Command::FeedOverride { percent: 80.0 });
+    d.accepted(Command::SpindleOverride { percent: 110.0 });
+    d.until(2.0, |_| false);
+    d.accepted(Command::Stop);
+    d.until(60.0, |s| s == State::Idle);
+    d.accepted(Command::FeedOverride { percent: 100.0 });
+    d.accepted(Command::SpindleOverride { percent: 100.0 });
+    d.accepted(Command::Home { axes: HomeAxes::Both });
+    d.until(120.0, |s| s == State::Idle);
+    let jog = Command::JogContinuous {
+        axis: Axis::X,
+        direction: Direction::Negative,
+        speed_per_min: 300.0,
+    };
+    for _ in 0..5 {
+        d.accepted(jog);
+        d.until(0.1, |_| false);
+    }
+    d.accepted(Command::JogRelease);
+    d.until(5.0, |s| s == State::Idle);
+    d.accepted(jog);
+    d.until(5.0, |s| s == State::Idle);
+    let x_mm = d.sim.controller.status().x_mm;
+    d.accepted(Command::TouchOff {
+        axis: Axis::X,
+        value_mm: 2.0 * x_mm - cycle.tool_tip_diameter_mm,
+    });
     // The other cycles: loading a program is part of the loop's work too.
     for (name, edits) in [
         (
@@ -224,6 +267,7 @@ fn the_control_step_never_allocates() {
         "init",
         "idle",
         "jog",
+        "referencing",
     ] {
         assert!(d.states.contains(s), "state {s} not exercised: {:?}", d.states);
     }

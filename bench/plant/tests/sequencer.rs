@@ -294,7 +294,7 @@ fn start_without_a_program_is_refused() {
         job.tool.gashes as u32,
     );
     let _ = plan;
-    assert!(sim.power_up(30.0, &mut |_| {}));
+    assert!(sim.power_up(120.0, &mut |_| {}));
     assert_eq!(
         sim.command(Command::Start { single: false }),
         Err(Refusal::NoProgram)
@@ -497,16 +497,17 @@ fn lube_runs_again_after_5_m_of_travel() {
     let (job, cycle, plan) = short_spur(&[]);
     let mut sim = powered_up(&job, &cycle, &plan);
     assert_eq!(sim.controller.lube_cycles(), 1);
+    // Referenced, Y stands at its home near the top: down and up again.
     for _ in 0..14 {
         sim.command(Command::Jog {
             axis: Axis::Y,
-            distance: 200.0,
+            distance: -200.0,
         })
         .unwrap();
         run(&mut sim, 30.0, |r| r.state == Idle);
         sim.command(Command::Jog {
             axis: Axis::Y,
-            distance: -200.0,
+            distance: 200.0,
         })
         .unwrap();
         run(&mut sim, 30.0, |r| r.state == Idle);

@@ -166,6 +166,20 @@ pub struct Status {
     /// Empty when there is none.
     pub alarm: String,
     pub stats: Option<LoopStats>,
+    /// Work positions (machine position plus the work offset).
+    pub x_mm: f64,
+    pub y_mm: f64,
+    pub pass: u32,
+    pub x_referenced: bool,
+    pub y_referenced: bool,
+    /// The table kept its position since an interrupted part's tooth phase was recorded.
+    pub table_position_whole: bool,
+    pub x_offset_mm: f64,
+    pub y_offset_mm: f64,
+    pub feed_override_percent: f64,
+    pub spindle_override_percent: f64,
+    /// The pass `hob continue` would continue from.
+    pub continue_pass: Option<u32>,
 }
 
 /// `stats` of `hob status --json`.
@@ -365,6 +379,32 @@ impl Bench {
             ended: false,
         });
         ProcId(self.procs.len() - 1)
+    }
+
+    /// The standard input of a process started with `Stdio::piped()` (for `hob-sim
+    /// --control`: one fault per line).
+    pub fn stdin_of(&mut self, p: ProcId) -> std::process::ChildStdin {
+        let pr = &mut self.procs[p.0];
+        pr.child
+            .stdin
+            .take()
+            .unwrap_or_else(|| panic!("{}: no piped standard input", pr.name))
+    }
+
+    /// `hob home all`, then waits until X and Y are referenced and the loop is idle.
+    pub fn reference(&mut self, timeout: Duration) -> Status {
+        self.hob_ok(&["home", "all"]);
+        self.wait_for("X and Y referenced, idle", timeout, |b| {
+            let s = b.try_status()?;
+            if s.state == "idle" && s.x_referenced && s.y_referenced {
+                Ok(s)
+            } else {
+                Err(format!(
+                    "state {}, referenced x {} y {} (alarm '{}')",
+                    s.state, s.x_referenced, s.y_referenced, s.alarm
+                ))
+            }
+        })
     }
 
     /// Starts the binary `exe` with `args` as `name`, its output in `log`.

@@ -44,10 +44,12 @@ fn start_service(b: &mut Bench, machine: &Path, n: u32) -> (ProcId, ProcId) {
         &format!("sim{n}.txt"),
     );
     std::thread::sleep(Duration::from_millis(300));
+    // The work offsets of this session only (never the machine PC's /var/lib/hob).
+    let state = path(&b.art.join(format!("machine-state{n}.toml")));
     let rt = b.spawn(
         "hob-rt",
         "hob-rt",
-        &["--iface", &iface, "--machine", &machine],
+        &["--iface", &iface, "--machine", &machine, "--state-file", &state],
         &format!("rt{n}.txt"),
     );
     (sim, rt)
@@ -201,6 +203,20 @@ fn service_session() {
             "a program is loaded after the refusal"
         );
         String::new()
+    });
+    b.step("refused: start before X and Y are referenced", |b| {
+        b.hob_ok(&["load", &program_arg()]);
+        let o = b.hob(&["start"]);
+        assert_eq!(o.code, Some(2), "hob start: {}", o.text);
+        assert!(o.text.contains("not referenced"), "hob start: {}", o.text);
+        let s = b.status();
+        assert_eq!(s.state, "idle", "the state after the refusal");
+        assert!(!s.x_referenced && !s.y_referenced, "{s:?}");
+        o.text
+    });
+    b.step("referencing X and Y: hob home all", |b| {
+        let s = b.reference(STATE_TIMEOUT);
+        format!("X {:.3} mm, Y {:.3} mm", s.x_mm, s.y_mm)
     });
     b.step("load and start: cutting", |b| {
         b.hob_ok(&["load", &program_arg()]);
@@ -425,13 +441,17 @@ fn silent_machine_mid_cut() {
         &["--iface", &iface, "--machine", &path(&machine)],
         "watchdog2.txt",
     );
-    b.step("second session: power-up, load, start, cutting", |b| {
-        b.wait_state("idle", STATE_TIMEOUT);
-        b.hob_ok(&["load", &program_arg()]);
-        b.hob_ok(&["start"]);
-        b.wait_state("cut", STATE_TIMEOUT);
-        String::new()
-    });
+    b.step(
+        "second session: power-up, referencing, load, start, cutting",
+        |b| {
+            b.wait_state("idle", STATE_TIMEOUT);
+            b.reference(STATE_TIMEOUT);
+            b.hob_ok(&["load", &program_arg()]);
+            b.hob_ok(&["start"]);
+            b.wait_state("cut", STATE_TIMEOUT);
+            String::new()
+        },
+    );
     b.step(
         "virtual machine silent mid-cut: hob-rt faults and retracts",
         |b| {
@@ -485,6 +505,254 @@ fn silent_machine_mid_cut() {
         assert!(s.alarm.is_empty(), "alarm after the reset: {}", s.alarm);
         s.state
     });
+}
+
+/// The operator's path from power-on to a continued cut, through the CLI as an operator
+/// (or the touch HMI, which sends the same commands) goes: power-on with X and Y
+/// unreferenced, referencing by the drives' homing, touch-off (the loop computes the
+/// offsets, hob-rt saves them atomically), a program from the library, feed and spindle
+/// overrides in the cut, a drive fault in the cut (X retracts, the loop stops), the fault
+/// repaired and reset, and the program continued from the interrupted pass on the same part.
+#[test]
+#[ignore = "needs the release binaries and a bus; ci/test runs it (--ignored --test-threads=1)"]
+fn operator_path_from_power_on_to_a_continued_cut() {
+    use std::io::Write as _;
+    let mut b = Bench::new("operator_path");
+    let m = b.session_machine();
+    let machine = m.write(&b.art.join("machine.toml"));
+    let (iface, program) = (b.iface.clone(), program_arg());
+    let mut sim = b.command("hob-sim");
+    sim.args([
+        "--iface",
+        &iface,
+        "--machine",
+        &path(&machine),
+        "--program",
+        &program,
+        "--rt-priority",
+        "75",
+        "--control",
+    ])
+    .stdin(std::process::Stdio::piped());
+    let sim = b.spawn_cmd("hob-sim", sim, "sim3.txt");
+    let mut faults = b.stdin_of(sim);
+    std::thread::sleep(Duration::from_millis(300));
+    let state_file = b.art.join("machine-state3.toml");
+    b.spawn(
+        "hob-rt",
+        "hob-rt",
+        &[
+            "--iface",
+            &iface,
+            "--machine",
+            &path(&machine),
+            "--state-file",
+            &path(&state_file),
+        ],
+        "rt3.txt",
+    );
+    // The logger records every event (a `hob status` started later sees only new ones).
+    let session = b.art.join("session");
+    b.spawn("hob-logger", "hob-logger", &[&session], "logger3.txt");
+    let library = path(&b.art.join("library"));
+    let float = |v: &toml::Value| v.as_float().or_else(|| v.as_integer().map(|i| i as f64)).unwrap();
+    let home_mm = [
+        float(m.get("x.homing.home_position_mm")),
+        float(m.get("y.homing.home_position_mm")),
+    ];
+    let tip_diameter_mm = float(TomlDoc::load(&session_program()).get("tool.outside_diameter_mm"));
+
+    b.step("power-on: idle, X and Y not referenced, no work offsets", |b| {
+        let s = b.wait_state("idle", STATE_TIMEOUT);
+        assert!(!s.x_referenced && !s.y_referenced, "{s:?}");
+        assert_eq!((s.x_offset_mm, s.y_offset_mm), (0.0, 0.0));
+        assert!(!state_file.exists(), "a machine state file before any touch-off");
+        String::new()
+    });
+    b.step("referencing X and Y from wherever the drives powered up", |b| {
+        let s = b.reference(STATE_TIMEOUT);
+        // The drives end their homing standing on the home position (offsets still 0).
+        assert!(
+            (s.x_mm - home_mm[0]).abs() < 0.05 && (s.y_mm - home_mm[1]).abs() < 0.05,
+            "X {} Y {} mm after homing, home positions {home_mm:?}",
+            s.x_mm,
+            s.y_mm
+        );
+        format!("X {:.3} mm, Y {:.3} mm", s.x_mm, s.y_mm)
+    });
+    b.step(
+        "continuous jog by hob jog-hold; kill -9 of it stops X by the dead-man",
+        |b| {
+            let jog = b.spawn(
+                "hob jog-hold",
+                "hob",
+                &["jog-hold", "x", "-", "--speed", "300", "--seconds", "60"],
+                "jog-hold.txt",
+            );
+            let s0 = b.wait_for("X moving under hob jog-hold", STATE_TIMEOUT, |b| {
+                let s = b.try_status()?;
+                if s.state == "jog" && home_mm[0] - s.x_mm > 0.5 {
+                    Ok(s)
+                } else {
+                    Err(format!("state {}, X {} mm", s.state, s.x_mm))
+                }
+            });
+            b.kill9(jog);
+            let s1 = b.wait_state("idle", STATE_TIMEOUT);
+            std::thread::sleep(Duration::from_secs(1));
+            let s2 = b.status();
+            let events = session.join("events.log");
+            let line = b.wait_for(
+                "the dead-man stop in the logger's events.log",
+                STATE_TIMEOUT,
+                |_| {
+                    let text = std::fs::read_to_string(&events).map_err(|e| e.to_string())?;
+                    text.lines()
+                        .find(|l| l.contains("dead-man"))
+                        .map(str::to_string)
+                        .ok_or_else(|| format!("{} lines, none with dead-man", text.lines().count()))
+                },
+            );
+            assert!(line.contains("jog X stopped"), "{line}");
+            assert!(
+                (s2.x_mm - s1.x_mm).abs() < 0.01,
+                "X still moving after the stop: {} -> {} mm",
+                s1.x_mm,
+                s2.x_mm
+            );
+            let soft_min_mm = float(m.get("x.soft_limit_min_mm"));
+            assert!(
+                s2.x_mm > soft_min_mm + 10.0,
+                "X {} mm: it ran on towards the soft limit {soft_min_mm} mm",
+                s2.x_mm
+            );
+            // After the kill X ran on for the dead-man time (machine file's [jog]) and braking
+            // at 300 mm/min: a fraction of a millimetre, plus how late the kill came.
+            format!("X {:.3} mm when killed, stopped at {:.3} mm", s0.x_mm, s2.x_mm)
+        },
+    );
+    b.step("the program into the library and loaded from it", |b| {
+        b.hob_ok(&[
+            "lib",
+            "--library",
+            &library,
+            "programs",
+            "create",
+            "session-gear",
+            &program,
+        ]);
+        let list = b
+            .hob_ok(&["lib", "--library", &library, "programs", "list"])
+            .stdout;
+        assert!(list.contains("session-gear"), "hob lib programs list:\n{list}");
+        let o = b.hob(&["load", "--lib", "no-such-gear", "--library", &library]);
+        assert_eq!(o.code, Some(2), "hob load --lib no-such-gear: {}", o.text);
+        assert!(!b.status().program_loaded, "a program loaded after the refusal");
+        b.hob_ok(&["load", "--lib", "session-gear", "--library", &library]);
+        assert!(b.status().program_loaded);
+        list.trim().to_string()
+    });
+    b.step(
+        "touch-off: the loop computes the offsets, hob-rt saves them, hob status shows them",
+        |b| {
+            let s = b.status();
+            // Gauges chosen so that the offsets come out +0.1 mm (X) and -0.2 mm (Y):
+            // X = gauge radius + tip radius at the touch, Y = gauge height + tip radius.
+            let gauge_diameter_mm = 2.0 * (s.x_mm + 0.1) - tip_diameter_mm;
+            let gauge_height_mm = s.y_mm - 0.2 - 0.5 * tip_diameter_mm;
+            let absurd = b.hob(&["touch-off", "x", "--diameter", "10"]);
+            assert_eq!(absurd.code, Some(2), "a 10 mm gauge here: {}", absurd.text);
+            assert_eq!(b.status().x_offset_mm, 0.0, "the offset after the refusal");
+            let x = b.hob_ok(&["touch-off", "x", "--diameter", &format!("{gauge_diameter_mm:.6}")]);
+            assert!(x.text.contains("saved in"), "hob touch-off x: {}", x.text);
+            let y = b.hob_ok(&["touch-off", "y", "--height", &format!("{gauge_height_mm:.6}")]);
+            assert!(y.text.contains("saved in"), "hob touch-off y: {}", y.text);
+            let t = b.status();
+            assert!(
+                (t.x_offset_mm - 0.1).abs() < 1e-5 && (t.y_offset_mm + 0.2).abs() < 1e-5,
+                "offsets {} {}",
+                t.x_offset_mm,
+                t.y_offset_mm
+            );
+            // Nothing moved: the work position is the machine position plus the offset.
+            assert!((t.x_mm - s.x_mm - 0.1).abs() < 0.01, "X {} -> {}", s.x_mm, t.x_mm);
+            let saved = TomlDoc::load(&state_file);
+            assert!(
+                (float(saved.get("x_offset_mm")) - t.x_offset_mm).abs() < 1e-9
+                    && (float(saved.get("y_offset_mm")) - t.y_offset_mm).abs() < 1e-9,
+                "{}: {}",
+                state_file.display(),
+                saved.table
+            );
+            format!(
+                "offsets X {:+.4} Y {:+.4} mm, saved",
+                t.x_offset_mm, t.y_offset_mm
+            )
+        },
+    );
+    b.step(
+        "start; feed and spindle overrides in the cut, one out of range refused",
+        |b| {
+            b.hob_ok(&["start"]);
+            b.wait_state("cut", STATE_TIMEOUT);
+            b.hob_ok(&["override", "feed", "80"]);
+            b.hob_ok(&["override", "spindle", "110"]);
+            let o = b.hob(&["override", "feed", "150"]);
+            assert_eq!(o.code, Some(2), "hob override feed 150: {}", o.text);
+            let s = b.status();
+            assert_eq!(
+                (
+                    s.state.as_str(),
+                    s.feed_override_percent,
+                    s.spindle_override_percent
+                ),
+                ("cut", 80.0, 110.0),
+                "alarm '{}'",
+                s.alarm
+            );
+            o.text
+        },
+    );
+    let mut pass_at_fault = 0;
+    b.step(
+        "a drive fault in the cut: X retracts, the loop stops, the pass is kept",
+        |b| {
+            let before = b.status();
+            pass_at_fault = before.pass;
+            writeln!(faults, "drive-fault y").unwrap();
+            let s = b.wait_state("fault", STATE_TIMEOUT);
+            assert!(s.alarm.contains('Y'), "alarm '{}'", s.alarm);
+            assert!(
+                s.x_mm > before.x_mm,
+                "X {} -> {} mm: not retracted",
+                before.x_mm,
+                s.x_mm
+            );
+            assert_eq!(s.continue_pass, Some(pass_at_fault), "{s:?}");
+            assert!(s.table_position_whole, "{s:?}");
+            let o = b.hob(&["continue"]);
+            assert_eq!(o.code, Some(2), "hob continue while faulted: {}", o.text);
+            format!("{} in pass {pass_at_fault}", s.alarm)
+        },
+    );
+    b.step(
+        "the drive repaired, reset, continue: the interrupted pass is cut again",
+        |b| {
+            // The safety chain has dropped out by now (the loop opened it at the fault).
+            std::thread::sleep(Duration::from_secs(1));
+            writeln!(faults, "clear").unwrap();
+            b.hob_ok(&["reset"]);
+            let s = b.wait_state("idle", STATE_TIMEOUT);
+            assert!(s.alarm.is_empty(), "alarm after the reset: {}", s.alarm);
+            b.hob_ok(&["continue"]);
+            let s = b.wait_state("cut", STATE_TIMEOUT);
+            assert_eq!(s.pass, pass_at_fault, "{s:?}");
+            b.hob_ok(&["stop"]);
+            let s = b.wait_state("idle", STATE_TIMEOUT);
+            assert!(s.alarm.is_empty(), "alarm after the stop: {}", s.alarm);
+            format!("pass {pass_at_fault} continued")
+        },
+    );
 }
 
 /// `hob-rt --require-rt` refuses to run without the real-time set-up (exit status 3),

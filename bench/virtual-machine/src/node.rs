@@ -9,10 +9,25 @@ use hob_canopen::sdo::SdoServer;
 /// What handling a frame changed in the node.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub struct Effect {
-    /// An RPDO or SDO wrote this object (index).
-    pub written: Option<u16>,
+    /// The objects an RPDO or SDO wrote (indices, in mapping order; up to 8).
+    written: [u16; 8],
+    written_count: usize,
     pub sync: bool,
     pub reset: bool,
+}
+
+impl Effect {
+    /// Whether the frame wrote object `index`.
+    pub fn wrote(&self, index: u16) -> bool {
+        self.written[..self.written_count].contains(&index)
+    }
+
+    fn write(&mut self, index: u16) {
+        if self.written_count < self.written.len() && !self.wrote(index) {
+            self.written[self.written_count] = index;
+            self.written_count += 1;
+        }
+    }
 }
 
 /// One node.
@@ -170,12 +185,12 @@ impl Node {
                     out.push(r);
                 }
                 if self.od.raw(index, f.data[3]).map(<[u8]>::to_vec) != before {
-                    effect.written = Some(index);
+                    effect.write(index);
                 }
             }
             Cob::Heartbeat(0x7F) => self.master_seen_s = Some(now_s),
             Cob::Rpdo(n, node) if node == self.id && self.nmt == NmtState::Operational => {
-                effect.written = self.receive_rpdo(n, f, out);
+                self.receive_rpdo(n, f, out, &mut effect);
             }
             _ => {}
         }
@@ -192,11 +207,13 @@ impl Node {
             .collect()
     }
 
-    fn receive_rpdo(&mut self, n: u8, f: &Frame, out: &mut Vec<Frame>) -> Option<u16> {
+    /// Writes a received RPDO's values into the dictionary. A value the entry does not
+    /// accept (an unsupported mode of operation in 0x6060) is ignored, the rest applied.
+    fn receive_rpdo(&mut self, n: u8, f: &Frame, out: &mut Vec<Frame>, effect: &mut Effect) {
         let comm = 0x1400 + u16::from(n) - 1;
         let cob = self.od.u32(comm, 1);
         if cob & 0x8000_0000 != 0 || (cob & 0x7FF) as u16 != f.id {
-            return None;
+            return;
         }
         let entries = self.mapping(comm + 0x200);
         let len: usize = entries.iter().map(|e| e.2).sum();
@@ -211,18 +228,18 @@ impl Node {
                 }
                 .frame(),
             );
-            return None;
+            return;
         }
         let mut pos = 0;
-        let mut last = None;
         for (index, sub, n) in entries {
             let mut b = [0u8; 8];
             b[..n].copy_from_slice(&f.data[pos..pos + n]);
-            self.od.put(index, sub, u64::from_le_bytes(b));
+            if self.od.accepts(index, sub, &b[..n]) {
+                self.od.put(index, sub, u64::from_le_bytes(b));
+                effect.write(index);
+            }
             pos += n;
-            last = Some(index);
         }
-        last
     }
 
     /// Whether `cob` is one of this node's synchronous TPDOs (transmission type 1..=240):

@@ -18,6 +18,9 @@ struct Entry {
     /// Fixed size in bytes (`None`: any length, e.g. strings).
     size: Option<usize>,
     mappable: bool,
+    /// The only values a write may bring (signed 8-bit entries such as 0x6060, 0x6098):
+    /// any other is refused (by SDO: abort 0x0609_0030 value range exceeded).
+    allowed: Option<Vec<i8>>,
 }
 
 /// A node's object dictionary.
@@ -35,6 +38,7 @@ impl Od {
                 access,
                 size: Some(data.len()),
                 mappable: index >= 0x2000,
+                allowed: None,
             },
         );
         self
@@ -48,6 +52,7 @@ impl Od {
                 access: Access::Ro,
                 size: None,
                 mappable: false,
+                allowed: None,
             },
         );
         self
@@ -62,9 +67,26 @@ impl Od {
                 access: Access::Rw,
                 size: None,
                 mappable: false,
+                allowed: None,
             },
         );
         self
+    }
+
+    /// Restricts a 1-byte entry to `values` (see [`Self::accepts`]).
+    pub fn allow_only(&mut self, index: u16, sub: u8, values: &[i8]) -> &mut Self {
+        if let Some(e) = self.entries.get_mut(&(index, sub)) {
+            e.allowed = Some(values.to_vec());
+        }
+        self
+    }
+
+    /// Whether `data` is a value the entry may take (always, unless restricted).
+    pub fn accepts(&self, index: u16, sub: u8, data: &[u8]) -> bool {
+        match self.entries.get(&(index, sub)).and_then(|e| e.allowed.as_ref()) {
+            Some(values) => data.len() == 1 && values.contains(&(data[0] as i8)),
+            None => true,
+        }
     }
 
     pub fn u32(&self, index: u16, sub: u8) -> u32 {
@@ -169,6 +191,9 @@ impl ObjectDictionary for Od {
             } else {
                 AbortCode(0x0607_0013)
             });
+        }
+        if e.allowed.as_ref().is_some_and(|v| !v.contains(&(data[0] as i8))) {
+            return Err(AbortCode::INVALID_VALUE);
         }
         e.data = data.to_vec();
         Ok(())

@@ -14,7 +14,8 @@ use hob_canopen::emcy::Emcy;
 use hob_canopen::frame::Frame;
 use hob_canopen::nmt::NmtState;
 use hob_control::fault::Axis;
-use hob_plant::config::PlantConfig;
+use hob_plant::config::{DriveCounters, PlantConfig};
+use hob_plant::drive::{DriveCommand, HOMING_METHODS, HomingParams, MODE_HOMING};
 use hob_plant::plant::{Injection, Plant, Start};
 use hob_process_image::plan::{ANALOG_OUTPUTS, BusPlan, DIGITAL_INPUTS, DIGITAL_OUTPUTS};
 use hob_setup::config::machine::MachineConfig;
@@ -33,11 +34,14 @@ pub enum VmFault {
     Silent(u8),
     /// Garbage frames per SYNC: unused identifiers, and used ones with wrong lengths.
     Garbage(u32),
+    /// Every fault injected so far repaired (the bus healthy again, the plant's faults
+    /// cleared; a drive's own fault stays until the master's fault reset).
+    Clear,
 }
 
 impl VmFault {
     /// Parses `drive-fault x`, `estop`, `chain-open`, `limit y min`, `no-lube`,
-    /// `obstruct y`, `vfd-fault`, `drop 0.2`, `delay 3`, `silent 2`, `garbage 4`.
+    /// `obstruct y`, `vfd-fault`, `drop 0.2`, `delay 3`, `silent 2`, `garbage 4`, `clear`.
     pub fn parse(text: &str) -> Result<Self, String> {
         let words: Vec<&str> = text.split_whitespace().collect();
         let axis = |w: Option<&&str>| match w.map(|s| s.to_ascii_lowercase()).as_deref() {
@@ -70,6 +74,7 @@ impl VmFault {
             Some("delay") => VmFault::Delay(num(words.get(1))? as u32),
             Some("silent") => VmFault::Silent(num(words.get(1))? as u8),
             Some("garbage") => VmFault::Garbage(num(words.get(1))? as u32),
+            Some("clear") => VmFault::Clear,
             other => return Err(format!("unknown fault {other:?}")),
         })
     }
@@ -79,15 +84,24 @@ const DRIVE_DEVICE_TYPE: u32 = 0x0002_0192; // CiA 402, servo
 const IO_DEVICE_TYPE: u32 = 0x0003_0191; // CiA 401, digital in + out
 /// Following error window of the simulated drives (0x6065), counts.
 const FOLLOWING_WINDOW_COUNTS: u32 = 20_000;
-/// Supported modes announced in 0x6502: PP, PV, HM, IP, CSP.
-const SUPPORTED_MODES: u32 = 0x0000_00E5;
+/// Controlword bit 8: halt.
+const CW_HALT: u16 = 1 << 8;
 
 /// TPDO1-4 and RPDO1-4 identifiers.
 fn is_pdo(id: u16) -> bool {
     (0x180..0x580).contains(&id)
 }
 
-fn drive_od(node: u8, name: &str, spindle: Option<(u16, u8)>) -> Od {
+/// The object dictionary of a drive: `modes` are the modes it implements (0x6502, and the
+/// only values 0x6060 takes); `homing` its homing objects' values at power-on (X and Y).
+fn drive_od(
+    node: u8,
+    name: &str,
+    spindle: Option<(u16, u8)>,
+    modes: &[i8],
+    homing: Option<HomingParams>,
+) -> Od {
+    let supported: u32 = modes.iter().fold(0, |b, m| b | 1 << (m - 1));
     let mut od = Od::default();
     // Default mapping as many drives ship: RPDO1 controlword, TPDO1 statusword.
     let rpdo = [[0x6040_0010, 0, 0], [0, 0, 0], [0, 0, 0], [0, 0, 0]];
@@ -100,6 +114,8 @@ fn drive_od(node: u8, name: &str, spindle: Option<(u16, u8)>) -> Od {
             Access::Ro,
             &PowerState::SwitchOnDisabled.statusword().to_le_bytes(),
         )
+        // Powered up with no mode (0): the display follows a mode written to 0x6060 as
+        // soon as it takes effect, in any power state, and the master's boot reads it back.
         .set(object::MODES_OF_OPERATION, 0, Access::Rw, &[0])
         .set(object::MODES_DISPLAY, 0, Access::Ro, &[0])
         .set(object::POSITION_ACTUAL, 0, Access::Ro, &0i32.to_le_bytes())
@@ -109,14 +125,41 @@ fn drive_od(node: u8, name: &str, spindle: Option<(u16, u8)>) -> Od {
         .set(object::INTERPOLATION_PERIOD, 0, Access::Ro, &[2])
         .set(object::INTERPOLATION_PERIOD, 1, Access::Rw, &[1])
         .set(object::INTERPOLATION_PERIOD, 2, Access::Rw, &[(-3i8) as u8])
-        .set(
-            object::SUPPORTED_MODES,
-            0,
-            Access::Ro,
-            &SUPPORTED_MODES.to_le_bytes(),
-        )
+        .set(object::SUPPORTED_MODES, 0, Access::Ro, &supported.to_le_bytes())
         // A vendor-specific text the machine builder may write (axis label).
         .set_rw_str(0x2000, 0, "");
+    od.allow_only(object::MODES_OF_OPERATION, 0, modes);
+    // Homing parameters (CiA 402-2 section 12), written by the master at boot: only on a
+    // drive that homes (the table has none, and says so with "object does not exist").
+    if let Some(h) = homing {
+        od.set(
+            object::HOME_OFFSET,
+            0,
+            Access::Rw,
+            &h.home_offset_counts.to_le_bytes(),
+        )
+        .set(object::HOMING_METHOD, 0, Access::Rw, &[h.method as u8])
+        .set(object::HOMING_SPEEDS, 0, Access::Ro, &[2])
+        .set(
+            object::HOMING_SPEEDS,
+            1,
+            Access::Rw,
+            &h.switch_speed_counts_s.to_le_bytes(),
+        )
+        .set(
+            object::HOMING_SPEEDS,
+            2,
+            Access::Rw,
+            &h.zero_speed_counts_s.to_le_bytes(),
+        )
+        .set(
+            object::HOMING_ACCELERATION,
+            0,
+            Access::Rw,
+            &h.accel_counts_s2.to_le_bytes(),
+        )
+        .allow_only(object::HOMING_METHOD, 0, &HOMING_METHODS);
+    }
     if let Some((index, sub)) = spindle {
         od.set(index, sub, Access::Ro, &0i32.to_le_bytes());
     }
@@ -161,6 +204,10 @@ pub struct VirtualMachine {
     drives: [Node; 3],
     io: Node,
     state: [PowerState; 3],
+    /// A rising edge of controlword bit 4 since the last SYNC (homing start), so that a
+    /// pulse shorter than a period is not lost.
+    homing_start_seen: [bool; 3],
+    controlword_before: [u16; 3],
     time_s: f64,
     period_s: f64,
     syncs: u64,
@@ -183,20 +230,44 @@ pub struct VirtualMachine {
 }
 
 impl VirtualMachine {
+    /// The virtual machine at power-on with the machine standing at `start`; with
+    /// `simulation.drive_counters = "incremental"` X and Y stand at a random position
+    /// within their travel instead (from `simulation.seed`) and every drive's counter
+    /// starts at 0.
     pub fn new(machine: &MachineConfig, plant: &PlantConfig, start: Start, gashes: u32) -> Self {
         let plan = BusPlan::from_machine(machine);
         let spindle = (plan.spindle_encoder.index, plan.spindle_encoder.sub);
         let names = ["hob-sim drive B (table)", "hob-sim drive X", "hob-sim drive Y"];
+        let start = match plant.simulation.drive_counters {
+            DriveCounters::Referenced => start,
+            DriveCounters::Incremental => {
+                Start::random_within_travel(machine, plant.simulation.seed, start.table_deg)
+            }
+        };
+        let physics = Plant::new(plant, machine, start, gashes);
         let drives = std::array::from_fn(|i| {
             let node = plan.drives[i].node;
-            Node::new(node, drive_od(node, names[i], (i == 0).then_some(spindle)))
+            let d = &physics.drives[i];
+            let homing = d.supported_modes().contains(&MODE_HOMING).then_some(d.homing);
+            Node::new(
+                node,
+                drive_od(
+                    node,
+                    names[i],
+                    (i == 0).then_some(spindle),
+                    d.supported_modes(),
+                    homing,
+                ),
+            )
         });
         Self {
-            plant: Plant::new(plant, machine, start, gashes),
+            plant: physics,
             plan,
             drives,
             io: Node::new(plan.io.node, io_od(plan.io.node)),
             state: [PowerState::SwitchOnDisabled; 3],
+            homing_start_seen: [false; 3],
+            controlword_before: [0; 3],
             time_s: 0.0,
             period_s: plan.cycle_s,
             syncs: 0,
@@ -267,6 +338,13 @@ impl VirtualMachine {
             VmFault::Drop(p) => self.drop = p,
             VmFault::Delay(n) => self.delay = n,
             VmFault::Garbage(n) => self.garbage = n,
+            VmFault::Clear => {
+                self.plant.clear_injections();
+                (self.drop, self.delay, self.garbage) = (0.0, 0, 0);
+                for n in self.nodes_mut() {
+                    n.silent = false;
+                }
+            }
             VmFault::Silent(node) => {
                 for n in self.nodes_mut() {
                     if n.id == node {
@@ -306,7 +384,12 @@ impl VirtualMachine {
             if e.reset {
                 self.state[i] = PowerState::SwitchOnDisabled;
             }
-            if e.written == Some(object::CONTROLWORD) {
+            // The mode first: a frame that brings a mode and the controlword (RPDO2 with
+            // both) starts homing in the mode it brings.
+            if e.wrote(object::MODES_OF_OPERATION) {
+                self.on_mode(i);
+            }
+            if e.wrote(object::CONTROLWORD) {
                 self.on_controlword(i, out);
             }
         }
@@ -364,8 +447,25 @@ impl VirtualMachine {
             .any(|n| n.nmt == NmtState::Operational)
     }
 
+    /// 0x6060 was written (its value is one the drive implements: the dictionary refuses
+    /// others, by SDO with an abort, by RPDO by ignoring them): the mode takes effect at
+    /// once, in any power state, and 0x6061 shows it.
+    fn on_mode(&mut self, i: usize) {
+        let mode = self.drives[i].od.u32(object::MODES_OF_OPERATION, 0) as u8 as i8;
+        if self.plant.set_drive_mode(i, mode) {
+            self.drives[i]
+                .od
+                .put(object::MODES_DISPLAY, 0, u64::from(mode as u8));
+            self.put_statusword(i);
+        }
+    }
+
     fn on_controlword(&mut self, i: usize, out: &mut Vec<Frame>) {
         let cw = self.drives[i].od.u32(object::CONTROLWORD, 0) as u16;
+        if cw & cia402::CW_HOMING_START != 0 && self.controlword_before[i] & cia402::CW_HOMING_START == 0 {
+            self.homing_start_seen[i] = true;
+        }
+        self.controlword_before[i] = cw;
         let before = self.state[i];
         let mut next = cia402::drive_transition(before, cw);
         // Without power at the stage the drive cannot switch on.
@@ -384,6 +484,7 @@ impl VirtualMachine {
             if servo.fault {
                 next = PowerState::Fault;
             } else {
+                self.plant.drives[i].reset_fault();
                 out.push(self.emcy(i, 0x0000, 0));
             }
         }
@@ -403,11 +504,27 @@ impl VirtualMachine {
 
     fn set_state(&mut self, i: usize, s: PowerState) {
         self.state[i] = s;
-        self.drives[i]
-            .od
-            .put(object::STATUSWORD, 0, u64::from(s.statusword()));
-        let mode = self.drives[i].od.u32(object::MODES_OF_OPERATION, 0);
-        self.drives[i].od.put(object::MODES_DISPLAY, 0, u64::from(mode));
+        self.put_statusword(i);
+    }
+
+    /// The statusword: the power state's bits, and in homing mode the homing progress in
+    /// bits 13, 12, 10 (CiA 402-2; `hob_canopen::cia402::HomingProgress`).
+    fn put_statusword(&mut self, i: usize) {
+        let d = &self.plant.drives[i];
+        let mut sw = self.state[i].statusword();
+        if d.mode_display() == MODE_HOMING {
+            let h = d.homing_bits();
+            for (on, bit) in [
+                (h.error, cia402::SW_HOMING_ERROR),
+                (h.attained, cia402::SW_HOMING_ATTAINED),
+                (h.target_reached, cia402::SW_TARGET_REACHED),
+            ] {
+                if on {
+                    sw |= bit;
+                }
+            }
+        }
+        self.drives[i].od.put(object::STATUSWORD, 0, u64::from(sw));
     }
 
     fn fault(&mut self, i: usize, code: u16, out: &mut Vec<Frame>) {
@@ -423,12 +540,36 @@ impl VirtualMachine {
         self.syncs += 1;
         let mut targets = [0i32; 3];
         let mut enable = [false; 3];
+        let mut commands = [DriveCommand {
+            target_counts: 0,
+            enable: false,
+            mode: 0,
+            homing_start: false,
+            halt: false,
+        }; 3];
         for i in 0..3 {
             let d = &self.drives[i];
             targets[i] = d.od.u32(object::TARGET_POSITION, 0) as i32;
-            let csp = d.od.u32(object::MODES_OF_OPERATION, 0) as u8 as i8 == cia402::MODE_CSP;
-            enable[i] =
-                self.state[i] == PowerState::OperationEnabled && csp && d.nmt == NmtState::Operational;
+            enable[i] = self.state[i] == PowerState::OperationEnabled && d.nmt == NmtState::Operational;
+            let cw = d.od.u32(object::CONTROLWORD, 0) as u16;
+            if let Some(h) = self.plant.drives[i]
+                .supported_modes()
+                .contains(&MODE_HOMING)
+                .then(|| homing_params(&d.od))
+            {
+                self.plant.drives[i].homing = h;
+            }
+            commands[i] = DriveCommand {
+                target_counts: targets[i],
+                enable: enable[i],
+                mode: self.plant.drives[i].mode_display(),
+                // A rising edge since the last SYNC, even if bit 4 fell again.
+                homing_start: cw & cia402::CW_HOMING_START != 0 || self.homing_start_seen[i],
+                halt: cw & CW_HALT != 0,
+            };
+            if self.homing_start_seen[i] {
+                self.plant.drives[i].homing_start_rose();
+            }
         }
         let io = &self.io.od;
         let dout = io.u32(DIGITAL_OUTPUTS, 1) | io.u32(DIGITAL_OUTPUTS, 2) << 8;
@@ -436,20 +577,26 @@ impl VirtualMachine {
         let analog = io.u32(ANALOG_OUTPUTS, ch) as u16 as i16;
         let volts = f64::from(analog.max(0)) / 32767.0 * self.plan.analog_full_scale_v;
         self.plant.apply_io(dout, volts);
-        self.plant.apply_drives(targets, enable);
+        self.plant.apply_drive_commands(&commands);
+        self.homing_start_seen = [false; 3];
 
         // Latch.
         let powered = self.plant.drives_have_power();
         let servos = [&self.plant.table, &self.plant.x, &self.plant.y];
-        let positions: [i64; 3] = std::array::from_fn(|i| servos[i].position_counts());
         let faulted: [bool; 3] = std::array::from_fn(|i| servos[i].fault);
+        let positions: [i64; 3] = std::array::from_fn(|i| self.plant.drive_counter(i));
+        let csp: [bool; 3] = std::array::from_fn(|i| self.plant.drives[i].mode_display() == cia402::MODE_CSP);
         for i in 0..3 {
             self.drives[i]
                 .od
                 .put(object::POSITION_ACTUAL, 0, positions[i] as i32 as u32 as u64);
             if faulted[i] {
                 self.fault(i, 0x2310, out);
+            } else if let Some(code) = self.plant.drives[i].fault() {
+                // The drive's own fault: a hardware limit.
+                self.fault(i, code, out);
             } else if enable[i]
+                && csp[i]
                 && (i64::from(targets[i]) - positions[i]).unsigned_abs()
                     > u64::from(self.drives[i].od.u32(0x6065, 0))
             {
@@ -473,6 +620,9 @@ impl VirtualMachine {
             }
         }
         self.powered_before = powered;
+        for i in 0..3 {
+            self.put_statusword(i);
+        }
         let spindle = self.plant.spindle_counts();
         let enc = self.plan.spindle_encoder;
         self.drives[0].od.put(enc.index, enc.sub, spindle as u32 as u64);
@@ -546,5 +696,18 @@ impl VirtualMachine {
     }
 }
 
+/// The homing objects of a drive's dictionary.
+fn homing_params(od: &Od) -> HomingParams {
+    HomingParams {
+        method: od.u32(object::HOMING_METHOD, 0) as u8 as i8,
+        home_offset_counts: od.u32(object::HOME_OFFSET, 0) as i32,
+        switch_speed_counts_s: od.u32(object::HOMING_SPEEDS, 1),
+        zero_speed_counts_s: od.u32(object::HOMING_SPEEDS, 2),
+        accel_counts_s2: od.u32(object::HOMING_ACCELERATION, 0),
+    }
+}
+
+#[cfg(test)]
+mod drive_tests;
 #[cfg(test)]
 mod tests;

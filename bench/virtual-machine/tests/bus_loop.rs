@@ -10,7 +10,7 @@ use hob_canopen::cia402::PowerState;
 use hob_canopen::frame::{Cob, Frame};
 use hob_control::fault::{Axis, Fault};
 use hob_control::program::CycleProgram;
-use hob_control::{Command, ControlParams, Controller, State};
+use hob_control::{Command, ControlParams, Controller, HomeAxes, State};
 use hob_plant::config::PlantConfig;
 use hob_plant::sim::start_for;
 use hob_process_image::master::boot;
@@ -123,6 +123,26 @@ fn bed() -> Bed {
     for _ in 0..2000 {
         master.cycle();
     }
+    // The drives count from wherever they powered up: X and Y reference by their own
+    // homing (CiA 402 mode 6, over the bus) before anything but a slow jog is accepted.
+    master
+        .controller
+        .command(Command::Home { axes: HomeAxes::Both })
+        .unwrap();
+    for _ in 0..120_000 {
+        master.cycle();
+        let s = master.controller.status();
+        if s.state != State::Referencing {
+            break;
+        }
+    }
+    let s = master.controller.status();
+    assert_eq!(
+        (s.state, s.referenced),
+        (State::Idle, [true, true]),
+        "{:?}",
+        s.fault
+    );
     Bed {
         master,
         vm,
@@ -312,6 +332,36 @@ fn drive_fault_on_y_in_the_cut_retracts_first_then_stops() {
         Some(Fault::DriveFault { axis: Axis::Y })
     );
     assert_nothing_enabled(bed);
+}
+
+#[test]
+fn a_repaired_drive_is_reset_over_the_bus_and_the_interrupted_pass_continues() {
+    let (mut bed, _) = fault_in_cut(VmFault::Plant(hob_plant::plant::Injection::DriveFault(Axis::Y)));
+    // The cut was in pass 1 (of the short program's rough and finish passes).
+    let pass = bed.master.controller.status().continue_pass;
+    assert_eq!(pass, 1);
+    run_until(&mut bed, 1000, |_| false);
+    // Not repaired: the reset's fault reset does not take, the drive's fault is back.
+    bed.master.controller.command(Command::Reset).unwrap();
+    run_until(&mut bed, 10_000, |s| s == State::Faulted);
+    assert_eq!(
+        bed.master.controller.status().fault,
+        Some(Fault::DriveFault { axis: Axis::Y })
+    );
+    // Repaired (a second later, the safety chain dropped out by then): the master's
+    // fault reset clears it, the drives come up, the pass goes on.
+    run_until(&mut bed, 1000, |_| false);
+    bed.vm.inject(VmFault::Clear);
+    bed.master.controller.command(Command::Reset).unwrap();
+    run_until(&mut bed, 20_000, |s| s == State::Idle || s == State::Faulted);
+    let s = bed.master.controller.status();
+    assert_eq!((s.state, s.fault), (State::Idle, None));
+    assert!(s.table_position_whole, "{s:?}");
+    bed.master.controller.command(Command::Continue).unwrap();
+    run_until(&mut bed, 400_000, |s| s == State::Cut || s == State::Faulted);
+    let s = bed.master.controller.status();
+    assert_eq!((s.state, s.pass, s.fault), (State::Cut, pass, None));
+    let _ = drive_states(bed);
 }
 
 #[test]

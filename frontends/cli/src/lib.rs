@@ -9,6 +9,7 @@
 pub mod can;
 pub mod doctor;
 pub mod lab;
+pub mod library;
 pub mod render;
 pub mod service;
 pub mod util;

@@ -4,10 +4,11 @@
 //! arguments: the message names the file, position, key and limit); 1 anything else.
 
 use clap::{Parser, Subcommand};
+use hob_cli::library::{Action, Place};
 use hob_cli::util::{Failure, emit, load_machine, machine_path, service_result};
-use hob_cli::{can, doctor, lab, render, service};
+use hob_cli::{can, doctor, lab, library, render, service};
 use hob_setup::config::machine::MachineConfig;
-use hob_setup::planner::plan_file;
+use hob_store::library::Kind;
 use std::path::PathBuf;
 use std::process::ExitCode;
 
@@ -46,8 +47,33 @@ enum Command {
         #[arg(long)]
         json: bool,
     },
-    /// Load a program into the running service (checked there against its machine).
-    Load { program: PathBuf },
+    /// Load a program into the running service (checked there against its machine); a
+    /// library tool the program names is filled in first.
+    Load {
+        /// Program file (TOML).
+        #[arg(required_unless_present = "lib", conflicts_with = "lib")]
+        program: Option<PathBuf>,
+        /// A program of the library instead of a file.
+        #[arg(long, value_name = "NAME")]
+        lib: Option<String>,
+        /// Program library [default: $HOB_LIBRARY, then [library] dir of the machine file].
+        #[arg(long, value_name = "DIR")]
+        library: Option<PathBuf>,
+        /// Machine configuration (for its [library] dir) [default: config/machine.toml, then /etc/hob/machine.toml].
+        #[arg(long, value_name = "FILE")]
+        machine: Option<PathBuf>,
+    },
+    /// The program and tool library: list, show, create, copy, rename, delete.
+    Lib {
+        #[command(subcommand)]
+        command: LibCommand,
+        /// Program library [default: $HOB_LIBRARY, then [library] dir of the machine file].
+        #[arg(long, value_name = "DIR", global = true)]
+        library: Option<PathBuf>,
+        /// Machine configuration [default: config/machine.toml, then /etc/hob/machine.toml].
+        #[arg(long, value_name = "FILE", global = true)]
+        machine: Option<PathBuf>,
+    },
     /// Start the loaded program.
     Start {
         /// Only the single-mode pass.
@@ -68,6 +94,49 @@ enum Command {
         #[arg(allow_hyphen_values = true)]
         distance: f64,
     },
+    /// Continuous jog with a dead-man: renewed every 100 ms for SECONDS (or until the
+    /// process is stopped: killing it stops the axis within the dead-man time).
+    JogHold {
+        axis: String,
+        /// `+` or `-`.
+        #[arg(allow_hyphen_values = true)]
+        direction: String,
+        /// mm/min (deg/min for B); the loop limits it.
+        #[arg(long, default_value_t = 300.0)]
+        speed: f64,
+        #[arg(long, default_value_t = 1.0)]
+        seconds: f64,
+        /// Stop renewing at the end instead of releasing (what a lost frontend does).
+        #[arg(long)]
+        no_release: bool,
+    },
+    /// Reference X and Y (or one of them) by the drives' homing.
+    Home {
+        /// x, y or all.
+        #[arg(default_value = "all")]
+        axes: String,
+    },
+    /// Feed or spindle speed override in percent of the program's.
+    Override {
+        /// feed or spindle.
+        what: String,
+        percent: f64,
+    },
+    /// Touch-off: the hob's tip touches a gauge; sets the work offset of X (the gauge's
+    /// diameter) or Y (the height of its top face above the table face).
+    TouchOff {
+        axis: String,
+        /// X: the gauge's diameter, mm.
+        #[arg(long)]
+        diameter: Option<f64>,
+        /// Y: the gauge's height above the table face, mm.
+        #[arg(long)]
+        height: Option<f64>,
+    },
+    /// Continue the interrupted program from the interrupted pass, on the same part.
+    Continue,
+    /// A new blank is on the table: forget the recorded tooth phase.
+    NewBlank,
     /// Read recorded logs of hob-logger.
     Log {
         #[command(subcommand)]
@@ -83,6 +152,9 @@ enum Command {
         /// Print the plan as JSON.
         #[arg(long)]
         json: bool,
+        /// Program library, for a program that names a library tool [default: $HOB_LIBRARY, then [library] dir of the machine file].
+        #[arg(long, value_name = "DIR")]
+        library: Option<PathBuf>,
     },
     /// Worst-case CAN bus load per cycle of the configured PDO set; refused above the limit.
     BusLoad {
@@ -111,7 +183,82 @@ enum Command {
         /// Machine configuration [default: config/machine.toml, then /etc/hob/machine.toml].
         #[arg(long, value_name = "FILE")]
         machine: Option<PathBuf>,
+        /// Program library, for a program that names a library tool [default: $HOB_LIBRARY, then [library] dir of the machine file].
+        #[arg(long, value_name = "DIR")]
+        library: Option<PathBuf>,
     },
+}
+
+#[derive(Debug, Subcommand)]
+enum LibCommand {
+    /// Programs (`programs/NAME.toml`), each checked on the machine as `hob check` does.
+    Programs {
+        #[command(subcommand)]
+        action: EntryAction,
+    },
+    /// Tools (`tools/NAME.toml`): a program's `[tool]` fields and the tool's usage.
+    Tools {
+        #[command(subcommand)]
+        action: ToolAction,
+    },
+}
+
+#[derive(Debug, Subcommand)]
+enum EntryAction {
+    /// Every entry, valid or with the reason it is not.
+    List,
+    /// The entry's file as stored.
+    Show {
+        name: String,
+    },
+    /// A new entry from FILE; refused (nothing written) unless it parses and checks.
+    Create {
+        name: String,
+        file: PathBuf,
+    },
+    /// Copy under a new name (never over an existing entry).
+    Copy {
+        from: String,
+        to: String,
+    },
+    /// Rename (never over an existing entry).
+    Rename {
+        from: String,
+        to: String,
+    },
+    Delete {
+        name: String,
+    },
+}
+
+#[derive(Debug, Subcommand)]
+enum ToolAction {
+    #[command(flatten)]
+    Entry(EntryAction),
+    /// Add a recorded cut (a hob-logger directory) to the tool's usage: its passes and the
+    /// Y travelled in the cut.
+    RecordUsage {
+        name: String,
+        /// The recording of the cut (hob-logger's directory).
+        #[arg(long, value_name = "DIR")]
+        log: PathBuf,
+        /// When it was cut, YYYY-MM-DDTHH:MM:SSZ [default: now].
+        #[arg(long, value_name = "UTC")]
+        when: Option<String>,
+    },
+}
+
+impl EntryAction {
+    fn action(self) -> Action {
+        match self {
+            EntryAction::List => Action::List,
+            EntryAction::Show { name } => Action::Show(name),
+            EntryAction::Create { name, file } => Action::Create { name, file },
+            EntryAction::Copy { from, to } => Action::Copy { from, to },
+            EntryAction::Rename { from, to } => Action::Rename { from, to },
+            EntryAction::Delete { name } => Action::Delete(name),
+        }
+    }
 }
 
 #[derive(Debug, Subcommand)]
@@ -144,7 +291,8 @@ enum CanCommand {
 #[derive(Debug, Subcommand)]
 enum LogCommand {
     /// Write a recorded log as CSV: the columns of `hob simulate`'s trace.csv up to
-    /// sync_err_arcsec, then the cycle counter and the other recorded values.
+    /// sync_err_arcsec, then the cycle counter and the other recorded values, then the
+    /// feed and spindle overrides in percent (trace.csv's last two columns).
     Export {
         dir: PathBuf,
         /// CSV (the only format; required for clarity).
@@ -154,7 +302,8 @@ enum LogCommand {
         #[arg(long, value_name = "FILE")]
         out: Option<PathBuf>,
     },
-    /// Per-pass synchronisation error statistics of a recorded cut.
+    /// Per-pass synchronisation error statistics of a recorded cut, and the feed and
+    /// spindle override ranges in each pass's cut.
     Report { dir: PathBuf },
 }
 
@@ -215,7 +364,40 @@ fn run(command: Command) -> Result<(), Failure> {
             }
         }
         Command::Status { watch, json } => service_result(service::status(watch, json)),
-        Command::Load { program } => service_result(service::load(&program)),
+        Command::Load {
+            program,
+            lib,
+            library,
+            machine,
+        } => {
+            let place = Place { library, machine };
+            let (name, text) = library::load_text(program.as_deref(), lib.as_deref(), &place)?;
+            service_result(service::load_text(&name, &text))
+        }
+        Command::Lib {
+            command,
+            library: dir,
+            machine,
+        } => {
+            let place = Place {
+                library: dir,
+                machine,
+            };
+            match command {
+                LibCommand::Programs { action } => library::run(Kind::Program, action.action(), &place),
+                LibCommand::Tools { action } => {
+                    let action = match action {
+                        ToolAction::Entry(a) => a.action(),
+                        ToolAction::RecordUsage { name, log, when } => Action::RecordUsage {
+                            name,
+                            log,
+                            when_utc: when,
+                        },
+                    };
+                    library::run(Kind::Tool, action, &place)
+                }
+            }
+        }
         Command::Start { single } => service_result(service::request(&service::start(single))),
         Command::Hold => service_result(service::request(&service::simple(code::FEED_HOLD))),
         Command::Resume => service_result(service::request(&service::simple(code::RESUME))),
@@ -224,6 +406,24 @@ fn run(command: Command) -> Result<(), Failure> {
         Command::Jog { axis, distance } => {
             service_result(service::jog(&axis, distance).and_then(|r| service::request(&r)))
         }
+        Command::JogHold {
+            axis,
+            direction,
+            speed,
+            seconds,
+            no_release,
+        } => service_result(service::jog_hold(&axis, &direction, speed, seconds, !no_release)),
+        Command::Home { axes } => service_result(service::home(&axes).and_then(|r| service::request(&r))),
+        Command::Override { what, percent } => {
+            service_result(service::override_request(&what, percent).and_then(|r| service::request(&r)))
+        }
+        Command::TouchOff {
+            axis,
+            diameter,
+            height,
+        } => service_result(service::touch_off(&axis, diameter, height).and_then(|r| service::request(&r))),
+        Command::Continue => service_result(service::request(&service::simple(code::CONTINUE))),
+        Command::NewBlank => service_result(service::request(&service::simple(code::NEW_BLANK))),
         Command::Log { command } => match command {
             LogCommand::Export { dir, csv, out } => {
                 if !csv {
@@ -247,9 +447,14 @@ fn run(command: Command) -> Result<(), Failure> {
             program,
             machine,
             json,
+            library: dir,
         } => {
-            let machine = load_machine(machine.as_deref())?;
-            let plan = plan_file(&program, &machine).map_err(Failure::Refused)?;
+            let place = Place {
+                library: dir,
+                machine,
+            };
+            let machine = load_machine(place.machine.as_deref())?;
+            let plan = library::plan_file(&program, &place, &machine)?;
             if json {
                 let text = serde_json::to_string_pretty(&plan).map_err(|e| Failure::Other(e.to_string()))?;
                 emit(&format!("{text}\n"))
@@ -296,8 +501,16 @@ fn run(command: Command) -> Result<(), Failure> {
                 }
             }
         }
-        Command::Check { program, machine } => {
+        Command::Check {
+            program,
+            machine,
+            library: dir,
+        } => {
             let machine_file = machine_path(machine.as_deref())?;
+            let place = Place {
+                library: dir,
+                machine: Some(machine_file.clone()),
+            };
             let machine = MachineConfig::load(&machine_file).map_err(Failure::Refused)?;
             match program {
                 None => emit(&format!(
@@ -306,7 +519,7 @@ fn run(command: Command) -> Result<(), Failure> {
                     machine.machine.name
                 )),
                 Some(program) => {
-                    let plan = plan_file(&program, &machine).map_err(Failure::Refused)?;
+                    let plan = library::plan_file(&program, &place, &machine)?;
                     let mut text = format!(
                         "{}: ok on {}: {} pass{}, {:.0} s\n",
                         program.display(),

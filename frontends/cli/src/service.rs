@@ -26,8 +26,13 @@ pub fn request(req: &CommandRequest) -> Result<String, (u8, String)> {
 
 pub fn load(program: &Path) -> Result<String, (u8, String)> {
     let text = std::fs::read_to_string(program).map_err(|e| (2, format!("{}: {e}", program.display())))?;
-    let name = program.display().to_string();
-    let req = CommandRequest::load_program(&name, &text).map_err(|e| (2, e))?;
+    load_text(&program.display().to_string(), &text)
+}
+
+/// Sends a self-contained program's text (a library tool already resolved:
+/// [`crate::library::load_text`]) under `name`.
+pub fn load_text(name: &str, text: &str) -> Result<String, (u8, String)> {
+    let req = CommandRequest::load_program(name, text).map_err(|e| (2, e))?;
     request(&req)
 }
 
@@ -47,6 +52,117 @@ pub fn jog(axis: &str, distance: f64) -> Result<CommandRequest, (u8, String)> {
     r.axis = axis.code();
     r.value = distance;
     Ok(r)
+}
+
+/// `hob home x|y|all`.
+pub fn home(axes: &str) -> Result<CommandRequest, (u8, String)> {
+    let mut r = CommandRequest::new(command::HOME);
+    r.axis = match axes.to_ascii_lowercase().as_str() {
+        "all" | "xy" => 0,
+        other => match codec::Axis::parse(other) {
+            Some(a @ (codec::Axis::X | codec::Axis::Y)) => a.code(),
+            _ => {
+                return Err((
+                    2,
+                    format!("home: {axes} is not x, y or all (the table needs no reference for hobbing)"),
+                ));
+            }
+        },
+    };
+    Ok(r)
+}
+
+/// `hob override feed|spindle PERCENT`.
+pub fn override_request(what: &str, percent: f64) -> Result<CommandRequest, (u8, String)> {
+    let code = match what {
+        "feed" => command::FEED_OVERRIDE,
+        "spindle" => command::SPINDLE_OVERRIDE,
+        _ => return Err((2, format!("override: {what} is not feed or spindle"))),
+    };
+    let mut r = CommandRequest::new(code);
+    r.value = percent;
+    Ok(r)
+}
+
+/// `hob touch-off x --diameter D` or `hob touch-off y --height H`.
+pub fn touch_off(
+    axis: &str,
+    diameter: Option<f64>,
+    height: Option<f64>,
+) -> Result<CommandRequest, (u8, String)> {
+    let (axis, value) = match (codec::Axis::parse(axis), diameter, height) {
+        (Some(a @ codec::Axis::X), Some(d), None) => (a, d),
+        (Some(a @ codec::Axis::Y), None, Some(h)) => (a, h),
+        _ => {
+            return Err((
+                2,
+                "touch-off: give x --diameter MM (the gauge's diameter) or y --height MM (its top face above the table face)".into(),
+            ));
+        }
+    };
+    let mut r = CommandRequest::new(command::TOUCH_OFF);
+    r.axis = axis.code();
+    r.value = value;
+    Ok(r)
+}
+
+/// How often a continuous jog is renewed (the machine file's dead-man time is longer).
+pub const JOG_RENEWAL: Duration = Duration::from_millis(100);
+
+/// `hob jog-hold AXIS +|-`: renews a continuous jog every [`JOG_RENEWAL`] for `seconds`,
+/// then releases it (or, with `release` false, just stops renewing, as a lost frontend).
+pub fn jog_hold(
+    axis: &str,
+    direction: &str,
+    speed: f64,
+    seconds: f64,
+    release: bool,
+) -> Result<String, (u8, String)> {
+    let a = codec::Axis::parse(axis).ok_or_else(|| (2, format!("jog-hold: axis {axis} is not x, y or b")))?;
+    let d = match direction {
+        "+" | "plus" => hob_ipc::direction::POSITIVE,
+        "-" | "minus" => hob_ipc::direction::NEGATIVE,
+        _ => return Err((2, format!("jog-hold: direction {direction} is not + or -"))),
+    };
+    if !(seconds.is_finite() && seconds >= 0.0) {
+        return Err((2, format!("jog-hold: --seconds {seconds} is not a duration")));
+    }
+    let client = hob_ipc::Client::connect(&format!("hob-cli-{}", std::process::id()))
+        .map_err(|e| (1, e.to_string()))?;
+    let mut r = CommandRequest::new(command::JOG_CONTINUOUS);
+    r.axis = a.code();
+    r.direction = d;
+    r.value = speed;
+    let end = Instant::now() + Duration::from_secs_f64(seconds);
+    let mut renewals = 0u32;
+    loop {
+        let answer: CommandResponse = client.request(&r, ANSWER).map_err(|e| (1, e.to_string()))?;
+        if answer.accepted == 0 {
+            return Err((2, answer.text()));
+        }
+        renewals += 1;
+        if Instant::now() >= end {
+            break;
+        }
+        std::thread::sleep(JOG_RENEWAL);
+    }
+    if release {
+        let answer: CommandResponse = client
+            .request(&CommandRequest::new(command::JOG_RELEASE), ANSWER)
+            .map_err(|e| (1, e.to_string()))?;
+        if answer.accepted == 0 {
+            return Err((2, answer.text()));
+        }
+        Ok(format!(
+            "jog {} {direction}: {renewals} renewals, released\n",
+            a.name()
+        ))
+    } else {
+        Ok(format!(
+            "jog {} {direction}: {renewals} renewals, then none (the dead-man stops it)\n",
+            a.name()
+        ))
+    }
 }
 
 /// What `hob status` shows.
@@ -106,6 +222,29 @@ pub fn status_text(s: &Snapshot) -> String {
         o,
         "axes     X {:9.3} mm (cmd {:9.3})  Y {:9.3} mm (cmd {:9.3})  B {:10.4} deg",
         st.x_mm.actual, st.x_mm.command, st.y_mm.actual, st.y_mm.command, st.table_deg.actual
+    );
+    let referenced = |bit: u8| {
+        if st.referenced & (1 << bit) != 0 {
+            "referenced"
+        } else {
+            "NOT REFERENCED"
+        }
+    };
+    let _ = writeln!(
+        o,
+        "set-up   X {}  Y {}  table position {}   offsets X {:+.4} Y {:+.4} mm   override feed {:.0} % spindle {:.0} %{}",
+        referenced(1),
+        referenced(2),
+        if st.referenced & 1 != 0 { "whole" } else { "LOST" },
+        st.x_offset_mm,
+        st.y_offset_mm,
+        st.feed_override_percent,
+        st.spindle_override_percent,
+        if st.continue_pass > 0 {
+            format!("   continue from pass {}", st.continue_pass)
+        } else {
+            String::new()
+        }
     );
     let _ = writeln!(
         o,
@@ -241,6 +380,14 @@ pub fn status_json(s: &Snapshot) -> String {
         "coupling": codec::coupling_name(st.coupling),
         "io_valid": st.io_valid != 0,
         "digital_outputs": st.digital_outputs,
+        "x_referenced": st.referenced & 0b010 != 0,
+        "y_referenced": st.referenced & 0b100 != 0,
+        "table_position_whole": st.referenced & 0b001 != 0,
+        "x_offset_mm": st.x_offset_mm,
+        "y_offset_mm": st.y_offset_mm,
+        "feed_override_percent": st.feed_override_percent,
+        "spindle_override_percent": st.spindle_override_percent,
+        "continue_pass": (st.continue_pass > 0).then_some(st.continue_pass),
         "stats": stats,
         "events": events,
     });

@@ -22,6 +22,9 @@ pub fn trace_row(s: &StateSample, t0_ns: u64) -> TraceRow {
         y_cmd_mm: s.y_mm.command,
         sync_err_arcsec: (s.coupling == Coupling::Synchronised.code()).then_some(s.sync_error_arcsec),
         work_twist_arcsec: 0.0,
+        // NaN: a log written before the overrides were recorded.
+        feed_override_percent: Some(s.feed_override_percent).filter(|v| v.is_finite()),
+        spindle_override_percent: Some(s.spindle_override_percent).filter(|v| v.is_finite()),
     }
 }
 
@@ -29,8 +32,12 @@ pub fn trace_row(s: &StateSample, t0_ns: u64) -> TraceRow {
 const EXTRA: &str =
     "cycle,spindle_rpm,ccc_arcsec,coupling,alarm,digital_inputs,digital_outputs,wake_latency_us,compute_us";
 
+/// The simulation trace's columns that end a log's CSV too, after [`EXTRA`].
+const LAST: [&str; 2] = ["feed_override_percent", "spindle_override_percent"];
+
 /// The CSV text of a log: the simulation trace's columns up to `sync_err_arcsec`, then
-/// the recorded extras (the cycle counter among them).
+/// the recorded extras (the cycle counter among them), then the overrides (the last
+/// columns of the simulation trace, empty in a log that did not record them).
 pub fn export_csv(dir: &Path) -> Result<String, String> {
     let states = crate::read_dir_states(dir)?;
     let sim_cols: Vec<&str> = TRACE_HEADER.split(',').collect();
@@ -38,16 +45,20 @@ pub fn export_csv(dir: &Path) -> Result<String, String> {
         .iter()
         .position(|c| *c == "sync_err_arcsec")
         .map_or(sim_cols.len(), |i| i + 1);
-    let mut out = String::with_capacity(states.len() * 160);
-    let _ = writeln!(out, "{},{EXTRA}", sim_cols[..upto].join(","));
+    let last = LAST.map(|name| sim_cols.iter().position(|c| *c == name));
+    let [Some(feed_at), Some(spindle_at)] = last else {
+        return Err(format!("the trace has no {LAST:?} columns: {TRACE_HEADER}"));
+    };
+    let mut out = String::with_capacity(states.len() * 176);
+    let _ = writeln!(out, "{},{EXTRA},{}", sim_cols[..upto].join(","), LAST.join(","));
     let t0 = states.first().map_or(0, |s| s.sync_time_ns);
     for s in &states {
         let row = trace_row(s, t0).csv();
-        let cut: Vec<&str> = row.split(',').take(upto).collect();
+        let cols: Vec<&str> = row.split(',').collect();
         let _ = writeln!(
             out,
-            "{},{},{:.3},{:.3},{},{},0x{:06X},0x{:04X},{:.1},{:.1}",
-            cut.join(","),
+            "{},{},{:.3},{:.3},{},{},0x{:06X},0x{:04X},{:.1},{:.1},{},{}",
+            cols[..upto].join(","),
             s.cycle,
             s.spindle_rpm,
             s.ccc_arcsec,
@@ -56,7 +67,9 @@ pub fn export_csv(dir: &Path) -> Result<String, String> {
             s.digital_inputs,
             s.digital_outputs,
             f64::from(s.wake_latency_ns) / 1e3,
-            f64::from(s.compute_ns) / 1e3
+            f64::from(s.compute_ns) / 1e3,
+            cols[feed_at],
+            cols[spindle_at]
         );
     }
     Ok(out)
@@ -136,12 +149,12 @@ pub fn report_text(dir: &Path, r: &Report) -> String {
     );
     let _ = writeln!(
         o,
-        "pass  cut s  samples  sync error arcsec: rms    max   |  um at pitch circle: rms    max   of grade 5"
+        "pass  cut s  samples  sync error arcsec: rms    max   |  um at pitch circle: rms    max   of grade 5 | overrides in the cut"
     );
     for p in &r.passes {
         let _ = writeln!(
             o,
-            "{:>4} {:>6.1} {:>8} {:>24.3} {:>6.3} | {:>24.3} {:>6.3} {:>7.0} %",
+            "{:>4} {:>6.1} {:>8} {:>24.3} {:>6.3} | {:>24.3} {:>6.3} {:>7.0} % | feed {}, spindle {}",
             p.pass,
             p.cut_time_s,
             p.samples,
@@ -149,8 +162,128 @@ pub fn report_text(dir: &Path, r: &Report) -> String {
             p.sync_err_max_arcsec,
             p.sync_err_rms_um,
             p.sync_err_max_um,
-            100.0 * p.sync_err_max_um / r.grade5_single_pitch_um
+            100.0 * p.sync_err_max_um / r.grade5_single_pitch_um,
+            percent_range(p.feed_override_min_percent, p.feed_override_max_percent),
+            percent_range(p.spindle_override_min_percent, p.spindle_override_max_percent)
         );
     }
     o
+}
+
+/// An override range as the report prints it: `80-100 %`, `100 %` when the override
+/// stayed put, `-` when there is none (no row in the cut, or a log that did not record
+/// the overrides).
+pub fn percent_range(min: Option<f64>, max: Option<f64>) -> String {
+    let pct = |v: f64| {
+        let s = format!("{v:.1}");
+        s.strip_suffix(".0").map_or_else(|| s.clone(), str::to_string)
+    };
+    match (min, max) {
+        (Some(lo), Some(hi)) if pct(lo) == pct(hi) => format!("{} %", pct(lo)),
+        (Some(lo), Some(hi)) => format!("{}-{} %", pct(lo), pct(hi)),
+        _ => "-".to_string(),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::LogWriter;
+
+    /// A recorded cut: pass 1 with the feed turned down to 80 % in the cut, a hold at
+    /// 0 %, the retract at 120 %; pass 2 at 100 % throughout.
+    fn recorded(name: &str) -> std::path::PathBuf {
+        let dir = std::env::temp_dir().join(format!("hob-export-{name}-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        let mut w = LogWriter::open(&dir, "t").unwrap();
+        let rows = [
+            (State::ToStart, 0, 1, 50.0, 100.0),
+            (State::Cut, 0, 1, 100.0, 100.0),
+            (State::Cut, 0, 1, 80.0, 100.0),
+            (State::Cut, 1, 1, 0.0, 100.0),
+            (State::Retract, 0, 1, 120.0, 100.0),
+            (State::Cut, 0, 2, 100.0, 100.0),
+        ];
+        for (i, (state, hold, pass, feed, spindle)) in rows.into_iter().enumerate() {
+            let cycle = i as u64 + 1;
+            w.push_state(&StateSample {
+                cycle,
+                sync_time_ns: cycle * 1_000_000,
+                state: state.code(),
+                hold,
+                pass,
+                coupling: Coupling::Synchronised.code(),
+                sync_error_arcsec: 0.5 * cycle as f64,
+                pitch_radius_mm: 42.5,
+                normal_module_mm: 5.0,
+                feed_override_percent: feed,
+                spindle_override_percent: spindle,
+                ..StateSample::default()
+            })
+            .unwrap();
+        }
+        w.flush().unwrap();
+        dir
+    }
+
+    #[test]
+    fn the_csv_ends_with_the_overrides() {
+        let dir = recorded("csv");
+        let csv = export_csv(&dir).unwrap();
+        let _ = std::fs::remove_dir_all(&dir);
+        let mut lines = csv.lines();
+        let header: Vec<&str> = lines.next().unwrap().split(',').collect();
+        let sim: Vec<&str> = TRACE_HEADER.split(',').collect();
+        let upto = sim.iter().position(|c| *c == "sync_err_arcsec").unwrap() + 1;
+        assert_eq!(header[..upto], sim[..upto]);
+        assert_eq!(header[upto], "cycle");
+        assert_eq!(
+            header[header.len() - 2..],
+            ["feed_override_percent", "spindle_override_percent"]
+        );
+        let rows: Vec<Vec<&str>> = lines.map(|l| l.split(',').collect()).collect();
+        assert_eq!(rows.len(), 6);
+        assert!(rows.iter().all(|r| r.len() == header.len()), "{rows:?}");
+        let feed: Vec<&str> = rows.iter().map(|r| r[r.len() - 2]).collect();
+        assert_eq!(feed, ["50.00", "100.00", "80.00", "0.00", "120.00", "100.00"]);
+        assert!(rows.iter().all(|r| r[r.len() - 1] == "100.00"), "{rows:?}");
+    }
+
+    #[test]
+    fn the_report_gives_the_override_ranges_in_the_cut_after_the_columns_it_had() {
+        let dir = recorded("report");
+        let r = report(&dir).unwrap();
+        let text = report_text(&dir, &r);
+        let _ = std::fs::remove_dir_all(&dir);
+        assert_eq!(r.passes[0].feed_override_min_percent, Some(80.0));
+        assert_eq!(r.passes[0].feed_override_max_percent, Some(100.0));
+        // The pass lines as `Report::parse` of the system tests reads them: a leading
+        // space, the pass number first, the max um at field 7.
+        let lines: Vec<&str> = text
+            .lines()
+            .skip(1)
+            .filter(|l| {
+                l.starts_with(' ')
+                    && l.split_whitespace()
+                        .next()
+                        .is_some_and(|p| p.parse::<u32>().is_ok())
+            })
+            .collect();
+        assert_eq!(lines.len(), 2, "{text}");
+        for (l, p) in lines.iter().zip(&r.passes) {
+            let f: Vec<&str> = l.split_whitespace().collect();
+            let max_um: f64 = f[7].parse().unwrap();
+            assert!((max_um - p.sync_err_max_um).abs() < 5e-4, "{l}");
+        }
+        assert!(lines[0].ends_with("| feed 80-100 %, spindle 100 %"), "{text}");
+        assert!(lines[1].ends_with("| feed 100 %, spindle 100 %"), "{text}");
+    }
+
+    #[test]
+    fn percent_ranges_read_as_the_operator_set_them() {
+        assert_eq!(percent_range(Some(80.0), Some(100.0)), "80-100 %");
+        assert_eq!(percent_range(Some(100.0), Some(100.0)), "100 %");
+        assert_eq!(percent_range(Some(85.5), Some(100.000_000_000_01)), "85.5-100 %");
+        assert_eq!(percent_range(None, None), "-");
+    }
 }

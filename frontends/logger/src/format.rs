@@ -5,6 +5,10 @@ use hob_ipc::{AlarmCode, AxisSample, StateSample};
 use std::path::{Path, PathBuf};
 
 /// Field names and types in record order.
+///
+/// The overrides took the first two of six reserved words: a file written before that
+/// names them `reserved0` and `reserved1` (u64, always 0) and is read with its overrides
+/// not recorded (see [`read_dir_states`]).
 pub const FIELDS: [(&str, &str); 42] = [
     ("cycle", "u64"),
     ("sync_time_ns", "u64"),
@@ -42,13 +46,19 @@ pub const FIELDS: [(&str, &str); 42] = [
     ("events_lost", "u64"),
     ("pitch_radius_mm", "f64"),
     ("normal_module_mm", "f64"),
-    ("reserved0", "u64"),
-    ("reserved1", "u64"),
+    ("feed_override_percent", "f64"),
+    ("spindle_override_percent", "f64"),
     ("reserved2", "u64"),
     ("reserved3", "u64"),
     ("reserved4", "u64"),
     ("reserved5", "u64"),
 ];
+
+/// Reserved words at the end of a record (written 0).
+const RESERVED_WORDS: usize = 4;
+
+/// Index in [`FIELDS`] of the feed override, the first of the two override words.
+const OVERRIDES_AT: usize = 36;
 
 fn width(t: &str) -> usize {
     match t {
@@ -103,7 +113,9 @@ pub fn encode(s: &StateSample, out: &mut Vec<u8>) {
     u64s(out, s.events_lost);
     f64s(out, s.pitch_radius_mm);
     f64s(out, s.normal_module_mm);
-    for _ in 0..6 {
+    f64s(out, s.feed_override_percent);
+    f64s(out, s.spindle_override_percent);
+    for _ in 0..RESERVED_WORDS {
         u64s(out, 0);
     }
 }
@@ -185,17 +197,40 @@ pub fn decode(b: &[u8]) -> Option<StateSample> {
     s.events_lost = c.u64();
     s.pitch_radius_mm = c.f64();
     s.normal_module_mm = c.f64();
+    s.feed_override_percent = c.f64();
+    s.spindle_override_percent = c.f64();
     Some(s)
+}
+
+/// A field list as a header holds it: `[["cycle","u64"],...]`.
+fn fields_json(fields: &[(&str, &str)]) -> serde_json::Value {
+    let fields: Vec<[&str; 2]> = fields.iter().map(|&(n, t)| [n, t]).collect();
+    serde_json::json!(fields)
+}
+
+/// Whether a header's field list records the overrides: `Some(true)` for this writer's
+/// list, `Some(false)` for the list written before the overrides were recorded (the same
+/// record with those two words reserved), `None` for any other list.
+fn overrides_recorded(fields: &serde_json::Value) -> Option<bool> {
+    let mut before = FIELDS;
+    before[OVERRIDES_AT] = ("reserved0", "u64");
+    before[OVERRIDES_AT + 1] = ("reserved1", "u64");
+    if *fields == fields_json(&FIELDS) {
+        Some(true)
+    } else if *fields == fields_json(&before) {
+        Some(false)
+    } else {
+        None
+    }
 }
 
 /// The header line of a state file.
 pub fn header(instance: &str, started_unix_s: u64) -> String {
-    let fields: Vec<[&str; 2]> = FIELDS.iter().map(|&(n, t)| [n, t]).collect();
     let h = serde_json::json!({
         "format": "hob-state-log",
         "version": 1,
         "record_bytes": record_bytes(),
-        "fields": fields,
+        "fields": fields_json(&FIELDS),
         "instance": instance,
         "started_unix_s": started_unix_s,
     });
@@ -217,7 +252,9 @@ pub fn state_files(dir: &Path) -> std::io::Result<Vec<PathBuf>> {
 }
 
 /// Every state sample of a log directory, in order. Refuses files whose header does not
-/// describe this reader's records.
+/// describe this reader's records. A file written before the overrides were recorded
+/// (its header names their words `reserved0` and `reserved1`) gives its samples NaN
+/// overrides: not recorded, never 0 %.
 pub fn read_dir_states(dir: &Path) -> Result<Vec<StateSample>, String> {
     let files = state_files(dir).map_err(|e| format!("{}: {e}", dir.display()))?;
     if files.is_empty() {
@@ -245,9 +282,20 @@ pub fn read_dir_states(dir: &Path) -> Result<Vec<StateSample>, String> {
                 record_bytes()
             ));
         }
+        let recorded = overrides_recorded(&h["fields"]).ok_or_else(|| {
+            format!(
+                "{}: header's fields are not those of hob-state-log version 1 this reader knows: {}",
+                f.display(),
+                h["fields"]
+            )
+        })?;
         // A file cut short by a killed logger ends in a partial record: dropped.
         for rec in bytes[nl + 1..].chunks_exact(record_bytes()) {
-            if let Some(s) = decode(rec) {
+            if let Some(mut s) = decode(rec) {
+                if !recorded {
+                    s.feed_override_percent = f64::NAN;
+                    s.spindle_override_percent = f64::NAN;
+                }
                 out.push(s);
             }
         }
@@ -270,6 +318,8 @@ mod tests {
             sync_error_arcsec: -1.25,
             wake_latency_ns: 33,
             pitch_radius_mm: 44.5,
+            feed_override_percent: 80.0,
+            spindle_override_percent: 110.0,
             ..StateSample::default()
         };
         s.alarm.code = 5;
@@ -281,5 +331,58 @@ mod tests {
         assert_eq!(b.len(), record_bytes());
         assert_eq!(decode(&b), Some(s));
         assert_eq!(decode(&b[1..]), None);
+    }
+
+    /// A directory holding one state file: `header` then the records of `samples`.
+    fn log_dir(name: &str, header: &str, samples: &[StateSample]) -> PathBuf {
+        let dir = std::env::temp_dir().join(format!("hob-format-{name}-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        std::fs::create_dir_all(&dir).unwrap();
+        let mut b = header.as_bytes().to_vec();
+        for s in samples {
+            encode(s, &mut b);
+        }
+        std::fs::write(dir.join("state-000001.hoblog"), b).unwrap();
+        dir
+    }
+
+    #[test]
+    fn overrides_are_recorded_and_older_files_read_them_as_not_recorded() {
+        let s = StateSample {
+            cycle: 1,
+            feed_override_percent: 85.0,
+            spindle_override_percent: 120.0,
+            ..StateSample::default()
+        };
+        let now = header("t", 0);
+        let dir = log_dir("now", &now, &[s]);
+        let read = read_dir_states(&dir).unwrap();
+        assert_eq!(read[0].feed_override_percent, 85.0);
+        assert_eq!(read[0].spindle_override_percent, 120.0);
+        let _ = std::fs::remove_dir_all(&dir);
+
+        // Written before the overrides were: the same record, those words reserved (0).
+        let before = now
+            .replace(r#"["feed_override_percent","f64"]"#, r#"["reserved0","u64"]"#)
+            .replace(r#"["spindle_override_percent","f64"]"#, r#"["reserved1","u64"]"#);
+        assert_ne!(before, now);
+        let old = StateSample {
+            feed_override_percent: 0.0,
+            spindle_override_percent: 0.0,
+            ..s
+        };
+        let dir = log_dir("before", &before, &[old]);
+        let read = read_dir_states(&dir).unwrap();
+        assert_eq!(read[0].cycle, 1);
+        assert!(read[0].feed_override_percent.is_nan(), "{:?}", read[0]);
+        assert!(read[0].spindle_override_percent.is_nan(), "{:?}", read[0]);
+        let _ = std::fs::remove_dir_all(&dir);
+
+        // Any other field list is refused.
+        let other = now.replace(r#"["spindle_override_percent","f64"]"#, r#"["reserved1","u64"]"#);
+        let dir = log_dir("other", &other, &[s]);
+        let e = read_dir_states(&dir).unwrap_err();
+        assert!(e.contains("fields"), "{e}");
+        let _ = std::fs::remove_dir_all(&dir);
     }
 }

@@ -11,8 +11,10 @@ use serde::Serialize;
 ///
 /// `sync_err_arcsec` is the true table against the gearbox law for the true spindle angle
 /// and Y (empty unless the gearbox is synchronised); `work_twist_arcsec` is the work's
-/// elastic twist on the table under the cut, which no encoder sees (reported apart).
-pub const TRACE_HEADER: &str = "t_s,state,pass,spindle_deg,table_deg,table_cmd_deg,x_mm,x_cmd_mm,y_mm,y_cmd_mm,sync_err_arcsec,work_twist_arcsec";
+/// elastic twist on the table under the cut, which no encoder sees (reported apart);
+/// `feed_override_percent` (the axial feed Y) and `spindle_override_percent` are the
+/// overrides in force (empty where a recording holds none).
+pub const TRACE_HEADER: &str = "t_s,state,pass,spindle_deg,table_deg,table_cmd_deg,x_mm,x_cmd_mm,y_mm,y_cmd_mm,sync_err_arcsec,work_twist_arcsec,feed_override_percent,spindle_override_percent";
 
 /// One trace row.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -33,6 +35,12 @@ pub struct TraceRow {
     /// True synchronisation error while the gearbox is synchronised.
     pub sync_err_arcsec: Option<f64>,
     pub work_twist_arcsec: f64,
+    /// Feed override (the axial feed Y) set, percent, as the controller's status gives it
+    /// (the spindle's speed follows its override on a ramp); none where it was not
+    /// recorded (a log written before the overrides were).
+    pub feed_override_percent: Option<f64>,
+    /// Spindle speed override in force, percent; none where it was not recorded.
+    pub spindle_override_percent: Option<f64>,
 }
 
 impl TraceRow {
@@ -44,8 +52,14 @@ impl TraceRow {
     /// The row as CSV (no newline).
     pub fn csv(&self) -> String {
         let err = self.sync_err_arcsec.map_or(String::new(), |e| format!("{e:.3}"));
+        let feed = self
+            .feed_override_percent
+            .map_or(String::new(), |v| format!("{v:.2}"));
+        let spindle = self
+            .spindle_override_percent
+            .map_or(String::new(), |v| format!("{v:.2}"));
         format!(
-            "{:.3},{},{},{:.6},{:.6},{:.6},{:.5},{:.5},{:.5},{:.5},{err},{:.3}",
+            "{:.3},{},{},{:.6},{:.6},{:.6},{:.5},{:.5},{:.5},{:.5},{err},{:.3},{feed},{spindle}",
             self.t_s,
             self.state_word(),
             self.pass,
@@ -80,6 +94,21 @@ pub struct PassSummary {
     /// Largest elastic twist of the work on the table in the cut (machine, not control).
     pub work_twist_max_arcsec: f64,
     pub work_twist_max_um: f64,
+    /// Y travelled in the cut (feed hold excluded): what the pass wore the tool by.
+    pub y_travel_in_cut_mm: f64,
+    /// The lowest and highest feed override (the axial feed Y) in the cut, percent, over
+    /// the rows in state cut without feed hold, as Y travel: the rapids, the retract and
+    /// a hold feed nothing. None (JSON null) when the pass has no such row with the
+    /// override recorded: never a made-up 100 %.
+    pub feed_override_min_percent: Option<f64>,
+    pub feed_override_max_percent: Option<f64>,
+    /// The lowest and highest spindle speed override in the cut, percent, over the same
+    /// rows; none likewise.
+    pub spindle_override_min_percent: Option<f64>,
+    pub spindle_override_max_percent: Option<f64>,
+    /// Y of the previous row in the cut of this pass (none after a row out of the cut).
+    #[serde(skip)]
+    last_cut_y_mm: Option<f64>,
     #[serde(skip)]
     sum: f64,
     #[serde(skip)]
@@ -149,8 +178,22 @@ impl SummaryBuilder {
         let p = &mut self.passes[idx];
         p.time_s = row.t_s - p.first_t + period_s;
         if row.state == State::Cut && !row.hold {
+            if let Some(y) = p.last_cut_y_mm {
+                p.y_travel_in_cut_mm += (row.y_mm - y).abs();
+            }
+            p.last_cut_y_mm = Some(row.y_mm);
             p.cut_time_s += period_s;
             p.work_twist_max_arcsec = p.work_twist_max_arcsec.max(row.work_twist_arcsec.abs());
+            widen(
+                &mut p.feed_override_min_percent,
+                &mut p.feed_override_max_percent,
+                row.feed_override_percent,
+            );
+            widen(
+                &mut p.spindle_override_min_percent,
+                &mut p.spindle_override_max_percent,
+                row.spindle_override_percent,
+            );
             if let Some(e) = row.sync_err_arcsec {
                 p.samples += 1;
                 p.sum += e;
@@ -158,6 +201,156 @@ impl SummaryBuilder {
                 p.min = p.min.min(e);
                 p.max = p.max.max(e);
             }
+        } else {
+            p.last_cut_y_mm = None;
         }
+    }
+}
+
+/// Widens a range `[min, max]` (none: empty) to hold `v` (none or not finite: nothing).
+fn widen(min: &mut Option<f64>, max: &mut Option<f64>, v: Option<f64>) {
+    if let Some(v) = v.filter(|v| v.is_finite()) {
+        *min = Some(min.map_or(v, |m| m.min(v)));
+        *max = Some(max.map_or(v, |m| m.max(v)));
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn row(t_s: f64, state: State, hold: bool, pass: u32, y_mm: f64) -> TraceRow {
+        TraceRow {
+            t_s,
+            state,
+            hold,
+            pass,
+            spindle_deg: 0.0,
+            table_deg: 0.0,
+            table_cmd_deg: 0.0,
+            x_mm: 0.0,
+            x_cmd_mm: 0.0,
+            y_mm,
+            y_cmd_mm: y_mm,
+            sync_err_arcsec: None,
+            work_twist_arcsec: 0.0,
+            feed_override_percent: Some(100.0),
+            spindle_override_percent: Some(100.0),
+        }
+    }
+
+    #[test]
+    fn y_travel_counts_only_the_cut_without_hold() {
+        let mut b = SummaryBuilder::for_gear(42.5, 5.0);
+        let rows = [
+            (State::ToStart, false, 1, 100.0), // the rapid to the start: not cut
+            (State::Cut, false, 1, 90.0),
+            (State::Cut, false, 1, 80.0),
+            (State::Cut, true, 1, 80.0),  // feed hold
+            (State::Cut, false, 1, 78.0), // resumed
+            (State::Retract, false, 1, 150.0),
+            (State::Cut, false, 2, 90.0),
+            (State::Cut, false, 2, 89.5),
+        ];
+        for (i, (state, hold, pass, y)) in rows.into_iter().enumerate() {
+            b.add(&row(i as f64 * 1e-3, state, hold, pass, y), 1e-3);
+        }
+        let (passes, _) = b.passes();
+        assert_eq!(passes.len(), 2);
+        assert!(
+            (passes[0].y_travel_in_cut_mm - 10.0).abs() < 1e-12,
+            "{:?}",
+            passes[0]
+        );
+        assert!(
+            (passes[1].y_travel_in_cut_mm - 0.5).abs() < 1e-12,
+            "{:?}",
+            passes[1]
+        );
+    }
+
+    /// A row of the override tests: state, hold, pass, feed %, spindle %.
+    type OverrideRow = (State, bool, u32, Option<f64>, Option<f64>);
+
+    /// The per-pass statistics of rows.
+    fn ranges_of(rows: &[OverrideRow]) -> Vec<PassSummary> {
+        let mut b = SummaryBuilder::for_gear(42.5, 5.0);
+        for (i, &(state, hold, pass, feed, spindle)) in rows.iter().enumerate() {
+            let r = TraceRow {
+                feed_override_percent: feed,
+                spindle_override_percent: spindle,
+                ..row(i as f64 * 1e-3, state, hold, pass, 0.0)
+            };
+            b.add(&r, 1e-3);
+        }
+        b.passes().0
+    }
+
+    #[test]
+    fn override_ranges_count_only_the_cut_without_hold() {
+        let passes = ranges_of(&[
+            // The rapid to the start at 20 %: not the cut.
+            (State::ToStart, false, 1, Some(20.0), Some(50.0)),
+            (State::Cut, false, 1, Some(100.0), Some(100.0)),
+            (State::Cut, false, 1, Some(80.0), Some(100.0)), // turned down in the cut
+            (State::Cut, true, 1, Some(0.0), Some(60.0)),    // feed hold: excluded
+            (State::Cut, false, 1, Some(90.0), Some(110.0)), // resumed, spindle up
+            (State::Retract, false, 1, Some(120.0), Some(120.0)),
+            (State::Cut, false, 2, Some(100.0), Some(95.0)),
+        ]);
+        assert_eq!(passes.len(), 2);
+        let p = &passes[0];
+        assert_eq!(p.feed_override_min_percent, Some(80.0), "{p:?}");
+        assert_eq!(p.feed_override_max_percent, Some(100.0), "{p:?}");
+        assert_eq!(p.spindle_override_min_percent, Some(100.0), "{p:?}");
+        assert_eq!(p.spindle_override_max_percent, Some(110.0), "{p:?}");
+        let p = &passes[1];
+        assert_eq!(p.feed_override_min_percent, Some(100.0), "{p:?}");
+        assert_eq!(p.feed_override_max_percent, Some(100.0), "{p:?}");
+        assert_eq!(p.spindle_override_min_percent, Some(95.0), "{p:?}");
+        assert_eq!(p.spindle_override_max_percent, Some(95.0), "{p:?}");
+    }
+
+    #[test]
+    fn override_ranges_are_none_without_a_recorded_row_in_the_cut() {
+        let passes = ranges_of(&[
+            // Pass 1 never cut: held all along, and rows out of the cut.
+            (State::ToStart, false, 1, Some(70.0), Some(70.0)),
+            (State::Cut, true, 1, Some(70.0), Some(70.0)),
+            (State::Retract, false, 1, Some(70.0), Some(70.0)),
+            // Pass 2 cut in a log that did not record the overrides (read as NaN).
+            (State::Cut, false, 2, None, None),
+            (State::Cut, false, 2, Some(f64::NAN), Some(f64::NAN)),
+        ]);
+        assert_eq!(passes.len(), 2);
+        for p in &passes {
+            assert_eq!(p.feed_override_min_percent, None, "{p:?}");
+            assert_eq!(p.feed_override_max_percent, None, "{p:?}");
+            assert_eq!(p.spindle_override_min_percent, None, "{p:?}");
+            assert_eq!(p.spindle_override_max_percent, None, "{p:?}");
+        }
+        assert!(passes[1].cut_time_s > 0.0);
+        let json = serde_json::to_value(&passes[0]).unwrap();
+        assert!(json["feed_override_min_percent"].is_null(), "{json}");
+    }
+
+    #[test]
+    fn the_csv_row_has_a_column_per_header_column_with_the_overrides_last() {
+        let mut r = row(0.0, State::Cut, false, 1, 5.0);
+        r.feed_override_percent = Some(85.0);
+        r.spindle_override_percent = Some(110.5);
+        let cols: Vec<String> = r.csv().split(',').map(str::to_string).collect();
+        let header: Vec<&str> = TRACE_HEADER.split(',').collect();
+        assert_eq!(cols.len(), header.len(), "{cols:?}");
+        assert_eq!(
+            header[header.len() - 2..],
+            ["feed_override_percent", "spindle_override_percent"]
+        );
+        assert_eq!(cols[cols.len() - 2..], ["85.00", "110.50"]);
+        r.feed_override_percent = None;
+        r.spindle_override_percent = None;
+        let cols: Vec<String> = r.csv().split(',').map(str::to_string).collect();
+        assert_eq!(cols.len(), header.len(), "{cols:?}");
+        assert_eq!(cols[cols.len() - 2..], ["", ""]);
     }
 }

@@ -1,7 +1,7 @@
 //! Events of the loop in a fixed ring: pushed in the cycle, drained by whoever publishes
 //! them. When full, the oldest event is overwritten and counted as lost.
 
-use super::fault::{Fault, Refusal};
+use super::fault::{Axis, Fault, Refusal};
 use super::sequencer::{Command, State};
 
 /// Capacity of the ring.
@@ -30,6 +30,19 @@ pub enum EventKind {
     },
     ProgramLoaded,
     CycleDone,
+    /// An axis is referenced (its homing completed).
+    Referenced {
+        axis: Axis,
+    },
+    /// A continuous jog's renewals stopped: the axis was stopped.
+    DeadManStop {
+        axis: Axis,
+    },
+    /// A touch-off set an axis' work offset (mm).
+    OffsetChanged {
+        axis: Axis,
+        offset_mm: f64,
+    },
 }
 
 /// An event and the cycle it happened in.

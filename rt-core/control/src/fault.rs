@@ -71,6 +71,25 @@ pub enum Fault {
     IoLost,
     /// A drive did not reach, or left, "operation enabled" while it should be enabled.
     DriveNotEnabled { axis: Axis },
+    /// Referencing an axis failed.
+    HomingFailed { axis: Axis, why: HomingFailure },
+    /// A drive's position jumped (a reboot of the drive, an encoder fault): its
+    /// reference (X, Y) or the table's tooth phase (B) is gone.
+    PositionLost { axis: Axis },
+}
+
+/// Why referencing an axis failed.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum HomingFailure {
+    /// The drive's mode display did not confirm the mode asked for.
+    ModeNotConfirmed,
+    /// The drive did not start homing.
+    NotStarted,
+    /// The drive reported a homing error (statusword bit 13).
+    DriveError,
+    /// Homing took longer than `homing.timeout_s`.
+    Timeout,
 }
 
 impl Fault {
@@ -87,6 +106,8 @@ impl Fault {
                     end: End::Max
                 }
                 | Fault::SoftLimit { axis: Axis::X, .. }
+                | Fault::PositionLost { axis: Axis::X }
+                | Fault::HomingFailed { axis: Axis::X, .. }
         )
     }
 
@@ -98,6 +119,7 @@ impl Fault {
                 | Fault::DriveNotEnabled { axis: Axis::B }
                 | Fault::FollowingError { axis: Axis::B, .. }
                 | Fault::FeedbackLost { axis: Axis::B }
+                | Fault::PositionLost { axis: Axis::B }
                 | Fault::SyncLost { .. }
         )
     }
@@ -126,4 +148,11 @@ pub enum Refusal {
     SafetyChainOpen,
     /// Not every drive reports "operation enabled" yet.
     DrivesNotEnabled,
+    /// X and Y are not referenced: only referencing and slow jogs until they are.
+    NotReferenced,
+    /// The table lost its position since the tooth phase was recorded: continuing would
+    /// cut a new set of gaps into the part.
+    TablePositionLost,
+    /// A jog is running: release it first.
+    JogActive,
 }

@@ -16,13 +16,19 @@ pub mod egb;
 pub mod events;
 pub mod fault;
 pub mod io;
+pub mod jog;
 pub mod lube;
 pub mod observer;
 pub mod profile;
 pub mod program;
+pub mod referencing;
 mod sequencer;
+pub mod setup_math;
 
+pub use jog::Direction;
+pub use referencing::HomeAxes;
 pub use sequencer::{Command, State};
+pub use setup_math::Offsets;
 
 use egb::{Coupling, Gearbox, GearboxParams};
 use events::{Event, EventKind, EventRing};
@@ -133,6 +139,10 @@ pub struct CycleOutputs {
     pub spindle_analog_v: f64,
 }
 
+fn input_mode(input: &CycleInputs, k: usize) -> i8 {
+    [input.table, input.x, input.y][k].mode_display
+}
+
 /// Scaling of one axis between counts and units.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct AxisScale {
@@ -192,6 +202,14 @@ pub struct ControlParams {
     pub gearbox: GearboxParams,
     pub lube: LubeParams,
     pub io: IoBits,
+    /// Referencing that takes longer is a fault.
+    pub x_homing_timeout_s: f64,
+    pub y_homing_timeout_s: f64,
+    /// X and Y jog speed until referenced.
+    pub unreferenced_jog_mm_s: f64,
+    /// A continuous jog not renewed for this long stops.
+    pub deadman_s: f64,
+    pub overrides: setup_math::OverrideLimits,
 }
 
 impl ControlParams {
@@ -257,6 +275,16 @@ impl ControlParams {
                 pump_run_s: m.lube.pump_run_s,
             },
             io: IoBits::new(&m.io),
+            x_homing_timeout_s: m.x.homing.timeout_s,
+            y_homing_timeout_s: m.y.homing.timeout_s,
+            unreferenced_jog_mm_s: m.jog.unreferenced_mm_min / 60.0,
+            deadman_s: f64::from(m.jog.deadman_timeout_ms) * 1e-3,
+            overrides: setup_math::OverrideLimits {
+                feed_min: m.overrides.feed_min_percent / 100.0,
+                feed_max: m.overrides.feed_max_percent / 100.0,
+                spindle_min: m.overrides.spindle_min_percent / 100.0,
+                spindle_max: m.overrides.spindle_max_percent / 100.0,
+            },
         }
     }
 }
@@ -301,6 +329,18 @@ pub struct Status {
     /// Drives whose feedback has been missing long enough to be a fault (their state is
     /// unknown).
     pub drives_silent: [bool; 3],
+    /// X, Y referenced.
+    pub referenced: [bool; 2],
+    /// The table kept its position since the tooth phase of an interrupted part was
+    /// recorded ("continue" can meet the same gaps).
+    pub table_position_whole: bool,
+    /// The axis being referenced or jogged.
+    pub moving_axis: Option<Axis>,
+    /// The 1-based pass "continue" would start from (0: nothing to continue).
+    pub continue_pass: u32,
+    pub feed_override_percent: f64,
+    pub spindle_override_percent: f64,
+    pub offsets: Offsets,
 }
 
 /// Measured values of one cycle, in units.
@@ -315,7 +355,15 @@ struct Measured {
     y_mm: f64,
     inputs: Inputs,
     drives_enabled: [bool; 3],
+    /// The drives' feedback as latched (B, X, Y): mode display and homing bits.
+    feedback: [AxisFeedback; 3],
+    /// The drive's position jumped this cycle (B, X, Y): see [`POSITION_JUMP`].
+    jumped: [bool; 3],
 }
+
+/// A change of a drive's position in one cycle that no motion of this machine can make
+/// (B deg, X mm, Y mm): the drive rebooted or its encoder failed, so the position is lost.
+pub const POSITION_JUMP: [f64; 3] = [10.0, 5.0, 5.0];
 
 /// The control core.
 #[derive(Debug, Clone)]
@@ -347,6 +395,11 @@ pub struct Controller {
     events: EventRing,
     cycle: u64,
     started: bool,
+    referencing: referencing::Referencing,
+    offsets: Offsets,
+    /// Overrides as fractions (1.0 = 100 %).
+    feed_override: f64,
+    spindle_override: f64,
 }
 
 impl Controller {
@@ -376,7 +429,39 @@ impl Controller {
             events: EventRing::new(),
             cycle: 0,
             started: false,
+            referencing: referencing::Referencing::default(),
+            offsets: Offsets::default(),
+            feed_override: 1.0,
+            spindle_override: 1.0,
         }
+    }
+
+    /// The work offsets (from the machine state file at start-up, or a touch-off). The
+    /// loop's positions shift with them, so a change never moves an axis.
+    pub fn set_offsets(&mut self, offsets: Offsets) {
+        self.apply_offsets(offsets);
+    }
+
+    pub fn offsets(&self) -> Offsets {
+        self.offsets
+    }
+
+    fn apply_offsets(&mut self, new: Offsets) {
+        let (dx, dy) = (new.x_mm - self.offsets.x_mm, new.y_mm - self.offsets.y_mm);
+        self.offsets = new;
+        self.measured.x_mm += dx;
+        self.measured.y_mm += dy;
+        self.x.position += dx;
+        self.y.position += dy;
+        for h in &mut self.history {
+            h[1] += dx;
+            h[2] += dy;
+        }
+    }
+
+    /// Whether X (Y) is referenced.
+    pub fn referenced(&self, axis: Axis) -> bool {
+        self.referencing.is_referenced(axis)
     }
 
     /// Chooses the spindle angle the gearbox follows (for comparisons; default predicted).
@@ -437,10 +522,19 @@ impl Controller {
         let (x_before, y_before) = (self.x.position, self.y.position);
         self.trim_spindle();
         self.sequence();
+        // A drive homing by itself sets its position at the home: that step is no travel
+        // (nor is the homing run, which the loop does not command).
+        let travel = |own: bool, d: f64| if own { 0.0 } else { d };
         if let Err(f) = self.lube.step(
             self.params.period_s,
-            self.x.position - x_before,
-            self.y.position - y_before,
+            travel(
+                self.referencing.drive_on_its_own(Axis::X),
+                self.x.position - x_before,
+            ),
+            travel(
+                self.referencing.drive_on_its_own(Axis::Y),
+                self.y.position - y_before,
+            ),
             self.measured.inputs.lube_pressure_ok,
         ) {
             self.raise(f);
@@ -490,12 +584,16 @@ impl Controller {
             x_mm: self
                 .params
                 .x
-                .to_units(self.unwrap[2].update(input.x.position_counts)),
+                .to_units(self.unwrap[2].update(input.x.position_counts))
+                + self.offsets.x_mm,
             y_mm: self
                 .params
                 .y
-                .to_units(self.unwrap[3].update(input.y.position_counts)),
+                .to_units(self.unwrap[3].update(input.y.position_counts))
+                + self.offsets.y_mm,
             drives_enabled: [input.table.enabled, input.x.enabled, input.y.enabled],
+            feedback: [input.table, input.x, input.y],
+            jumped: [false; 3],
             inputs: if input.io_valid {
                 self.params.io.decode(input.digital_inputs)
             } else {
@@ -516,6 +614,19 @@ impl Controller {
             }
             if !input.y.fresh {
                 self.measured.y_mm = prev.y_mm + moved(2);
+            }
+            let m = &self.measured;
+            let steps = [
+                (m.table_deg - prev.table_deg, input.table.fresh, Axis::B),
+                (m.x_mm - prev.x_mm, input.x.fresh, Axis::X),
+                (m.y_mm - prev.y_mm, input.y.fresh, Axis::Y),
+            ];
+            for (k, (step, fresh, axis)) in steps.into_iter().enumerate() {
+                // A drive homing by itself sets its position at the home: not a jump.
+                self.measured.jumped[k] = fresh
+                    && step.abs() > POSITION_JUMP[k]
+                    && !self.referencing.drive_on_its_own(axis)
+                    && prev.feedback[k].mode_display == input_mode(input, k);
             }
         }
     }
@@ -548,9 +659,20 @@ impl Controller {
         if !i.safety_chain_closed && active {
             self.raise(Fault::SafetyChainOpen);
         }
+        // After a reset (or at power-up) the drives are brought up from Init: a drive's
+        // fault is cleared by the fault reset the master sends, a few cycles later. A drive
+        // still in fault when the enable time is over has its fault again.
+        let fault_resetting =
+            self.sequencer.state == State::Init && self.enable_age_s <= DRIVE_ENABLE_TIMEOUT_S;
         let drives = [(input.table, Axis::B), (input.x, Axis::X), (input.y, Axis::Y)];
         for (k, (fb, axis)) in drives.into_iter().enumerate() {
-            if fb.fault {
+            if self.measured.jumped[k] {
+                if active {
+                    self.raise(Fault::PositionLost { axis });
+                }
+                self.position_lost(axis);
+            }
+            if fb.fault && !fault_resetting {
                 self.raise(Fault::DriveFault { axis });
             }
             self.misses[k] = if fb.fresh { 0 } else { self.misses[k] + 1 };
@@ -564,13 +686,18 @@ impl Controller {
             0.0
         };
         if active && self.enable_age_s > DRIVE_ENABLE_TIMEOUT_S {
-            for (enabled, axis) in self
-                .measured
-                .drives_enabled
-                .into_iter()
-                .zip([Axis::B, Axis::X, Axis::Y])
+            let faulted = [input.table.fault, input.x.fault, input.y.fault];
+            for ((enabled, faulted), axis) in
+                self.measured
+                    .drives_enabled
+                    .into_iter()
+                    .zip(faulted)
+                    .zip([Axis::B, Axis::X, Axis::Y])
             {
-                if !enabled {
+                // A drive whose fault the reset did not clear: its fault is the cause.
+                if faulted {
+                    self.raise(Fault::DriveFault { axis });
+                } else if !enabled {
                     self.raise(Fault::DriveNotEnabled { axis });
                 }
             }
@@ -595,7 +722,16 @@ impl Controller {
                 ),
             ];
             for (error, limit, axis) in errors {
-                if error.abs() > limit {
+                // A drive out of cyclic synchronous position follows no target of ours.
+                let own = self.referencing.drive_on_its_own(axis)
+                    || self.measured.feedback[match axis {
+                        Axis::B => 0,
+                        Axis::X => 1,
+                        Axis::Y => 2,
+                    }]
+                    .mode_display
+                        != DriveMode::CyclicPosition.code();
+                if error.abs() > limit && !own {
                     self.raise(Fault::FollowingError { axis, error });
                 }
             }
@@ -621,16 +757,20 @@ impl Controller {
         };
     }
 
+    /// From the reference on: no command outside the soft limits (in the drive's
+    /// referenced frame, the work offset taken off).
     fn check_soft_limits(&mut self) {
-        for (axis, pos, lim) in [
-            (Axis::X, self.x.position, self.params.x_limits),
-            (Axis::Y, self.y.position, self.params.y_limits),
+        for (axis, pos, offset, lim) in [
+            (Axis::X, self.x.position, self.offsets.x_mm, self.params.x_limits),
+            (Axis::Y, self.y.position, self.offsets.y_mm, self.params.y_limits),
         ] {
-            if !(lim.soft_min_mm..=lim.soft_max_mm).contains(&pos)
+            let machine = pos - offset;
+            if self.referencing.is_referenced(axis)
+                && !(lim.soft_min_mm..=lim.soft_max_mm).contains(&machine)
                 && self.sequencer.drives_should_be_enabled()
             {
                 self.raise(Fault::SoftLimit { axis, position: pos });
-                let clamped = pos.clamp(lim.soft_min_mm, lim.soft_max_mm);
+                let clamped = machine.clamp(lim.soft_min_mm, lim.soft_max_mm) + offset;
                 let p = if axis == Axis::X { &mut self.x } else { &mut self.y };
                 p.position = clamped;
                 p.velocity = 0.0;
@@ -657,14 +797,14 @@ impl Controller {
         let v_table = (self.table_cmd_deg - self.history[0][0]) / (2.0 * self.params.period_s);
         CycleOutputs {
             table_target_counts: self.params.table.to_counts(self.table_cmd_deg),
-            x_target_counts: self.params.x.to_counts(self.x.position),
-            y_target_counts: self.params.y.to_counts(self.y.position),
+            x_target_counts: self.params.x.to_counts(self.x.position - self.offsets.x_mm),
+            y_target_counts: self.params.y.to_counts(self.y.position - self.offsets.y_mm),
             table_velocity_counts_s: v_table * self.params.table.counts_per_unit * self.params.table.sign,
             x_velocity_counts_s: self.x.velocity * self.params.x.counts_per_unit * self.params.x.sign,
             y_velocity_counts_s: self.y.velocity * self.params.y.counts_per_unit * self.params.y.sign,
             drives_enabled: enabled,
-            drive_modes: [DriveMode::CyclicPosition; 3],
-            homing_start: [false; 3],
+            drive_modes: self.referencing.modes,
+            homing_start: self.referencing.start_bit,
             digital_outputs: self.params.io.encode(&self.outputs),
             spindle_analog_v: self
                 .params
@@ -700,6 +840,17 @@ impl Controller {
             outputs: self.outputs,
             drives_enabled: self.measured.drives_enabled,
             drives_silent: self.misses.map(|m| m >= self.params.feedback_misses_to_fault),
+            referenced: self.referencing.referenced,
+            table_position_whole: !self.sequencer.phase_lost,
+            moving_axis: match self.sequencer.state {
+                State::Referencing => self.referencing.current_axis(),
+                State::Jog => self.sequencer.jog_axis(),
+                _ => None,
+            },
+            continue_pass: self.sequencer.interrupted.map_or(0, |(p, _)| p as u32 + 1),
+            feed_override_percent: self.feed_override * 100.0,
+            spindle_override_percent: self.spindle_override * 100.0,
+            offsets: self.offsets,
         }
     }
 

@@ -56,6 +56,8 @@ pub struct CycleProgram {
     pub face_bottom_mm: f64,
     pub shape: XShape,
     pub plunge_feed_mm_min: f64,
+    /// The hob's tip diameter (a touch-off's centre distance and height come from it).
+    pub tool_tip_diameter_mm: f64,
     /// The gear's pitch diameter and normal module (to express errors at the pitch circle).
     pub pitch_diameter_mm: f64,
     pub normal_module_mm: f64,
@@ -116,6 +118,7 @@ impl CycleProgram {
             face_bottom_mm: program.workpiece.height_above_table_mm,
             shape,
             plunge_feed_mm_min: program.strategy.plunge_feed_mm_min.unwrap_or(0.0),
+            tool_tip_diameter_mm: program.tool.outside_diameter_mm,
             pitch_diameter_mm: plan.pitch_diameter_mm,
             normal_module_mm: plan.normal_module_mm,
             passes,
@@ -132,6 +135,20 @@ impl CycleProgram {
     /// The single-mode pass, if the program has a single depth.
     pub fn single(&self) -> Option<PassSetpoint> {
         self.single
+    }
+
+    /// The smallest and largest X and Y the program's moves reach (mm): X from the
+    /// deepest point of the cut to the safe position, Y over every pass's stroke.
+    pub fn extents_mm(&self) -> (f64, f64, f64, f64) {
+        let mut x = (self.x_safe_mm, self.x_safe_mm);
+        let mut y = (f64::INFINITY, f64::NEG_INFINITY);
+        for p in self.passes().iter().chain(self.single.iter()) {
+            x.0 = x.0.min(p.x_mm + self.shape.min_offset_mm());
+            for v in [p.y_start_mm, p.y_end_mm] {
+                y = (y.0.min(v), y.1.max(v));
+            }
+        }
+        (x.0, x.1, y.0, y.1)
     }
 
     /// Pitch of the table between equivalent tooth phases.

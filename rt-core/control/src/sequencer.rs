@@ -7,7 +7,10 @@ use super::Controller;
 use super::egb::{Coupling, GearboxParams};
 use super::events::EventKind;
 use super::fault::{Axis, Fault, Refusal};
+use super::jog::{Direction, JogMotion};
 use super::program::{CycleProgram, PassSetpoint};
+use super::referencing::HomeAxes;
+use super::setup_math;
 use hob_setup::job::CycleKind;
 
 /// Feed ramp time in and out of the cut (feed hold, resume).
@@ -20,6 +23,13 @@ const SYNC_TIMEOUT_S: f64 = 20.0;
 const SPINDLE_STOPPED_RPM: f64 = 1.0;
 /// X rapids this far outside the blank before the radial plunge at feed.
 const PLUNGE_CLEARANCE_MM: f64 = 1.0;
+/// Fastest change of the spindle speed by its override with the tool in the work (rpm/s,
+/// 60 deg/s^2 of spindle). The VFD's own ramp (80 Hz in 3 s: 83 rpm/s at the spindle)
+/// jerks the spindle observer and the table by about 13 arcsec, above the cut's bound (a
+/// quarter of ISO 1328-1 grade 5: 8.6 arcsec at z = 17, m = 5); the jerk's error scales
+/// with the acceleration, so at 10 rpm/s it adds under 2 arcsec
+/// (`bench/plant/tests/setup_ops.rs`).
+const OVERRIDE_SPINDLE_RPM_S: f64 = 10.0;
 
 /// Sequencer states; `name` is the short word of traces and status.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
@@ -58,6 +68,8 @@ pub enum State {
     FaultRetract,
     FaultStop,
     Faulted,
+    /// X and Y referencing by their drives' homing.
+    Referencing,
 }
 
 impl State {
@@ -85,6 +97,7 @@ impl State {
             State::FaultRetract => "f_retract",
             State::FaultStop => "f_stop",
             State::Faulted => "fault",
+            State::Referencing => "referencing",
         }
     }
 
@@ -98,7 +111,10 @@ impl State {
 
     /// Whether a cycle is running.
     pub fn in_cycle(self) -> bool {
-        !matches!(self, State::Init | State::Idle | State::Jog | State::Faulted)
+        !matches!(
+            self,
+            State::Init | State::Idle | State::Jog | State::Faulted | State::Referencing
+        )
     }
 }
 
@@ -121,6 +137,35 @@ pub enum Command {
         axis: Axis,
         distance: f64,
     },
+    /// Jog an axis while the command is renewed (the dead-man); the same command again
+    /// renews it. Speed in mm/min (deg/min for B), limited by the machine.
+    JogContinuous {
+        axis: Axis,
+        direction: Direction,
+        speed_per_min: f64,
+    },
+    /// Let go of a jog: brake it to a stop.
+    JogRelease,
+    /// Reference X and/or Y (CiA 402 homing).
+    Home {
+        axes: HomeAxes,
+    },
+    /// Feed override in percent of the programmed feed.
+    FeedOverride {
+        percent: f64,
+    },
+    /// Spindle speed override in percent of the programmed speed.
+    SpindleOverride {
+        percent: f64,
+    },
+    /// Touch-off: the hob's tip touches a gauge; X: its diameter, Y: its top face's
+    /// height above the table face (mm). Sets that axis' work offset.
+    TouchOff {
+        axis: Axis,
+        value_mm: f64,
+    },
+    /// Continue the interrupted program from the interrupted pass on the same part.
+    Continue,
     /// Spindle at a speed, only when idle (e.g. to centre the blank).
     SpindleOn {
         rpm: f64,
@@ -145,13 +190,27 @@ pub(super) struct Sequencer {
     pub clamp: bool,
     feed_scale: f64,
     rev_start_deg: f64,
-    jog_target: f64,
-    jog_axis: Option<Axis>,
+    pub(super) jog: JogMotion,
+    /// The pass a fault or a stop interrupted (index, single mode), for "continue".
+    pub interrupted: Option<(usize, bool)>,
+    /// The table lost its position after the tooth phase of an interrupted part was
+    /// recorded: "continue" is refused until a new start or a new blank.
+    pub phase_lost: bool,
     /// Power-up conditions met (chain closed, lubricated, no fault): enable the drives.
     init_ready: bool,
 }
 
 impl Sequencer {
+    /// The axis of the jog under way.
+    pub fn jog_axis(&self) -> Option<Axis> {
+        match self.jog {
+            JogMotion::None => None,
+            JogMotion::To { axis, .. }
+            | JogMotion::Continuous { axis, .. }
+            | JogMotion::Stopping { axis } => Some(axis),
+        }
+    }
+
     pub fn pass_number(&self) -> u32 {
         if self.state.in_cycle() {
             self.pass_index as u32 + 1
@@ -197,6 +256,10 @@ impl Controller {
             // A different gear: the recorded phase belongs to another blank.
             self.gearbox.set_params(params);
         }
+        if self.program != Some(program) {
+            // "Continue" belongs to the program it interrupted.
+            self.sequencer.interrupted = None;
+        }
         self.program = Some(program);
         self.event(EventKind::ProgramLoaded);
         Ok(())
@@ -226,33 +289,40 @@ impl Controller {
                     self.lube.request();
                 }
                 self.fault = None;
+                // The drives' enable (and the fault reset) starts over, with its full time.
+                self.enable_age_s = 0.0;
                 self.event(EventKind::FaultCleared);
                 self.enter(State::Init);
+                Ok(())
+            }
+            // Overrides may change at any time, even in a fault (for the next start).
+            Command::FeedOverride { percent } => {
+                self.feed_override = self.params.overrides.feed(percent).ok_or(Refusal::BadValue)?;
+                Ok(())
+            }
+            Command::SpindleOverride { percent } => {
+                self.spindle_override = self.params.overrides.spindle(percent).ok_or(Refusal::BadValue)?;
                 Ok(())
             }
             _ if self.fault.is_some() => Err(Refusal::Faulted),
             Command::Start { single } => {
                 let program = self.program.ok_or(Refusal::NoProgram)?;
-                match state {
-                    State::Idle => {}
-                    State::Init => return Err(Refusal::NotReady),
-                    _ => return Err(Refusal::CycleRunning),
+                self.check_can_start(&program, single)?;
+                self.sequencer.interrupted = None;
+                self.sequencer.phase_lost = false;
+                self.begin_cycle(single, 0);
+                Ok(())
+            }
+            Command::Continue => {
+                let program = self.program.ok_or(Refusal::NoProgram)?;
+                let Some((pass_index, single)) = self.sequencer.interrupted else {
+                    return Err(Refusal::NothingToDo);
+                };
+                self.check_can_start(&program, single)?;
+                if self.sequencer.phase_lost {
+                    return Err(Refusal::TablePositionLost);
                 }
-                if single && program.single().is_none() {
-                    return Err(Refusal::NoSingleDepth);
-                }
-                if !self.measured.inputs.safety_chain_closed {
-                    return Err(Refusal::SafetyChainOpen);
-                }
-                if !self.drives_ready() {
-                    return Err(Refusal::DrivesNotEnabled);
-                }
-                self.sequencer.single = single;
-                self.sequencer.pass_index = 0;
-                self.sequencer.tooth = 0;
-                self.sequencer.stopping = false;
-                self.sequencer.hold = false;
-                self.enter(State::ToSafe);
+                self.begin_cycle(single, pass_index);
                 Ok(())
             }
             Command::FeedHold => {
@@ -270,55 +340,92 @@ impl Controller {
                 Ok(())
             }
             Command::Stop => {
-                if !state.in_cycle() && state != State::Jog && self.sequencer.spindle_set_rpm == 0.0 {
+                if !state.in_cycle()
+                    && !matches!(state, State::Jog | State::Referencing)
+                    && self.sequencer.spindle_set_rpm == 0.0
+                {
                     return Err(Refusal::NothingToDo);
                 }
                 self.sequencer.hold = false;
-                self.sequencer.stopping = true;
+                if state.in_cycle() {
+                    self.note_interrupted();
+                }
                 match state {
                     State::Idle => self.sequencer.spindle_set_rpm = 0.0,
-                    State::Jog => self.enter(State::Idle),
-                    s if s.tool_in_work() || s == State::Infeed => self.leave_cut(),
-                    State::Home | State::Disengage | State::SpindleDown => {}
-                    _ => self.enter(State::Disengage),
+                    State::Jog => {
+                        self.jog_release()?;
+                    }
+                    State::Referencing => self.stop_referencing(),
+                    s if s.tool_in_work() || s == State::Infeed => {
+                        self.sequencer.stopping = true;
+                        self.leave_cut()
+                    }
+                    State::Home | State::Disengage | State::SpindleDown => self.sequencer.stopping = true,
+                    _ => {
+                        self.sequencer.stopping = true;
+                        self.enter(State::Disengage)
+                    }
                 }
                 Ok(())
             }
-            Command::Jog { axis, distance } => {
-                if state != State::Idle {
-                    return Err(if state == State::Init {
-                        Refusal::NotReady
-                    } else {
-                        Refusal::CycleRunning
-                    });
-                }
-                if !distance.is_finite() {
-                    return Err(Refusal::BadValue);
+            Command::Jog { axis, distance } => self.jog_by(axis, distance),
+            Command::JogContinuous {
+                axis,
+                direction,
+                speed_per_min,
+            } => self.jog_continuous(axis, direction, speed_per_min),
+            Command::JogRelease => self.jog_release(),
+            Command::Home { axes } => {
+                match state {
+                    State::Idle => {}
+                    State::Init => return Err(Refusal::NotReady),
+                    State::Jog => return Err(Refusal::JogActive),
+                    _ => return Err(Refusal::CycleRunning),
                 }
                 if !self.drives_ready() {
                     return Err(Refusal::DrivesNotEnabled);
                 }
-                let target = match axis {
-                    Axis::X => self.x.position + distance,
-                    Axis::Y => self.y.position + distance,
-                    Axis::B => distance,
-                };
-                let lim = match axis {
-                    Axis::X => Some(self.params.x_limits),
-                    Axis::Y => Some(self.params.y_limits),
-                    Axis::B => None,
-                };
-                if let Some(l) = lim
-                    && !(l.soft_min_mm..=l.soft_max_mm).contains(&target)
-                {
-                    return Err(Refusal::OutsideSoftLimits);
+                self.begin_referencing(axes);
+                Ok(())
+            }
+            Command::TouchOff { axis, value_mm } => {
+                match state {
+                    State::Idle => {}
+                    State::Init => return Err(Refusal::NotReady),
+                    State::Jog => return Err(Refusal::JogActive),
+                    _ => return Err(Refusal::CycleRunning),
                 }
-                if axis == Axis::B {
-                    self.gearbox.move_table_by(distance);
+                if !self.referencing.is_referenced(axis) || axis == Axis::B {
+                    return Err(if axis == Axis::B {
+                        Refusal::BadValue
+                    } else {
+                        Refusal::NotReferenced
+                    });
                 }
-                self.sequencer.jog_axis = Some(axis);
-                self.sequencer.jog_target = target;
-                self.enter(State::Jog);
+                let tool_mm = self.program.ok_or(Refusal::NoProgram)?.tool_tip_diameter_mm;
+                let offset = match axis {
+                    Axis::X => setup_math::x_offset_from_touch(
+                        self.measured.x_mm - self.offsets.x_mm,
+                        value_mm,
+                        tool_mm,
+                    ),
+                    _ => setup_math::y_offset_from_touch(
+                        self.measured.y_mm - self.offsets.y_mm,
+                        value_mm,
+                        tool_mm,
+                    ),
+                }
+                .ok_or(Refusal::BadValue)?;
+                let mut offsets = self.offsets;
+                match axis {
+                    Axis::X => offsets.x_mm = offset,
+                    _ => offsets.y_mm = offset,
+                }
+                self.apply_offsets(offsets);
+                self.event(EventKind::OffsetChanged {
+                    axis,
+                    offset_mm: offset,
+                });
                 Ok(())
             }
             Command::SpindleOn { rpm } => {
@@ -347,12 +454,86 @@ impl Controller {
                     return Err(Refusal::CycleRunning);
                 }
                 self.gearbox.new_blank();
+                self.sequencer.interrupted = None;
+                self.sequencer.phase_lost = false;
                 Ok(())
             }
         }
     }
 
-    fn enter(&mut self, to: State) {
+    /// What a start (or a continue) needs: idle, referenced, the chain closed, the
+    /// drives enabled, the program's moves within the soft limits.
+    fn check_can_start(&self, program: &CycleProgram, single: bool) -> Result<(), Refusal> {
+        match self.sequencer.state {
+            State::Idle => {}
+            State::Init => return Err(Refusal::NotReady),
+            State::Jog => return Err(Refusal::JogActive),
+            _ => return Err(Refusal::CycleRunning),
+        }
+        if single && program.single().is_none() {
+            return Err(Refusal::NoSingleDepth);
+        }
+        if !self.referencing.all_referenced() {
+            return Err(Refusal::NotReferenced);
+        }
+        if !self.measured.inputs.safety_chain_closed {
+            return Err(Refusal::SafetyChainOpen);
+        }
+        if !self.drives_ready() {
+            return Err(Refusal::DrivesNotEnabled);
+        }
+        let (Some((x_lo, x_hi)), Some((y_lo, y_hi))) = (self.work_limits(Axis::X), self.work_limits(Axis::Y))
+        else {
+            return Err(Refusal::NotReferenced);
+        };
+        let (x_min, x_max, y_min, y_max) = program.extents_mm();
+        if x_min < x_lo || x_max > x_hi || y_min < y_lo || y_max > y_hi {
+            return Err(Refusal::OutsideSoftLimits);
+        }
+        Ok(())
+    }
+
+    fn begin_cycle(&mut self, single: bool, pass_index: usize) {
+        self.sequencer.single = single;
+        self.sequencer.pass_index = pass_index;
+        self.sequencer.tooth = 0;
+        self.sequencer.stopping = false;
+        self.sequencer.hold = false;
+        self.enter(State::ToSafe);
+    }
+
+    /// A cycle is being broken off: remember the pass for "continue".
+    fn note_interrupted(&mut self) {
+        if self.program.is_some() {
+            self.sequencer.interrupted = Some((self.sequencer.pass_index, self.sequencer.single));
+        }
+    }
+
+    /// A drive lost its position: X or Y its reference; the table the tooth phase.
+    pub(super) fn position_lost(&mut self, axis: Axis) {
+        if axis == Axis::B {
+            if self.gearbox.recorded_phase_deg().is_some() {
+                self.sequencer.phase_lost =
+                    self.sequencer.interrupted.is_some() || self.sequencer.state.in_cycle();
+                self.gearbox.new_blank();
+            }
+        } else {
+            self.referencing.lose(axis);
+        }
+    }
+
+    /// The spindle speed of a pass under the spindle override, within the machine.
+    fn pass_spindle_rpm(&self, program: &CycleProgram, pass: &PassSetpoint) -> f64 {
+        setup_math::overridden_spindle_rpm(
+            pass.spindle_rpm,
+            self.spindle_override,
+            self.params.spindle_max_rpm,
+            program.ratio_signed,
+            self.params.table_max_deg_s,
+        )
+    }
+
+    pub(super) fn enter(&mut self, to: State) {
         let from = self.sequencer.state;
         if from != to {
             self.sequencer.state = to;
@@ -365,7 +546,21 @@ impl Controller {
     pub(super) fn seq_on_fault(&mut self, f: Fault) {
         let state = self.sequencer.state;
         self.sequencer.hold = false;
-        if matches!(state, State::Init | State::Idle | State::Jog | State::Faulted) {
+        if state.in_cycle() {
+            self.note_interrupted();
+        }
+        match f {
+            Fault::FeedbackLost { axis } | Fault::PositionLost { axis } => self.position_lost(axis),
+            _ => {}
+        }
+        if state == State::Referencing {
+            self.referencing.abandon();
+        }
+        self.sequencer.jog = JogMotion::None;
+        if matches!(
+            state,
+            State::Init | State::Idle | State::Jog | State::Faulted | State::Referencing
+        ) {
             self.sequencer.spindle_set_rpm = 0.0;
             self.enter(State::Faulted);
             return;
@@ -472,7 +667,9 @@ impl Controller {
             return;
         }
         match state {
-            State::Init | State::Idle | State::Jog | State::Faulted => return self.sequence_idle(),
+            State::Init | State::Idle | State::Faulted => return self.sequence_idle(),
+            State::Jog => return self.sequence_jog(),
+            State::Referencing => return self.sequence_referencing(),
             State::Disengage => {
                 self.sequencer.clamp = false;
                 self.x.step_stop(self.params.x_limits.accel_mm_s2, dt);
@@ -487,6 +684,7 @@ impl Controller {
                 self.sequencer.spindle_set_rpm = 0.0;
                 if self.spindle_stopped() {
                     if !self.sequencer.stopping {
+                        self.sequencer.interrupted = None;
                         self.event(EventKind::CycleDone);
                     }
                     self.sequencer.stopping = false;
@@ -516,8 +714,22 @@ impl Controller {
             return;
         };
         let rapid_x = self.params.x_limits.rapid_mm_s;
+        // The spindle override acts on a running spindle; the table follows the measured
+        // spindle and the feed its revolutions, so the law holds. With the tool in the
+        // work the change is ramped (OVERRIDE_SPINDLE_RPM_S): at the VFD's own ramp the
+        // jerk throws the table off the law by more than the cut's error bound.
+        if self.sequencer.spindle_set_rpm > 0.0 && !matches!(state, State::ToSafe | State::FaultRetract) {
+            let target = self.pass_spindle_rpm(&program, &pass);
+            let set = self.sequencer.spindle_set_rpm;
+            self.sequencer.spindle_set_rpm = if state.tool_in_work() {
+                let step = OVERRIDE_SPINDLE_RPM_S * self.params.period_s;
+                set + (target - set).clamp(-step, step)
+            } else {
+                target
+            };
+        }
         match state {
-            State::Init | State::Idle | State::Jog | State::Faulted => self.sequence_idle(),
+            State::Init | State::Idle | State::Jog | State::Faulted | State::Referencing => {}
             State::Disengage | State::SpindleDown | State::FaultStop => {}
             State::ToSafe => {
                 self.sequencer.clamp = false;
@@ -534,7 +746,7 @@ impl Controller {
                 if self.sequencer.hold {
                     return;
                 }
-                self.sequencer.spindle_set_rpm = pass.spindle_rpm;
+                self.sequencer.spindle_set_rpm = self.pass_spindle_rpm(&program, &pass);
                 if self.spindle_at_speed() {
                     self.event(EventKind::PassStarted {
                         pass: self.sequencer.pass_index as u32 + 1,
@@ -580,7 +792,8 @@ impl Controller {
             }
             State::Plunge => {
                 let target = self.x_in_cut(&program, &pass);
-                if self.move_x(target, program.plunge_feed_mm_min / 60.0) {
+                let feed_mm_s = program.plunge_feed_mm_min / 60.0 * self.feed_override;
+                if self.move_x(target, feed_mm_s) {
                     self.sequencer.rev_start_deg = self.measured.spindle_deg;
                     self.enter(State::ExtraRev);
                 }
@@ -683,7 +896,11 @@ impl Controller {
 
     fn sequence_cut(&mut self, program: &CycleProgram, pass: &PassSetpoint) {
         let dt = self.params.period_s;
-        let want = if self.sequencer.hold { 0.0 } else { 1.0 };
+        let want = if self.sequencer.hold {
+            0.0
+        } else {
+            self.feed_override
+        };
         let ramp = dt / FEED_RAMP_S;
         self.sequencer.feed_scale += (want - self.sequencer.feed_scale).clamp(-ramp, ramp);
         // Y is tied to the spindle: it advances with the spindle's turning, never with time.
@@ -722,7 +939,6 @@ impl Controller {
 
     /// Outside a cycle: follow the actual positions when the drives are off, run jogs.
     fn sequence_idle(&mut self) {
-        let dt = self.params.period_s;
         match self.sequencer.state {
             State::Init | State::Faulted => {
                 self.sequencer.clamp = false;
@@ -745,25 +961,6 @@ impl Controller {
                     && self.lube.cycles_done() > 0
                     && self.fault.is_none();
                 if self.sequencer.init_ready && self.drives_ready() {
-                    self.enter(State::Idle);
-                }
-            }
-            State::Jog => {
-                let done = match self.sequencer.jog_axis {
-                    Some(Axis::X) => {
-                        let l = self.params.x_limits;
-                        self.x
-                            .step_towards(self.sequencer.jog_target, l.rapid_mm_s / 2.0, l.accel_mm_s2, dt)
-                    }
-                    Some(Axis::Y) => {
-                        let l = self.params.y_limits;
-                        self.y
-                            .step_towards(self.sequencer.jog_target, l.rapid_mm_s / 2.0, l.accel_mm_s2, dt)
-                    }
-                    Some(Axis::B) | None => !self.gearbox.table_moving(),
-                };
-                if done {
-                    self.sequencer.jog_axis = None;
                     self.enter(State::Idle);
                 }
             }

@@ -1,8 +1,12 @@
 //! `candump -L` captures: reading them, and checking that a run kept to the bus schedule
 //! (SYNC each cycle; between two SYNCs exactly one target RPDO and one actual-position
-//! TPDO per drive; no frame outside the schedule; no SDO once the cycle runs).
+//! TPDO per drive; no frame outside the schedule, a PDO of the plan's length; no SDO once
+//! the cycle runs; RPDO2, mode of operation then controlword: the table only in cyclic
+//! synchronous position (8), X and Y in 8 or homing (6), controlword bit 4 (homing start)
+//! only in homing).
 
 use crate::plan::BusPlan;
+use hob_canopen::cia402;
 use hob_canopen::frame::{Cob, Frame};
 
 /// One captured frame and its timestamp (s), if the capture has one.
@@ -101,6 +105,29 @@ pub fn check_schedule(frames: &[Captured], plan: &BusPlan) -> ScheduleReport {
         if !known {
             r.violations
                 .push(format!("frame {i}: {} is not in the schedule", f.to_candump()));
+        } else if let Some(d) = plan.drives.iter().find(|d| d.control.cob_id == f.id)
+            && let Some(v) = d.control.unpack(f)
+        {
+            let (mode, cw) = (v[0] as u8 as i8, v[1] as u16);
+            let allowed: &[i8] = if d.homing.is_some() {
+                &[cia402::MODE_CSP, cia402::MODE_HOMING]
+            } else {
+                &[cia402::MODE_CSP]
+            };
+            if !allowed.contains(&mode) {
+                r.violations.push(format!(
+                    "frame {i}: {}: drive {} ({}) asked for mode {mode} (allowed: {allowed:?})",
+                    f.to_candump(),
+                    d.node,
+                    d.axis.name()
+                ));
+            } else if cw & cia402::CW_HOMING_START != 0 && mode != cia402::MODE_HOMING {
+                r.violations.push(format!(
+                    "frame {i}: {}: controlword bit 4 (homing start) to drive {} in mode {mode}",
+                    f.to_candump(),
+                    d.node
+                ));
+            }
         }
         if cob == Cob::Sync {
             r.syncs += 1;
@@ -327,6 +354,35 @@ mod tests {
         );
         assert_eq!(lost.count_anomalies.len(), 1, "{lost:?}");
         assert!(lost.violations.is_empty());
+    }
+
+    #[test]
+    fn rpdo2_modes_and_homing_start_are_checked() {
+        // X (node 3) asked for homing with bit 4, Y (4) in CSP, the table in CSP; TPDO2
+        // with statusword and mode display.
+        let ok = GOOD.replace(
+            "(1.000030) vcan0 080#\n",
+            "(1.000021) vcan0 303#061F00\n(1.000022) vcan0 304#080F00\n(1.000023) vcan0 302#080F00\n\
+             (1.000024) vcan0 283#371006\n(1.000030) vcan0 080#\n",
+        );
+        let r = check_schedule(&parse_candump(&ok), &plan());
+        assert!(r.violations.is_empty(), "{:?}", r.violations);
+        assert_eq!(r.frames, 15);
+        for (frame, words) in [
+            ("302#060F00", "drive 2 (B) asked for mode 6"),
+            ("304#011F00", "drive 4 (Y) asked for mode 1"),
+            ("303#081F00", "bit 4 (homing start) to drive 3 in mode 8"),
+            ("303#0F00", "303#0F00 is not in the schedule"),
+            ("283#3702", "283#3702 is not in the schedule"),
+        ] {
+            let text = GOOD.replace(
+                "(1.000030) vcan0 080#\n",
+                &format!("(1.000021) vcan0 {frame}\n(1.000030) vcan0 080#\n"),
+            );
+            let r = check_schedule(&parse_candump(&text), &plan());
+            assert_eq!(r.violations.len(), 1, "{frame}: {:?}", r.violations);
+            assert!(r.violations[0].contains(words), "{frame}: {:?}", r.violations);
+        }
     }
 
     #[test]

@@ -34,6 +34,10 @@ pub fn object_name(index: u16, plan: Option<&BusPlan>) -> &'static str {
         0x6064 => "position actual",
         0x6065 => "following error window",
         0x607A => "target position",
+        0x607C => "home offset",
+        0x6098 => "homing method",
+        0x6099 => "homing speeds",
+        0x609A => "homing acceleration",
         0x60B1 => "velocity offset",
         0x60C2 => "interpolation time period",
         0x6200 => "digital outputs",
@@ -160,6 +164,9 @@ pub fn describe(f: &Frame, plan: Option<&BusPlan>) -> String {
                                     32 => (raw as u32 as i32).to_string(),
                                     16 if e.index == 0x6411 => (raw as u16 as i16).to_string(),
                                     16 => format!("0x{:04X}", raw as u16),
+                                    // Modes of operation and their display: the signed
+                                    // code (8 cyclic synchronous position, 6 homing).
+                                    8 if matches!(e.index, 0x6060 | 0x6061) => (raw as u8 as i8).to_string(),
                                     _ => format!("0x{:02X}", raw as u8),
                                 };
                                 format!("{} = {value}", object_name(e.index, Some(p)))
@@ -205,7 +212,27 @@ mod tests {
             "TPDO1 node 2 (B): position actual = 10000, spindle encoder = -5"
         );
         assert_eq!(d("203#E8030000"), "RPDO1 node 3 (X): target position = 1000");
-        assert_eq!(d("284#3702"), "TPDO2 node 4 (Y): statusword = 0x0237");
+        assert_eq!(
+            d("284#371208"),
+            "TPDO2 node 4 (Y): statusword = 0x1237, modes of operation display = 8"
+        );
+        assert_eq!(
+            d("303#061F00"),
+            "RPDO2 node 3 (X): modes of operation = 6, controlword = 0x001F"
+        );
+        assert_eq!(
+            d("302#080F00"),
+            "RPDO2 node 2 (B): modes of operation = 8, controlword = 0x000F"
+        );
+        assert_eq!(
+            d("284#3702"),
+            "TPDO2 node 4 (Y): wrong length 2 bytes: 37 02",
+            "the statusword alone is no longer this plan's"
+        );
+        assert_eq!(
+            d("603#2F98600003000000"),
+            "SDO request to node 3: download 0x6098:00 homing method = 03"
+        );
         assert_eq!(
             d("602#4000100000000000"),
             "SDO request to node 2: upload 0x1000:00 device type"

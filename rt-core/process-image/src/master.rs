@@ -1,13 +1,16 @@
 //! The CANopen master of the machine.
 //!
 //! - Start-up ([`boot`], may block): NMT reset, wait for every node's boot-up, read
-//!   device type and identity, refuse a drive without cyclic synchronous position (0x6502),
-//!   configure heartbeats, modes and PDOs by SDO, start the network.
+//!   device type and identity, refuse a drive without cyclic synchronous position (0x6502)
+//!   and X or Y without homing, configure heartbeats, modes, the homing parameters of X
+//!   and Y, and PDOs by SDO, confirm each drive displays cyclic synchronous position
+//!   (0x6061), start the network.
 //! - The cycle ([`Cyclic`], no allocation, never blocks): take in the frames received
 //!   since the last cycle, build the control core's inputs (what was latched at this
-//!   cycle's SYNC), send the targets for the next SYNC, event-driven controlwords and
-//!   outputs, then the SYNC itself; count TPDOs that did not arrive and hold their last
-//!   value; watch heartbeats and EMCYs.
+//!   cycle's SYNC, the drives' mode display and homing bits), send the targets for the
+//!   next SYNC, event-driven modes with controlwords and outputs, then the SYNC itself;
+//!   count TPDOs that did not arrive and hold their last value; watch heartbeats and
+//!   EMCYs.
 
 use crate::plan::{BusPlan, MASTER_NODE, PROFILE_DRIVE, PROFILE_IO};
 use hob_canopen::bus::{BusError, CanBus};
@@ -40,8 +43,13 @@ impl NodeInfo {
     }
 
     pub fn csp(&self) -> bool {
+        self.supports(cia402::MODE_CSP)
+    }
+
+    /// Whether 0x6502 announces `mode` (false for a node that is no drive).
+    pub fn supports(&self, mode: i8) -> bool {
         self.supported_modes
-            .is_some_and(|m| cia402::supports_mode(m, cia402::MODE_CSP))
+            .is_some_and(|m| cia402::supports_mode(m, mode))
     }
 }
 
@@ -67,6 +75,17 @@ pub enum BootError {
     NoCsp {
         node: u8,
         supported_modes: u32,
+    },
+    /// A drive of X or Y without homing mode (6): the axis could not be referenced.
+    NoHoming {
+        node: u8,
+        supported_modes: u32,
+    },
+    /// A drive that, after 0x6060 = 8 was written, does not display cyclic synchronous
+    /// position in 0x6061.
+    ModeNotTaken {
+        node: u8,
+        display: i8,
     },
     /// A node did not report operational after the start.
     NotOperational {
@@ -99,6 +118,18 @@ impl std::fmt::Display for BootError {
                 f,
                 "drive {node} does not support cyclic synchronous position mode (0x6502 = 0x{supported_modes:08X}, bit 7 clear): \
                  it cannot follow the electronic gearbox; use a drive with CSP"
+            ),
+            BootError::NoHoming {
+                node,
+                supported_modes,
+            } => write!(
+                f,
+                "drive {node} does not support homing mode (6) (0x6502 = 0x{supported_modes:08X}, bit 5 clear): \
+                 X and Y are referenced by the drive's homing; use a drive with homing"
+            ),
+            BootError::ModeNotTaken { node, display } => write!(
+                f,
+                "drive {node} did not take cyclic synchronous position: 0x6060 = 8 was written, 0x6061 displays {display}"
             ),
             BootError::NotOperational { node } => write!(f, "node {node} did not enter operational"),
         }
@@ -222,6 +253,25 @@ pub fn identify(bus: &mut dyn CanBus, node: u8, timeout: Duration) -> Result<Nod
     })
 }
 
+/// Reads 0x6061 until the drive displays cyclic synchronous position (the configuration
+/// wrote 0x6060 = 8; a drive may take a moment to change modes), for up to `timeout`.
+fn confirm_csp(bus: &mut dyn CanBus, node: u8, timeout: Duration) -> Result<(), BootError> {
+    let deadline = Instant::now() + timeout;
+    loop {
+        let display = sdo_read(bus, node, object::MODES_DISPLAY, 0, timeout)
+            .map_err(|error| BootError::Sdo { node, error })?
+            .first()
+            .map_or(0, |b| *b as i8);
+        if display == cia402::MODE_CSP {
+            return Ok(());
+        }
+        if Instant::now() >= deadline {
+            return Err(BootError::ModeNotTaken { node, display });
+        }
+        std::thread::sleep(Duration::from_millis(1));
+    }
+}
+
 /// A bus that [`boot`] brought up: what each node said it is, and the cyclic exchange.
 /// Only `boot` makes one, so the cyclic exchange cannot start on a bus that was not
 /// configured (the order boot -> cycle is in the types, not in a comment).
@@ -266,10 +316,19 @@ pub fn boot(plan: &BusPlan, bus: &mut dyn CanBus, timeout: Duration) -> Result<B
                 device_type: info.device_type,
             });
         }
-        if expected == PROFILE_DRIVE && !info.csp() {
+        let drive = plan.drive(node);
+        let supported_modes = info.supported_modes.unwrap_or(0);
+        if drive.is_some() && !info.csp() {
             return Err(BootError::NoCsp {
                 node,
-                supported_modes: info.supported_modes.unwrap_or(0),
+                supported_modes,
+            });
+        }
+        // X and Y switch to homing while the loop runs; the table never does.
+        if drive.is_some_and(|d| d.homing.is_some()) && !info.supports(cia402::MODE_HOMING) {
+            return Err(BootError::NoHoming {
+                node,
+                supported_modes,
             });
         }
         for w in plan.node_configuration(node) {
@@ -282,6 +341,9 @@ pub fn boot(plan: &BusPlan, bus: &mut dyn CanBus, timeout: Duration) -> Result<B
                 timeout,
             )
             .map_err(|error| BootError::Sdo { node, error })?;
+        }
+        if drive.is_some() {
+            confirm_csp(bus, node, timeout)?;
         }
         infos.push(info);
     }
@@ -337,10 +399,12 @@ pub const BUS_EVENTS: usize = 64;
 #[derive(Debug, Clone)]
 pub struct Cyclic {
     plan: BusPlan,
-    /// Per drive: raw position, spindle, statusword; fresh this cycle.
+    /// Per drive: raw position, spindle, statusword, mode display (0x6061); fresh this
+    /// cycle.
     position: [i32; 3],
     spindle: i32,
     statusword: [u16; 3],
+    mode_display: [i8; 3],
     fresh: [bool; 3],
     /// Per drive: SYNCs sent whose synchronous TPDO has not arrived yet, TPDOs drained
     /// this cycle, and whether the last cycle got one TPDO while still one behind.
@@ -356,7 +420,8 @@ pub struct Cyclic {
     misses: [u32; 3],
     inputs: [u8; 3],
     inputs_seen: bool,
-    last_controlword: [Option<u16>; 3],
+    /// Per drive: the last RPDO2 sent (mode of operation, controlword) and the cycles since.
+    last_control: [Option<(i8, u16)>; 3],
     controlword_age: [u32; 3],
     last_outputs: Option<[u8; 2]>,
     last_analog: Option<i16>,
@@ -382,6 +447,8 @@ impl Cyclic {
             position: [0; 3],
             spindle: 0,
             statusword: [PowerState::SwitchOnDisabled.statusword(); 3],
+            // What the boot read back from 0x6061 before the start; TPDO2 tells from then on.
+            mode_display: [cia402::MODE_CSP; 3],
             fresh: [false; 3],
             owed: [0; 3],
             got: [0; 3],
@@ -393,7 +460,7 @@ impl Cyclic {
             misses: [0; 3],
             inputs: [0; 3],
             inputs_seen: false,
-            last_controlword: [None; 3],
+            last_control: [None; 3],
             controlword_age: [u32::MAX; 3],
             last_outputs: None,
             last_analog: None,
@@ -499,6 +566,7 @@ impl Cyclic {
                         && let Some(v) = d.status.unpack(f)
                     {
                         self.statusword[i] = v[0] as u16;
+                        self.mode_display[i] = v[1] as u8 as i8;
                     }
                 } else if node == self.plan.io.node
                     && n == 1
@@ -566,19 +634,21 @@ impl Cyclic {
                 }
             }
             let state = PowerState::from_statusword(self.statusword[i]);
+            let sw = self.statusword[i];
             fb[i] = AxisFeedback {
                 position_counts: self.position[i],
                 enabled: state == PowerState::OperationEnabled,
                 fault: matches!(state, PowerState::Fault | PowerState::FaultReactionActive),
                 // The control core counts the misses and faults after the configured number.
                 fresh: current,
-                // The boot wrote 0x6060 = 8 (CSP); 0x6061 is not mapped into a PDO yet,
-                // so the display is not read back here (branch issue-14 maps it).
-                mode_display: cia402::MODE_CSP,
+                // As received in TPDO2 (the boot's reading until the first one): the loop
+                // relies on a mode only once the drive displays it.
+                mode_display: self.mode_display[i],
+                // Meaningful in homing mode only; the control core looks at them there.
                 homing: hob_control::HomingBits {
-                    attained: self.statusword[i] & cia402::SW_HOMING_ATTAINED != 0,
-                    error: self.statusword[i] & cia402::SW_HOMING_ERROR != 0,
-                    target_reached: self.statusword[i] & cia402::SW_TARGET_REACHED != 0,
+                    attained: sw & cia402::SW_HOMING_ATTAINED != 0,
+                    error: sw & cia402::SW_HOMING_ERROR != 0,
+                    target_reached: sw & cia402::SW_TARGET_REACHED != 0,
                 },
             };
             self.fresh[i] = false;
@@ -596,8 +666,18 @@ impl Cyclic {
         }
     }
 
-    /// Sends this cycle's targets, event-driven controlwords and outputs, the heartbeat
-    /// when due, and the SYNC that applies them. Never blocks; a full queue is reported.
+    /// Sends this cycle's targets, event-driven modes with controlwords (RPDO2) and
+    /// outputs, the heartbeat when due, and the SYNC that applies them. Never blocks; a
+    /// full queue is reported.
+    ///
+    /// RPDO2 carries the mode the loop asks for (`out.drive_modes`; the table always
+    /// cyclic synchronous position) and the controlword of the power state machine, with
+    /// bit 4 (homing start) set while that drive is asked for homing, `out.homing_start`
+    /// holds it and the controlword is "enable operation" (homing runs only in operation
+    /// enabled; the stopping commands stay as they are). It goes out when the mode or the
+    /// controlword changed, at most once per `can.event_rpdo_spacing_ms` (disabling and
+    /// quick stop at once): the loop holds bit 4 until the drive reports progress, since a
+    /// one-cycle pulse can fall inside the spacing.
     pub fn transmit(&mut self, out: &CycleOutputs, bus: &mut dyn CanBus) -> Result<(), BusError> {
         let spacing = (f64::from(self.plan.event_rpdo_spacing_ms) / 1000.0 / self.plan.cycle_s).ceil() as u32;
         let mut first_error = None;
@@ -620,20 +700,38 @@ impl Cyclic {
                 .pack(&[target as u32 as u64, velocity.round() as i32 as u32 as u64]);
             send(bus, &f, &mut first_error);
             let state = PowerState::from_statusword(self.statusword[i]);
-            let cw = if self.quick_stop && state == PowerState::OperationEnabled {
+            let base = if self.quick_stop && state == PowerState::OperationEnabled {
                 cia402::command::QUICK_STOP
             } else {
                 cia402::next_controlword(state, out.drives_enabled && !self.quick_stop)
             };
+            let mode = if d.homing.is_some() {
+                out.drive_modes[i].code()
+            } else {
+                cia402::MODE_CSP
+            };
+            let homing_start = mode == cia402::MODE_HOMING
+                && out.homing_start[i]
+                && base == cia402::command::ENABLE_OPERATION;
+            let cw = if homing_start {
+                base | cia402::CW_HOMING_START
+            } else {
+                base
+            };
             self.controlword_age[i] = self.controlword_age[i].saturating_add(1);
-            let changed = self.last_controlword[i] != Some(cw);
-            // Steps towards "enabled" at most once per spacing (the bus-load figure counts
-            // on it); disabling and quick stop go at once. An unanswered step is repeated.
-            let stopping = cw == cia402::command::DISABLE_VOLTAGE || cw == cia402::command::QUICK_STOP;
+            let changed = self.last_control[i] != Some((mode, cw));
+            // Steps towards "enabled" and mode changes at most once per spacing (the
+            // bus-load figure counts on it); disabling and quick stop go at once. An
+            // unanswered step is repeated.
+            let stopping = base == cia402::command::DISABLE_VOLTAGE || base == cia402::command::QUICK_STOP;
             let due = self.controlword_age[i] >= spacing;
             if (changed && (due || stopping)) || self.controlword_age[i] >= spacing * 4 {
-                send(bus, &d.control.pack(&[u64::from(cw)]), &mut first_error);
-                self.last_controlword[i] = Some(cw);
+                send(
+                    bus,
+                    &d.control.pack(&[u64::from(mode as u8), u64::from(cw)]),
+                    &mut first_error,
+                );
+                self.last_control[i] = Some((mode, cw));
                 self.controlword_age[i] = 0;
             }
         }

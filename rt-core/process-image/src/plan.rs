@@ -3,17 +3,23 @@
 //!
 //! Per 1 ms cycle: SYNC; one RPDO per drive (target position, RPDO1, synchronous: applied
 //! at the next SYNC); one TPDO per drive (actual position, TPDO1, sent on every SYNC; the
-//! table drive's carries the spindle encoder too). Event-driven: controlword (RPDO2,
-//! on change, spaced), statusword (TPDO2, on change, inhibit time), the I/O coupler's
-//! inputs (TPDO1, on change, inhibit), outputs and analog outputs (RPDO1/2, on change,
-//! spaced); heartbeats slow.
+//! table drive's carries the spindle encoder too). Event-driven: mode of operation and
+//! controlword (RPDO2, on change, spaced), statusword and mode display (TPDO2, on change,
+//! inhibit time), the I/O coupler's inputs (TPDO1, on change, inhibit), outputs and analog
+//! outputs (RPDO1/2, on change, spaced); heartbeats slow.
+//!
+//! X and Y are referenced by the drives' own homing (CiA 402 mode 6): the loop switches
+//! them between cyclic synchronous position and homing through RPDO2 and sees the mode
+//! they are in through TPDO2, so no SDO is needed while the cycle runs; the homing
+//! parameters ([`DriveHoming`]) are written by SDO at start-up.
 
 use hob_canopen::busload::{BusLoad, Traffic, bus_load};
 use hob_canopen::cia402::{MODE_CSP, object};
 use hob_canopen::frame::{rpdo_id, tpdo_id};
 use hob_canopen::pdo::{Direction, MapEntry, Pdo, SdoWrite};
+use hob_control::AxisScale;
 use hob_control::fault::Axis;
-use hob_setup::config::machine::MachineConfig;
+use hob_setup::config::machine::{LinearAxisConfig, MachineConfig, Polarity};
 
 /// Node-ID of the master (its heartbeat COB-ID is 0x700 + this).
 pub const MASTER_NODE: u8 = 0x7F;
@@ -36,13 +42,88 @@ pub struct DrivePdos {
     pub axis: Axis,
     /// RPDO1: target position (and velocity offset if configured), synchronous.
     pub target: Pdo,
-    /// RPDO2: controlword, event-driven.
+    /// RPDO2: mode of operation (0x6060, 8 bits) then controlword (0x6040, 16 bits),
+    /// event-driven. The mode comes first: a drive that takes the mapped objects in order
+    /// is in the new mode when it reads the controlword (whose bit 4 starts homing).
     pub control: Pdo,
     /// TPDO1: position actual (and the spindle encoder on the table drive), every SYNC.
     pub actual: Pdo,
-    /// TPDO2: statusword, on change with inhibit time, and again after [`EVENT_TIMER_MS`]
-    /// without a change.
+    /// TPDO2: statusword (0x6041, 16 bits) then mode display (0x6061, 8 bits), on change
+    /// with inhibit time, and again after [`EVENT_TIMER_MS`] without a change.
     pub status: Pdo,
+    /// The homing parameters written at start-up (X and Y; none for the table, which
+    /// stays in cyclic synchronous position).
+    pub homing: Option<DriveHoming>,
+}
+
+/// A linear axis's homing parameters in the drive's own frame and units (counts), as
+/// [`BusPlan::node_configuration`] writes them by SDO.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct DriveHoming {
+    /// 0x6098, in the drive's counting direction: the machine file's method, mirrored
+    /// (3 <-> 5, 4 <-> 6) for an axis with inverted polarity ([`drive_homing_method`]).
+    pub method: i8,
+    /// 0x607C: the position actual value at the home position, counts
+    /// (`home_position_mm` as [`AxisScale::to_counts`] converts a target).
+    pub home_offset_counts: i32,
+    /// 0x6099:1, searching the switch, counts/s.
+    pub switch_speed_counts_s: u32,
+    /// 0x6099:2, searching the index pulse, counts/s.
+    pub zero_speed_counts_s: u32,
+    /// 0x609A, counts/s^2.
+    pub accel_counts_s2: u32,
+}
+
+impl DriveHoming {
+    /// Converts `a.homing` with the axis's scale and polarity (the configuration was
+    /// validated: positive speeds and acceleration, a method of 3 to 6).
+    pub fn from_axis(a: &LinearAxisConfig) -> Self {
+        let h = &a.homing;
+        let cpm = a.counts_per_mm();
+        let scale = AxisScale {
+            counts_per_unit: cpm,
+            sign: a.polarity.sign(),
+        };
+        // Rounded to whole counts; a speed below one count per second is still moving.
+        let magnitude = |v: f64| (v * cpm).round().clamp(1.0, f64::from(u32::MAX)) as u32;
+        Self {
+            method: drive_homing_method(h.method, a.polarity),
+            home_offset_counts: scale.to_counts(h.home_position_mm),
+            switch_speed_counts_s: magnitude(h.switch_search_mm_min / 60.0),
+            zero_speed_counts_s: magnitude(h.zero_search_mm_min / 60.0),
+            accel_counts_s2: magnitude(h.accel_mm_s2),
+        }
+    }
+
+    /// The SDO writes, in the order 0x6098, 0x6099:1, 0x6099:2, 0x609A, 0x607C.
+    pub fn writes(&self) -> [SdoWrite; 5] {
+        let w = SdoWrite::new;
+        [
+            w(object::HOMING_METHOD, 0, self.method as u8 as u32, 1),
+            w(object::HOMING_SPEEDS, 1, self.switch_speed_counts_s, 4),
+            w(object::HOMING_SPEEDS, 2, self.zero_speed_counts_s, 4),
+            w(object::HOMING_ACCELERATION, 0, self.accel_counts_s2, 4),
+            w(object::HOME_OFFSET, 0, self.home_offset_counts as u32, 4),
+        ]
+    }
+}
+
+/// The homing method as the drive must be told it: the machine file names the switch's
+/// side in the machine's frame (3, 4: the switch is active on the positive side of its
+/// edge; 5, 6: on the negative side; 3 and 5 take the index pulse outside the switch, 4
+/// and 6 inside it). A drive with inverted polarity counts the other way, so the
+/// machine's positive side is its negative side: 3 <-> 5 and 4 <-> 6, the index pulse on
+/// the same side of the edge (outside stays outside). Other methods pass unchanged (the
+/// configuration refuses them).
+pub fn drive_homing_method(method: i8, polarity: Polarity) -> i8 {
+    match (polarity, method) {
+        (Polarity::Normal, m) => m,
+        (Polarity::Inverted, 3) => 5,
+        (Polarity::Inverted, 5) => 3,
+        (Polarity::Inverted, 4) => 6,
+        (Polarity::Inverted, 6) => 4,
+        (Polarity::Inverted, m) => m,
+    }
 }
 
 /// The PDOs of the I/O coupler.
@@ -81,7 +162,7 @@ impl BusPlan {
     pub fn from_machine(m: &MachineConfig) -> Self {
         let c = &m.can;
         let spindle = MapEntry::new(c.spindle_encoder_index, c.spindle_encoder_subindex, 32);
-        let drive = |node: u8, axis: Axis| {
+        let drive = |node: u8, axis: Axis, homing: Option<DriveHoming>| {
             let mut target = vec![MapEntry::new(object::TARGET_POSITION, 0, 32)];
             if c.velocity_feed_forward_in_pdo {
                 target.push(MapEntry::new(object::VELOCITY_OFFSET, 0, 32));
@@ -99,7 +180,10 @@ impl BusPlan {
                     2,
                     rpdo_id(2, node),
                     255,
-                    &[MapEntry::new(object::CONTROLWORD, 0, 16)],
+                    &[
+                        MapEntry::new(object::MODES_OF_OPERATION, 0, 8),
+                        MapEntry::new(object::CONTROLWORD, 0, 16),
+                    ],
                 ),
                 actual: Pdo::new(Direction::Tpdo, 1, tpdo_id(1, node), 1, &actual),
                 status: Pdo::new(
@@ -107,18 +191,22 @@ impl BusPlan {
                     2,
                     tpdo_id(2, node),
                     255,
-                    &[MapEntry::new(object::STATUSWORD, 0, 16)],
+                    &[
+                        MapEntry::new(object::STATUSWORD, 0, 16),
+                        MapEntry::new(object::MODES_DISPLAY, 0, 8),
+                    ],
                 )
                 .with_inhibit_100us(c.statusword_inhibit_ms * 10)
                 .with_event_timer_ms(EVENT_TIMER_MS),
+                homing,
             }
         };
         let io = m.io.can_node_id;
         Self {
             drives: [
-                drive(m.table.can_node_id, Axis::B),
-                drive(m.x.can_node_id, Axis::X),
-                drive(m.y.can_node_id, Axis::Y),
+                drive(m.table.can_node_id, Axis::B, None),
+                drive(m.x.can_node_id, Axis::X, Some(DriveHoming::from_axis(&m.x))),
+                drive(m.y.can_node_id, Axis::Y, Some(DriveHoming::from_axis(&m.y))),
             ],
             io: IoPdos {
                 node: io,
@@ -206,6 +294,9 @@ impl BusPlan {
                 let (mant, exp) = interpolation_period(self.cycle_s);
                 out.push(w(object::INTERPOLATION_PERIOD, 1, u32::from(mant), 1));
                 out.push(w(object::INTERPOLATION_PERIOD, 2, exp as u8 as u32, 1));
+                if let Some(h) = d.homing {
+                    out.extend(h.writes());
+                }
                 vec![d.target, d.control, d.actual, d.status]
             }
             None if node == self.io.node => vec![self.io.inputs, self.io.outputs, self.io.analog],
@@ -239,12 +330,12 @@ impl BusPlan {
                 per_cycle: 1.0,
             });
             t.push(Traffic {
-                name: format!("{a} RPDO2 controlword"),
+                name: format!("{a} RPDO2 mode, controlword"),
                 bytes: d.control.len_bytes(),
                 per_cycle: per(f64::from(self.event_rpdo_spacing_ms)),
             });
             t.push(Traffic {
-                name: format!("{a} TPDO2 statusword"),
+                name: format!("{a} TPDO2 statusword, mode"),
                 bytes: d.status.len_bytes(),
                 per_cycle: per(f64::from(d.status.inhibit_100us) / 10.0),
             });
@@ -309,6 +400,7 @@ mod tests {
     }
 
     use super::*;
+    use hob_control::ControlParams as ControlScale;
 
     fn shipped() -> MachineConfig {
         hob_setup::config::machine::shipped_for_tests()
@@ -345,15 +437,16 @@ mod tests {
             .sum();
         assert_eq!(plan_cyclic, cyclic, "{:#?}", load.traffic);
         // Event-driven, at most once per spacing or inhibit time (cycle / time per cycle):
-        // three controlwords (2 bytes) and the outputs (2) and analog outputs (4) every
-        // event_rpdo_spacing_ms; three statuswords (2) every statusword_inhibit_ms; the
-        // inputs (3) every inputs_inhibit_ms; four nodes' and the master's heartbeats (1)
-        // every heartbeat_ms.
+        // three modes of operation and controlwords (1 + 2 bytes) and the outputs (2) and
+        // analog outputs (4) every event_rpdo_spacing_ms; three statuswords and mode
+        // displays (2 + 1) every statusword_inhibit_ms; the inputs (3) every
+        // inputs_inhibit_ms; four nodes' and the master's heartbeats (1) every heartbeat_ms.
         let cycle_ms = f64::from(m.control.cycle_period_us) / 1000.0;
         let every = |ms: u16| cycle_ms / f64::from(ms);
         let c = &m.can;
-        let event = (3.0 * f(2) + f(2) + f(4)) * every(c.event_rpdo_spacing_ms)
-            + 3.0 * f(2) * every(c.statusword_inhibit_ms)
+        assert_eq!((f(2), f(3)), (75.0, 85.0), "a third byte costs 10 bits");
+        let event = (3.0 * f(3) + f(2) + f(4)) * every(c.event_rpdo_spacing_ms)
+            + 3.0 * f(3) * every(c.statusword_inhibit_ms)
             + f(3) * every(c.inputs_inhibit_ms)
             + 5.0 * f(1) * every(c.heartbeat_ms);
         let bits = cyclic + event;
@@ -417,6 +510,111 @@ mod tests {
             io.iter()
                 .any(|w| w.index == 0x1800 && w.sub == 5 && w.value == u32::from(EVENT_TIMER_MS))
         );
+    }
+
+    #[test]
+    fn the_mode_travels_with_the_controlword_and_its_display_with_the_statusword() {
+        let plan = BusPlan::from_machine(&shipped());
+        for d in plan.drives {
+            assert_eq!(
+                d.control.entries(),
+                [
+                    MapEntry::new(object::MODES_OF_OPERATION, 0, 8),
+                    MapEntry::new(object::CONTROLWORD, 0, 16)
+                ]
+            );
+            assert_eq!(
+                d.status.entries(),
+                [
+                    MapEntry::new(object::STATUSWORD, 0, 16),
+                    MapEntry::new(object::MODES_DISPLAY, 0, 8)
+                ]
+            );
+            let seq = plan.node_configuration(d.node);
+            // The mappings as written by SDO: RPDO2 0x1601, TPDO2 0x1A01, two entries each.
+            for (map, first, second) in [
+                (0x1601, 0x6060_0008, 0x6040_0010),
+                (0x1A01, 0x6041_0010, 0x6061_0008),
+            ] {
+                let subs: Vec<(u8, u32)> = seq
+                    .iter()
+                    .filter(|w| w.index == map)
+                    .map(|w| (w.sub, w.value))
+                    .collect();
+                assert_eq!(subs, [(0, 0), (1, first), (2, second), (0, 2)], "{map:04X}");
+            }
+        }
+    }
+
+    #[test]
+    fn homing_parameters_are_written_in_counts_for_x_and_y_only() {
+        let m = shipped();
+        let plan = BusPlan::from_machine(&m);
+        assert_eq!(plan.drives[0].homing, None, "the table is not homed");
+        assert!(
+            !plan
+                .node_configuration(m.table.can_node_id)
+                .iter()
+                .any(|w| { [0x6098, 0x6099, 0x609A, 0x607C].contains(&w.index) })
+        );
+        // Shipped: 3000 counts/mm, normal polarity; X home 240 mm, Y 440 mm; 600 and
+        // 60 mm/min, 50 mm/s^2.
+        assert_eq!(m.x.counts_per_mm(), 3000.0);
+        for (node, home_counts) in [(m.x.can_node_id, 720_000i32), (m.y.can_node_id, 1_320_000)] {
+            let seq = plan.node_configuration(node);
+            let value = |index: u16, sub: u8| {
+                let w: Vec<_> = seq.iter().filter(|w| w.index == index && w.sub == sub).collect();
+                assert_eq!(w.len(), 1, "{index:04X}:{sub} of node {node}");
+                (w[0].value, w[0].size)
+            };
+            assert_eq!(value(0x6098, 0), (3, 1));
+            assert_eq!(value(0x6099, 1), (30_000, 4), "10 mm/s");
+            assert_eq!(value(0x6099, 2), (3_000, 4), "1 mm/s");
+            assert_eq!(value(0x609A, 0), (150_000, 4));
+            assert_eq!(value(0x607C, 0), (home_counts as u32, 4));
+        }
+    }
+
+    #[test]
+    fn an_inverted_axis_gets_the_mirrored_method_and_a_negative_home_offset() {
+        let mut m = shipped();
+        m.x.polarity = Polarity::Inverted;
+        m.x.homing.home_position_mm = 100.25;
+        for (machine, drive) in [(3, 5), (4, 6), (5, 3), (6, 4)] {
+            m.x.homing.method = machine;
+            let h = BusPlan::from_machine(&m).drives[1].homing.expect("X is homed");
+            assert_eq!(h.method, drive, "machine method {machine}");
+            // The same counts as a target at 100.25 mm: the loop's own scale.
+            assert_eq!(h.home_offset_counts, -300_750);
+            assert_eq!(
+                h.home_offset_counts,
+                ControlScale::from_machine(&m).x.to_counts(100.25)
+            );
+            // Speeds are magnitudes: the polarity does not change them.
+            assert_eq!((h.switch_speed_counts_s, h.zero_speed_counts_s), (30_000, 3_000));
+            let w = h.writes();
+            assert_eq!((w[0].index, w[0].value), (0x6098, drive as u8 as u32));
+            assert_eq!((w[4].index, w[4].value), (0x607C, (-300_750i32) as u32));
+            // Y, normal, keeps the machine's method.
+            assert_eq!(
+                BusPlan::from_machine(&m).drives[2].homing.map(|h| h.method),
+                Some(3)
+            );
+        }
+    }
+
+    #[test]
+    fn the_machine_files_homing_methods_are_the_protocols() {
+        assert_eq!(
+            hob_setup::config::machine::HOMING_METHODS,
+            hob_canopen::cia402::HOMING_METHODS_SWITCH_AND_INDEX
+        );
+        for m in hob_canopen::cia402::HOMING_METHODS_SWITCH_AND_INDEX {
+            let mirrored = drive_homing_method(m, Polarity::Inverted);
+            assert_ne!(mirrored, m);
+            assert_eq!(drive_homing_method(mirrored, Polarity::Inverted), m);
+            assert_eq!(drive_homing_method(m, Polarity::Normal), m);
+        }
     }
 
     #[test]

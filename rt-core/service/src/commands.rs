@@ -14,8 +14,8 @@ use hob_control::fault::Refusal;
 use hob_control::program::CycleProgram;
 use hob_ipc::codec;
 use hob_ipc::{CommandRequest, CommandResponse, command};
+use hob_setup::config::Problems;
 use hob_setup::config::machine::MachineConfig;
-use hob_setup::config::{Problems, parse_toml};
 use hob_setup::job::Program;
 use std::path::Path;
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -31,8 +31,8 @@ pub enum Mail {
     Command(Command),
 }
 
-/// The loop's verdict.
-pub type Verdict = Result<(), Refusal>;
+/// The loop's verdict: accepted with the work offsets after the command, or refused.
+pub type Verdict = Result<hob_control::Offsets, Refusal>;
 
 /// How long a request may wait for the loop (it takes one per cycle).
 const LOOP_ANSWER: Duration = Duration::from_millis(500);
@@ -41,7 +41,7 @@ const LOOP_ANSWER: Duration = Duration::from_millis(500);
 /// (file, line, key, limit) as text.
 pub fn build_program(name: &str, text: &str, machine: &MachineConfig) -> Result<CycleProgram, String> {
     let path = Path::new(name);
-    let program: Program = parse_toml(path, text).map_err(|e| e.to_string())?;
+    let program = Program::parse(path, text).map_err(|e| e.to_string())?;
     let mut problems = Problems::new();
     match CycleProgram::build(&program, machine, &mut problems) {
         Some(c) => Ok(c),
@@ -57,9 +57,14 @@ pub fn to_mail(req: &CommandRequest, machine: &MachineConfig) -> Result<Mail, St
     if req.command == command::LOAD_PROGRAM {
         return build_program(&req.name(), &req.text(), machine).map(Mail::Load);
     }
-    encode::command_from_code(req.command, req.single, req.axis, req.value)
+    encode::command_from_code(&encode::Args::from_request(req))
         .map(Mail::Command)
-        .ok_or_else(|| format!("unknown command {} (axis code {})", req.command, req.axis))
+        .ok_or_else(|| {
+            format!(
+                "unknown command {} (axis code {}, direction code {})",
+                req.command, req.axis, req.direction
+            )
+        })
 }
 
 /// The loop's side of the mailboxes.
@@ -113,17 +118,61 @@ impl ThreadMailbox {
     }
 }
 
+/// Keeps the offsets of an accepted touch-off in the machine state file (atomically: a
+/// crash or a power loss while writing leaves the previous file whole). Returns the text
+/// for the operator.
+pub fn save_offsets(state_file: &Path, offsets: hob_control::Offsets, cmd: Command) -> String {
+    use hob_store::machine_state::{Loaded, MachineState, load};
+    let previous = match load(state_file) {
+        Ok(Loaded::Calibrated(s)) => Some(s),
+        _ => None,
+    };
+    let (mut diameter, mut height) = previous
+        .as_ref()
+        .map_or((None, None), |s| (s.gauge_diameter_mm, s.gauge_height_mm));
+    let axis = match cmd {
+        Command::TouchOff { axis, value_mm } => {
+            if axis == hob_control::fault::Axis::X {
+                diameter = Some(value_mm);
+            } else {
+                height = Some(value_mm);
+            }
+            axis.name()
+        }
+        _ => "?",
+    };
+    let state = MachineState::new(offsets.x_mm, offsets.y_mm, diameter, height);
+    match state.save(state_file) {
+        Ok(()) => format!(
+            "touch-off {axis}: accepted; offsets X {:+.4} mm, Y {:+.4} mm saved in {}",
+            offsets.x_mm,
+            offsets.y_mm,
+            state_file.display()
+        ),
+        Err(e) => format!(
+            "touch-off {axis}: accepted by the loop (offsets X {:+.4} mm, Y {:+.4} mm) but NOT SAVED: {e}; touch off again once the state file can be written",
+            offsets.x_mm, offsets.y_mm
+        ),
+    }
+}
+
 /// The answer to one request.
-pub fn answer(req: &CommandRequest, machine: &MachineConfig, mailbox: &ThreadMailbox) -> CommandResponse {
+pub fn answer(
+    req: &CommandRequest,
+    machine: &MachineConfig,
+    state_file: &Path,
+    mailbox: &ThreadMailbox,
+) -> CommandResponse {
     let what = codec::command_name(req.command);
     let mail = match to_mail(req, machine) {
         Ok(m) => m,
         Err(text) => return CommandResponse::new(false, 0, &format!("{what} refused: {text}")),
     };
     match mailbox.ask(mail) {
-        Ok(Ok(())) => {
+        Ok(Ok(offsets)) => {
             let text = match mail {
                 Mail::Load(p) => format!("loaded {} ({} passes)", req.name(), p.passes().len()),
+                Mail::Command(c @ Command::TouchOff { .. }) => save_offsets(state_file, offsets, c),
                 Mail::Command(_) => format!("{what}: accepted"),
             };
             CommandResponse::new(true, 0, &text)
@@ -140,6 +189,7 @@ pub fn answer(req: &CommandRequest, machine: &MachineConfig, mailbox: &ThreadMai
 /// Serves the `command` service until `stop`; `ready` is called once the server exists.
 pub fn serve(
     machine: &MachineConfig,
+    state_file: &Path,
     mailbox: &ThreadMailbox,
     stop: &AtomicBool,
     ready: impl FnOnce(),
@@ -150,7 +200,7 @@ pub fn serve(
     while !stop.load(Ordering::Relaxed) {
         match server.receive() {
             Ok(Some(active)) => {
-                let response = answer(active.payload(), machine, mailbox);
+                let response = answer(active.payload(), machine, state_file, mailbox);
                 let _ = active.send_copy(response);
             }
             Ok(None) => std::thread::sleep(Duration::from_millis(2)),
@@ -179,6 +229,48 @@ mod tests {
         assert!(e.contains("teeth"), "{e}");
         let e = build_program("x.toml", "[nonsense]\n", &m).unwrap_err();
         assert!(e.contains("x.toml"), "{e}");
+    }
+
+    #[test]
+    fn the_first_touch_off_of_a_set_up_is_saved_and_the_second_keeps_it() {
+        use hob_control::fault::Axis;
+        use hob_store::machine_state::{Loaded, load};
+        let dir = std::env::temp_dir().join(format!("hob-service-touch-off-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        std::fs::create_dir_all(&dir).unwrap();
+        let file = dir.join("machine-state.toml");
+        let x = Command::TouchOff {
+            axis: Axis::X,
+            value_mm: 100.0,
+        };
+        let text = save_offsets(&file, hob_control::Offsets { x_mm: 0.4, y_mm: 0.0 }, x);
+        assert!(text.contains("saved in"), "{text}");
+        let y = Command::TouchOff {
+            axis: Axis::Y,
+            value_mm: 0.0,
+        };
+        let text = save_offsets(
+            &file,
+            hob_control::Offsets {
+                x_mm: 0.4,
+                y_mm: -1.5,
+            },
+            y,
+        );
+        assert!(text.contains("saved in"), "{text}");
+        let Ok(Loaded::Calibrated(s)) = load(&file) else {
+            panic!("{}: not loaded", file.display())
+        };
+        assert_eq!(
+            (
+                s.x_offset_mm,
+                s.y_offset_mm,
+                s.gauge_diameter_mm,
+                s.gauge_height_mm
+            ),
+            (0.4, -1.5, Some(100.0), Some(0.0))
+        );
+        let _ = std::fs::remove_dir_all(&dir);
     }
 
     #[test]

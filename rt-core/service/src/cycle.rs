@@ -118,7 +118,8 @@ impl<B: CanBus> RtLoop<B> {
             let verdict = match mail {
                 Mail::Load(p) => self.controller.load(p),
                 Mail::Command(c) => self.controller.command(c),
-            };
+            }
+            .map(|()| self.controller.offsets());
             let _ = self.mailbox.verdicts.try_send(verdict);
         }
         let inputs = self.cyclic.inputs();

@@ -6,10 +6,10 @@
 use hob_canopen::bus::BusError;
 use hob_control::egb::Coupling;
 use hob_control::events::{Event, EventKind};
-use hob_control::fault::{Axis, End, Fault, Refusal};
-use hob_control::{Command, State, Status};
+use hob_control::fault::{Axis, End, Fault, HomingFailure, Refusal};
+use hob_control::{Command, Direction, HomeAxes, State, Status};
 use hob_ipc::codec;
-use hob_ipc::{AlarmCode, EventSample, StateSample, bus_event, command, event_kind, send_error};
+use hob_ipc::{AlarmCode, EventSample, StateSample, bus_event, command, direction, event_kind, send_error};
 use hob_process_image::master::BusEvent;
 
 /// The code of a sequencer state.
@@ -37,6 +37,7 @@ pub const fn state(s: State) -> codec::State {
         State::FaultRetract => codec::State::FaultRetract,
         State::FaultStop => codec::State::FaultStop,
         State::Faulted => codec::State::Faulted,
+        State::Referencing => codec::State::Referencing,
     }
 }
 
@@ -65,6 +66,7 @@ pub const fn state_of(s: codec::State) -> State {
         codec::State::FaultRetract => State::FaultRetract,
         codec::State::FaultStop => State::FaultStop,
         codec::State::Faulted => State::Faulted,
+        codec::State::Referencing => State::Referencing,
     }
 }
 
@@ -78,6 +80,9 @@ pub const fn refusal(r: Refusal) -> codec::Refusal {
         Refusal::NothingToDo => codec::Refusal::NothingToDo,
         Refusal::OutsideSoftLimits => codec::Refusal::OutsideSoftLimits,
         Refusal::NoSingleDepth => codec::Refusal::NoSingleDepth,
+        Refusal::NotReferenced => codec::Refusal::NotReferenced,
+        Refusal::TablePositionLost => codec::Refusal::TablePositionLost,
+        Refusal::JogActive => codec::Refusal::JogActive,
         Refusal::BadValue => codec::Refusal::BadValue,
         Refusal::SafetyChainOpen => codec::Refusal::SafetyChainOpen,
         Refusal::DrivesNotEnabled => codec::Refusal::DrivesNotEnabled,
@@ -97,6 +102,9 @@ pub const fn refusal_of(r: codec::Refusal) -> Refusal {
         codec::Refusal::BadValue => Refusal::BadValue,
         codec::Refusal::SafetyChainOpen => Refusal::SafetyChainOpen,
         codec::Refusal::DrivesNotEnabled => Refusal::DrivesNotEnabled,
+        codec::Refusal::NotReferenced => Refusal::NotReferenced,
+        codec::Refusal::TablePositionLost => Refusal::TablePositionLost,
+        codec::Refusal::JogActive => Refusal::JogActive,
     }
 }
 
@@ -144,10 +152,17 @@ pub fn alarm(f: Option<Fault>) -> AlarmCode {
         Fault::FeedbackLost { axis } => (codec::Fault::FeedbackLost, Some(axis), None, 0.0, 0.0),
         Fault::IoLost => (codec::Fault::IoLost, None, None, 0.0, 0.0),
         Fault::DriveNotEnabled { axis } => (codec::Fault::DriveNotEnabled, Some(axis), None, 0.0, 0.0),
+        Fault::HomingFailed { axis, why } => {
+            a.end = homing_failure(why).code();
+            (codec::Fault::HomingFailed, Some(axis), None, 0.0, 0.0)
+        }
+        Fault::PositionLost { axis } => (codec::Fault::PositionLost, Some(axis), None, 0.0, 0.0),
     };
     a.code = code.code();
     a.axis = ax.map_or(0, |x| axis(x).code());
-    a.end = en.map_or(0, |e| end(e).code());
+    if let Some(e) = en {
+        a.end = end(e).code();
+    }
     a.value_a = va;
     a.value_b = vb;
     a
@@ -190,7 +205,31 @@ pub fn fault_of(a: &AlarmCode) -> Option<Fault> {
         codec::Fault::FeedbackLost => Fault::FeedbackLost { axis: ax? },
         codec::Fault::IoLost => Fault::IoLost,
         codec::Fault::DriveNotEnabled => Fault::DriveNotEnabled { axis: ax? },
+        codec::Fault::HomingFailed => Fault::HomingFailed {
+            axis: ax?,
+            why: homing_failure_of(codec::HomingFailure::from_code(a.end)?),
+        },
+        codec::Fault::PositionLost => Fault::PositionLost { axis: ax? },
     })
+}
+
+/// The code of a homing failure.
+pub const fn homing_failure(h: HomingFailure) -> codec::HomingFailure {
+    match h {
+        HomingFailure::ModeNotConfirmed => codec::HomingFailure::ModeNotConfirmed,
+        HomingFailure::NotStarted => codec::HomingFailure::NotStarted,
+        HomingFailure::DriveError => codec::HomingFailure::DriveError,
+        HomingFailure::Timeout => codec::HomingFailure::Timeout,
+    }
+}
+
+const fn homing_failure_of(h: codec::HomingFailure) -> HomingFailure {
+    match h {
+        codec::HomingFailure::ModeNotConfirmed => HomingFailure::ModeNotConfirmed,
+        codec::HomingFailure::NotStarted => HomingFailure::NotStarted,
+        codec::HomingFailure::DriveError => HomingFailure::DriveError,
+        codec::HomingFailure::Timeout => HomingFailure::Timeout,
+    }
 }
 
 /// The code of a coupling state.
@@ -235,38 +274,153 @@ pub fn fill_state(s: &mut StateSample, st: &Status, passes_total: u32, program_l
     s.sync_error_arcsec = st.sync_error_arcsec;
     s.ccc_arcsec = st.ccc_arcsec;
     s.alarm = alarm(st.fault);
+    s.referenced = bits([st.table_position_whole, st.referenced[0], st.referenced[1]]);
+    s.moving_axis = st.moving_axis.map_or(0, |a| axis(a).code());
+    s.continue_pass = st.continue_pass;
+    s.feed_override_percent = st.feed_override_percent;
+    s.spindle_override_percent = st.spindle_override_percent;
+    s.x_offset_mm = st.offsets.x_mm;
+    s.y_offset_mm = st.offsets.y_mm;
 }
 
-/// A command's code and arguments: (code, single, axis, value).
-pub fn command_code(c: Command) -> (u32, u8, u8, f64) {
-    match c {
-        Command::Start { single } => (command::START, u8::from(single), 0, 0.0),
-        Command::FeedHold => (command::FEED_HOLD, 0, 0, 0.0),
-        Command::Resume => (command::RESUME, 0, 0, 0.0),
-        Command::Stop => (command::STOP, 0, 0, 0.0),
-        Command::Reset => (command::RESET, 0, 0, 0.0),
-        Command::Jog { axis: a, distance } => (command::JOG, 0, axis(a).code(), distance),
-        Command::SpindleOn { rpm } => (command::SPINDLE_ON, 0, 0, rpm),
-        Command::SpindleOff => (command::SPINDLE_OFF, 0, 0, 0.0),
-        Command::NewBlank => (command::NEW_BLANK, 0, 0, 0.0),
+/// A command as it travels in a [`hob_ipc::CommandRequest`]: its code and arguments.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct Args {
+    pub code: u32,
+    pub single: u8,
+    pub axis: u8,
+    pub direction: u8,
+    pub value: f64,
+}
+
+impl Args {
+    const fn of(code: u32) -> Self {
+        Args {
+            code,
+            single: 0,
+            axis: 0,
+            direction: 0,
+            value: 0.0,
+        }
+    }
+
+    const fn axis(self, a: Axis) -> Self {
+        Args {
+            axis: axis(a).code(),
+            ..self
+        }
+    }
+
+    const fn value(self, value: f64) -> Self {
+        Args { value, ..self }
+    }
+
+    /// The arguments of a request.
+    pub fn from_request(r: &hob_ipc::CommandRequest) -> Self {
+        Args {
+            code: r.command,
+            single: r.single,
+            axis: r.axis,
+            direction: r.direction,
+            value: r.value,
+        }
+    }
+
+    /// Writes them into a request.
+    pub fn to_request(self, r: &mut hob_ipc::CommandRequest) {
+        r.command = self.code;
+        r.single = self.single;
+        r.axis = self.axis;
+        r.direction = self.direction;
+        r.value = self.value;
     }
 }
 
-/// A command from its code and arguments (`None`: LOAD_PROGRAM, unknown code, bad axis).
-pub fn command_from_code(code: u32, single: u8, axis: u8, value: f64) -> Option<Command> {
-    Some(match code {
-        command::START => Command::Start { single: single != 0 },
+/// A command's code and arguments.
+pub const fn command_code(c: Command) -> Args {
+    match c {
+        Command::Start { single } => Args {
+            single: single as u8,
+            ..Args::of(command::START)
+        },
+        Command::FeedHold => Args::of(command::FEED_HOLD),
+        Command::Resume => Args::of(command::RESUME),
+        Command::Stop => Args::of(command::STOP),
+        Command::Reset => Args::of(command::RESET),
+        Command::Jog { axis: a, distance } => Args::of(command::JOG).axis(a).value(distance),
+        Command::SpindleOn { rpm } => Args::of(command::SPINDLE_ON).value(rpm),
+        Command::SpindleOff => Args::of(command::SPINDLE_OFF),
+        Command::NewBlank => Args::of(command::NEW_BLANK),
+        Command::Home { axes } => match axes {
+            HomeAxes::X => Args::of(command::HOME).axis(Axis::X),
+            HomeAxes::Y => Args::of(command::HOME).axis(Axis::Y),
+            HomeAxes::Both => Args::of(command::HOME),
+        },
+        Command::JogContinuous {
+            axis: a,
+            direction: d,
+            speed_per_min,
+        } => Args {
+            direction: match d {
+                Direction::Positive => direction::POSITIVE,
+                Direction::Negative => direction::NEGATIVE,
+            },
+            ..Args::of(command::JOG_CONTINUOUS).axis(a).value(speed_per_min)
+        },
+        Command::JogRelease => Args::of(command::JOG_RELEASE),
+        Command::FeedOverride { percent } => Args::of(command::FEED_OVERRIDE).value(percent),
+        Command::SpindleOverride { percent } => Args::of(command::SPINDLE_OVERRIDE).value(percent),
+        Command::TouchOff { axis: a, value_mm } => Args::of(command::TOUCH_OFF).axis(a).value(value_mm),
+        Command::Continue => Args::of(command::CONTINUE),
+    }
+}
+
+/// A command from its code and arguments (`None`: LOAD_PROGRAM, unknown code, bad axis
+/// or direction).
+pub fn command_from_code(a: &Args) -> Option<Command> {
+    let ax = || codec::Axis::from_code(a.axis).map(axis_of);
+    Some(match a.code {
+        command::START => Command::Start {
+            single: a.single != 0,
+        },
         command::FEED_HOLD => Command::FeedHold,
         command::RESUME => Command::Resume,
         command::STOP => Command::Stop,
         command::RESET => Command::Reset,
         command::JOG => Command::Jog {
-            axis: axis_of(codec::Axis::from_code(axis)?),
-            distance: value,
+            axis: ax()?,
+            distance: a.value,
         },
-        command::SPINDLE_ON => Command::SpindleOn { rpm: value },
+        command::SPINDLE_ON => Command::SpindleOn { rpm: a.value },
         command::SPINDLE_OFF => Command::SpindleOff,
         command::NEW_BLANK => Command::NewBlank,
+        command::HOME => Command::Home {
+            axes: match a.axis {
+                0 => HomeAxes::Both,
+                _ => match ax()? {
+                    Axis::X => HomeAxes::X,
+                    Axis::Y => HomeAxes::Y,
+                    Axis::B => return None,
+                },
+            },
+        },
+        command::JOG_CONTINUOUS => Command::JogContinuous {
+            axis: ax()?,
+            direction: match a.direction {
+                direction::POSITIVE => Direction::Positive,
+                direction::NEGATIVE => Direction::Negative,
+                _ => return None,
+            },
+            speed_per_min: a.value,
+        },
+        command::JOG_RELEASE => Command::JogRelease,
+        command::FEED_OVERRIDE => Command::FeedOverride { percent: a.value },
+        command::SPINDLE_OVERRIDE => Command::SpindleOverride { percent: a.value },
+        command::TOUCH_OFF => Command::TouchOff {
+            axis: ax()?,
+            value_mm: a.value,
+        },
+        command::CONTINUE => Command::Continue,
         _ => return None,
     })
 }
@@ -299,20 +453,33 @@ pub fn event_sample(seq: u64, e: &Event) -> EventSample {
         }
         EventKind::Accepted(c) => {
             s.kind = event_kind::ACCEPTED;
-            let (code, single, axis, value) = command_code(c);
-            s.a = code;
-            s.b = u32::from(single) | (u32::from(axis) << 8);
-            s.value = value;
+            let a = command_code(c);
+            s.a = a.code;
+            s.b = u32::from(a.single) | (u32::from(a.axis) << 8) | (u32::from(a.direction) << 16);
+            s.value = a.value;
         }
         EventKind::Refused { command, reason } => {
             s.kind = event_kind::REFUSED;
-            let (code, _, _, value) = command_code(command);
-            s.a = code;
+            let a = command_code(command);
+            s.a = a.code;
             s.b = refusal(reason).code();
-            s.value = value;
+            s.value = a.value;
         }
         EventKind::ProgramLoaded => s.kind = event_kind::PROGRAM_LOADED,
         EventKind::CycleDone => s.kind = event_kind::CYCLE_DONE,
+        EventKind::Referenced { axis: a } => {
+            s.kind = event_kind::REFERENCED;
+            s.a = u32::from(axis(a).code());
+        }
+        EventKind::DeadManStop { axis: a } => {
+            s.kind = event_kind::DEAD_MAN_STOP;
+            s.a = u32::from(axis(a).code());
+        }
+        EventKind::OffsetChanged { axis: a, offset_mm } => {
+            s.kind = event_kind::OFFSET_CHANGED;
+            s.a = u32::from(axis(a).code());
+            s.value = offset_mm;
+        }
     }
     s
 }

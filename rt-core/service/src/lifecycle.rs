@@ -40,6 +40,8 @@ pub struct Settings {
     pub iface: Option<String>,
     /// Refuse to run without the full real-time set-up (exit status 3).
     pub require_rt: bool,
+    /// The machine state file (work offsets); `None`: the machine file's `state.file`.
+    pub state_file: Option<std::path::PathBuf>,
 }
 
 /// Stage 1: the machine is known and its bus is up.
@@ -49,10 +51,40 @@ pub struct Configured {
     bus: Box<dyn CanBus>,
     booted: Booted,
     require_rt: bool,
+    state_file: std::path::PathBuf,
+    offsets: hob_control::Offsets,
 }
 
 /// Opens the bus the machine file (or `settings`) names and boots every node on it.
 pub fn configure(machine: MachineConfig, settings: &Settings) -> Result<Configured, Failure> {
+    let state_file = settings
+        .state_file
+        .clone()
+        .unwrap_or_else(|| machine.state.file.clone().into());
+    // The work offsets of the last touch-off: a broken file stops the start, as a broken
+    // machine file does (never cut with offsets half read).
+    let offsets = match hob_store::machine_state::load(&state_file).map_err(|e| (1, e.to_string()))? {
+        hob_store::machine_state::Loaded::NotCalibrated => {
+            eprintln!(
+                "hob-rt: {}: no touch-off yet: work offsets 0 (touch off X and Y before cutting)",
+                state_file.display()
+            );
+            hob_control::Offsets::default()
+        }
+        hob_store::machine_state::Loaded::Calibrated(s) => {
+            eprintln!(
+                "hob-rt: {}: work offsets X {:+.4} mm, Y {:+.4} mm (set {})",
+                state_file.display(),
+                s.x_offset_mm,
+                s.y_offset_mm,
+                s.set_at_utc
+            );
+            hob_control::Offsets {
+                x_mm: s.x_offset_mm,
+                y_mm: s.y_offset_mm,
+            }
+        }
+    };
     let iface = settings
         .iface
         .clone()
@@ -75,6 +107,8 @@ pub fn configure(machine: MachineConfig, settings: &Settings) -> Result<Configur
         bus,
         booted,
         require_rt: settings.require_rt,
+        state_file,
+        offsets,
     })
 }
 
@@ -116,6 +150,7 @@ impl Helpers {
     fn start(
         machine: &MachineConfig,
         iface: &str,
+        state_file: &std::path::Path,
         thread_box: ThreadMailbox,
         stats_timing: StatsTiming,
         counters: &Arc<LoopCounters>,
@@ -126,6 +161,7 @@ impl Helpers {
         let commands = {
             let stop = Arc::clone(&stop);
             let machine = machine.clone();
+            let state_file = state_file.to_path_buf();
             let ready_tx = ready_tx.clone();
             std::thread::Builder::new()
                 .name("hob-rt-commands".into())
@@ -134,7 +170,7 @@ impl Helpers {
                         let _ = ready_tx.send(());
                     };
                     hob_rt_os::keep_off_core(machine.service.loop_core);
-                    if let Err(e) = commands::serve(&machine, &thread_box, &stop, ready) {
+                    if let Err(e) = commands::serve(&machine, &state_file, &thread_box, &stop, ready) {
                         eprintln!("hob-rt: {e}");
                     }
                 })
@@ -270,12 +306,14 @@ impl Configured {
             mut bus,
             booted,
             require_rt,
+            state_file,
+            offsets,
         } = self;
         let ports = LoopPorts::open()?;
         let (thread_box, loop_box) = commands::mailboxes();
         let (loop_timing, stats_timing): (LoopTiming, StatsTiming) = stats::circulation();
         let counters = Arc::new(LoopCounters::default());
-        let helpers = Helpers::start(&machine, &iface, thread_box, stats_timing, &counters)?;
+        let helpers = Helpers::start(&machine, &iface, &state_file, thread_box, stats_timing, &counters)?;
         let realtime = RealTime::enter(&ports, &helpers, &machine);
         realtime.announce();
         if require_rt && !realtime.report.is_complete() {
@@ -293,7 +331,8 @@ impl Configured {
                 "hob-rt: {iface} cannot echo our SYNCs in order: TPDOs are matched by counting the SYNCs each drive owes"
             );
         }
-        let controller = Controller::new(ControlParams::from_machine(&machine));
+        let mut controller = Controller::new(ControlParams::from_machine(&machine));
+        controller.set_offsets(offsets);
         let LoopPorts {
             _node: node,
             state,

@@ -70,7 +70,7 @@ pub fn powered_up(job: &Program, cycle: &CycleProgram, plan: &Plan) -> Simulatio
         job.workpiece.face_width_mm,
         job.tool.outside_diameter_mm,
     ));
-    assert!(sim.power_up(30.0, &mut |_| {}), "power-up");
+    assert!(sim.power_up(120.0, &mut |_| {}), "power-up");
     sim.controller.load(*cycle).unwrap();
     sim
 }

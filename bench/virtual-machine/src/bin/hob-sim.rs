@@ -4,7 +4,8 @@
 //! physics of `config/plant.toml`, in lockstep with the master's SYNC. Faults are injected
 //! from the command line (`--fault`, `--fault-in-cut`) or, with `--control`, one per line
 //! on standard input: `drive-fault x`, `estop`, `chain-open`, `limit y min`, `no-lube`,
-//! `obstruct y`, `vfd-fault`, `drop 0.2`, `delay 3`, `silent 2`, `garbage 4`.
+//! `obstruct y`, `vfd-fault`, `drop 0.2`, `delay 3`, `silent 2`, `garbage 4`, and `clear`
+//! (every injected fault repaired).
 
 use clap::Parser;
 use hob_canopen::bus::CanBus;
@@ -66,6 +67,13 @@ struct Args {
     /// measurements: an answer due when the loop wakes delays it.
     #[arg(long)]
     beside_loop: bool,
+    /// Honest incremental encoders: every drive's counter (0x6064) starts at 0 at power-on
+    /// and X and Y stand at a random position within their travel (from the plant's
+    /// `simulation.seed`); the master must home X and Y (CiA 402 mode 6). The same as
+    /// `simulation.drive_counters = "incremental"` in the plant file. Without either, the
+    /// counters read the machine position as if referenced before.
+    #[arg(long)]
+    incremental: bool,
 }
 
 fn main() -> ExitCode {
@@ -80,7 +88,10 @@ fn main() -> ExitCode {
 
 fn run(a: Args) -> Result<(), String> {
     let machine = MachineConfig::load(&a.machine).map_err(|e| e.to_string())?;
-    let plant = PlantConfig::load(&a.plant).map_err(|e| e.to_string())?;
+    let mut plant = PlantConfig::load(&a.plant).map_err(|e| e.to_string())?;
+    if a.incremental {
+        plant.simulation.drive_counters = hob_plant::config::DriveCounters::Incremental;
+    }
     let mut start = Start {
         x_mm: 150.0,
         y_mm: 150.0,

@@ -3,7 +3,7 @@
 
 use super::*;
 use hob_can_transport::MemoryBus;
-use hob_control::CycleOutputs;
+use hob_control::{CycleOutputs, DriveMode};
 use hob_setup::config::machine::shipped_for_tests;
 
 /// A master on one end of an in-memory bus, the drives' side on the other.
@@ -235,4 +235,431 @@ fn a_refused_sdo_request_reports_the_bus_error_and_the_object() {
         text.contains("2000:00") && text.contains("interface down"),
         "{text}"
     );
+}
+
+// ---------------------------------------------------------------------------------------
+// Homing (issue 14): the boot's checks and SDO writes, RPDO2 and TPDO2 in the cycle.
+
+#[global_allocator]
+static ALLOCATOR: hob_rt_os::alloc_guard::CountingAllocator = hob_rt_os::alloc_guard::CountingAllocator;
+
+/// One scripted node: an object dictionary of raw bytes, every SDO write recorded.
+#[derive(Debug)]
+struct FakeNode {
+    id: u8,
+    od: std::collections::BTreeMap<(u16, u8), Vec<u8>>,
+    /// Writing 0x6060 changes 0x6061 (false: the drive keeps displaying what it had).
+    takes_mode: bool,
+    sdo: hob_canopen::sdo::SdoServer,
+}
+
+/// The dictionary side of a [`FakeNode`] during one request.
+#[derive(Debug)]
+struct FakeOd<'a> {
+    node: u8,
+    od: &'a mut std::collections::BTreeMap<(u16, u8), Vec<u8>>,
+    takes_mode: bool,
+    log: &'a mut Vec<(u8, u16, u8, Vec<u8>)>,
+}
+
+impl hob_canopen::sdo::ObjectDictionary for FakeOd<'_> {
+    fn read(&mut self, index: u16, sub: u8) -> Result<Vec<u8>, AbortCode> {
+        self.log.push((self.node, index, sub, Vec::new()));
+        self.od.get(&(index, sub)).cloned().ok_or(AbortCode::NO_OBJECT)
+    }
+
+    fn write(&mut self, index: u16, sub: u8, data: &[u8]) -> Result<(), AbortCode> {
+        self.log.push((self.node, index, sub, data.to_vec()));
+        self.od.insert((index, sub), data.to_vec());
+        if index == object::MODES_OF_OPERATION && self.takes_mode {
+            self.od.insert((object::MODES_DISPLAY, 0), data.to_vec());
+        }
+        Ok(())
+    }
+}
+
+/// The nodes of the shipped plan answering at once, in the sender's thread: NMT reset ->
+/// boot-up, NMT start -> operational heartbeat, SDO from each node's dictionary. Reads are
+/// logged with empty data, writes with theirs.
+#[derive(Debug)]
+struct FakeBus {
+    nodes: Vec<FakeNode>,
+    queue: std::collections::VecDeque<Frame>,
+    log: Vec<(u8, u16, u8, Vec<u8>)>,
+}
+
+impl FakeBus {
+    /// Drives B, X, Y announcing `modes` (0x6502) each, and the I/O coupler.
+    fn new(plan: &BusPlan, modes: [u32; 3]) -> Self {
+        let mut nodes = Vec::new();
+        for (d, supported) in plan.drives.iter().zip(modes) {
+            let mut od = std::collections::BTreeMap::new();
+            od.insert((0x1000, 0), (0x0002_0000 | PROFILE_DRIVE).to_le_bytes().to_vec());
+            od.insert((object::SUPPORTED_MODES, 0), supported.to_le_bytes().to_vec());
+            od.insert((object::MODES_DISPLAY, 0), vec![0]);
+            nodes.push(FakeNode {
+                id: d.node,
+                od,
+                takes_mode: true,
+                sdo: hob_canopen::sdo::SdoServer::new(d.node),
+            });
+        }
+        let mut od = std::collections::BTreeMap::new();
+        od.insert((0x1000, 0), PROFILE_IO.to_le_bytes().to_vec());
+        nodes.push(FakeNode {
+            id: plan.io.node,
+            od,
+            takes_mode: false,
+            sdo: hob_canopen::sdo::SdoServer::new(plan.io.node),
+        });
+        Self {
+            nodes,
+            queue: Default::default(),
+            log: Vec::new(),
+        }
+    }
+
+    /// The data written to `node`'s `index:sub`, in order.
+    fn written(&self, node: u8, index: u16, sub: u8) -> Vec<Vec<u8>> {
+        self.log
+            .iter()
+            .filter(|(n, i, s, d)| (*n, *i, *s) == (node, index, sub) && !d.is_empty())
+            .map(|e| e.3.clone())
+            .collect()
+    }
+}
+
+impl CanBus for FakeBus {
+    fn send(&mut self, f: &Frame) -> Result<(), BusError> {
+        if let Some((cmd, target)) = NmtCommand::parse(f) {
+            for n in self.nodes.iter().filter(|n| target == 0 || target == n.id) {
+                let state = match cmd {
+                    NmtCommand::Start => NmtState::Operational,
+                    _ => NmtState::BootUp,
+                };
+                self.queue.push_back(state.heartbeat(n.id));
+            }
+            return Ok(());
+        }
+        if let Cob::SdoRx(id) = Cob::of(f.id)
+            && let Some(n) = self.nodes.iter_mut().find(|n| n.id == id)
+        {
+            let mut od = FakeOd {
+                node: id,
+                od: &mut n.od,
+                takes_mode: n.takes_mode,
+                log: &mut self.log,
+            };
+            if let Some(r) = n.sdo.on_request(f, &mut od) {
+                self.queue.push_back(r);
+            }
+        }
+        Ok(())
+    }
+
+    fn try_recv(&mut self) -> Result<Option<Frame>, BusError> {
+        Ok(self.queue.pop_front())
+    }
+}
+
+/// 0x6502 announcing CSP only, and CSP with homing.
+const CSP_ONLY: u32 = 1 << 7;
+const CSP_AND_HOMING: u32 = 1 << 7 | 1 << 5;
+
+#[test]
+fn boot_writes_the_homing_parameters_in_counts_and_confirms_csp() {
+    let m = shipped_for_tests();
+    let plan = BusPlan::from_machine(&m);
+    // The table needs only CSP.
+    let mut bus = FakeBus::new(&plan, [CSP_ONLY, CSP_AND_HOMING, CSP_AND_HOMING]);
+    let booted = boot(&plan, &mut bus, Duration::from_millis(50)).expect("boots");
+    assert_eq!(booted.nodes.len(), 4);
+    // Shipped X and Y: 3000 counts/mm, normal polarity, method 3, home at 240 and 440 mm,
+    // 600 and 60 mm/min, 50 mm/s^2.
+    for (node, home) in [(m.x.can_node_id, 720_000i32), (m.y.can_node_id, 1_320_000)] {
+        assert_eq!(bus.written(node, 0x6098, 0), [vec![3]]);
+        assert_eq!(bus.written(node, 0x6099, 1), [30_000u32.to_le_bytes().to_vec()]);
+        assert_eq!(bus.written(node, 0x6099, 2), [3_000u32.to_le_bytes().to_vec()]);
+        assert_eq!(bus.written(node, 0x609A, 0), [150_000u32.to_le_bytes().to_vec()]);
+        assert_eq!(bus.written(node, 0x607C, 0), [home.to_le_bytes().to_vec()]);
+    }
+    let b = m.table.can_node_id;
+    assert!(
+        bus.log
+            .iter()
+            .all(|(n, i, ..)| *n != b || ![0x6098, 0x6099, 0x609A, 0x607C].contains(i)),
+        "the table is not homed"
+    );
+    // Every drive: 0x6060 = 8 written, then 0x6061 read back (before the NMT start).
+    for d in plan.drives {
+        let at = |index: u16, write: bool| {
+            bus.log
+                .iter()
+                .position(|(n, i, _, data)| *n == d.node && *i == index && data.is_empty() != write)
+        };
+        let (written, read) = (at(0x6060, true), at(0x6061, false));
+        assert!(
+            written.is_some() && read > written,
+            "node {}: {:?}",
+            d.node,
+            bus.log
+        );
+        assert_eq!(bus.written(d.node, 0x6060, 0), [vec![8]]);
+    }
+}
+
+#[test]
+fn boot_mirrors_the_method_and_the_home_offset_of_an_inverted_axis() {
+    let mut m = shipped_for_tests();
+    m.y.polarity = hob_setup::config::machine::Polarity::Inverted;
+    m.y.homing.method = 4;
+    let plan = BusPlan::from_machine(&m);
+    let mut bus = FakeBus::new(&plan, [CSP_AND_HOMING; 3]);
+    boot(&plan, &mut bus, Duration::from_millis(50)).expect("boots");
+    let y = m.y.can_node_id;
+    // The switch on the machine's positive side is on the inverted drive's negative side.
+    assert_eq!(bus.written(y, 0x6098, 0), [vec![6]]);
+    assert_eq!(
+        bus.written(y, 0x607C, 0),
+        [(-1_320_000i32).to_le_bytes().to_vec()]
+    );
+    assert_eq!(bus.written(y, 0x6099, 1), [30_000u32.to_le_bytes().to_vec()]);
+    assert_eq!(bus.written(m.x.can_node_id, 0x6098, 0), [vec![3]]);
+}
+
+#[test]
+fn boot_refuses_an_axis_drive_without_homing_naming_node_and_mode() {
+    let m = shipped_for_tests();
+    let plan = BusPlan::from_machine(&m);
+    let mut bus = FakeBus::new(&plan, [CSP_AND_HOMING, CSP_ONLY, CSP_AND_HOMING]);
+    let e = boot(&plan, &mut bus, Duration::from_millis(50)).unwrap_err();
+    assert_eq!(
+        e,
+        BootError::NoHoming {
+            node: m.x.can_node_id,
+            supported_modes: CSP_ONLY
+        }
+    );
+    let text = e.to_string();
+    assert!(
+        text.contains("drive 3") && text.contains("homing mode (6)") && text.contains("0x00000080"),
+        "{text}"
+    );
+    // Refused before anything was written to it.
+    assert!(bus.written(m.x.can_node_id, 0x6098, 0).is_empty());
+    // Without CSP the refusal names CSP, as before (also on the table).
+    let mut bus = FakeBus::new(&plan, [1 << 5, CSP_AND_HOMING, CSP_AND_HOMING]);
+    let e = boot(&plan, &mut bus, Duration::from_millis(50)).unwrap_err();
+    assert!(matches!(e, BootError::NoCsp { node: 2, .. }), "{e:?}");
+}
+
+#[test]
+fn boot_refuses_a_drive_that_does_not_display_csp() {
+    let m = shipped_for_tests();
+    let plan = BusPlan::from_machine(&m);
+    let mut bus = FakeBus::new(&plan, [CSP_AND_HOMING; 3]);
+    bus.nodes[2].takes_mode = false;
+    let e = boot(&plan, &mut bus, Duration::from_millis(20)).unwrap_err();
+    assert_eq!(
+        e,
+        BootError::ModeNotTaken {
+            node: m.y.can_node_id,
+            display: 0
+        }
+    );
+    assert!(e.to_string().contains("0x6061 displays 0"), "{e}");
+}
+
+/// Every drive reports "operation enabled" in `mode` with `extra` statusword bits.
+fn status(m: &mut Cyclic, mode: i8, extra: u16) {
+    for d in m.plan().drives {
+        let sw = PowerState::OperationEnabled.statusword() | extra;
+        m.receive(&d.status.pack(&[u64::from(sw), u64::from(mode as u8)]));
+    }
+}
+
+/// The RPDO2 payloads the drives received since the last call, per drive (B, X, Y).
+fn rpdo2(m: &Cyclic, nodes: &mut MemoryBus) -> [Vec<Vec<u8>>; 3] {
+    let mut out: [Vec<Vec<u8>>; 3] = Default::default();
+    while let Some(f) = nodes.try_recv().unwrap() {
+        if let Some(i) = m.plan().drives.iter().position(|d| d.control.cob_id == f.id) {
+            out[i].push(f.payload().to_vec());
+        }
+    }
+    out
+}
+
+#[test]
+fn rpdo2_carries_the_mode_and_bit_4_only_for_a_drive_asked_for_homing() {
+    let (mut m, mut ours, mut nodes) = master(false);
+    let spacing = usize::from(m.plan().event_rpdo_spacing_ms); // 1 ms cycles
+    status(&mut m, 8, 0);
+    let mut out = CycleOutputs {
+        drives_enabled: true,
+        ..CycleOutputs::default()
+    };
+    // The enabling logic in CSP is unchanged: "enable operation" in mode 8 at once.
+    m.transmit(&out, &mut ours).unwrap();
+    let sent = rpdo2(&m, &mut nodes);
+    assert_eq!(
+        sent,
+        [
+            [vec![8, 0x0F, 0x00]],
+            [vec![8, 0x0F, 0x00]],
+            [vec![8, 0x0F, 0x00]]
+        ]
+    );
+    // The loop asks X for homing and holds bit 4 for X and Y; Y stays in CSP, and the
+    // table stays in CSP whatever it is asked.
+    out.drive_modes = [DriveMode::Homing, DriveMode::Homing, DriveMode::CyclicPosition];
+    out.homing_start = [true, true, true];
+    let mut when = Vec::new();
+    for k in 1..=3 * spacing {
+        m.transmit(&out, &mut ours).unwrap();
+        let sent = rpdo2(&m, &mut nodes);
+        assert!(sent[0].is_empty() && sent[2].is_empty(), "{sent:?}");
+        for p in &sent[1] {
+            when.push((k, p.clone()));
+        }
+    }
+    // At the spacing after the last RPDO2: mode 6, controlword 0x001F.
+    assert_eq!(when, [(spacing, vec![6, 0x1F, 0x00])]);
+    // Back to CSP (the spacing has long passed: at once); bit 4 goes with the homing mode.
+    out.drive_modes[1] = DriveMode::CyclicPosition;
+    m.transmit(&out, &mut ours).unwrap();
+    assert_eq!(rpdo2(&m, &mut nodes)[1], [vec![8, 0x0F, 0x00]]);
+    // Homing again right after: the mode change waits for the spacing.
+    out.drive_modes[1] = DriveMode::Homing;
+    let mut when = Vec::new();
+    for k in 1..=spacing {
+        m.transmit(&out, &mut ours).unwrap();
+        when.extend(rpdo2(&m, &mut nodes)[1].iter().map(|p| (k, p.clone())));
+    }
+    assert_eq!(when, [(spacing, vec![6, 0x1F, 0x00])]);
+    // In homing mode a stop goes at once and without bit 4.
+    out.drives_enabled = false;
+    m.transmit(&out, &mut ours).unwrap();
+    let sent = rpdo2(&m, &mut nodes);
+    assert_eq!(sent[1], [vec![6, 0x00, 0x00]]);
+    assert_eq!(sent[0], [vec![8, 0x00, 0x00]]);
+}
+
+#[test]
+fn bit_4_waits_for_operation_enabled() {
+    let (mut m, mut ours, mut nodes) = master(false);
+    // X in "switched on": the next step is "enable operation", sent with bit 4.
+    let x = m.plan().drives[1];
+    let sw = PowerState::SwitchedOn.statusword();
+    m.receive(&x.status.pack(&[u64::from(sw), 6]));
+    let mut out = CycleOutputs {
+        drives_enabled: true,
+        ..CycleOutputs::default()
+    };
+    out.drive_modes[1] = DriveMode::Homing;
+    out.homing_start[1] = true;
+    m.transmit(&out, &mut ours).unwrap();
+    assert_eq!(rpdo2(&m, &mut nodes)[1], [vec![6, 0x1F, 0x00]]);
+    // In "ready to switch on" the step is "switch on", without bit 4.
+    let (mut m, mut ours, mut nodes) = master(false);
+    let sw = PowerState::ReadyToSwitchOn.statusword();
+    m.receive(&x.status.pack(&[u64::from(sw), 6]));
+    m.transmit(&out, &mut ours).unwrap();
+    assert_eq!(rpdo2(&m, &mut nodes)[1], [vec![6, 0x07, 0x00]]);
+}
+
+#[test]
+fn tpdo2_gives_the_mode_display_and_the_homing_bits() {
+    let (mut m, mut ours, mut nodes) = master(false);
+    // Before any TPDO2: what the boot read back.
+    let i = cycle(&mut m, &mut ours);
+    assert_eq!([i.table.mode_display, i.x.mode_display, i.y.mode_display], [8; 3]);
+    assert!(heard_sync(&mut nodes));
+    let [b, x, y] = m.plan().drives;
+    let enabled = PowerState::OperationEnabled.statusword();
+    use hob_canopen::cia402::{SW_HOMING_ATTAINED, SW_HOMING_ERROR, SW_TARGET_REACHED};
+    nodes
+        .send(
+            &x.status
+                .pack(&[u64::from(enabled | SW_HOMING_ATTAINED | SW_TARGET_REACHED), 6]),
+        )
+        .unwrap();
+    nodes
+        .send(&y.status.pack(&[u64::from(enabled | SW_HOMING_ERROR), 6]))
+        .unwrap();
+    nodes.send(&b.status.pack(&[u64::from(enabled), 8])).unwrap();
+    let i = cycle(&mut m, &mut ours);
+    assert_eq!(
+        (i.x.mode_display, i.y.mode_display, i.table.mode_display),
+        (6, 6, 8)
+    );
+    assert!(i.x.enabled && i.y.enabled && i.table.enabled);
+    assert_eq!(
+        i.x.homing,
+        hob_control::HomingBits {
+            attained: true,
+            error: false,
+            target_reached: true
+        }
+    );
+    assert_eq!(
+        i.y.homing,
+        hob_control::HomingBits {
+            attained: false,
+            error: true,
+            target_reached: false
+        }
+    );
+    // A display the loop does not know is passed on as it is (the loop waits for 6 or 8).
+    nodes.send(&x.status.pack(&[u64::from(enabled), 0xFF])).unwrap();
+    assert_eq!(cycle(&mut m, &mut ours).x.mode_display, -1);
+    // A statusword-only TPDO2 (the old 2-byte layout) is not this plan's: ignored.
+    nodes.send(&Frame::new(x.status.cob_id, &[0x50, 0x02])).unwrap();
+    let i = cycle(&mut m, &mut ours);
+    assert_eq!((i.x.mode_display, i.x.enabled), (-1, true));
+}
+
+#[test]
+fn the_cycle_with_mode_changes_and_homing_allocates_nothing() {
+    use hob_rt_os::alloc_guard;
+    let (mut m, mut ours, mut nodes) = master(true);
+    let [_, x, _] = m.plan().drives;
+    let mut out = CycleOutputs {
+        drives_enabled: true,
+        ..CycleOutputs::default()
+    };
+    let _ = Box::new(0u8); // the allocator notes it is installed
+    let (mut system, mut pool) = (0, 0);
+    for k in 0..400u32 {
+        // The drives' side (not counted): positions, and X's status in the mode asked.
+        answer(&m, &mut nodes, k as i32);
+        let mode = out.drive_modes[1].code();
+        let extra = if k % 50 == 0 {
+            hob_canopen::cia402::SW_HOMING_ATTAINED
+        } else {
+            0
+        };
+        let sw = PowerState::OperationEnabled.statusword() | extra;
+        nodes
+            .send(&x.status.pack(&[u64::from(sw), u64::from(mode as u8)]))
+            .unwrap();
+        while nodes.try_recv().unwrap().is_some() {}
+        out.drive_modes[1] = if (k / 100) % 2 == 1 {
+            DriveMode::Homing
+        } else {
+            DriveMode::CyclicPosition
+        };
+        out.homing_start[1] = k % 100 > 60;
+        let (s0, p0) = alloc_guard::counts().expect("installed");
+        alloc_guard::in_cycle(true);
+        let inputs = drain(&mut m, &mut ours);
+        m.transmit(&out, &mut ours).unwrap();
+        alloc_guard::in_cycle(false);
+        let (s1, p1) = alloc_guard::counts().expect("installed");
+        system += s1 - s0;
+        pool += p1 - p0;
+        if k > 2 {
+            assert_eq!(inputs.x.mode_display, mode, "cycle {k}");
+        }
+    }
+    assert_eq!((system, pool), (0, 0), "heap operations in 400 cycles");
 }

@@ -36,6 +36,7 @@ struct Args {
     require_rt: bool,
     cycles: Option<u64>,
     hgrm: Option<PathBuf>,
+    state_file: Option<PathBuf>,
 }
 
 fn parse_args() -> Result<Args, String> {
@@ -52,6 +53,7 @@ fn parse_args() -> Result<Args, String> {
                 a.cycles = Some(v.parse().map_err(|_| format!("--cycles: not a number: {v}"))?);
             }
             "--hgrm" => a.hgrm = Some(value("--hgrm")?.into()),
+            "--state-file" => a.state_file = Some(value("--state-file")?.into()),
             "-h" | "--help" => return Err(String::new()),
             other => return Err(format!("unknown argument {other}")),
         }
@@ -105,6 +107,7 @@ fn run(args: &Args, machine: MachineConfig) -> Result<(), (u8, String)> {
     let settings = Settings {
         iface: args.iface.clone(),
         require_rt: args.require_rt,
+        state_file: args.state_file.clone(),
     };
     lifecycle::configure(machine, &settings)?
         .activate()?

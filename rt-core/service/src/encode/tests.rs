@@ -9,7 +9,7 @@ use hob_ipc::codec::{alarm_text, event_text};
 /// The texts as the old codec (`hob_ipc::codec` on the control core's types) printed them.
 mod old {
     use hob_control::Command;
-    use hob_control::fault::{Axis, End, Fault, Refusal};
+    use hob_control::fault::{Axis, End, Fault, HomingFailure, Refusal};
 
     fn unit(a: Axis) -> &'static str {
         if a == Axis::B { "deg" } else { "mm" }
@@ -43,6 +43,27 @@ mod old {
             Fault::FeedbackLost { axis } => format!("feedback of drive {} lost (bus)", axis.name()),
             Fault::IoLost => "I/O coupler lost (bus)".into(),
             Fault::DriveNotEnabled { axis } => format!("drive {} not in \"operation enabled\"", axis.name()),
+            // Added with referencing (issue 14).
+            Fault::HomingFailed { axis, why } => format!(
+                "referencing {} failed: {}",
+                axis.name(),
+                match why {
+                    HomingFailure::ModeNotConfirmed => "the drive did not confirm the mode of operation (0x6061)",
+                    HomingFailure::NotStarted => "the drive did not start homing",
+                    HomingFailure::DriveError => {
+                        "the drive reported a homing error (home switch not found before a limit?)"
+                    }
+                    HomingFailure::Timeout => "homing took longer than homing.timeout_s",
+                }
+            ),
+            Fault::PositionLost { axis: Axis::B } => {
+                "drive B lost its position (reboot or encoder): the tooth phase of the part on the table is gone"
+                    .into()
+            }
+            Fault::PositionLost { axis } => format!(
+                "drive {} lost its position (reboot or encoder): reference it again (hob home)",
+                axis.name()
+            ),
         }
     }
 
@@ -58,6 +79,13 @@ mod old {
             Refusal::BadValue => "the value is not a finite number in range",
             Refusal::SafetyChainOpen => "the safety chain is open: close it with the reset button first",
             Refusal::DrivesNotEnabled => "not every drive reports \"operation enabled\" yet",
+            Refusal::NotReferenced => {
+                "X and Y are not referenced: only referencing (hob home) and slow jogs until they are"
+            }
+            Refusal::TablePositionLost => {
+                "the table lost its position since the tooth phase was recorded: continuing would cut a new set of gaps into this part"
+            }
+            Refusal::JogActive => "a jog is running: release it (or stop) first",
         }
     }
 
@@ -72,6 +100,13 @@ mod old {
             Command::SpindleOn { .. } => "spindle on",
             Command::SpindleOff => "spindle off",
             Command::NewBlank => "new blank",
+            Command::Home { .. } => "home",
+            Command::JogContinuous { .. } => "jog continuous",
+            Command::JogRelease => "jog release",
+            Command::FeedOverride { .. } => "feed override",
+            Command::SpindleOverride { .. } => "spindle override",
+            Command::TouchOff { .. } => "touch-off",
+            Command::Continue => "continue",
         }
     }
 }
@@ -145,6 +180,17 @@ fn every_fault() -> Vec<Fault> {
         v.push(Fault::DriveFault { axis });
         v.push(Fault::FeedbackLost { axis });
         v.push(Fault::DriveNotEnabled { axis });
+        v.push(Fault::PositionLost { axis });
+    }
+    for axis in [Axis::X, Axis::Y] {
+        for why in [
+            HomingFailure::ModeNotConfirmed,
+            HomingFailure::NotStarted,
+            HomingFailure::DriveError,
+            HomingFailure::Timeout,
+        ] {
+            v.push(Fault::HomingFailed { axis, why });
+        }
     }
     v
 }
@@ -160,12 +206,30 @@ fn every_command() -> Vec<Command> {
         Command::SpindleOn { rpm: 100.0 },
         Command::SpindleOff,
         Command::NewBlank,
+        Command::Home { axes: HomeAxes::X },
+        Command::Home { axes: HomeAxes::Y },
+        Command::Home { axes: HomeAxes::Both },
+        Command::JogRelease,
+        Command::FeedOverride { percent: 87.5 },
+        Command::SpindleOverride { percent: 110.0 },
+        Command::Continue,
     ];
     for axis in AXES {
         v.push(Command::Jog {
             axis,
             distance: -12.5,
         });
+        v.push(Command::TouchOff {
+            axis,
+            value_mm: 101.5,
+        });
+        for direction in [Direction::Positive, Direction::Negative] {
+            v.push(Command::JogContinuous {
+                axis,
+                direction,
+                speed_per_min: 300.0,
+            });
+        }
     }
     v
 }
@@ -201,7 +265,7 @@ fn every_refusal_has_its_old_code_and_text() {
 #[test]
 fn every_fault_has_its_old_text_and_round_trips() {
     let faults = every_fault();
-    assert_eq!(faults.len(), 8 + 3 * 7);
+    assert_eq!(faults.len(), 8 + 3 * 8 + 2 * 4);
     let mut codes = std::collections::BTreeSet::new();
     for f in faults {
         let a = alarm(Some(f));
@@ -250,21 +314,56 @@ fn every_coupling_has_its_old_code_and_name() {
 #[test]
 fn every_command_round_trips_with_its_old_name() {
     for c in every_command() {
-        let (code, single, axis, value) = command_code(c);
-        assert_eq!(codec::command_name(code), old::command_name(c), "{c:?}");
-        assert_eq!(command_from_code(code, single, axis, value), Some(c));
+        let a = command_code(c);
+        assert_eq!(codec::command_name(a.code), old::command_name(c), "{c:?}");
+        assert_eq!(command_from_code(&a), Some(c));
+        // Through a request and back, as the command thread sees it.
+        let mut r = hob_ipc::CommandRequest::new(0);
+        a.to_request(&mut r);
+        assert_eq!(Args::from_request(&r), a);
     }
-    assert_eq!(command_code(Command::Start { single: true }), (2, 1, 0, 0.0));
+    let args = |code, single, axis, direction, value| Args {
+        code,
+        single,
+        axis,
+        direction,
+        value,
+    };
+    assert_eq!(
+        command_code(Command::Start { single: true }),
+        args(2, 1, 0, 0, 0.0)
+    );
     assert_eq!(
         command_code(Command::Jog {
             axis: Axis::Y,
             distance: 1.5
         }),
-        (7, 0, 3, 1.5)
+        args(7, 0, 3, 0, 1.5)
     );
-    assert_eq!(command_from_code(command::JOG, 0, 9, 1.0), None);
-    assert_eq!(command_from_code(command::LOAD_PROGRAM, 0, 0, 0.0), None);
-    assert_eq!(command_from_code(99, 0, 0, 0.0), None);
+    assert_eq!(
+        command_code(Command::JogContinuous {
+            axis: Axis::X,
+            direction: Direction::Negative,
+            speed_per_min: 250.0
+        }),
+        args(12, 0, 2, 2, 250.0)
+    );
+    assert_eq!(
+        command_code(Command::Home { axes: HomeAxes::Both }),
+        args(11, 0, 0, 0, 0.0)
+    );
+    assert_eq!(command_from_code(&args(command::JOG, 0, 9, 0, 1.0)), None);
+    assert_eq!(
+        command_from_code(&args(command::LOAD_PROGRAM, 0, 0, 0, 0.0)),
+        None
+    );
+    assert_eq!(command_from_code(&args(99, 0, 0, 0, 0.0)), None);
+    // A continuous jog needs a direction; homing the table is not a command.
+    assert_eq!(
+        command_from_code(&args(command::JOG_CONTINUOUS, 0, 2, 0, 100.0)),
+        None
+    );
+    assert_eq!(command_from_code(&args(command::HOME, 0, 1, 0, 0.0)), None);
 }
 
 #[test]

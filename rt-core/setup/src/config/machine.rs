@@ -51,6 +51,26 @@ pub struct MachineConfig {
     pub jog: JogConfig,
     pub overrides: OverrideConfig,
     pub io: IoMap,
+    pub library: LibraryConfig,
+    pub state: StateConfig,
+}
+
+/// The operator's program and tool library (`hob lib`, later the HMI): a directory with
+/// `programs/` and `tools/` (crate `hob-store`).
+#[derive(Debug, Clone, PartialEq, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct LibraryConfig {
+    /// Absolute path of the library directory; `hob --library DIR` or `HOB_LIBRARY`
+    /// override it.
+    pub dir: String,
+}
+
+/// The machine state file of `hob-rt` (work offsets from touch-off; crate `hob-store`).
+#[derive(Debug, Clone, PartialEq, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct StateConfig {
+    /// Absolute path of the state file, written atomically.
+    pub file: String,
 }
 
 /// Jogging: before X and Y are referenced, and the dead-man of the continuous jog.
@@ -705,6 +725,8 @@ impl MachineConfig {
         p.positive("lube.pump_run_s", self.lube.pump_run_s);
         self.validate_io(p);
         self.validate_node_ids(p);
+        absolute_path(p, "library.dir", &self.library.dir);
+        absolute_path(p, "state.file", &self.state.file);
     }
 
     fn validate_spindle(&self, p: &mut Problems) {
@@ -867,6 +889,18 @@ impl MachineConfig {
                 p.push(*key, format!("node id {id} is already used by {other}"));
             }
         }
+    }
+}
+
+/// A path the services and frontends agree on: written out in full, whatever their
+/// working directory.
+fn absolute_path(p: &mut Problems, key: &str, value: &str) {
+    if value.trim().is_empty() {
+        p.push(key, "must not be empty");
+    } else {
+        p.require(Path::new(value).is_absolute(), key, || {
+            format!("must be an absolute path, starting with / (is {value:?})")
+        });
     }
 }
 

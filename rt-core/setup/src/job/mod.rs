@@ -5,7 +5,8 @@
 //! against the machine (speeds, travel, tool range) are in [`crate::planner`], so
 //! `hob check` and `hob plan` refuse exactly the same programs.
 
-use crate::config::{LoadError, Problems, read_toml};
+use crate::config::source::locate_key;
+use crate::config::{LoadError, Problem, Problems, parse_toml};
 use hob_gearing::shapes::{Contour, ContourError, Crowning, MAX_CONTOUR_POINTS, XShape, crowning_height_mm};
 use hob_gearing::signs::{CutMethod, Hand, StartSide};
 use serde::{Deserialize, Serialize};
@@ -91,6 +92,134 @@ pub struct Tool {
     /// Hob length, or disk width.
     pub length_mm: f64,
     pub gashes: i64,
+}
+
+impl Tool {
+    /// The checks of the tool alone (no gear): what a program's `[tool]` and a library
+    /// tool record share. Problems are named `tool.<field>`; true when there were none.
+    pub fn check(&self, p: &mut Problems) -> bool {
+        let before = p.as_slice().len();
+        p.positive("tool.module_mm", self.module_mm);
+        self.check_own(p);
+        p.as_slice().len() == before
+    }
+
+    /// What [`Tool::check`] checks but the module (a program compares it with the gear's).
+    fn check_own(&self, p: &mut Problems) -> (Option<u32>, Option<u32>, Option<f64>, Option<Hand>) {
+        let t = self;
+        p.require(
+            t.pressure_angle_deg > 0.0 && t.pressure_angle_deg < 45.0,
+            "tool.pressure_angle_deg",
+            || {
+                format!(
+                    "must be within 0 .. 45 deg, exclusive (is {})",
+                    t.pressure_angle_deg
+                )
+            },
+        );
+        p.positive("tool.outside_diameter_mm", t.outside_diameter_mm);
+        p.positive("tool.length_mm", t.length_mm);
+        let gashes = count(p, "tool.gashes", t.gashes, 1, 100);
+        let (starts, lead, hand) = self.check_kind(p);
+        (gashes, starts, lead, hand)
+    }
+
+    fn check_kind(&self, p: &mut Problems) -> (Option<u32>, Option<f64>, Option<Hand>) {
+        let t = self;
+        match t.kind {
+            ToolKind::Hob => {
+                let starts = match t.starts {
+                    Some(z0) => count(p, "tool.starts", z0, 1, 10),
+                    None => {
+                        p.push("tool.starts", "a hob needs its number of starts");
+                        None
+                    }
+                };
+                let lead = match t.lead_angle_deg {
+                    Some(g) if (0.0..15.0).contains(&g) => Some(g),
+                    Some(g) => {
+                        p.push(
+                            "tool.lead_angle_deg",
+                            format!("must be within 0 .. 15 deg (is {g})"),
+                        );
+                        None
+                    }
+                    None => {
+                        p.push("tool.lead_angle_deg", "a hob needs its lead angle");
+                        None
+                    }
+                };
+                if t.hand.is_none() {
+                    p.push("tool.hand", "a hob needs its hand: \"right\" or \"left\"");
+                }
+                (starts, lead, t.hand)
+            }
+            ToolKind::Disk => {
+                p.require(t.starts.is_none_or(|z0| z0 == 1), "tool.starts", || {
+                    "a disk cutter has no starts: leave it out or set 1".into()
+                });
+                p.require(
+                    t.lead_angle_deg.is_none_or(|g| g == 0.0),
+                    "tool.lead_angle_deg",
+                    || "a disk cutter has no lead angle: leave it out or set 0".into(),
+                );
+                p.require(t.hand.is_none(), "tool.hand", || {
+                    "a disk cutter has no hand: leave it out".into()
+                });
+                // The disk is swivelled by the helix angle alone; its "hand" is irrelevant.
+                (Some(1), Some(0.0), Some(Hand::Right))
+            }
+        }
+    }
+}
+
+/// The key of a program's `[tool]` that names a library tool instead of the tool's fields.
+pub const TOOL_LIBRARY_KEY: &str = "tool.library";
+
+/// A program's `[tool]` that names a library tool: `[tool] library = "NAME"`.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ToolReference {
+    /// The library tool's name.
+    pub library: String,
+    /// Tool fields written beside the reference (a program with both is refused).
+    pub tool_keys: Vec<String>,
+}
+
+impl ToolReference {
+    /// The reference in a program's text, if its `[tool]` has a `library` key. Refused:
+    /// text that is not TOML, and a `library` that is not a string.
+    pub fn find(origin: &Path, src: &str) -> Result<Option<Self>, LoadError> {
+        let table: toml::Table = parse_toml(origin, src)?;
+        let Some(tool) = table.get("tool").and_then(toml::Value::as_table) else {
+            return Ok(None);
+        };
+        let Some(value) = tool.get("library") else {
+            return Ok(None);
+        };
+        let Some(name) = value.as_str() else {
+            return Err(LoadError::Invalid {
+                file: origin.to_path_buf(),
+                problems: vec![Problem {
+                    key: TOOL_LIBRARY_KEY.into(),
+                    message: format!("must be the name of a library tool, as a string (is {value})"),
+                    position: locate_key(src, TOOL_LIBRARY_KEY),
+                }],
+            });
+        };
+        Ok(Some(Self {
+            library: name.to_string(),
+            tool_keys: tool.keys().filter(|k| *k != "library").cloned().collect(),
+        }))
+    }
+
+    /// Why a `[tool]` with both a reference and tool fields is refused.
+    pub fn both_message(&self) -> String {
+        format!(
+            "names the library tool {:?} and gives tool fields too ({}): keep either the reference or the fields",
+            self.library,
+            self.tool_keys.join(", ")
+        )
+    }
 }
 
 /// Which cycle.
@@ -180,9 +309,41 @@ pub struct CheckedProgram {
 }
 
 impl Program {
-    /// Reads and deserialises `file` (unknown keys refused); returns the source text too.
+    /// Reads and deserialises `file` (unknown keys refused, a library tool not resolved
+    /// refused: [`Program::parse`]); returns the source text too.
     pub fn read(file: &Path) -> Result<(Self, String), LoadError> {
-        read_toml(file)
+        let src = std::fs::read_to_string(file).map_err(|error| LoadError::Io {
+            file: file.to_path_buf(),
+            error,
+        })?;
+        let program = Self::parse(file, &src)?;
+        Ok((program, src))
+    }
+
+    /// Deserialises a self-contained program's text (`origin` names it in errors). A
+    /// `[tool]` that names a library tool (`library = "NAME"`) is refused: such a program
+    /// is planned, checked and loaded only once the library has filled in the tool
+    /// (`hob_store::library::Library::resolve`).
+    pub fn parse(origin: &Path, src: &str) -> Result<Self, LoadError> {
+        if let Some(r) = ToolReference::find(origin, src)? {
+            let message = if r.tool_keys.is_empty() {
+                format!(
+                    "names the library tool {:?}: resolve it through the program library first (hob check|plan|load with the library)",
+                    r.library
+                )
+            } else {
+                r.both_message()
+            };
+            return Err(LoadError::Invalid {
+                file: origin.to_path_buf(),
+                problems: vec![Problem {
+                    key: TOOL_LIBRARY_KEY.into(),
+                    message,
+                    position: locate_key(src, TOOL_LIBRARY_KEY),
+                }],
+            });
+        }
+        parse_toml(origin, src)
     }
 
     /// Whether the gear is helical.
@@ -217,20 +378,7 @@ impl Program {
                 )
             },
         );
-        p.require(
-            t.pressure_angle_deg > 0.0 && t.pressure_angle_deg < 45.0,
-            "tool.pressure_angle_deg",
-            || {
-                format!(
-                    "must be within 0 .. 45 deg, exclusive (is {})",
-                    t.pressure_angle_deg
-                )
-            },
-        );
-        p.positive("tool.outside_diameter_mm", t.outside_diameter_mm);
-        p.positive("tool.length_mm", t.length_mm);
-        let gashes = count(p, "tool.gashes", t.gashes, 1, 100);
-        let (starts, lead_angle_deg, hob_hand) = self.check_tool_kind(p);
+        let (gashes, starts, lead_angle_deg, hob_hand) = t.check_own(p);
 
         p.require(
             !(c.kind == CycleKind::ToothByTooth && t.kind == ToolKind::Hob),
@@ -302,54 +450,6 @@ impl Program {
             lead_angle_deg: lead_angle_deg?,
             x_shape: x_shape?,
         })
-    }
-
-    fn check_tool_kind(&self, p: &mut Problems) -> (Option<u32>, Option<f64>, Option<Hand>) {
-        let t = &self.tool;
-        match t.kind {
-            ToolKind::Hob => {
-                let starts = match t.starts {
-                    Some(z0) => count(p, "tool.starts", z0, 1, 10),
-                    None => {
-                        p.push("tool.starts", "a hob needs its number of starts");
-                        None
-                    }
-                };
-                let lead = match t.lead_angle_deg {
-                    Some(g) if (0.0..15.0).contains(&g) => Some(g),
-                    Some(g) => {
-                        p.push(
-                            "tool.lead_angle_deg",
-                            format!("must be within 0 .. 15 deg (is {g})"),
-                        );
-                        None
-                    }
-                    None => {
-                        p.push("tool.lead_angle_deg", "a hob needs its lead angle");
-                        None
-                    }
-                };
-                if t.hand.is_none() {
-                    p.push("tool.hand", "a hob needs its hand: \"right\" or \"left\"");
-                }
-                (starts, lead, t.hand)
-            }
-            ToolKind::Disk => {
-                p.require(t.starts.is_none_or(|z0| z0 == 1), "tool.starts", || {
-                    "a disk cutter has no starts: leave it out or set 1".into()
-                });
-                p.require(
-                    t.lead_angle_deg.is_none_or(|g| g == 0.0),
-                    "tool.lead_angle_deg",
-                    || "a disk cutter has no lead angle: leave it out or set 0".into(),
-                );
-                p.require(t.hand.is_none(), "tool.hand", || {
-                    "a disk cutter has no hand: leave it out".into()
-                });
-                // The disk is swivelled by the helix angle alone; its "hand" is irrelevant.
-                (Some(1), Some(0.0), Some(Hand::Right))
-            }
-        }
     }
 
     fn check_shape(&self, p: &mut Problems) -> Option<XShape> {

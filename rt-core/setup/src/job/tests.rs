@@ -79,3 +79,61 @@ fn a_shape_deeper_than_the_retract_is_refused() {
     let src = example("spur-z17-m5.toml").replace("{ height_mm = 0.02 }", "{ height_mm = 6.0 }");
     assert_eq!(check_keys(&src), ["strategy.retract_mm"]);
 }
+
+const REFERENCE_TOOL: &str = "[tool]\nlibrary = \"hob-m5-a\"\n";
+
+fn with_tool_section(tool: &str) -> String {
+    let src = example("spur-z17-m5.toml");
+    let start = src.find("[tool]\n").expect("[tool]");
+    let end = src.find("[cycle]\n").expect("[cycle]");
+    format!("{}{tool}\n{}", &src[..start], &src[end..])
+}
+
+#[test]
+fn a_program_naming_a_library_tool_is_not_planned_unresolved() {
+    let src = with_tool_section(REFERENCE_TOOL);
+    let r = ToolReference::find(Path::new("p.toml"), &src)
+        .expect("toml")
+        .expect("a reference");
+    assert_eq!(r.library, "hob-m5-a");
+    assert!(r.tool_keys.is_empty());
+    let e = Program::parse(Path::new("p.toml"), &src).expect_err("unresolved");
+    let text = e.to_string();
+    assert_eq!(e.problems()[0].key, "tool.library", "{text}");
+    assert!(
+        text.contains("names the library tool \"hob-m5-a\": resolve it"),
+        "{text}"
+    );
+}
+
+#[test]
+fn a_library_tool_and_tool_fields_together_are_refused() {
+    let src = with_tool_section(&format!("{REFERENCE_TOOL}kind = \"hob\"\ngashes = 10\n"));
+    let e = Program::parse(Path::new("p.toml"), &src).expect_err("both");
+    let text = e.to_string();
+    assert!(text.contains("tool.library"), "{text}");
+    assert!(text.contains("gives tool fields too (gashes, kind)"), "{text}");
+}
+
+#[test]
+fn a_self_contained_program_has_no_reference_and_parses() {
+    let src = example("spur-z17-m5.toml");
+    assert_eq!(
+        ToolReference::find(Path::new("p.toml"), &src).expect("toml"),
+        None
+    );
+    assert!(Program::parse(Path::new("p.toml"), &src).is_ok());
+}
+
+#[test]
+fn a_tool_alone_is_checked_by_its_own_keys() {
+    let program: Program = parse_toml(Path::new("p.toml"), &example("spur-z17-m5.toml")).expect("parses");
+    assert!(program.tool.check(&mut Problems::new()));
+    let mut tool = program.tool.clone();
+    tool.gashes = 0;
+    tool.hand = None;
+    let mut p = Problems::new();
+    assert!(!tool.check(&mut p));
+    let keys: Vec<&str> = p.as_slice().iter().map(|x| x.key.as_str()).collect();
+    assert_eq!(keys, ["tool.gashes", "tool.hand"]);
+}

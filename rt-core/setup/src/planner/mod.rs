@@ -122,12 +122,22 @@ pub struct Plan {
 
 /// Reads, checks and plans the program in `file` on `machine`.
 pub fn plan_file(file: &Path, machine: &MachineConfig) -> Result<Plan, LoadError> {
-    let (program, src) = Program::read(file)?;
+    let src = std::fs::read_to_string(file).map_err(|error| LoadError::Io {
+        file: file.to_path_buf(),
+        error,
+    })?;
+    plan_source(file, &src, machine)
+}
+
+/// Parses, checks and plans a program's text on `machine` (`origin` names it in errors):
+/// what `hob check` and `hob plan` do with a file.
+pub fn plan_source(origin: &Path, src: &str, machine: &MachineConfig) -> Result<Plan, LoadError> {
+    let program = Program::parse(origin, src)?;
     let mut problems = Problems::new();
     match plan(&program, machine, &mut problems) {
         Some(plan) => Ok(plan),
         None => {
-            problems.into_result(file, &src)?;
+            problems.into_result(origin, src)?;
             unreachable!("a refused plan always records a problem")
         }
     }

@@ -145,3 +145,17 @@ fn an_idle_latency_request_longer_than_a_quarter_cycle_is_refused() {
     let src = shipped_with(&[("cpu_dma_latency_us = 0", "cpu_dma_latency_us = 250")]);
     assert_eq!(load_src(&src).unwrap().service.cpu_dma_latency_us, 250);
 }
+
+#[test]
+fn library_and_state_paths_must_be_absolute_and_not_empty() {
+    let src = shipped_with(&[
+        ("dir = \"/var/lib/hob/library\"", "dir = \"lib\""),
+        ("file = \"/var/lib/hob/machine-state.toml\"", "file = \" \""),
+    ]);
+    let e = load_src(&src).expect_err("refused");
+    let keys: Vec<&str> = e.problems().iter().map(|p| p.key.as_str()).collect();
+    assert_eq!(keys, ["library.dir", "state.file"], "{e}");
+    let text = e.to_string();
+    assert!(text.contains("library.dir: must be an absolute path"), "{text}");
+    assert!(text.contains("state.file: must not be empty"), "{text}");
+}

@@ -142,3 +142,5 @@ fn missing_feedback_is_counted_then_a_fault() {
         Some(fault::Fault::FeedbackLost { axis: fault::Axis::B })
     );
 }
+
+mod setup_ops;

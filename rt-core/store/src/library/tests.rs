@@ -1,0 +1,242 @@
+#![allow(clippy::unwrap_used)]
+
+use super::*;
+use crate::test_dir;
+use hob_setup::config::machine::shipped_for_tests;
+use hob_setup::job::Program;
+
+fn spur_src() -> String {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../config/programs/spur-z17-m5.toml");
+    std::fs::read_to_string(path).unwrap()
+}
+
+/// The spur example's `[tool]` section replaced by `tool`.
+fn spur_with_tool(tool: &str) -> String {
+    let src = spur_src();
+    let start = src.find("[tool]\n").unwrap();
+    let end = src.find("[cycle]\n").unwrap();
+    format!("{}{tool}\n{}", &src[..start], &src[end..])
+}
+
+/// The spur example's hob as a tool record.
+fn hob_m5_record() -> String {
+    let src = spur_src();
+    let start = src.find("[tool]\n").unwrap();
+    let end = src.find("[cycle]\n").unwrap();
+    format!("format_version = 1\n\n{}", &src[start..end])
+}
+
+fn library(name: &str) -> Library {
+    Library::open(&test_dir(name).join("library")).unwrap()
+}
+
+#[test]
+fn open_creates_programs_and_tools() {
+    let lib = library("lib-open");
+    assert!(lib.dir().join("programs").is_dir());
+    assert!(lib.dir().join("tools").is_dir());
+    assert!(lib.names(Kind::Program).unwrap().is_empty());
+}
+
+#[test]
+fn a_program_naming_a_library_tool_resolves_to_the_same_program() {
+    let lib = library("lib-resolve");
+    lib.create_tool("hob-m5-a", &hob_m5_record()).unwrap();
+    let text = spur_with_tool("[tool]\nlibrary = \"hob-m5-a\"\n");
+    let resolved = lib.resolve(Path::new("p.toml"), &text).unwrap();
+    let a = Program::parse(Path::new("r.toml"), &resolved).unwrap();
+    let b = Program::parse(Path::new("s.toml"), &spur_src()).unwrap();
+    assert_eq!(a, b);
+    // A self-contained program comes back as it was.
+    assert_eq!(lib.resolve(Path::new("s.toml"), &spur_src()).unwrap(), spur_src());
+}
+
+#[test]
+fn a_program_naming_a_missing_tool_is_refused_with_the_tool_name() {
+    let lib = library("lib-missing-tool");
+    let text = spur_with_tool("[tool]\nlibrary = \"hob-m5-b\"\n");
+    let e = lib.resolve(Path::new("p.toml"), &text).unwrap_err();
+    assert!(
+        matches!(&e, Refusal::MissingTool { tool, .. } if tool == "hob-m5-b"),
+        "{e}"
+    );
+    assert!(
+        e.to_string()
+            .contains("tool.library: names the library tool \"hob-m5-b\", which is not in the library")
+    );
+    let e = lib
+        .create_program("spur", &text, &shipped_for_tests())
+        .unwrap_err();
+    assert!(e.to_string().contains("\"hob-m5-b\""), "{e}");
+    assert!(lib.names(Kind::Program).unwrap().is_empty(), "nothing written");
+}
+
+#[test]
+fn a_reference_with_tool_fields_or_a_bad_tool_name_is_refused() {
+    let lib = library("lib-both");
+    lib.create_tool("hob-m5-a", &hob_m5_record()).unwrap();
+    let both = spur_with_tool("[tool]\nlibrary = \"hob-m5-a\"\ngashes = 10\n");
+    let e = lib.resolve(Path::new("p.toml"), &both).unwrap_err().to_string();
+    assert!(
+        e.contains("tool.library") && e.contains("gives tool fields too (gashes)"),
+        "{e}"
+    );
+    let escape = spur_with_tool("[tool]\nlibrary = \"../tools/hob-m5-a\"\n");
+    let e = lib.resolve(Path::new("p.toml"), &escape).unwrap_err().to_string();
+    assert!(
+        e.contains("tool.library") && e.contains("a name is not a path"),
+        "{e}"
+    );
+}
+
+#[test]
+fn programs_are_created_only_when_they_check_on_the_machine() {
+    let lib = library("lib-create");
+    let machine = shipped_for_tests();
+    lib.create_program("spur", &spur_src(), &machine).unwrap();
+    assert_eq!(lib.text(Kind::Program, "spur").unwrap(), spur_src());
+    let e = lib.create_program("spur", &spur_src(), &machine).unwrap_err();
+    assert!(matches!(e, Refusal::Exists { .. }), "{e}");
+    // The same check as hob check: the table too fast for this machine.
+    let fast = spur_src().replace("teeth = 17", "teeth = 5");
+    let e = lib
+        .create_program("fast", &fast, &machine)
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("program \"fast\" not created") && e.contains("strategy.rough.cutting_speed_m_min"),
+        "{e}"
+    );
+    let e = lib
+        .create_program("typo", &spur_src().replace("retract_mm", "retrakt_mm"), &machine)
+        .unwrap_err();
+    assert!(e.to_string().contains("unknown field `retrakt_mm`"), "{e}");
+    assert_eq!(lib.names(Kind::Program).unwrap(), ["spur"]);
+}
+
+#[test]
+fn the_listing_checks_each_program_and_skips_temporary_files() {
+    let lib = library("lib-list");
+    let machine = shipped_for_tests();
+    lib.create_tool("hob-m5-a", &hob_m5_record()).unwrap();
+    lib.create_program(
+        "by-ref",
+        &spur_with_tool("[tool]\nlibrary = \"hob-m5-a\"\n"),
+        &machine,
+    )
+    .unwrap();
+    lib.create_program("spur", &spur_src(), &machine).unwrap();
+    // A program made invalid on disk (by hand), a tool deleted under a program, and what
+    // a crash leaves.
+    let dir = lib.dir().join("programs");
+    std::fs::write(
+        dir.join("hand.toml"),
+        spur_src().replace("teeth = 17", "teeth = 0"),
+    )
+    .unwrap();
+    std::fs::write(dir.join(".spur.toml.tmp.1.0"), "half").unwrap();
+    std::fs::write(dir.join("notes.txt"), "not a program").unwrap();
+    let list = lib.list_programs(&machine).unwrap();
+    let names: Vec<&str> = list.iter().map(|e| e.name.as_str()).collect();
+    assert_eq!(names, ["by-ref", "hand", "spur"]);
+    assert_eq!(list[0].problem, None);
+    assert!(
+        list[1].problem.as_deref().unwrap().contains("workpiece.teeth"),
+        "{list:?}"
+    );
+    assert_eq!(list[2].problem, None);
+    lib.delete(Kind::Tool, "hob-m5-a").unwrap();
+    let list = lib.list_programs(&machine).unwrap();
+    assert!(
+        list[0]
+            .problem
+            .as_deref()
+            .unwrap()
+            .contains("\"hob-m5-a\", which is not in the library"),
+        "{list:?}"
+    );
+}
+
+#[test]
+fn copy_rename_delete_refuse_missing_and_existing_entries() {
+    let lib = library("lib-crd");
+    lib.create_tool("a", &hob_m5_record()).unwrap();
+    lib.copy(Kind::Tool, "a", "b").unwrap();
+    assert_eq!(lib.tool("a").unwrap(), lib.tool("b").unwrap());
+    assert!(matches!(
+        lib.copy(Kind::Tool, "a", "b"),
+        Err(Refusal::Exists { .. })
+    ));
+    assert!(matches!(
+        lib.rename(Kind::Tool, "a", "b"),
+        Err(Refusal::Exists { .. })
+    ));
+    assert!(matches!(
+        lib.copy(Kind::Tool, "x", "y"),
+        Err(Refusal::Missing { .. })
+    ));
+    assert!(matches!(
+        lib.rename(Kind::Tool, "x", "y"),
+        Err(Refusal::Missing { .. })
+    ));
+    assert!(matches!(
+        lib.delete(Kind::Tool, "x"),
+        Err(Refusal::Missing { .. })
+    ));
+    lib.rename(Kind::Tool, "a", "c").unwrap();
+    assert_eq!(lib.names(Kind::Tool).unwrap(), ["b", "c"]);
+    lib.delete(Kind::Tool, "b").unwrap();
+    assert_eq!(lib.names(Kind::Tool).unwrap(), ["c"]);
+    let e = lib.copy(Kind::Tool, "c", "../programs/c").unwrap_err();
+    assert!(matches!(e, Refusal::BadName { .. }), "{e}");
+    assert!(lib.names(Kind::Program).unwrap().is_empty());
+}
+
+#[test]
+fn an_invalid_tool_is_not_created() {
+    let lib = library("lib-bad-tool");
+    let e = lib
+        .create_tool("t", &hob_m5_record().replace("gashes = 10", "gashes = 0"))
+        .unwrap_err();
+    assert!(e.to_string().contains("tool.gashes"), "{e}");
+    let e = lib
+        .create_tool(
+            "t",
+            &hob_m5_record().replace("format_version = 1", "format_version = 9"),
+        )
+        .unwrap_err();
+    assert!(e.to_string().contains("format_version"), "{e}");
+    assert!(lib.names(Kind::Tool).unwrap().is_empty());
+}
+
+#[test]
+fn usage_adds_up_and_is_validated() {
+    let lib = library("lib-usage");
+    lib.create_tool("hob-m5-a", &hob_m5_record()).unwrap();
+    assert_eq!(lib.tool("hob-m5-a").unwrap().usage, Usage::default());
+    lib.record_usage("hob-m5-a", 3, 0.25, "2025-03-01T08:15:00Z")
+        .unwrap();
+    let r = lib
+        .record_usage("hob-m5-a", 2, 0.5, "2025-03-02T09:00:00Z")
+        .unwrap();
+    assert_eq!(r.usage.passes_cut, 5);
+    assert!((r.usage.y_travel_in_cut_m - 0.75).abs() < 1e-12);
+    assert_eq!(lib.tool("hob-m5-a").unwrap(), r);
+    for (y, when, key) in [
+        (-1.0, "2025-03-03T00:00:00Z", "y_travel_m"),
+        (f64::NAN, "2025-03-03T00:00:00Z", "y_travel_m"),
+        (0.1, "today", "usage.last_used_utc"),
+    ] {
+        let e = lib.record_usage("hob-m5-a", 1, y, when).unwrap_err().to_string();
+        assert!(e.contains(key), "{e}");
+    }
+    assert_eq!(
+        lib.tool("hob-m5-a").unwrap(),
+        r,
+        "a refused record changes nothing"
+    );
+    // The tool's fields stay as they were: a program resolving it plans the same.
+    let text = spur_with_tool("[tool]\nlibrary = \"hob-m5-a\"\n");
+    lib.check_program(Path::new("p.toml"), &text, &shipped_for_tests())
+        .unwrap();
+}
