@@ -183,7 +183,9 @@ fn run_scenarios(
 ) -> Result<(), String> {
     for (s, (job, cycle, plan)) in SCENARIOS.iter().zip(&l.jobs) {
         let mut sim = Simulation::for_program(&l.machine, &l.plant, cycle, plan, job);
-        if !sim.power_up_with(60.0, &mut |_| {}, step) {
+        // Power-up and referencing X and Y from where the machine stands (Y up to 450 mm at
+        // the 600 mm/min switch search).
+        if !sim.power_up_with(180.0, &mut |_| {}, step) {
             return Err(format!("{}: no power-up", s.program));
         }
         match s.extra {
