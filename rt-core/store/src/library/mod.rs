@@ -140,6 +140,18 @@ fn one_line(e: &LoadError) -> String {
     e.to_string().replace("\n  ", "; ")
 }
 
+/// A listed entry from its check: valid, or the reason in one line; a file system error
+/// stops the listing.
+fn entry<T>(name: String, checked: Result<T, Refusal>) -> Result<Entry, Refusal> {
+    let problem = match checked {
+        Ok(_) => None,
+        Err(e) if e.is_io() => return Err(e),
+        Err(Refusal::Invalid { error, .. }) => Some(one_line(&error)),
+        Err(e) => Some(e.to_string()),
+    };
+    Ok(Entry { name, problem })
+}
+
 impl Library {
     /// Opens the library in `dir`, creating it and its `programs/` and `tools/` when
     /// missing.
@@ -204,13 +216,7 @@ impl Library {
             .map(|name| {
                 let text = self.text(Kind::Program, &name)?;
                 let origin = self.path(Kind::Program, &name)?;
-                let problem = match self.check_program(&origin, &text, machine) {
-                    Ok(_) => None,
-                    Err(e) if e.is_io() => return Err(e),
-                    Err(Refusal::Invalid { error, .. }) => Some(one_line(&error)),
-                    Err(e) => Some(e.to_string()),
-                };
-                Ok(Entry { name, problem })
+                entry(name, self.check_program(&origin, &text, machine))
             })
             .collect()
     }
@@ -220,13 +226,8 @@ impl Library {
         self.names(Kind::Tool)?
             .into_iter()
             .map(|name| {
-                let problem = match self.tool(&name) {
-                    Ok(_) => None,
-                    Err(e) if e.is_io() => return Err(e),
-                    Err(Refusal::Invalid { error, .. }) => Some(one_line(&error)),
-                    Err(e) => Some(e.to_string()),
-                };
-                Ok(Entry { name, problem })
+                let checked = self.tool(&name);
+                entry(name, checked)
             })
             .collect()
     }
