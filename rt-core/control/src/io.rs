@@ -1,26 +1,15 @@
 //! The I/O coupler's process image as named signals (docs/domain.md section 6). Polarity is
-//! applied here, once: the rest of the controller sees "active" or not.
+//! applied by `DigitalBinding::is_active`/`set` (hob-setup, shared with the frontends): the
+//! rest of the controller sees "active" or not.
 
-use hob_setup::config::machine::{Active, DigitalBinding, IoMap};
+use hob_setup::config::machine::{DigitalBinding, IoMap};
 
 fn read(raw: u32, b: DigitalBinding) -> bool {
-    let level = raw >> b.bit & 1 == 1;
-    match b.active {
-        Active::High => level,
-        Active::Low => !level,
-    }
+    b.is_active(raw)
 }
 
 fn write(raw: &mut u32, b: DigitalBinding, on: bool) {
-    let level = match b.active {
-        Active::High => on,
-        Active::Low => !on,
-    };
-    if level {
-        *raw |= 1 << b.bit;
-    } else {
-        *raw &= !(1 << b.bit);
-    }
+    b.set(raw, on);
 }
 
 /// Digital inputs, active = true.

@@ -435,6 +435,34 @@ pub struct DigitalBinding {
     pub active: Active,
 }
 
+impl DigitalBinding {
+    /// Whether this signal is active in a raw process image (its polarity applied): the
+    /// one place that reads a named signal, for the loop and every frontend alike.
+    pub fn is_active(self, raw: u32) -> bool {
+        let level = raw.checked_shr(u32::from(self.bit)).is_some_and(|r| r & 1 == 1);
+        match self.active {
+            Active::High => level,
+            Active::Low => !level,
+        }
+    }
+
+    /// The raw image with this signal set active or not.
+    pub fn set(self, raw: &mut u32, on: bool) {
+        let level = match self.active {
+            Active::High => on,
+            Active::Low => !on,
+        };
+        let Some(mask) = 1u32.checked_shl(u32::from(self.bit)) else {
+            return;
+        };
+        if level {
+            *raw |= mask;
+        } else {
+            *raw &= !mask;
+        }
+    }
+}
+
 /// An analog output channel of the I/O coupler.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize, Serialize)]
 #[serde(deny_unknown_fields)]

@@ -159,3 +159,32 @@ fn library_and_state_paths_must_be_absolute_and_not_empty() {
     assert!(text.contains("library.dir: must be an absolute path"), "{text}");
     assert!(text.contains("state.file: must not be empty"), "{text}");
 }
+
+#[test]
+fn a_signal_is_read_and_written_with_its_polarity() {
+    let high = DigitalBinding {
+        bit: 5,
+        active: Active::High,
+    };
+    let low = DigitalBinding {
+        bit: 5,
+        active: Active::Low,
+    };
+    assert!(high.is_active(1 << 5) && !high.is_active(!(1 << 5)));
+    assert!(!low.is_active(1 << 5) && low.is_active(0));
+    for b in [high, low] {
+        for on in [true, false] {
+            let mut raw = 0xA5A5_A5A5u32;
+            b.set(&mut raw, on);
+            assert_eq!(b.is_active(raw), on);
+            // Only its own bit changed.
+            assert_eq!(raw & !(1 << 5), 0xA5A5_A5A5 & !(1 << 5));
+        }
+    }
+    // A bit beyond the image is never active-high and never panics.
+    let far = DigitalBinding {
+        bit: 40,
+        active: Active::High,
+    };
+    assert!(!far.is_active(u32::MAX));
+}
