@@ -422,6 +422,135 @@ impl Fault {
         (!f.has_axis() || Axis::from_code(a.axis).is_some()).then_some(f)
     }
 
+    /// Whether X can still move under this fault on `axis` (else the machine stops where
+    /// it is instead of retracting): the control core's `Fault::x_can_move`, read from the
+    /// wire (hob-service's tests check the two agree for every fault).
+    pub fn x_can_move(self, a: &AlarmCode) -> bool {
+        let x = Axis::from_code(a.axis) == Some(Axis::X);
+        !match self {
+            Fault::DriveFault
+            | Fault::DriveNotEnabled
+            | Fault::FollowingError
+            | Fault::FeedbackLost
+            | Fault::SoftLimit
+            | Fault::PositionLost
+            | Fault::HomingFailed => x,
+            Fault::HardwareLimit => x && End::from_code(a.end) != Some(End::Min),
+            _ => false,
+        }
+    }
+
+    /// Whether the table can still follow the spindle under this fault (else the spindle
+    /// stops and the gearbox disengages at once): the control core's
+    /// `Fault::table_can_follow`, read from the wire.
+    pub fn table_can_follow(self, a: &AlarmCode) -> bool {
+        let b = Axis::from_code(a.axis) == Some(Axis::B);
+        !match self {
+            Fault::DriveFault
+            | Fault::DriveNotEnabled
+            | Fault::FollowingError
+            | Fault::FeedbackLost
+            | Fault::PositionLost => b,
+            Fault::SyncLost => true,
+            _ => false,
+        }
+    }
+
+    /// What the machine did on this fault, in the operator's words (docs: README, "What a
+    /// fault does").
+    pub fn reaction(self, a: &AlarmCode) -> &'static str {
+        if !self.x_can_move(a) {
+            "in a cycle X cannot move: the machine stopped where it is (gearbox out, spindle and \
+             axes to rest), then PC-OK dropped and the safety chain opened; outside a cycle the \
+             spindle stopped and PC-OK dropped at once"
+        } else if !self.table_can_follow(a) {
+            "in the cut the table could no longer follow: the spindle stopped and the gearbox \
+             disengaged at once, X pulled the hob out of the work, then PC-OK dropped; outside a \
+             cycle the spindle stopped and PC-OK dropped at once"
+        } else {
+            "in the cut X retracted with the gearbox still engaged (the hob left its tooth gap), \
+             then the machine stopped (gearbox out, spindle and axes to rest), then PC-OK \
+             dropped; outside a cycle the spindle stopped and PC-OK dropped at once"
+        }
+    }
+
+    /// What the operator checks or repairs before RESET.
+    pub const fn remedy(self) -> &'static str {
+        match self {
+            Fault::SafetyChainOpen => {
+                "find what opened the chain (e-stop, limit switch, VFD fault relay, PC-OK): \
+                 POWER-UP shows each condition of its reset; then press the reset button"
+            }
+            Fault::EmergencyStop => {
+                "release the e-stop button once the danger is gone, then the reset button"
+            }
+            Fault::HardwareLimit => {
+                "the axis is on its limit switch: find why it got there (offsets, program, a \
+                 lost reference); move it off the switch in the other direction by jog after RESET"
+            }
+            Fault::SoftLimit => {
+                "check the program's positions and the work offsets (touch-off) against the axis's travel"
+            }
+            Fault::FollowingError => {
+                "the axis could not follow its command: look for an obstruction, a collision, \
+                 a seized slide, a brake not released or a drive at its current limit"
+            }
+            Fault::DriveFault => {
+                "read the drive's EMCY in DIAGNOSTICS (over-current, over-temperature, encoder), \
+                 repair the cause at the drive"
+            }
+            Fault::VfdFault => "read the fault code on the spindle VFD's display and repair its cause",
+            Fault::SyncLost => {
+                "the table left the coarse window: check the spindle encoder and its coupling, \
+                 the table drive's tuning and the cutting load (speeds, feed, worn hob)"
+            }
+            Fault::SpindleSpeed => {
+                "the spindle did not reach its speed: check the VFD (enable, its own fault), the \
+                 belt and the spindle encoder"
+            }
+            Fault::LubeTimeout => "check the lubricant level, the pump, the filter and the pressure switch",
+            Fault::ClampTimeout => "check the X clamp's magnet, its supply and its feedback switch",
+            Fault::FeedbackLost => {
+                "the drive's position frames stopped: check its CAN cable and connector, its \
+                 supply, the bus termination; DIAGNOSTICS lists the heartbeats and EMCYs"
+            }
+            Fault::IoLost => "the I/O coupler stopped answering: check its CAN cable, supply and node id",
+            Fault::DriveNotEnabled => {
+                "the drive did not reach \"operation enabled\": check its enable input (safety \
+                 chain), its supply and its own fault"
+            }
+            Fault::HomingFailed => {
+                "check the home switch and its cable, the homing speeds and the axis's travel \
+                 ([x.homing], [y.homing] in the machine file)"
+            }
+            Fault::PositionLost => {
+                "the drive restarted or its encoder jumped: check its supply and encoder cable; \
+                 its reference (or the part's tooth phase on the table) is gone"
+            }
+        }
+    }
+
+    /// How work goes on after the remedy.
+    pub const fn how_to_continue(self) -> &'static str {
+        match self {
+            Fault::PositionLost | Fault::HomingFailed => {
+                "RESET, reference X and Y again (HOME); a part on the table has lost its tooth \
+                 phase if B lost its position: NEW BLANK, CONTINUE is refused"
+            }
+            Fault::FeedbackLost => {
+                "RESET; if the drive kept its position, CONTINUE re-enters the interrupted pass; \
+                 if it restarted, reference again (HOME), and for B: NEW BLANK"
+            }
+            Fault::SafetyChainOpen | Fault::EmergencyStop => {
+                "reset button on the panel, then RESET; CONTINUE re-enters the interrupted pass \
+                 on the same tooth gaps"
+            }
+            _ => {
+                "RESET, then CONTINUE re-enters the interrupted pass on the same tooth gaps (or START a new cycle)"
+            }
+        }
+    }
+
     /// What the operator reads for an alarm of this fault (its axis, end and values
     /// from `a`); `None` if the fault names an axis and `a` has none.
     pub fn text(self, a: &AlarmCode) -> Option<String> {
@@ -867,5 +996,46 @@ mod tests {
         assert_eq!(event_text(&bus), "heartbeat of node 5 lost");
         bus.b = 9;
         assert_eq!(event_text(&bus), "bus event 9 of node 5");
+    }
+
+    #[test]
+    fn every_fault_says_what_the_machine_did_what_to_repair_and_how_to_go_on() {
+        for f in Fault::ALL {
+            for axis in [0u8, 1, 2, 3] {
+                let a = AlarmCode {
+                    code: f.code(),
+                    axis,
+                    end: 2,
+                    ..AlarmCode::default()
+                };
+                assert!(f.reaction(&a).len() > 40, "{f:?} axis {axis}");
+            }
+            assert!(f.remedy().len() > 30, "{f:?}: {}", f.remedy());
+            assert!(
+                f.how_to_continue().starts_with("RESET") || f.how_to_continue().starts_with("reset"),
+                "{f:?}"
+            );
+        }
+        // The three reactions are told apart by the axis.
+        let b = AlarmCode {
+            code: Fault::DriveFault.code(),
+            axis: Axis::B.code(),
+            ..AlarmCode::default()
+        };
+        let x = AlarmCode {
+            axis: Axis::X.code(),
+            ..b
+        };
+        let y = AlarmCode {
+            axis: Axis::Y.code(),
+            ..b
+        };
+        let texts = [
+            Fault::DriveFault.reaction(&b),
+            Fault::DriveFault.reaction(&x),
+            Fault::DriveFault.reaction(&y),
+        ];
+        assert!(texts[0].contains("disengaged at once") && texts[1].contains("stopped where it is"));
+        assert!(texts[2].contains("retracted with the gearbox still engaged"));
     }
 }

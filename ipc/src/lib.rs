@@ -24,6 +24,7 @@
 
 pub mod codec;
 mod ports;
+pub mod request;
 mod types;
 
 pub use ports::{

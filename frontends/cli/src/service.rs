@@ -3,7 +3,7 @@
 //! `events` and `stats` streams, and the `command` request-response service.
 
 use hob_ipc::codec;
-use hob_ipc::{CommandRequest, CommandResponse, EventSample, Ports, StateSample, StatsSample, command};
+use hob_ipc::{CommandRequest, CommandResponse, EventSample, Ports, StateSample, StatsSample};
 use std::fmt::Write as _;
 use std::path::Path;
 use std::time::{Duration, Instant};
@@ -37,51 +37,29 @@ pub fn load_text(name: &str, text: &str) -> Result<String, (u8, String)> {
 }
 
 pub fn simple(code: u32) -> CommandRequest {
-    CommandRequest::new(code)
+    hob_ipc::request::simple(code)
 }
 
 pub fn start(single: bool) -> CommandRequest {
-    let mut r = CommandRequest::new(command::START);
-    r.single = u8::from(single);
-    r
+    hob_ipc::request::start(single)
+}
+
+fn refused(text: String) -> (u8, String) {
+    (2, text)
 }
 
 pub fn jog(axis: &str, distance: f64) -> Result<CommandRequest, (u8, String)> {
-    let axis = codec::Axis::parse(axis).ok_or_else(|| (2, format!("jog: axis {axis} is not x, y or b")))?;
-    let mut r = CommandRequest::new(command::JOG);
-    r.axis = axis.code();
-    r.value = distance;
-    Ok(r)
+    hob_ipc::request::jog(axis, distance).map_err(refused)
 }
 
 /// `hob home x|y|all`.
 pub fn home(axes: &str) -> Result<CommandRequest, (u8, String)> {
-    let mut r = CommandRequest::new(command::HOME);
-    r.axis = match axes.to_ascii_lowercase().as_str() {
-        "all" | "xy" => 0,
-        other => match codec::Axis::parse(other) {
-            Some(a @ (codec::Axis::X | codec::Axis::Y)) => a.code(),
-            _ => {
-                return Err((
-                    2,
-                    format!("home: {axes} is not x, y or all (the table needs no reference for hobbing)"),
-                ));
-            }
-        },
-    };
-    Ok(r)
+    hob_ipc::request::home(axes).map_err(refused)
 }
 
 /// `hob override feed|spindle PERCENT`.
 pub fn override_request(what: &str, percent: f64) -> Result<CommandRequest, (u8, String)> {
-    let code = match what {
-        "feed" => command::FEED_OVERRIDE,
-        "spindle" => command::SPINDLE_OVERRIDE,
-        _ => return Err((2, format!("override: {what} is not feed or spindle"))),
-    };
-    let mut r = CommandRequest::new(code);
-    r.value = percent;
-    Ok(r)
+    hob_ipc::request::override_request(what, percent).map_err(refused)
 }
 
 /// `hob touch-off x --diameter D` or `hob touch-off y --height H`.
@@ -90,20 +68,7 @@ pub fn touch_off(
     diameter: Option<f64>,
     height: Option<f64>,
 ) -> Result<CommandRequest, (u8, String)> {
-    let (axis, value) = match (codec::Axis::parse(axis), diameter, height) {
-        (Some(a @ codec::Axis::X), Some(d), None) => (a, d),
-        (Some(a @ codec::Axis::Y), None, Some(h)) => (a, h),
-        _ => {
-            return Err((
-                2,
-                "touch-off: give x --diameter MM (the gauge's diameter) or y --height MM (its top face above the table face)".into(),
-            ));
-        }
-    };
-    let mut r = CommandRequest::new(command::TOUCH_OFF);
-    r.axis = axis.code();
-    r.value = value;
-    Ok(r)
+    hob_ipc::request::touch_off(axis, diameter, height).map_err(refused)
 }
 
 /// How often a continuous jog is renewed (the machine file's dead-man time is longer).
@@ -118,21 +83,14 @@ pub fn jog_hold(
     seconds: f64,
     release: bool,
 ) -> Result<String, (u8, String)> {
-    let a = codec::Axis::parse(axis).ok_or_else(|| (2, format!("jog-hold: axis {axis} is not x, y or b")))?;
-    let d = match direction {
-        "+" | "plus" => hob_ipc::direction::POSITIVE,
-        "-" | "minus" => hob_ipc::direction::NEGATIVE,
-        _ => return Err((2, format!("jog-hold: direction {direction} is not + or -"))),
-    };
+    let r = hob_ipc::request::jog_continuous(axis, direction, speed).map_err(refused)?;
+    let a =
+        codec::Axis::parse(axis).ok_or_else(|| refused(format!("jog-hold: axis {axis} is not x, y or b")))?;
     if !(seconds.is_finite() && seconds >= 0.0) {
         return Err((2, format!("jog-hold: --seconds {seconds} is not a duration")));
     }
     let client = hob_ipc::Client::connect(&format!("hob-cli-{}", std::process::id()))
         .map_err(|e| (1, e.to_string()))?;
-    let mut r = CommandRequest::new(command::JOG_CONTINUOUS);
-    r.axis = a.code();
-    r.direction = d;
-    r.value = speed;
     let end = Instant::now() + Duration::from_secs_f64(seconds);
     let mut renewals = 0u32;
     loop {
@@ -148,7 +106,7 @@ pub fn jog_hold(
     }
     if release {
         let answer: CommandResponse = client
-            .request(&CommandRequest::new(command::JOG_RELEASE), ANSWER)
+            .request(&hob_ipc::request::jog_release(), ANSWER)
             .map_err(|e| (1, e.to_string()))?;
         if answer.accepted == 0 {
             return Err((2, answer.text()));
@@ -218,6 +176,11 @@ pub fn status_text(s: &Snapshot) -> String {
         "alarm    {}",
         if alarm.is_empty() { "none".into() } else { alarm }
     );
+    if let Some(f) = codec::Fault::of(&st.alarm) {
+        let _ = writeln!(o, "         the machine: {}", f.reaction(&st.alarm));
+        let _ = writeln!(o, "         remedy: {}", f.remedy());
+        let _ = writeln!(o, "         to continue: {}", f.how_to_continue());
+    }
     let _ = writeln!(
         o,
         "axes     X {:9.3} mm (cmd {:9.3})  Y {:9.3} mm (cmd {:9.3})  B {:10.4} deg",

@@ -460,3 +460,19 @@ fn every_bus_event_is_worded_from_its_numbers() {
         assert_eq!(event_text(&e), text);
     }
 }
+
+#[test]
+fn the_wires_fault_reaction_is_the_control_cores() {
+    // hob_ipc::codec words the reaction from the wire (it links no control core): its
+    // reading of "X can move" and "the table can follow" must be the control core's.
+    for f in every_fault() {
+        let a = alarm(Some(f));
+        let c = hob_ipc::codec::Fault::of(&a).expect("a fault on the wire");
+        assert_eq!(c.x_can_move(&a), f.x_can_move(), "{f:?}: X can move");
+        assert_eq!(
+            c.table_can_follow(&a),
+            f.table_can_follow(),
+            "{f:?}: the table can follow"
+        );
+    }
+}

@@ -1,0 +1,172 @@
+//! Commands as every frontend encodes them (the CLI, the HMI): an operator's words (`x`,
+//! `all`, `+`, `feed`) to a [`CommandRequest`] with its codes. A word that is not one of
+//! the command's is refused here with the text the operator sees; the values themselves
+//! (ranges, limits, the machine's state) are the loop's to check.
+
+use crate::codec::Axis;
+use crate::types::{CommandRequest, command, direction};
+
+/// A command without arguments (`RESET`, `FEED_HOLD`, `STOP` ...).
+pub fn simple(code: u32) -> CommandRequest {
+    CommandRequest::new(code)
+}
+
+/// `START`, the whole program or (`single`) its single-mode pass.
+pub fn start(single: bool) -> CommandRequest {
+    let mut r = CommandRequest::new(command::START);
+    r.single = u8::from(single);
+    r
+}
+
+fn axis_of(what: &str, axis: &str) -> Result<Axis, String> {
+    Axis::parse(axis).ok_or_else(|| format!("{what}: axis {axis} is not x, y or b"))
+}
+
+/// `JOG`: a distance, mm (deg for B).
+pub fn jog(axis: &str, distance: f64) -> Result<CommandRequest, String> {
+    let a = axis_of("jog", axis)?;
+    let mut r = CommandRequest::new(command::JOG);
+    r.axis = a.code();
+    r.value = distance;
+    Ok(r)
+}
+
+/// `HOME`: `x`, `y`, or `all` (X then Y).
+pub fn home(axes: &str) -> Result<CommandRequest, String> {
+    let mut r = CommandRequest::new(command::HOME);
+    r.axis = match axes.to_ascii_lowercase().as_str() {
+        "all" | "xy" => 0,
+        other => match Axis::parse(other) {
+            Some(a @ (Axis::X | Axis::Y)) => a.code(),
+            _ => {
+                return Err(format!(
+                    "home: {axes} is not x, y or all (the table needs no reference for hobbing)"
+                ));
+            }
+        },
+    };
+    Ok(r)
+}
+
+/// `JOG_CONTINUOUS`: `+` or `-` at `speed` (mm/min, deg/min for B), renewed by sending it again.
+pub fn jog_continuous(axis: &str, dir: &str, speed: f64) -> Result<CommandRequest, String> {
+    let a = axis_of("jog-hold", axis)?;
+    let d = match dir {
+        "+" | "plus" => direction::POSITIVE,
+        "-" | "minus" => direction::NEGATIVE,
+        _ => return Err(format!("jog-hold: direction {dir} is not + or -")),
+    };
+    let mut r = CommandRequest::new(command::JOG_CONTINUOUS);
+    r.axis = a.code();
+    r.direction = d;
+    r.value = speed;
+    Ok(r)
+}
+
+/// `JOG_RELEASE`: the continuous jog stops.
+pub fn jog_release() -> CommandRequest {
+    CommandRequest::new(command::JOG_RELEASE)
+}
+
+/// `FEED_OVERRIDE` or `SPINDLE_OVERRIDE` (`feed`, `spindle`), percent.
+pub fn override_request(what: &str, percent: f64) -> Result<CommandRequest, String> {
+    let code = match what {
+        "feed" => command::FEED_OVERRIDE,
+        "spindle" => command::SPINDLE_OVERRIDE,
+        _ => return Err(format!("override: {what} is not feed or spindle")),
+    };
+    let mut r = CommandRequest::new(code);
+    r.value = percent;
+    Ok(r)
+}
+
+/// `TOUCH_OFF` as the CLI takes it: X with the gauge's diameter, or Y with its height.
+pub fn touch_off(axis: &str, diameter: Option<f64>, height: Option<f64>) -> Result<CommandRequest, String> {
+    match (Axis::parse(axis), diameter, height) {
+        (Some(Axis::X), Some(d), None) => touch_off_value("x", d),
+        (Some(Axis::Y), None, Some(h)) => touch_off_value("y", h),
+        _ => Err("touch-off: give x --diameter MM (the gauge's diameter) or y --height MM (its top face above the table face)".into()),
+    }
+}
+
+/// `TOUCH_OFF` of an axis with its gauge's size: X its diameter, Y its height, mm.
+pub fn touch_off_value(axis: &str, value_mm: f64) -> Result<CommandRequest, String> {
+    let a = match Axis::parse(axis) {
+        Some(a @ (Axis::X | Axis::Y)) => a,
+        _ => return Err(format!("touch-off: axis {axis} is not x or y")),
+    };
+    let mut r = CommandRequest::new(command::TOUCH_OFF);
+    r.axis = a.code();
+    r.value = value_mm;
+    Ok(r)
+}
+
+/// `SPINDLE_ON` at `rpm`.
+pub fn spindle_on(rpm: f64) -> CommandRequest {
+    let mut r = CommandRequest::new(command::SPINDLE_ON);
+    r.value = rpm;
+    r
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn each_builder_sets_the_codes_the_loop_reads() {
+        let h = home("all").expect("home");
+        assert_eq!((h.command, h.axis), (command::HOME, 0));
+        assert_eq!(home("Y").expect("home").axis, Axis::Y.code());
+        let j = jog("b", -1.5).expect("jog");
+        assert_eq!((j.command, j.axis, j.value), (command::JOG, Axis::B.code(), -1.5));
+        let c = jog_continuous("x", "-", 300.0).expect("jog-hold");
+        assert_eq!(
+            (c.command, c.axis, c.direction, c.value),
+            (
+                command::JOG_CONTINUOUS,
+                Axis::X.code(),
+                direction::NEGATIVE,
+                300.0
+            )
+        );
+        assert_eq!(
+            jog_continuous("y", "plus", 1.0).expect("jog-hold").direction,
+            direction::POSITIVE
+        );
+        let o = override_request("spindle", 110.0).expect("override");
+        assert_eq!((o.command, o.value), (command::SPINDLE_OVERRIDE, 110.0));
+        let t = touch_off("x", Some(120.0), None).expect("touch-off");
+        assert_eq!(t, touch_off_value("X", 120.0).expect("touch-off"));
+        assert_eq!(
+            (t.command, t.axis, t.value),
+            (command::TOUCH_OFF, Axis::X.code(), 120.0)
+        );
+        assert_eq!(
+            touch_off("y", None, Some(3.0)).expect("touch-off").axis,
+            Axis::Y.code()
+        );
+        assert_eq!(start(true).single, 1);
+        assert_eq!(spindle_on(20.0).value, 20.0);
+        assert_eq!(jog_release().command, command::JOG_RELEASE);
+    }
+
+    #[test]
+    fn a_word_that_is_not_the_commands_is_refused_with_the_operators_text() {
+        assert_eq!(
+            home("b").unwrap_err(),
+            "home: b is not x, y or all (the table needs no reference for hobbing)"
+        );
+        assert_eq!(jog("z", 1.0).unwrap_err(), "jog: axis z is not x, y or b");
+        assert_eq!(
+            jog_continuous("x", "up", 1.0).unwrap_err(),
+            "jog-hold: direction up is not + or -"
+        );
+        assert_eq!(
+            override_request("rapid", 50.0).unwrap_err(),
+            "override: rapid is not feed or spindle"
+        );
+        assert!(touch_off("x", None, Some(1.0)).is_err());
+        assert!(touch_off("x", Some(1.0), Some(1.0)).is_err());
+        assert!(touch_off_value("b", 1.0).is_err());
+    }
+}
