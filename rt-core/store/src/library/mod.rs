@@ -305,15 +305,37 @@ impl Library {
     pub fn create_program(&self, name: &str, text: &str, machine: &MachineConfig) -> Result<Plan, Refusal> {
         let path = self.path(Kind::Program, name)?;
         self.refuse_existing(Kind::Program, name, &path)?;
-        let plan = self.check_program(&path, text, machine).map_err(|e| match e {
+        let plan = self.check_entry(&path, name, "created", text, machine)?;
+        self.write_new(Kind::Program, name, &path, text)?;
+        Ok(plan)
+    }
+
+    /// Writes a changed program over an existing one (atomically: a crash leaves the old or
+    /// the new file); refused (nothing written) when it does not exist or the text does not
+    /// parse and check on `machine`.
+    pub fn replace_program(&self, name: &str, text: &str, machine: &MachineConfig) -> Result<Plan, Refusal> {
+        let path = self.path(Kind::Program, name)?;
+        self.refuse_missing(Kind::Program, name, &path)?;
+        let plan = self.check_entry(&path, name, "changed", text, machine)?;
+        atomic::write_atomic(&path, text.as_bytes()).map_err(io_error(&path))?;
+        Ok(plan)
+    }
+
+    fn check_entry(
+        &self,
+        path: &Path,
+        name: &str,
+        not_done: &str,
+        text: &str,
+        machine: &MachineConfig,
+    ) -> Result<Plan, Refusal> {
+        self.check_program(path, text, machine).map_err(|e| match e {
             Refusal::Invalid { error, .. } => Refusal::Invalid {
-                what: format!("program {name:?} not created"),
+                what: format!("program {name:?} not {not_done}"),
                 error,
             },
             other => other,
-        })?;
-        self.write_new(Kind::Program, name, &path, text)?;
-        Ok(plan)
+        })
     }
 
     /// Stores a new tool; refused (nothing written) when the name is taken or the text is

@@ -115,6 +115,47 @@ fn programs_are_created_only_when_they_check_on_the_machine() {
 }
 
 #[test]
+fn a_changed_program_replaces_the_old_only_when_it_checks() {
+    let lib = library("lib-replace");
+    let machine = shipped_for_tests();
+    let e = lib.replace_program("spur", &spur_src(), &machine).unwrap_err();
+    assert!(
+        matches!(e, Refusal::Missing { .. }),
+        "a replace creates nothing: {e}"
+    );
+    assert!(lib.names(Kind::Program).unwrap().is_empty());
+    lib.create_program("spur", &spur_src(), &machine).unwrap();
+    let path = lib.path(Kind::Program, "spur").unwrap();
+    let before = std::fs::metadata(&path).unwrap().modified().unwrap();
+    let bad = spur_src().replace("teeth = 17", "teeth = \"1O\"");
+    let e = lib
+        .replace_program("spur", &bad, &machine)
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("program \"spur\" not changed") && e.contains("\"1O\""),
+        "{e}"
+    );
+    assert_eq!(
+        lib.text(Kind::Program, "spur").unwrap(),
+        spur_src(),
+        "a refused replace changed the file"
+    );
+    assert_eq!(std::fs::metadata(&path).unwrap().modified().unwrap(), before);
+    let deeper = spur_src().replace("total_depth_mm = 11.25", "total_depth_mm = 11.0");
+    assert_ne!(deeper, spur_src());
+    let plan = lib.replace_program("spur", &deeper, &machine).unwrap();
+    assert_eq!(lib.text(Kind::Program, "spur").unwrap(), deeper);
+    assert!(!plan.passes.is_empty());
+    // No temporary file is left beside it.
+    let left: Vec<_> = std::fs::read_dir(path.parent().unwrap())
+        .unwrap()
+        .map(|e| e.unwrap().file_name())
+        .collect();
+    assert_eq!(left.len(), 1, "{left:?}");
+}
+
+#[test]
 fn the_listing_checks_each_program_and_skips_temporary_files() {
     let lib = library("lib-list");
     let machine = shipped_for_tests();
