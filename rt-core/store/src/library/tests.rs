@@ -142,7 +142,7 @@ fn a_changed_program_replaces_the_old_only_when_it_checks() {
         "a refused replace changed the file"
     );
     assert_eq!(std::fs::metadata(&path).unwrap().modified().unwrap(), before);
-    let deeper = spur_src().replace("total_depth_mm = 11.25", "total_depth_mm = 11.0");
+    let deeper = spur_src().replace("retract_mm = 5.0", "retract_mm = 6.0");
     assert_ne!(deeper, spur_src());
     let plan = lib.replace_program("spur", &deeper, &machine).unwrap();
     assert_eq!(lib.text(Kind::Program, "spur").unwrap(), deeper);
