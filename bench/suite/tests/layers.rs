@@ -63,6 +63,19 @@ const ALLOWED: &[(&str, &[&str])] = &[
             "hob-store",
         ],
     ),
+    // The touch HMI: no control core (codes through hob-ipc's codec, signals through
+    // hob-setup), no CAN.
+    (
+        "hob-hmi",
+        &[
+            "hob-gearing",
+            "hob-setup",
+            "hob-ipc",
+            "hob-logger",
+            "hob-rt-os",
+            "hob-store",
+        ],
+    ),
     // The test bench: the simulated machine, the virtual machine on the bus, the commands
     // that need them, the benchmarks.
     (
@@ -135,7 +148,7 @@ const PURE: &[(&str, &[&str])] = &[
 const EDGE_OUTSIDE: &[(&str, &[&str])] = &[("hob-store", &["serde", "toml"])];
 
 /// What the product links: never the simulated machine, the virtual machine or the lab.
-const PRODUCT: &[&str] = &["hob-service", "hob-logger", "hob-watchdog", "hob-cli"];
+const PRODUCT: &[&str] = &["hob-service", "hob-logger", "hob-watchdog", "hob-cli", "hob-hmi"];
 const SIMULATORS: &[&str] = &["hob-plant", "hob-virtual-machine", "hob-lab", "hob-bench"];
 
 struct Workspace {
@@ -286,6 +299,14 @@ fn the_contract_between_processes_is_the_bottom_layer() {
     assert!(
         !logger.contains("hob-control") && !logger.contains("hob-setup"),
         "hob-logger links {logger:?}"
+    );
+    // The HMI adds no control logic: it cannot, it does not link the control core.
+    let hmi = closure(&ws, "hob-hmi");
+    assert!(
+        !hmi.contains("hob-control")
+            && !hmi.contains("hob-process-image")
+            && !hmi.contains("hob-can-transport"),
+        "hob-hmi links {hmi:?}"
     );
 }
 

@@ -1,0 +1,149 @@
+//! The touch HMI in a real browser: `hob-sim` (with `--control`), `hob-rt`, `hob-logger` and
+//! `hob-watchdog` on this host's bus as in the service tests, then the browser tests
+//! (`frontends/hmi/tests/e2e/*.test.mjs`, node's test runner driving Debian's Chromium with
+//! playwright-core), which start `hob-hmi` themselves (one test kills and restarts it).
+//!
+//! Ignored in the workspace pass (it needs the release binaries, Chromium and the npm
+//! install of `ci/hmi-setup`); `ci/test` runs it:
+//!
+//! ```sh
+//! bash ci/hmi-setup
+//! cargo build --release --workspace --bins
+//! HOB_BIN=target/release cargo test -p hob-system-tests --release --test hmi -- --ignored --nocapture
+//! ```
+//!
+//! Screenshots of every screen go to `target/service-artifacts/hmi/screens/` (set
+//! `HOB_HMI_SHOTS=docs/hmi` to refresh the README's).
+#![allow(clippy::unwrap_used)]
+
+use hob_system_tests::{Bench, TomlDoc, session_program};
+use std::path::Path;
+use std::process::Command;
+use std::time::{Duration, Instant};
+
+/// The whole browser suite may take this long (it takes about N minutes here).
+const SUITE_TIMEOUT: Duration = Duration::from_secs(900);
+
+fn path(p: &Path) -> String {
+    p.display().to_string()
+}
+
+#[test]
+#[ignore = "needs the release binaries, Chromium and frontends/hmi/node_modules: run by ci/test"]
+fn the_touch_hmi_in_chromium() {
+    let mut b = Bench::new("hmi");
+    let hmi_exe = b.bin.join("hob-hmi");
+    assert!(hmi_exe.is_file(), "{}: not built", hmi_exe.display());
+    let vendor = b.root.join("frontends/hmi/node_modules");
+    assert!(
+        vendor.join("playwright-core").is_dir() && Path::new("/usr/bin/chromium").is_file(),
+        "Chromium or the npm install is missing: run bash ci/hmi-setup"
+    );
+    let m = b.session_machine();
+    let machine = m.write(&b.art.join("machine.toml"));
+    let (iface, program) = (b.iface.clone(), session_program());
+    let mut sim = b.command("hob-sim");
+    sim.args([
+        "--iface",
+        &iface,
+        "--machine",
+        &path(&machine),
+        "--program",
+        &path(&program),
+        "--rt-priority",
+        "75",
+        "--control",
+    ])
+    .stdin(std::process::Stdio::piped());
+    let sim = b.spawn_cmd("hob-sim", sim, "sim.txt");
+    // Kept open: hob-sim --control ends with its standard input.
+    let _faults = b.stdin_of(sim);
+    std::thread::sleep(Duration::from_millis(300));
+    let state_file = b.art.join("machine-state.toml");
+    b.spawn(
+        "hob-rt",
+        "hob-rt",
+        &[
+            "--iface",
+            &iface,
+            "--machine",
+            &path(&machine),
+            "--state-file",
+            &path(&state_file),
+        ],
+        "rt.txt",
+    );
+    let log_dir = b.art.join("log");
+    b.spawn("hob-logger", "hob-logger", &[&log_dir], "logger.txt");
+    b.spawn(
+        "hob-watchdog",
+        "hob-watchdog",
+        &["--iface", &iface, "--machine", &path(&machine)],
+        "watchdog.txt",
+    );
+    // The operator's library: the session's gear, as a machine builder would install it.
+    let library = b.art.join("library");
+    b.hob_ok(&[
+        "lib",
+        "--library",
+        &path(&library),
+        "programs",
+        "create",
+        "session-gear",
+        &path(&program),
+    ]);
+    let tip_mm = TomlDoc::load(&program)
+        .get("tool.outside_diameter_mm")
+        .as_float()
+        .unwrap();
+    let shots = std::env::var("HOB_HMI_SHOTS").unwrap_or_else(|_| path(&b.art.join("screens")));
+    b.wait_state("idle", Duration::from_secs(300));
+
+    let started = Instant::now();
+    let mut node = Command::new("node");
+    node.current_dir(&b.root)
+        .args([
+            "--test",
+            "--test-concurrency=1",
+            "--test-timeout=600000",
+            "frontends/hmi/tests/e2e/",
+        ])
+        .env("HOB_INSTANCE", &b.instance)
+        .env("HOB_BIN", &b.bin)
+        .env("HOB_MACHINE", &machine)
+        .env("HOB_LIBRARY", &library)
+        .env("HOB_LOG_DIR", &log_dir)
+        .env("HOB_VENDOR", &vendor)
+        .env("HOB_TOOL_TIP_MM", tip_mm.to_string())
+        .env("HOB_HMI_SHOTS", &shots);
+    let log = b.art.join("node-tests.txt");
+    let out = std::fs::File::create(&log).unwrap();
+    let mut child = node
+        .stdout(out.try_clone().unwrap())
+        .stderr(out)
+        .spawn()
+        .expect("node");
+    let status = loop {
+        if let Some(s) = child.try_wait().unwrap() {
+            break s;
+        }
+        if started.elapsed() > SUITE_TIMEOUT {
+            let _ = child.kill();
+            panic!(
+                "the browser tests took over {} s: {}",
+                SUITE_TIMEOUT.as_secs(),
+                log.display()
+            );
+        }
+        std::thread::sleep(Duration::from_millis(200));
+    };
+    let text = std::fs::read_to_string(&log).unwrap();
+    eprintln!("{text}");
+    eprintln!("browser tests: {:.0} s", started.elapsed().as_secs_f64());
+    assert!(
+        status.success(),
+        "the browser tests failed ({}); the log above",
+        log.display()
+    );
+    b.check_alive();
+}

@@ -1,0 +1,216 @@
+//! The HTTP side of the HMI: the program and tool library (the same `hob_store::Library`
+//! calls as `hob program|tool ...`, so every refusal is the CLI's text and every problem
+//! carries its key path for the field), the cut report from the logger's record, and the
+//! alarm log's older pages. No check is written here: they all come from the Rust crates.
+
+use crate::app::App;
+use crate::protocol::EventView;
+use axum::Json;
+use axum::extract::{Path, Query, State};
+use axum::http::StatusCode;
+use axum::response::{IntoResponse, Response};
+use hob_store::library::{Kind, Refusal};
+use serde::Deserialize;
+use serde_json::{Value, json};
+use std::sync::Arc;
+
+type Shared = State<Arc<App>>;
+
+/// A refusal as the page shows it: the CLI's sentence and the problems by key.
+pub fn refusal(r: &Refusal) -> Response {
+    let problems: Vec<Value> = match r {
+        Refusal::Invalid { error, .. } => {
+            let list = error.problems();
+            if list.is_empty() {
+                vec![json!({"key": "", "message": error.to_string()})]
+            } else {
+                list.iter()
+                    .map(|p| json!({"key": p.key, "message": p.message}))
+                    .collect()
+            }
+        }
+        _ => Vec::new(),
+    };
+    let status = if r.is_io() {
+        StatusCode::INTERNAL_SERVER_ERROR
+    } else {
+        StatusCode::UNPROCESSABLE_ENTITY
+    };
+    (
+        status,
+        Json(json!({"refused": r.to_string(), "problems": problems})),
+    )
+        .into_response()
+}
+
+fn kind_of(what: &str) -> Option<Kind> {
+    match what {
+        "programs" => Some(Kind::Program),
+        "tools" => Some(Kind::Tool),
+        _ => None,
+    }
+}
+
+fn not_found(what: &str) -> Response {
+    (
+        StatusCode::NOT_FOUND,
+        Json(json!({"refused": format!("no such list: {what}")})),
+    )
+        .into_response()
+}
+
+/// `GET /api/{programs|tools}`: every entry, valid or not with the reason.
+pub async fn list(State(app): Shared, Path(what): Path<String>) -> Response {
+    let listing = match kind_of(&what) {
+        Some(Kind::Program) => app.library.list_programs(&app.machine),
+        Some(Kind::Tool) => app.library.list_tools(),
+        None => return not_found(&what),
+    };
+    match listing {
+        Ok(entries) => {
+            let list: Vec<Value> = entries
+                .iter()
+                .map(|e| json!({"name": e.name, "valid": e.problem.is_none(), "problem": e.problem}))
+                .collect();
+            Json(json!({"dir": app.library.dir().display().to_string(), "entries": list})).into_response()
+        }
+        Err(r) => refusal(&r),
+    }
+}
+
+/// `GET /api/{programs|tools}/{name}`: the stored text (and a tool's usage).
+pub async fn get(State(app): Shared, Path((what, name)): Path<(String, String)>) -> Response {
+    let Some(kind) = kind_of(&what) else {
+        return not_found(&what);
+    };
+    match app.library.text(kind, &name) {
+        Ok(text) => {
+            let usage = (kind == Kind::Tool)
+                .then(|| {
+                    app.library
+                        .tool(&name)
+                        .ok()
+                        .map(|t| serde_json::to_value(&t.usage).unwrap_or(Value::Null))
+                })
+                .flatten();
+            Json(json!({"name": name, "text": text, "usage": usage})).into_response()
+        }
+        Err(r) => refusal(&r),
+    }
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Body {
+    text: String,
+}
+
+/// `POST /api/{programs|tools}/{name}`: a new entry, checked before it is written.
+pub async fn create(
+    State(app): Shared,
+    Path((what, name)): Path<(String, String)>,
+    Json(body): Json<Body>,
+) -> Response {
+    let r = match kind_of(&what) {
+        Some(Kind::Program) => app
+            .library
+            .create_program(&name, &body.text, &app.machine)
+            .map(|p| json!({"plan": p})),
+        Some(Kind::Tool) => app.library.create_tool(&name, &body.text).map(|_| json!({})),
+        None => return not_found(&what),
+    };
+    match r {
+        Ok(v) => (
+            StatusCode::CREATED,
+            Json(json!({"ok": true, "name": name, "result": v})),
+        )
+            .into_response(),
+        Err(r) => refusal(&r),
+    }
+}
+
+/// `DELETE /api/{programs|tools}/{name}`.
+pub async fn delete(State(app): Shared, Path((what, name)): Path<(String, String)>) -> Response {
+    let Some(kind) = kind_of(&what) else {
+        return not_found(&what);
+    };
+    match app.library.delete(kind, &name) {
+        Ok(()) => Json(json!({"ok": true})).into_response(),
+        Err(r) => refusal(&r),
+    }
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct To {
+    to: String,
+}
+
+/// `POST /api/{programs|tools}/{name}/{copy|rename}` with `{"to": NEW}`.
+pub async fn copy_or_rename(
+    State(app): Shared,
+    Path((what, name, action)): Path<(String, String, String)>,
+    Json(to): Json<To>,
+) -> Response {
+    let Some(kind) = kind_of(&what) else {
+        return not_found(&what);
+    };
+    let r = match action.as_str() {
+        "copy" => app.library.copy(kind, &name, &to.to),
+        "rename" => app.library.rename(kind, &name, &to.to),
+        _ => return not_found(&action),
+    };
+    match r {
+        Ok(()) => Json(json!({"ok": true, "name": to.to})).into_response(),
+        Err(r) => refusal(&r),
+    }
+}
+
+#[derive(Debug, Deserialize)]
+pub struct Before {
+    #[serde(default)]
+    before: u64,
+}
+
+/// `GET /api/alarms?before=SEQ`: a page of older events, newest first.
+pub async fn alarms(State(app): Shared, Query(b): Query<Before>) -> Response {
+    let book = app.hub.book();
+    let list: Vec<EventView> = book
+        .log
+        .page_before(b.before, 200)
+        .iter()
+        .map(|e| EventView::of(e, book.clock))
+        .collect();
+    Json(json!({"events": list, "missed": book.log.missed})).into_response()
+}
+
+/// `GET /api/report`: the cut report from the logger's record (`hob log report`).
+pub async fn report(State(app): Shared) -> Response {
+    let Some(dir) = app.log_dir.clone() else {
+        return (
+            StatusCode::NOT_FOUND,
+            Json(json!({"refused": "hob-hmi was started without --log-dir: no logger record to report"})),
+        )
+            .into_response();
+    };
+    let r = tokio::task::spawn_blocking(move || hob_logger::export::report(&dir)).await;
+    match r {
+        Ok(Ok(r)) => Json(json!({
+            "samples": r.samples,
+            "first_cycle": r.first_cycle,
+            "last_cycle": r.last_cycle,
+            "missing": r.missing,
+            "pitch_radius_mm": r.pitch_radius_mm,
+            "grade5_single_pitch_um": r.grade5_single_pitch_um,
+            "bound_um": r.grade5_single_pitch_um / 4.0,
+            "passes": r.passes,
+        }))
+        .into_response(),
+        Ok(Err(e)) => (StatusCode::NOT_FOUND, Json(json!({"refused": e}))).into_response(),
+        Err(e) => (
+            StatusCode::INTERNAL_SERVER_ERROR,
+            Json(json!({"refused": e.to_string()})),
+        )
+            .into_response(),
+    }
+}

@@ -1,0 +1,81 @@
+//! What every request of the web server shares: the hub of the loop's streams, the command
+//! thread, the machine file, the program and tool library, and the machine's description
+//! for the page.
+
+use crate::bridge::Hub;
+use crate::commander::Commander;
+use hob_ipc::CommandRequest;
+use hob_setup::config::machine::MachineConfig;
+use hob_store::library::{Kind, Library};
+use std::path::PathBuf;
+
+#[derive(Debug)]
+pub struct App {
+    pub hub: Hub,
+    pub commands: Commander,
+    pub machine: MachineConfig,
+    pub library: Library,
+    /// The logger's directory (cut reports), when given.
+    pub log_dir: Option<PathBuf>,
+    /// The `hello` the page gets: the machine's name, limits and signal names.
+    pub hello: serde_json::Value,
+}
+
+impl App {
+    pub fn new(
+        hub: Hub,
+        commands: Commander,
+        machine: MachineConfig,
+        library: Library,
+        log_dir: Option<PathBuf>,
+    ) -> Self {
+        let hello = hello(&machine);
+        Self {
+            hub,
+            commands,
+            machine,
+            library,
+            log_dir,
+            hello,
+        }
+    }
+
+    /// A library program as `hob load --lib NAME` sends it: its text with the library tool
+    /// filled in; the loop parses and checks it again and answers.
+    pub fn load_request(&self, name: &str) -> Result<CommandRequest, String> {
+        let text = self
+            .library
+            .text(Kind::Program, name)
+            .map_err(|e| e.to_string())?;
+        let origin = self
+            .library
+            .path(Kind::Program, name)
+            .map_err(|e| e.to_string())?;
+        let resolved = self.library.resolve(&origin, &text).map_err(|e| e.to_string())?;
+        CommandRequest::load_program(&format!("library program {name}"), &resolved)
+    }
+}
+
+fn hello(m: &MachineConfig) -> serde_json::Value {
+    let names = |l: &[(&'static str, hob_setup::config::machine::DigitalBinding)]| {
+        l.iter().map(|(n, _)| *n).collect::<Vec<_>>()
+    };
+    serde_json::json!({
+        "server": concat!("hob-hmi ", env!("CARGO_PKG_VERSION")),
+        "instance": hob_ipc::instance(),
+        "machine": m.machine.name,
+        "overrides": {
+            "feed": [m.overrides.feed_min_percent, m.overrides.feed_max_percent],
+            "spindle": [m.overrides.spindle_min_percent, m.overrides.spindle_max_percent],
+        },
+        "jog": {
+            "renew_ms": 100,
+            "deadman_ms": m.jog.deadman_timeout_ms,
+            "unreferenced_mm_min": m.jog.unreferenced_mm_min,
+        },
+        "signals": {
+            "inputs": names(&m.io.inputs.bindings()),
+            "outputs": names(&m.io.outputs.bindings()),
+        },
+    })
+}

@@ -1,0 +1,119 @@
+//! Program definition over HTTP: a library program as form fields, the fields checked as a
+//! program file by the Rust checks (each sub-menu's state, the problems by key, the plan),
+//! saved into the library, and a program's plan for the set-up sheet.
+
+use crate::api::refusal;
+use crate::app::App;
+use crate::form::{self, Field};
+use axum::Json;
+use axum::extract::{Path, State};
+use axum::http::StatusCode;
+use axum::response::{IntoResponse, Response};
+use hob_setup::config::LoadError;
+use hob_store::library::{Kind, Refusal};
+use serde::Deserialize;
+use serde_json::{Value, json};
+use std::sync::Arc;
+
+type Shared = State<Arc<App>>;
+
+fn bad_request(text: String) -> Response {
+    (
+        StatusCode::UNPROCESSABLE_ENTITY,
+        Json(json!({"refused": text, "problems": []})),
+    )
+        .into_response()
+}
+
+/// `GET /api/form/{name}`: the program's fields.
+pub async fn fields(State(app): Shared, Path(name): Path<String>) -> Response {
+    match app.library.text(Kind::Program, &name) {
+        Ok(text) => match form::fields(&text) {
+            Ok(f) => Json(json!({"name": name, "fields": f})).into_response(),
+            Err(e) => bad_request(format!("program {name}: not TOML: {e}")),
+        },
+        Err(r) => refusal(&r),
+    }
+}
+
+/// `GET /api/plan/{name}`: the plan of a library program on this machine.
+pub async fn plan(State(app): Shared, Path(name): Path<String>) -> Response {
+    let checked = app.library.text(Kind::Program, &name).and_then(|text| {
+        let origin = app.library.path(Kind::Program, &name)?;
+        app.library.check_program(&origin, &text, &app.machine)
+    });
+    match checked {
+        Ok(p) => Json(json!({"name": name, "plan": p})).into_response(),
+        Err(r) => refusal(&r),
+    }
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Form {
+    fields: Vec<Field>,
+}
+
+/// The problems of a load error, each on its key (a syntax error on the key of its line).
+pub fn problems_of(error: &LoadError, toml_text: &str) -> Vec<Value> {
+    match error {
+        LoadError::Syntax {
+            position, message, ..
+        } => {
+            let key = position
+                .and_then(|p| form::key_of_line(toml_text, p.line.saturating_sub(1)))
+                .unwrap_or_default();
+            vec![json!({"key": key, "message": message})]
+        }
+        other => {
+            let list = other.problems();
+            if list.is_empty() {
+                vec![json!({"key": "", "message": other.to_string()})]
+            } else {
+                list.iter()
+                    .map(|p| json!({"key": p.key, "message": p.message}))
+                    .collect()
+            }
+        }
+    }
+}
+
+/// `POST /api/check`: the form as a program file, checked as `hob check` checks it.
+pub async fn check(State(app): Shared, Json(f): Json<Form>) -> Response {
+    let text = match form::to_toml(&f.fields) {
+        Ok(t) => t,
+        Err(e) => return bad_request(e),
+    };
+    Json(crate::sections::check(&app, &text)).into_response()
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Save {
+    name: String,
+    new: bool,
+    fields: Vec<Field>,
+}
+
+/// `POST /api/save`: a new program, or a changed one written over the old (checked first;
+/// refused, nothing is written).
+pub async fn save(State(app): Shared, Json(s): Json<Save>) -> Response {
+    let text = match form::to_toml(&s.fields) {
+        Ok(t) => t,
+        Err(e) => return bad_request(e),
+    };
+    let r = if s.new {
+        app.library.create_program(&s.name, &text, &app.machine)
+    } else {
+        app.library.replace_program(&s.name, &text, &app.machine)
+    };
+    match r {
+        Ok(plan) => Json(json!({"ok": true, "name": s.name, "plan": plan})).into_response(),
+        Err(Refusal::Invalid { what, error }) => (
+            StatusCode::UNPROCESSABLE_ENTITY,
+            Json(json!({"refused": format!("{what}: {error}"), "problems": problems_of(&error, &text)})),
+        )
+            .into_response(),
+        Err(r) => refusal(&r),
+    }
+}

@@ -1,0 +1,136 @@
+//! `hob-hmi`: serves the touch HMI on the loopback for the panel's kiosk browser.
+
+use clap::Parser;
+use hob_hmi::{app::App, bridge, commander, web};
+use hob_setup::config::machine::MachineConfig;
+use hob_store::library::Library;
+use std::net::SocketAddr;
+use std::path::PathBuf;
+use std::sync::Arc;
+use std::sync::atomic::Ordering;
+use std::time::Duration;
+
+#[derive(Debug, Parser)]
+#[command(
+    name = "hob-hmi",
+    version,
+    about = "The operator's touch HMI of hob: a web page for the panel's kiosk browser"
+)]
+struct Args {
+    /// The machine file (as hob-rt's).
+    #[arg(long, default_value = "/etc/hob/machine.toml")]
+    machine: PathBuf,
+    /// The program and tool library (default: the machine file's [library] dir).
+    #[arg(long)]
+    library: Option<PathBuf>,
+    /// The logger's directory, for cut reports.
+    #[arg(long)]
+    log_dir: Option<PathBuf>,
+    /// Where the panel is served: a loopback address only (port 0: any free port).
+    #[arg(long, default_value = "127.0.0.1:8080")]
+    bind: SocketAddr,
+    /// Also serve a view-only screen (no commands, no changes) at this address.
+    #[arg(long)]
+    view_bind: Option<SocketAddr>,
+    /// The npm install holding Preact and htm (default: next to the binary in
+    /// ../share/hob/hmi/vendor, else frontends/hmi/node_modules).
+    #[arg(long)]
+    vendor: Option<PathBuf>,
+    /// After this long without a sample the screen says the loop is silent, ms.
+    #[arg(long, default_value_t = 100)]
+    silence_ms: u64,
+}
+
+fn vendor_dir(given: Option<PathBuf>) -> PathBuf {
+    if let Some(d) = given {
+        return d;
+    }
+    let installed = std::env::current_exe()
+        .ok()
+        .and_then(|e| e.parent().map(|p| p.join("../share/hob/hmi/vendor")))
+        .filter(|p| p.is_dir());
+    installed.unwrap_or_else(|| PathBuf::from(concat!(env!("CARGO_MANIFEST_DIR"), "/node_modules")))
+}
+
+fn main() -> std::process::ExitCode {
+    match run(Args::parse()) {
+        Ok(()) => std::process::ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("hob-hmi: {e}");
+            std::process::ExitCode::from(2)
+        }
+    }
+}
+
+fn run(a: Args) -> Result<(), String> {
+    if !a.bind.ip().is_loopback() {
+        return Err(format!(
+            "--bind {}: the panel (commands and jog) is served on the loopback only; use --view-bind for a view-only screen elsewhere",
+            a.bind
+        ));
+    }
+    if a.silence_ms == 0 {
+        return Err("--silence-ms must be above 0".into());
+    }
+    let machine = MachineConfig::load(&a.machine).map_err(|e| e.to_string())?;
+    let library_dir = a
+        .library
+        .clone()
+        .unwrap_or_else(|| PathBuf::from(&machine.library.dir));
+    let library = Library::open(&library_dir).map_err(|e| e.to_string())?;
+    let vendor = Arc::new(web::Vendor::load(&vendor_dir(a.vendor.clone()))?);
+    // Off the loop's core, like every frontend.
+    hob_rt_os::keep_off_core(machine.service.loop_core);
+
+    let (b, hub) = bridge::Bridge::new(machine.io.clone(), Duration::from_millis(a.silence_ms));
+    let stop = hob_rt_os::termination_flag();
+    let bridge_thread = std::thread::Builder::new()
+        .name("bridge".into())
+        .spawn(move || bridge::run(b, stop))
+        .map_err(|e| e.to_string())?;
+    let (commands, jobs) = commander::Commander::new();
+    std::thread::Builder::new()
+        .name("commander".into())
+        .spawn(move || commander::run(jobs))
+        .map_err(|e| e.to_string())?;
+    let app = Arc::new(App::new(hub, commands, machine, library, a.log_dir.clone()));
+
+    let rt = tokio::runtime::Builder::new_current_thread()
+        .enable_all()
+        .build()
+        .map_err(|e| e.to_string())?;
+    rt.block_on(async move {
+        let listener = tokio::net::TcpListener::bind(a.bind)
+            .await
+            .map_err(|e| format!("--bind {}: {e}", a.bind))?;
+        let addr = listener.local_addr().map_err(|e| e.to_string())?;
+        let panel = web::panel_router(app.clone(), vendor.clone(), addr.to_string());
+        // The first line says where: tests and the kiosk unit read it.
+        println!(
+            "hob-hmi: serving the panel at http://{addr}/ (instance {})",
+            hob_ipc::instance()
+        );
+        if let Some(v) = a.view_bind {
+            let vl = tokio::net::TcpListener::bind(v)
+                .await
+                .map_err(|e| format!("--view-bind {v}: {e}"))?;
+            let vaddr = vl.local_addr().map_err(|e| e.to_string())?;
+            let view = web::view_router(app.clone(), vendor, vaddr.to_string());
+            println!("hob-hmi: serving a view-only screen at http://{vaddr}/");
+            tokio::spawn(async move { axum::serve(vl, view).await });
+        }
+        let stopping = async {
+            while !stop.load(Ordering::Relaxed) {
+                tokio::time::sleep(Duration::from_millis(100)).await;
+            }
+        };
+        axum::serve(listener, panel)
+            .with_graceful_shutdown(stopping)
+            .await
+            .map_err(|e| e.to_string())
+    })?;
+    bridge_thread
+        .join()
+        .map_err(|_| "the bridge thread panicked".to_string())??;
+    Ok(())
+}

@@ -1,0 +1,541 @@
+//! What travels between the HMI's server and the browser (JSON over one WebSocket, `t`
+//! names the message), and the loop's samples turned into named values: every name and
+//! text comes from `hob_ipc::codec` and the machine file, the page only shows them.
+
+use crate::reduce::PlotPoint;
+use hob_gearing::iso1328::single_pitch_tolerance_um;
+use hob_gearing::units::um_to_arcsec_at_radius;
+use hob_ipc::codec::{self, Axis};
+use hob_ipc::{CommandRequest, EventSample, StateSample, StatsSample, event_kind, request};
+use hob_setup::config::machine::IoMap;
+use serde::{Deserialize, Serialize};
+
+/// The ISO 1328-1 grade whose single pitch tolerance sets the plot's bound (a quarter of
+/// it: the share of the pitch error the project allows the synchronisation).
+pub const BOUND_GRADE: u8 = 5;
+
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct AxisView {
+    pub act: f64,
+    pub cmd: f64,
+}
+
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct AlarmView {
+    pub code: u32,
+    pub text: String,
+    pub reaction: &'static str,
+    pub remedy: &'static str,
+    pub how_to_continue: &'static str,
+}
+
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Signal {
+    pub name: &'static str,
+    pub bit: u8,
+    pub active: bool,
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct Referenced {
+    pub x: bool,
+    pub y: bool,
+    /// The table's position is whole (its tooth phase can be trusted).
+    pub table: bool,
+}
+
+/// One state sample in words.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct StateView {
+    pub cycle: u64,
+    pub state: String,
+    pub hold: bool,
+    pub program_loaded: bool,
+    pub pass: u32,
+    pub passes: u32,
+    pub tooth: u32,
+    pub coupling: &'static str,
+    pub x_mm: AxisView,
+    pub y_mm: AxisView,
+    pub b_deg: AxisView,
+    pub spindle_rpm: f64,
+    pub spindle_set_rpm: f64,
+    pub sync_error_arcsec: f64,
+    pub alarm: Option<AlarmView>,
+    pub referenced: Referenced,
+    pub moving_axis: Option<&'static str>,
+    pub continue_pass: Option<u32>,
+    pub feed_override_percent: f64,
+    pub spindle_override_percent: f64,
+    pub x_offset_mm: f64,
+    pub y_offset_mm: f64,
+    pub drives_enabled: Vec<&'static str>,
+    pub drives_silent: Vec<&'static str>,
+    pub io_valid: bool,
+    pub inputs: Vec<Signal>,
+    pub outputs: Vec<Signal>,
+    pub overruns: u64,
+    pub events_lost: u64,
+    /// The plot's bound for the loaded gear, arcsec (none without a program).
+    pub bound_arcsec: Option<f64>,
+}
+
+fn axes(bits: u8) -> Vec<&'static str> {
+    [(0, "B"), (1, "X"), (2, "Y")]
+        .iter()
+        .filter(|(i, _)| bits & (1 << i) != 0)
+        .map(|(_, n)| *n)
+        .collect()
+}
+
+/// The alarm in the operator's words, with what the machine did and what to do.
+pub fn alarm_view(a: &hob_ipc::AlarmCode) -> Option<AlarmView> {
+    if a.code == 0 {
+        return None;
+    }
+    let f = codec::Fault::of(a);
+    Some(AlarmView {
+        code: a.code,
+        text: codec::alarm_text(a),
+        reaction: f.map_or("", |f| f.reaction(a)),
+        remedy: f.map_or("", codec::Fault::remedy),
+        how_to_continue: f.map_or("", codec::Fault::how_to_continue),
+    })
+}
+
+/// The bound of the synchronisation error for a gear: a quarter of its grade-5 single
+/// pitch tolerance at the pitch circle, in arcsec.
+pub fn bound_arcsec(pitch_radius_mm: f64, normal_module_mm: f64) -> Option<f64> {
+    (pitch_radius_mm > 0.0 && normal_module_mm > 0.0).then(|| {
+        let tol_um = single_pitch_tolerance_um(2.0 * pitch_radius_mm, normal_module_mm, BOUND_GRADE);
+        um_to_arcsec_at_radius(tol_um / 4.0, pitch_radius_mm)
+    })
+}
+
+impl StateView {
+    pub fn of(s: &StateSample, io: &IoMap) -> Self {
+        let signals = |list: &[(&'static str, hob_setup::config::machine::DigitalBinding)], raw: u32| {
+            list.iter()
+                .map(|(name, b)| Signal {
+                    name,
+                    bit: b.bit,
+                    active: b.is_active(raw),
+                })
+                .collect()
+        };
+        Self {
+            cycle: s.cycle,
+            state: codec::state_name(s.state),
+            hold: s.hold != 0,
+            program_loaded: s.program_loaded != 0,
+            pass: s.pass,
+            passes: s.passes_total,
+            tooth: s.tooth,
+            coupling: codec::coupling_name(s.coupling),
+            x_mm: AxisView {
+                act: s.x_mm.actual,
+                cmd: s.x_mm.command,
+            },
+            y_mm: AxisView {
+                act: s.y_mm.actual,
+                cmd: s.y_mm.command,
+            },
+            b_deg: AxisView {
+                act: s.table_deg.actual,
+                cmd: s.table_deg.command,
+            },
+            spindle_rpm: s.spindle_rpm,
+            spindle_set_rpm: s.spindle_set_rpm,
+            sync_error_arcsec: s.sync_error_arcsec,
+            alarm: alarm_view(&s.alarm),
+            referenced: Referenced {
+                x: s.referenced & 2 != 0,
+                y: s.referenced & 4 != 0,
+                table: s.referenced & 1 != 0,
+            },
+            moving_axis: Axis::from_code(s.moving_axis).map(Axis::name),
+            continue_pass: (s.continue_pass > 0).then_some(s.continue_pass),
+            feed_override_percent: s.feed_override_percent,
+            spindle_override_percent: s.spindle_override_percent,
+            x_offset_mm: s.x_offset_mm,
+            y_offset_mm: s.y_offset_mm,
+            drives_enabled: axes(s.drives_enabled),
+            drives_silent: axes(s.drives_silent),
+            io_valid: s.io_valid != 0,
+            inputs: signals(&io.inputs.bindings(), s.digital_inputs),
+            outputs: signals(&io.outputs.bindings(), s.digital_outputs),
+            overruns: s.overruns,
+            events_lost: s.events_lost,
+            bound_arcsec: bound_arcsec(s.pitch_radius_mm, s.normal_module_mm),
+        }
+    }
+}
+
+/// One event in words; `operator`: an answer to a command (accepted or refused), not
+/// something the machine did.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct EventView {
+    pub seq: u64,
+    pub cycle: u64,
+    pub kind: &'static str,
+    pub operator: bool,
+    pub text: String,
+    pub alarm: Option<AlarmView>,
+    /// Wall-clock time in ms since the epoch, from the cycle (the events carry none).
+    pub utc_ms: Option<u64>,
+}
+
+impl EventView {
+    /// `clock`: a newest cycle with its wall time and the period, to date the event.
+    pub fn of(e: &EventSample, clock: Option<CycleClock>) -> Self {
+        Self {
+            seq: e.seq,
+            cycle: e.cycle,
+            kind: codec::event_kind_name(e.kind).unwrap_or("?"),
+            operator: matches!(e.kind, event_kind::ACCEPTED | event_kind::REFUSED),
+            text: codec::event_text(e),
+            alarm: if e.kind == event_kind::ALARM {
+                alarm_view(&e.alarm)
+            } else {
+                None
+            },
+            utc_ms: clock.map(|c| c.utc_ms(e.cycle)),
+        }
+    }
+}
+
+/// Dates cycles: a cycle whose wall-clock time is known, and the loop's period.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct CycleClock {
+    pub cycle: u64,
+    pub utc_ms: u64,
+    pub period_ns: u64,
+}
+
+impl CycleClock {
+    pub fn utc_ms(self, cycle: u64) -> u64 {
+        let back_ms = (self.cycle.saturating_sub(cycle)).saturating_mul(self.period_ns) / 1_000_000;
+        self.utc_ms.saturating_sub(back_ms)
+    }
+}
+
+/// The loop's timing summary, us.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct StatsView {
+    pub cycle: u64,
+    pub period_us: f64,
+    pub overruns: u64,
+    pub wake_us: PercentilesView,
+    pub compute_us: PercentilesView,
+    pub system_allocations_in_cycle: u64,
+    pub pool_allocations_in_cycle: u64,
+    pub fifo_priority: i32,
+    pub core: i32,
+    pub memory_locked: bool,
+    pub bus: &'static str,
+    pub tx_errors: u64,
+}
+
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct PercentilesView {
+    pub count: u64,
+    pub min: f64,
+    pub p50: f64,
+    pub p99: f64,
+    pub p999: f64,
+    pub max: f64,
+}
+
+impl StatsView {
+    pub fn of(s: &StatsSample) -> Self {
+        let p = |x: &hob_ipc::Percentiles| PercentilesView {
+            count: x.count,
+            min: x.min_ns as f64 / 1e3,
+            p50: x.p50_ns as f64 / 1e3,
+            p99: x.p99_ns as f64 / 1e3,
+            p999: x.p999_ns as f64 / 1e3,
+            max: x.max_ns as f64 / 1e3,
+        };
+        Self {
+            cycle: s.cycle,
+            period_us: s.period_ns as f64 / 1e3,
+            overruns: s.overruns,
+            wake_us: p(&s.wake_latency),
+            compute_us: p(&s.compute),
+            system_allocations_in_cycle: s.system_allocations_in_cycle,
+            pool_allocations_in_cycle: s.pool_allocations_in_cycle,
+            fifo_priority: s.fifo_priority,
+            core: s.core,
+            memory_locked: s.memory_locked != 0,
+            bus: codec::bus_kind_name(s.bus_kind),
+            tx_errors: s.tx_errors,
+        }
+    }
+}
+
+/// What the server sends every frame.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Frame {
+    /// Frame number (the page sees skipped frames from it).
+    pub seq: u64,
+    /// How old the newest sample is, from its SYNC time (the bus included).
+    pub loop_age_ms: Option<f64>,
+    /// No sample from the loop for this long (over the silence limit), ms.
+    pub silent_ms: Option<u64>,
+    /// Cycles the HMI never received since it started, and loop restarts it saw.
+    pub samples_missed: u64,
+    pub loop_restarts: u32,
+    pub state: Option<StateView>,
+    pub plot: Option<PlotPoint>,
+    pub events_head: u64,
+}
+
+/// The operation of a command from the page.
+#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[serde(tag = "op", rename_all = "snake_case", deny_unknown_fields)]
+pub enum Op {
+    Reset {},
+    Home {
+        axis: String,
+    },
+    Jog {
+        axis: String,
+        distance: f64,
+    },
+    Hold {},
+    Resume {},
+    Stop {},
+    Continue {},
+    NewBlank {},
+    Start {
+        single: bool,
+    },
+    Override {
+        what: String,
+        percent: f64,
+    },
+    TouchOff {
+        axis: String,
+        value: f64,
+    },
+    Spindle {
+        rpm: f64,
+    },
+    /// A library program by name: the server reads and resolves it (`hob load --lib`).
+    Load {
+        program: String,
+    },
+}
+
+/// Messages from the page (a command's own fields are checked by [`Op`]: serde cannot deny
+/// unknown fields beside a flattened one).
+#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[serde(tag = "t", rename_all = "snake_case")]
+pub enum ClientMsg {
+    Hello {
+        last_event: u64,
+    },
+    Cmd {
+        id: u64,
+        #[serde(flatten)]
+        op: Op,
+    },
+    JogHold {
+        id: u64,
+        axis: String,
+        dir: String,
+        speed: f64,
+    },
+    JogRenew,
+    JogRelease,
+    Visibility {
+        visible: bool,
+    },
+}
+
+impl Op {
+    /// The loop command, encoded by the same builders as the CLI's (`hob_ipc::request`);
+    /// `Load` is read from the library by the caller.
+    pub fn request(&self) -> Result<CommandRequest, String> {
+        use hob_ipc::command as c;
+        match self {
+            Op::Reset {} => Ok(request::simple(c::RESET)),
+            Op::Home { axis } => request::home(axis),
+            Op::Jog { axis, distance } => request::jog(axis, *distance),
+            Op::Hold {} => Ok(request::simple(c::FEED_HOLD)),
+            Op::Resume {} => Ok(request::simple(c::RESUME)),
+            Op::Stop {} => Ok(request::simple(c::STOP)),
+            Op::Continue {} => Ok(request::simple(c::CONTINUE)),
+            Op::NewBlank {} => Ok(request::simple(c::NEW_BLANK)),
+            Op::Start { single } => Ok(request::start(*single)),
+            Op::Override { what, percent } => request::override_request(what, *percent),
+            Op::TouchOff { axis, value } => request::touch_off_value(axis, *value),
+            Op::Spindle { rpm } if *rpm == 0.0 => Ok(request::simple(c::SPINDLE_OFF)),
+            Op::Spindle { rpm } => Ok(request::spindle_on(*rpm)),
+            Op::Load { program } => Err(format!("load {program}: read from the library by the server")),
+        }
+    }
+}
+
+/// The answer to one command, by its id.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Answer {
+    pub id: u64,
+    pub ok: bool,
+    /// The loop's refusal word (`codec::Refusal`), none when accepted or not the loop's.
+    pub refusal: Option<&'static str>,
+    pub text: String,
+}
+
+impl Answer {
+    pub fn of(id: u64, r: &hob_ipc::CommandResponse) -> Self {
+        let ok = r.accepted != 0;
+        Self {
+            id,
+            ok,
+            refusal: if ok {
+                None
+            } else {
+                codec::Refusal::from_code(r.refusal).map(codec::Refusal::text)
+            },
+            text: r.text(),
+        }
+    }
+
+    /// A refusal before the loop was asked (bad request, library, no answer).
+    pub fn refused(id: u64, text: impl Into<String>) -> Self {
+        Self {
+            id,
+            ok: false,
+            refusal: None,
+            text: text.into(),
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn parse(s: &str) -> ClientMsg {
+        serde_json::from_str(s).unwrap_or_else(|e| panic!("{s}: {e}"))
+    }
+
+    #[test]
+    fn every_command_of_the_page_is_the_request_the_cli_sends() {
+        let cases: &[(&str, CommandRequest)] = &[
+            (
+                r#"{"t":"cmd","id":1,"op":"home","axis":"all"}"#,
+                request::home("all").expect("home"),
+            ),
+            (
+                r#"{"t":"cmd","id":1,"op":"home","axis":"y"}"#,
+                request::home("y").expect("home"),
+            ),
+            (
+                r#"{"t":"cmd","id":1,"op":"jog","axis":"x","distance":-0.1}"#,
+                request::jog("x", -0.1).expect("jog"),
+            ),
+            (
+                r#"{"t":"cmd","id":1,"op":"override","what":"feed","percent":80}"#,
+                request::override_request("feed", 80.0).expect("override"),
+            ),
+            (
+                r#"{"t":"cmd","id":1,"op":"touch_off","axis":"x","value":120.005}"#,
+                request::touch_off("x", Some(120.005), None).expect("touch-off"),
+            ),
+            (
+                r#"{"t":"cmd","id":1,"op":"start","single":true}"#,
+                request::start(true),
+            ),
+            (
+                r#"{"t":"cmd","id":1,"op":"continue"}"#,
+                request::simple(hob_ipc::command::CONTINUE),
+            ),
+            (
+                r#"{"t":"cmd","id":1,"op":"spindle","rpm":0}"#,
+                request::simple(hob_ipc::command::SPINDLE_OFF),
+            ),
+        ];
+        for (json, want) in cases {
+            let ClientMsg::Cmd { op, .. } = parse(json) else {
+                panic!("{json}: not a command")
+            };
+            assert_eq!(op.request().as_ref(), Ok(want), "{json}");
+        }
+    }
+
+    #[test]
+    fn a_malformed_message_or_value_is_refused_before_the_loop() {
+        for bad in [
+            r#"{"t":"cmd","id":1,"op":"format_disk"}"#,
+            r#"{"t":"cmd","id":1,"op":"jog","axis":"x"}"#,
+            r#"{"t":"cmd","id":1,"op":"reset","extra":1}"#,
+            r#"{"t":"jog_hold","axis":"x","dir":"+","speed":100}"#,
+        ] {
+            assert!(serde_json::from_str::<ClientMsg>(bad).is_err(), "{bad} parsed");
+        }
+        let ClientMsg::Cmd { op, .. } = parse(r#"{"t":"cmd","id":1,"op":"home","axis":"b"}"#) else {
+            panic!("not a command")
+        };
+        assert!(op.request().is_err(), "the table needs no reference");
+    }
+
+    #[test]
+    fn every_state_and_fault_code_has_words() {
+        for code in 0..codec::State::ALL.len() as u32 {
+            assert!(!codec::state_name(code).starts_with('?'), "state {code}");
+        }
+        let s = StateSample {
+            alarm: hob_ipc::AlarmCode {
+                code: 1,
+                ..Default::default()
+            },
+            ..Default::default()
+        };
+        let io: IoMap = hob_setup::config::machine::MachineConfig::load(std::path::Path::new(concat!(
+            env!("CARGO_MANIFEST_DIR"),
+            "/../../config/machine.toml"
+        )))
+        .expect("the shipped machine file")
+        .io;
+        let v = StateView::of(&s, &io);
+        let a = v.alarm.expect("an alarm");
+        assert!(
+            !a.text.is_empty() && !a.remedy.is_empty() && !a.how_to_continue.is_empty(),
+            "{a:?}"
+        );
+        assert_eq!(v.inputs.len(), io.inputs.bindings().len());
+    }
+
+    #[test]
+    fn the_bound_is_a_quarter_of_the_grade_5_pitch_tolerance() {
+        // spur-z17-m5: d = 85 mm, m = 5 mm: f_pt(5) / 4 = 1.77 um = 8.6 arcsec at r = 42.5 mm.
+        let b = bound_arcsec(42.5, 5.0).expect("a bound");
+        let um = hob_gearing::units::arcsec_to_um_at_radius(b, 42.5);
+        assert!((um - single_pitch_tolerance_um(85.0, 5.0, 5) / 4.0).abs() < 1e-9);
+        assert!((8.0..9.0).contains(&b), "{b}");
+        assert_eq!(bound_arcsec(0.0, 0.0), None);
+    }
+
+    #[test]
+    fn an_event_is_dated_from_its_cycle() {
+        let clock = CycleClock {
+            cycle: 10_000,
+            utc_ms: 1_000_000,
+            period_ns: 1_000_000,
+        };
+        assert_eq!(clock.utc_ms(9_000), 999_000);
+        let e = EventSample {
+            seq: 3,
+            cycle: 9_000,
+            kind: event_kind::REFUSED,
+            ..Default::default()
+        };
+        let v = EventView::of(&e, Some(clock));
+        assert!(
+            v.operator && v.utc_ms == Some(999_000) && v.kind == "refused",
+            "{v:?}"
+        );
+    }
+}

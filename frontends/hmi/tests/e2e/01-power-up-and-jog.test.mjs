@@ -1,0 +1,93 @@
+// Power-up, referencing, press-and-hold jog with its dead-man, touch-off: through the page in
+// Chromium, checked against the loop's own state (`hob status --json`).
+import { test, after } from "node:test";
+import assert from "node:assert/strict";
+import { startHmi, browser, status, waitFor, shot, touchHold } from "./lib/hmi.mjs";
+
+const hmi = await startHmi();
+const ctx = await browser();
+after(async () => { await ctx.close(); hmi.proc.kill("SIGTERM"); });
+
+const open = async (screen) => {
+  const page = await ctx.newPage();
+  await page.goto(`${hmi.url}#${screen}`);
+  await page.waitForSelector('[data-testid="age"]', { timeout: 20000 });
+  return page;
+};
+
+test("power-up shows the safety chain, the drives and referencing; HOME ALL references X and Y", async () => {
+  const page = await open("powerup");
+  await waitFor("the drives enabled on the page", async () => (await page.locator('[data-testid="drive-Y"].ok').count()) === 1, 60000);
+  assert.equal(await page.locator('[data-testid="chain"].ok').count(), 1, "the safety chain is closed in the simulated machine");
+  const before = status();
+  assert.equal(before.x_referenced, false);
+  assert.match(await page.locator('[data-testid="referenced"]').innerText(), /X ✗ Y ✗/);
+  await shot(page, "power-up");
+  await page.locator('[data-testid="home-all"]').tap();
+  await waitFor("X and Y referenced (hob status)", () => { const s = status(); return s.x_referenced && s.y_referenced && s.state === "idle"; }, 240000, 500);
+  await waitFor("the page shows the reference", async () => /X ✓ Y ✓/.test(await page.locator('[data-testid="referenced"]').innerText()), 5000);
+  await page.close();
+});
+
+test("PROGRAMS lists the library with each program's state; LOAD loads one into the loop", async () => {
+  const page = await open("programs");
+  const row = page.locator('[data-program="session-gear"]');
+  await row.waitFor({ timeout: 10000 });
+  assert.match(await row.innerText(), /valid/);
+  assert.equal(status().program_loaded, false);
+  await page.locator('[data-testid="load-session-gear"]').tap();
+  await page.locator('[data-testid="toast"].ok').first().waitFor({ timeout: 10000 });
+  await waitFor("the program loaded in the loop", () => status().program_loaded, 5000);
+  await shot(page, "programs");
+  await page.close();
+});
+
+test("holding X- jogs X; lifting the finger stops it at once, not by the dead-man", async () => {
+  const page = await open("jog");
+  const x0 = status().x_mm;
+  const t = await touchHold(page, '[data-jog="x-"]', 1500);
+  const moving = status();
+  assert.equal(moving.state, "jog", `state while held: ${moving.state}`);
+  assert.ok(moving.x_mm < x0 - 0.5, `X ${moving.x_mm} mm, was ${x0}: it did not move`);
+  await shot(page, "jog");
+  await t.lift();
+  const lifted = Date.now();
+  await waitFor("X stopped after the lift", () => status().state === "idle", 3000, 50);
+  const stopMs = Date.now() - lifted;
+  const s = status();
+  const texts = s.events.map((e) => e.text).join("\n");
+  assert.doesNotMatch(texts, /dead-man/, "the release stopped it, not the dead-man");
+  console.log(`X stopped ${stopMs} ms after the finger lifted (X ${s.x_mm.toFixed(3)} mm)`);
+  const x1 = s.x_mm;
+  await new Promise((r) => setTimeout(r, 500));
+  assert.ok(Math.abs(status().x_mm - x1) < 0.01, "X still moves after the stop");
+  await page.close();
+});
+
+test("closing the page while holding Y+ stops Y", async () => {
+  const page = await open("jog");
+  await touchHold(page, '[data-jog="y+"]', 800);
+  assert.equal(status().state, "jog");
+  await page.close();
+  await waitFor("Y stopped after the page closed", () => status().state === "idle", 3000, 50);
+});
+
+test("touch-off X sets the offset the loop reports; an absurd gauge is refused with the loop's reason and changes nothing", async () => {
+  const page = await open("jog");
+  const before = status();
+  await page.locator('[data-testid="touch-x-value"]').fill("100000");
+  await page.locator('[data-testid="touch-x"]').tap();
+  const refused = page.locator('[data-testid="toast"].refused');
+  await refused.first().waitFor({ timeout: 10000 });
+  assert.match(await refused.first().innerText(), /REFUSED/);
+  assert.equal(status().x_offset_mm, before.x_offset_mm, "a refused touch-off changed the offset");
+  // A gauge such that the offset comes out +0.1 mm: X = gauge radius + tip radius at the touch.
+  const tip = Number(process.env.HOB_TOOL_TIP_MM);
+  const gauge = (2 * (before.x_mm + 0.1) - tip).toFixed(4);
+  await page.locator('[data-testid="touch-x-value"]').fill(gauge);
+  await page.locator('[data-testid="touch-x"]').tap();
+  await page.locator('[data-testid="toast"].ok').first().waitFor({ timeout: 10000 });
+  await waitFor("the offset in the loop", () => Math.abs(status().x_offset_mm - 0.1) < 1e-3, 5000);
+  await shot(page, "touch-off");
+  await page.close();
+});

@@ -1,0 +1,58 @@
+// Bad input through the page gets the Rust checks' or the loop's refusal, shown where it
+// belongs, and changes nothing: not the library on disk, not the loop.
+import { test, after } from "node:test";
+import assert from "node:assert/strict";
+import { statSync, readFileSync } from "node:fs";
+import { join } from "node:path";
+import { startHmi, browser, status, waitFor, shot, need } from "./lib/hmi.mjs";
+
+const hmi = await startHmi();
+const ctx = await browser();
+after(async () => { await ctx.close(); hmi.proc.kill("SIGTERM"); });
+
+const open = async (screen) => {
+  const page = await ctx.newPage();
+  await page.goto(`${hmi.url}#${screen}`);
+  await page.waitForSelector('[data-testid="age"]', { timeout: 20000 });
+  return page;
+};
+
+test("a typo in the teeth is refused on its field by the program's own check, and nothing is written", async () => {
+  const file = join(need("HOB_LIBRARY"), "programs", "session-gear.toml");
+  const before = { text: readFileSync(file, "utf8"), mtime: statSync(file).mtimeMs };
+  const page = await open("programs");
+  await page.locator('[data-program="session-gear"] >> text=EDIT').tap();
+  const teeth = page.locator('[data-key="workpiece.teeth"]');
+  await waitFor("the program's fields", async () => (await teeth.inputValue()) === "17", 10000);
+  await waitFor("every sub-menu green", async () => (await page.locator('.submenu[data-state="ok"]').count()) === 4, 10000);
+  await teeth.fill("1O");
+  await waitFor("WORKPIECE red", async () => (await page.locator('.submenu[data-section="workpiece"]').getAttribute("data-state")) === "invalid", 10000);
+  const why = page.locator('[data-problem="workpiece.teeth"]');
+  await why.waitFor({ timeout: 5000 });
+  const message = await why.innerText();
+  assert.ok(message.length > 5, `the field's message: ${message}`);
+  assert.equal(await page.locator('.submenu[data-section="tool"]').getAttribute("data-state"), "ok", "a typo in WORKPIECE turned TOOL red");
+  assert.equal(await page.locator('[data-testid="go-automatic"]').isDisabled(), true, "AUTOMATIC can start with a red sub-menu");
+  await shot(page, "definition-refused");
+  await page.locator('[data-testid="save"]').tap();
+  await page.locator('[data-testid="save-answer"].bad').waitFor({ timeout: 5000 });
+  const after_ = { text: readFileSync(file, "utf8"), mtime: statSync(file).mtimeMs };
+  assert.deepEqual(after_, before, "the library's file changed after a refused save");
+  await page.close();
+});
+
+test("a spindle speed above the machine's is refused by the loop, shown with its reason, and the spindle stays still", async () => {
+  const page = await open("jog");
+  const events0 = status().events.length;
+  await page.locator('input[type=number]').nth(0).fill("100000");
+  await page.locator('[data-testid="cmd-spindle"]').first().tap();
+  const refused = page.locator('[data-testid="toast"].refused');
+  await refused.first().waitFor({ timeout: 10000 });
+  const text = await refused.first().innerText();
+  assert.match(text, /REFUSED/);
+  await shot(page, "refused-spindle");
+  const s = status();
+  assert.ok(Math.abs(s.spindle_rpm) < 0.5, `the spindle turns at ${s.spindle_rpm} rpm`);
+  assert.ok(s.events.length >= events0);
+  await page.close();
+});

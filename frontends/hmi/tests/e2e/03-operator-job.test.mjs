@@ -1,0 +1,97 @@
+// A whole job as an operator does it at the panel: a new program typed in through the
+// sub-menus (each turning green when its data is complete and valid), a single pass, the
+// span measured and carried into the program, the automatic cut with an override change
+// and a feed hold, and the cut report.
+import { test, after } from "node:test";
+import assert from "node:assert/strict";
+import { startHmi, browser, status, waitFor, shot } from "./lib/hmi.mjs";
+
+const hmi = await startHmi();
+const ctx = await browser();
+after(async () => { await ctx.close(); hmi.proc.kill("SIGTERM"); });
+
+// The demo's short gear, as the operator reads it off the drawing and the tool's label.
+const GEAR = {
+  workpiece: { "workpiece.name": "hmi test gear", "workpiece.teeth": "17", "workpiece.module_mm": "5", "workpiece.helix_deg": "0",
+    "workpiece.face_width_mm": "4", "workpiece.outside_diameter_mm": "95", "workpiece.height_above_table_mm": "50",
+    "workpiece.allowance_mm": "0.5", "workpiece.crowning.height_mm": "0.02" },
+  tool: { "tool.module_mm": "5", "tool.pressure_angle_deg": "20", "tool.starts": "1", "tool.lead_angle_deg": "3.3",
+    "tool.outside_diameter_mm": "80", "tool.length_mm": "100", "tool.gashes": "10" },
+  cycle: { "cycle.single_depth_mm": "1" },
+  strategy: { "strategy.total_depth_mm": "2", "strategy.rough_passes": "1", "strategy.finish_allowance_mm": "0.2",
+    "strategy.retract_mm": "5", "strategy.rough.cutting_speed_m_min": "30", "strategy.rough.feed_mm_per_rev": "8",
+    "strategy.finish.cutting_speed_m_min": "35", "strategy.finish.feed_mm_per_rev": "6" },
+};
+const CHOICES = {
+  workpiece: { "workpiece.helix_hand": "right" },
+  tool: { "tool.kind": "hob", "tool.hand": "right" },
+  cycle: { "cycle.kind": "radial-axial", "cycle.start": "top", "cycle.method": "climb", "cycle.mode": "automatic" },
+  strategy: {},
+};
+
+const sectionState = (page, s) => page.locator(`.submenu[data-section="${s}"]`).getAttribute("data-state");
+
+test("a new program through the sub-menus, a single pass, the span, the automatic cut, the report", async () => {
+  const page = await ctx.newPage();
+  await page.goto(`${hmi.url}#programs`);
+  await page.waitForSelector('[data-testid="age"]', { timeout: 20000 });
+  await page.locator('[data-testid="program-name"]').fill("hmi-gear");
+  await page.locator('[data-testid="program-new"]').tap();
+  await page.locator('.submenu[data-section="workpiece"]').waitFor();
+  await waitFor("all sub-menus red on an empty program", async () => {
+    for (const s of ["workpiece", "tool", "cycle", "strategy"]) if ((await sectionState(page, s)) === "ok") return false;
+    return true;
+  }, 10000);
+  await shot(page, "definition-new");
+  for (const s of ["workpiece", "tool", "cycle", "strategy"]) {
+    await page.locator(`.submenu[data-section="${s}"]`).tap();
+    for (const [k, v] of Object.entries(CHOICES[s])) await page.locator(`[data-key="${k}"]`).selectOption(v);
+    for (const [k, v] of Object.entries(GEAR[s])) await page.locator(`[data-key="${k}"]`).fill(v);
+    await waitFor(`${s} green`, async () => (await sectionState(page, s)) === "ok", 10000);
+  }
+  await page.locator('[data-testid="derived"]').waitFor({ timeout: 10000 });
+  assert.match(await page.locator('[data-testid="cycle-time"]').innerText(), /min/);
+  await shot(page, "definition-green");
+  await page.locator('[data-testid="save"]').tap();
+  await page.locator('[data-testid="save-answer"].ok').waitFor({ timeout: 10000 });
+
+  // Single mode.
+  await page.locator('[data-testid="go-single"]').tap();
+  await page.locator('[data-testid="cmd-load"]').tap();
+  await waitFor("hmi-gear loaded", () => status().program_loaded, 10000);
+  await page.locator('[data-testid="start-single"]').tap();
+  await waitFor("the single pass cutting", () => status().state === "cut", 120000, 200);
+  await waitFor("the single pass done", () => status().state === "idle", 300000, 500);
+  // The operator measures the span over k teeth and enters it.
+  await page.locator('[data-key="span.k"]').fill("2");
+  await page.locator('[data-key="span.measured_mm"]').fill("24.10");
+  await page.locator('[data-testid="span-compute"]').tap();
+  await page.locator('[data-testid="span-result"]').waitFor({ timeout: 10000 });
+  const inputs = await page.locator('[data-testid="span-result"]').innerText();
+  assert.match(inputs, /teeth|z/i);
+  await shot(page, "single-span");
+  await page.locator('[data-testid="span-carry"]').tap();
+  await page.locator("text=saved: total depth").waitFor({ timeout: 10000 });
+
+  // Automatic with an override and a feed hold.
+  await page.locator('nav [data-screen="automatic"]').tap();
+  await page.locator('[data-testid="cmd-load"]').tap();
+  await page.locator('[data-testid="start-auto"]').tap();
+  await waitFor("the automatic cut", () => status().state === "cut", 180000, 200);
+  await page.locator('[data-testid="feed-80"]').tap();
+  await waitFor("feed override 80 % in the loop", () => status().feed_override_percent === 80, 5000);
+  await page.locator('[data-testid="overrides"]').waitFor({ timeout: 3000 });
+  await page.locator('[data-testid="feed-hold"]').tap();
+  await waitFor("feed hold in the loop", () => status().hold, 5000);
+  await shot(page, "automatic");
+  await page.locator('[data-testid="resume"]').tap();
+  await waitFor("resumed", () => !status().hold, 5000);
+  await waitFor("the cycle done", () => status().state === "idle", 600000, 500);
+
+  // The cut report from the logger's record.
+  await page.locator('nav [data-screen="report"]').tap();
+  await page.locator('[data-testid="report-pass"]').first().waitFor({ timeout: 20000 });
+  assert.ok((await page.locator('[data-testid="report-pass"]').count()) >= 1);
+  await shot(page, "report");
+  await page.close();
+});

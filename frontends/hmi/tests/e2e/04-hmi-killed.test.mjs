@@ -1,0 +1,39 @@
+// hob-hmi is not part of the control: killed mid-cut, the loop cuts on without an alarm,
+// the page says its server is gone (never shows old values as live), and a restarted
+// server resynchronises the page with the events of the outage, none twice.
+import { test, after } from "node:test";
+import assert from "node:assert/strict";
+import { startHmi, browser, status, waitFor, shot, hob } from "./lib/hmi.mjs";
+
+let hmi = await startHmi();
+const ctx = await browser();
+after(async () => { await ctx.close(); hmi.proc.kill("SIGTERM"); });
+
+test("kill -9 of hob-hmi mid-cut changes nothing in the loop; the page resynchronises after the restart", async () => {
+  const page = await ctx.newPage();
+  await page.goto(`${hmi.url}#alarms`);
+  await page.waitForSelector('[data-testid="age"]', { timeout: 20000 });
+  const s0 = status();
+  assert.ok(s0.x_referenced && s0.program_loaded, "the earlier tests referenced and loaded");
+  hob("start", "--single");
+  await waitFor("the cut (hob status)", () => status().state === "cut", 120000, 200);
+  hmi.proc.kill("SIGKILL");
+  await page.locator('[data-testid="stale"]').waitFor({ timeout: 3000 });
+  assert.match(await page.locator('[data-testid="stale"]').innerText(), /HMI SERVER NOT ANSWERING/);
+  await shot(page, "stale");
+  await new Promise((r) => setTimeout(r, 1000));
+  const during = status();
+  assert.equal(during.alarm, "", `an alarm while the HMI was gone: ${during.alarm}`);
+  assert.notEqual(during.state, "fault");
+  hmi = await startHmi(hmi.port);
+  await page.locator('[data-testid="age"]').waitFor({ timeout: 10000 });
+  await waitFor("the single pass done", () => status().state === "idle", 300000, 500);
+  await new Promise((r) => setTimeout(r, 500));
+  const seqs = await page.locator('[data-testid="event"] td:first-child').allInnerTexts();
+  const unique = new Set(seqs);
+  assert.equal(unique.size, seqs.length, `events listed twice: ${seqs.join(",")}`);
+  const texts = (await page.locator('[data-testid="event"]').allInnerTexts()).join("\n");
+  assert.match(texts, /cycle done/, "the end of the pass is missing from the page");
+  await shot(page, "alarms");
+  await page.close();
+});

@@ -1,0 +1,303 @@
+//! The HMI's server in process, on a real TCP socket, with a fake loop: the bridge fed by
+//! the test, the command thread replaced by one that records every request.
+#![allow(clippy::unwrap_used)]
+
+use futures_util::{SinkExt, StreamExt};
+use hob_hmi::app::App;
+use hob_hmi::bridge::Bridge;
+use hob_hmi::commander::{Commander, Job};
+use hob_hmi::web::{self, Vendor};
+use hob_ipc::{CommandResponse, EventSample, StateSample, command, event_kind};
+use hob_setup::config::machine::MachineConfig;
+use hob_store::library::Library;
+use serde_json::{Value, json};
+use std::path::Path;
+use std::sync::{Arc, Mutex};
+use std::time::{Duration, Instant};
+use tokio_tungstenite::tungstenite::{Message, client::IntoClientRequest, http::HeaderValue};
+
+struct Fixture {
+    addr: String,
+    bridge: Arc<Mutex<Bridge>>,
+    seen: Arc<Mutex<Vec<u32>>>,
+    _dir: TempDir,
+}
+
+struct TempDir(std::path::PathBuf);
+impl Drop for TempDir {
+    fn drop(&mut self) {
+        let _ = std::fs::remove_dir_all(&self.0);
+    }
+}
+
+fn machine() -> MachineConfig {
+    MachineConfig::load(&Path::new(env!("CARGO_MANIFEST_DIR")).join("../../config/machine.toml")).unwrap()
+}
+
+/// A fake loop that accepts every command and records its code.
+fn fake_loop(jobs: std::sync::mpsc::Receiver<Job>, seen: Arc<Mutex<Vec<u32>>>) {
+    std::thread::spawn(move || {
+        for j in jobs {
+            seen.lock().unwrap().push(j.request.command);
+            let _ = j
+                .reply
+                .send(Ok(CommandResponse::new(true, 0, "accepted by the fake loop")));
+        }
+    });
+}
+
+async fn start(view: bool) -> Fixture {
+    let dir = std::env::temp_dir().join(format!(
+        "hob-hmi-server-{}-{:?}",
+        std::process::id(),
+        Instant::now()
+    ));
+    std::fs::create_dir_all(&dir).unwrap();
+    let m = machine();
+    let (bridge, hub) = Bridge::new(m.io.clone(), Duration::from_millis(100));
+    let (commands, jobs) = Commander::new();
+    let seen = Arc::new(Mutex::new(Vec::new()));
+    fake_loop(jobs, seen.clone());
+    let app = Arc::new(App::new(hub, commands, m, Library::open(&dir).unwrap(), None));
+    let listener = tokio::net::TcpListener::bind("127.0.0.1:0").await.unwrap();
+    let addr = listener.local_addr().unwrap().to_string();
+    let vendor = Arc::new(Vendor::default());
+    let router = if view {
+        web::view_router(app, vendor, addr.clone())
+    } else {
+        web::panel_router(app, vendor, addr.clone())
+    };
+    tokio::spawn(async move { axum::serve(listener, router).await });
+    Fixture {
+        addr,
+        bridge: Arc::new(Mutex::new(bridge)),
+        seen,
+        _dir: TempDir(dir),
+    }
+}
+
+type Ws = tokio_tungstenite::WebSocketStream<tokio_tungstenite::MaybeTlsStream<tokio::net::TcpStream>>;
+
+async fn connect(f: &Fixture, path: &str, origin: &str) -> Result<Ws, String> {
+    let mut req = format!("ws://{}{path}", f.addr).into_client_request().unwrap();
+    req.headers_mut()
+        .insert("origin", HeaderValue::from_str(origin).unwrap());
+    tokio_tungstenite::connect_async(req)
+        .await
+        .map(|(ws, _)| ws)
+        .map_err(|e| e.to_string())
+}
+
+async fn send(ws: &mut Ws, v: Value) {
+    ws.send(Message::Text(v.to_string().into())).await.unwrap();
+}
+
+/// The next message of type `t` within `within`.
+async fn next(ws: &mut Ws, t: &str, within: Duration) -> Value {
+    let end = tokio::time::Instant::now() + within;
+    loop {
+        let m = tokio::time::timeout_at(end, ws.next())
+            .await
+            .unwrap_or_else(|_| panic!("no {t} within {within:?}"));
+        if let Some(Ok(Message::Text(s))) = m {
+            let v: Value = serde_json::from_str(&s).unwrap();
+            if v["t"] == t {
+                return v;
+            }
+        } else if m.is_none() {
+            panic!("socket closed waiting for {t}");
+        }
+    }
+}
+
+fn sample(cycle: u64) -> StateSample {
+    StateSample {
+        cycle,
+        sync_time_ns: hob_rt_os::now_ns(),
+        ..Default::default()
+    }
+}
+
+fn event(seq: u64) -> EventSample {
+    EventSample {
+        seq,
+        cycle: seq,
+        kind: event_kind::PASS_STARTED,
+        a: seq as u32,
+        ..Default::default()
+    }
+}
+
+/// Feeds the bridge `n` samples and publishes a frame.
+fn frame(f: &Fixture, from: u64, n: u64) {
+    let mut b = f.bridge.lock().unwrap();
+    for c in from..from + n {
+        b.state(sample(c), Instant::now());
+    }
+    b.frame(Instant::now(), hob_rt_os::now_ns(), 1_000);
+}
+
+#[tokio::test]
+async fn a_page_gets_frames_with_their_age_and_the_silence_of_the_loop() {
+    let f = start(false).await;
+    let origin = format!("http://{}", f.addr);
+    let mut ws = connect(&f, "/ws/panel", &origin).await.unwrap();
+    send(&mut ws, json!({"t": "hello", "last_event": 0})).await;
+    let hello = next(&mut ws, "hello", Duration::from_secs(2)).await;
+    assert_eq!(hello["panel"], true);
+    assert!(hello["signals"]["inputs"].as_array().unwrap().len() >= 10);
+    // The snapshot after the hello: nothing from the loop yet, and it says so.
+    let snap = next(&mut ws, "frame", Duration::from_secs(2)).await;
+    assert!(snap["state"].is_null() && snap["loop_age_ms"].is_null(), "{snap}");
+    frame(&f, 1, 40);
+    let fr = next(&mut ws, "frame", Duration::from_secs(2)).await;
+    assert_eq!(fr["state"]["cycle"], 40);
+    assert_eq!(fr["plot"]["n"], 40);
+    assert!(fr["loop_age_ms"].as_f64().unwrap() < 1000.0);
+    assert!(fr["silent_ms"].is_null());
+    // The loop goes quiet: the next frame says so.
+    tokio::time::sleep(Duration::from_millis(150)).await;
+    f.bridge
+        .lock()
+        .unwrap()
+        .frame(Instant::now(), hob_rt_os::now_ns(), 2_000);
+    let quiet = next(&mut ws, "frame", Duration::from_secs(2)).await;
+    assert!(quiet["silent_ms"].as_u64().unwrap() >= 100, "{quiet}");
+}
+
+#[tokio::test]
+async fn a_reconnecting_page_gets_exactly_the_events_it_missed() {
+    let f = start(false).await;
+    let origin = format!("http://{}", f.addr);
+    {
+        let mut b = f.bridge.lock().unwrap();
+        for s in 1..=5 {
+            b.event(event(s));
+        }
+    }
+    let mut ws = connect(&f, "/ws/panel", &origin).await.unwrap();
+    send(&mut ws, json!({"t": "hello", "last_event": 3})).await;
+    let ev = next(&mut ws, "events", Duration::from_secs(2)).await;
+    let seqs: Vec<u64> = ev["list"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|e| e["seq"].as_u64().unwrap())
+        .collect();
+    assert_eq!(seqs, vec![4, 5]);
+    // A new event reaches the page at once, by itself.
+    f.bridge.lock().unwrap().event(event(6));
+    let ev = next(&mut ws, "events", Duration::from_secs(2)).await;
+    assert_eq!(ev["list"][0]["seq"], 6);
+    assert_eq!(ev["list"][0]["text"], "pass 6 started");
+}
+
+#[tokio::test]
+async fn closing_the_page_mid_jog_releases_the_jog() {
+    let f = start(false).await;
+    let origin = format!("http://{}", f.addr);
+    let mut ws = connect(&f, "/ws/panel", &origin).await.unwrap();
+    send(&mut ws, json!({"t": "hello", "last_event": 0})).await;
+    next(&mut ws, "hello", Duration::from_secs(2)).await;
+    send(
+        &mut ws,
+        json!({"t": "jog_hold", "id": 1, "axis": "x", "dir": "-", "speed": 300}),
+    )
+    .await;
+    for _ in 0..3 {
+        tokio::time::sleep(Duration::from_millis(100)).await;
+        send(&mut ws, json!({"t": "jog_renew"})).await;
+    }
+    tokio::time::sleep(Duration::from_millis(100)).await;
+    drop(ws);
+    let end = Instant::now() + Duration::from_secs(2);
+    loop {
+        let seen = f.seen.lock().unwrap().clone();
+        if seen.last() == Some(&command::JOG_RELEASE) {
+            assert!(
+                seen[..seen.len() - 1]
+                    .iter()
+                    .all(|c| *c == command::JOG_CONTINUOUS),
+                "{seen:?}"
+            );
+            assert!(seen.len() >= 3, "the renewals were not forwarded: {seen:?}");
+            break;
+        }
+        assert!(
+            Instant::now() < end,
+            "no release after the socket closed: {seen:?}"
+        );
+        tokio::time::sleep(Duration::from_millis(20)).await;
+    }
+}
+
+#[tokio::test]
+async fn a_command_is_answered_by_its_id_and_a_bad_one_never_reaches_the_loop() {
+    let f = start(false).await;
+    let origin = format!("http://{}", f.addr);
+    let mut ws = connect(&f, "/ws/panel", &origin).await.unwrap();
+    send(&mut ws, json!({"t": "hello", "last_event": 0})).await;
+    send(&mut ws, json!({"t": "cmd", "id": 7, "op": "home", "axis": "all"})).await;
+    let a = next(&mut ws, "answer", Duration::from_secs(2)).await;
+    assert_eq!((a["id"].as_u64(), a["ok"].as_bool()), (Some(7), Some(true)));
+    send(&mut ws, json!({"t": "cmd", "id": 8, "op": "home", "axis": "b"})).await;
+    let a = next(&mut ws, "answer", Duration::from_secs(2)).await;
+    assert_eq!((a["id"].as_u64(), a["ok"].as_bool()), (Some(8), Some(false)));
+    send(&mut ws, json!({"t": "cmd", "id": 9, "op": "launch_missiles"})).await;
+    let a = next(&mut ws, "answer", Duration::from_secs(2)).await;
+    assert_eq!((a["id"].as_u64(), a["ok"].as_bool()), (Some(9), Some(false)));
+    assert_eq!(
+        *f.seen.lock().unwrap(),
+        vec![command::HOME],
+        "only the valid command reached the loop"
+    );
+}
+
+#[tokio::test]
+async fn a_foreign_origin_is_refused_and_the_view_screen_cannot_command() {
+    let f = start(false).await;
+    assert!(connect(&f, "/ws/panel", "http://evil.example").await.is_err());
+    let v = start(true).await;
+    let origin = format!("http://{}", v.addr);
+    assert!(
+        connect(&v, "/ws/panel", &origin).await.is_err(),
+        "the view screen has no panel socket"
+    );
+    let mut ws = connect(&v, "/ws/view", &origin).await.unwrap();
+    send(&mut ws, json!({"t": "hello", "last_event": 0})).await;
+    assert_eq!(
+        next(&mut ws, "hello", Duration::from_secs(2)).await["panel"],
+        false
+    );
+    send(&mut ws, json!({"t": "cmd", "id": 1, "op": "reset"})).await;
+    // The view socket closes on any command; nothing reaches the loop.
+    let end = tokio::time::Instant::now() + Duration::from_secs(2);
+    loop {
+        match tokio::time::timeout_at(end, ws.next()).await {
+            Ok(Some(Ok(Message::Text(_)))) => continue,
+            Ok(_) => break,
+            Err(_) => panic!("the view socket stayed open after a command"),
+        }
+    }
+    assert!(v.seen.lock().unwrap().is_empty());
+    // And it has no route that changes the library.
+    let client = tokio::net::TcpStream::connect(&v.addr).await.unwrap();
+    drop(client);
+    let r = raw_http(&v.addr, "DELETE /api/programs/x", &origin).await;
+    assert!(
+        r.starts_with("HTTP/1.1 404") || r.starts_with("HTTP/1.1 405"),
+        "{r}"
+    );
+    let r = raw_http(&f.addr, "DELETE /api/programs/x", "http://evil.example").await;
+    assert!(r.starts_with("HTTP/1.1 403"), "{r}");
+}
+
+async fn raw_http(addr: &str, line: &str, origin: &str) -> String {
+    use tokio::io::{AsyncReadExt, AsyncWriteExt};
+    let mut s = tokio::net::TcpStream::connect(addr).await.unwrap();
+    let req = format!("{line} HTTP/1.1\r\nHost: {addr}\r\nOrigin: {origin}\r\nConnection: close\r\n\r\n");
+    s.write_all(req.as_bytes()).await.unwrap();
+    let mut out = String::new();
+    s.read_to_string(&mut out).await.unwrap();
+    out
+}

@@ -1,0 +1,141 @@
+// Program management and program definition. The form's layout (which field is on which
+// sub-menu, its label and unit) is presentation; every check is the Rust code's: the server
+// writes the fields as the program file and answers with each sub-menu's state, the problems
+// by key path (shown on the field whose data-key it is) and the plan's derived values.
+import { useState, useEffect, useRef } from "preact/hooks";
+import { html, fmt, CmdButton } from "./ui.mjs";
+import { api } from "./conn.mjs";
+
+const num = (key, label, unit) => ({ key, label, unit, kind: "num" });
+const str = (key, label) => ({ key, label, kind: "str" });
+const pick = (key, label, choices) => ({ key, label, kind: "str", choices });
+
+export const SECTIONS = [
+  ["workpiece", "WORKPIECE", [
+    str("workpiece.name", "name"), num("workpiece.teeth", "teeth", ""), num("workpiece.module_mm", "normal module", "mm"),
+    num("workpiece.helix_deg", "helix angle", "deg"), pick("workpiece.helix_hand", "helix hand", ["right", "left"]),
+    num("workpiece.face_width_mm", "face width", "mm"), num("workpiece.outside_diameter_mm", "outside diameter", "mm"),
+    num("workpiece.height_above_table_mm", "height above the table", "mm"), num("workpiece.allowance_mm", "approach/exit allowance", "mm"),
+    num("workpiece.crowning.height_mm", "crowning: arc height (or radius below)", "mm"), num("workpiece.crowning.radius_mm", "crowning: radius", "mm"),
+  ]],
+  ["tool", "TOOL", [
+    str("tool.library", "library tool (or the fields below)"), pick("tool.kind", "kind", ["hob", "disk"]),
+    num("tool.module_mm", "module", "mm"), num("tool.pressure_angle_deg", "pressure angle", "deg"), num("tool.starts", "starts", ""),
+    num("tool.lead_angle_deg", "lead angle", "deg"), pick("tool.hand", "hand", ["right", "left"]),
+    num("tool.outside_diameter_mm", "outside diameter", "mm"), num("tool.length_mm", "length", "mm"), num("tool.gashes", "gashes", ""),
+  ]],
+  ["cycle", "CYCLE", [
+    pick("cycle.kind", "cycle", ["radial-axial", "radial-plunge", "tooth-by-tooth"]), pick("cycle.start", "start", ["top", "bottom"]),
+    pick("cycle.method", "method", ["climb", "conventional"]), pick("cycle.mode", "mode", ["automatic", "single"]),
+    num("cycle.single_depth_mm", "single pass depth", "mm"),
+  ]],
+  ["strategy", "STRATEGY AND PARAMETERS", [
+    num("strategy.total_depth_mm", "total depth", "mm"), num("strategy.rough_passes", "rough passes", ""),
+    num("strategy.finish_allowance_mm", "finishing allowance", "mm"), num("strategy.rough_depths_mm[0]", "depth of rough pass 1", "mm"),
+    num("strategy.rough_depths_mm[1]", "depth of rough pass 2", "mm"), num("strategy.rough_depths_mm[2]", "depth of rough pass 3", "mm"),
+    num("strategy.retract_mm", "retract", "mm"),
+    num("strategy.rough.cutting_speed_m_min", "rough: cutting speed v_c", "m/min"), num("strategy.rough.feed_mm_per_rev", "rough: feed", "mm/rev"),
+    num("strategy.finish.cutting_speed_m_min", "finish: cutting speed v_c", "m/min"), num("strategy.finish.feed_mm_per_rev", "finish: feed", "mm/rev"),
+  ]],
+];
+
+const KNOWN = new Set(SECTIONS.flatMap(([, , fs]) => fs.map((f) => f.key)));
+
+export function Programs({ conn, program, setProgram, go }) {
+  const [list, setList] = useState(null);
+  const [name, setName] = useState("");
+  const [msg, setMsg] = useState(null);
+  const refresh = () => api("GET", "/api/programs").then(setList);
+  useEffect(() => { refresh(); }, []);
+  const act = async (method, path, body, after) => {
+    const r = await api(method, path, body);
+    setMsg(r.ok ? { ok: true, text: "done" } : { ok: false, text: r.refused });
+    if (r.ok && after) after();
+    refresh();
+  };
+  if (!list) return html`<p>reading the library...</p>`;
+  if (!list.ok) return html`<p class="bad">${list.refused}</p>`;
+  return html`<section class="card"><h2>Programs <small>${list.dir}</small></h2>
+    <div class="row">name <input value=${name} data-testid="program-name" onInput=${(e) => setName(e.target.value)} placeholder="e.g. spur-z17-m5" />
+      <button class="key primary" data-testid="program-new" disabled=${!name} onClick=${() => { setProgram(null); go("definition"); sessionStorage.setItem("newName", name); }}>NEW</button>
+      <button class="key" disabled=${!name || !program} onClick=${() => act("POST", `/api/programs/${encodeURIComponent(program)}/copy`, { to: name })}>COPY SELECTED</button>
+      <button class="key" disabled=${!name || !program} onClick=${() => act("POST", `/api/programs/${encodeURIComponent(program)}/rename`, { to: name }, () => setProgram(name))}>RENAME SELECTED</button></div>
+    ${msg ? html`<p class=${msg.ok ? "ok" : "bad"} data-testid="library-answer">${msg.text}</p>` : ""}
+    <table class="grid programs">${list.entries.map((e) => html`<tr class=${e.name === program ? "selected" : ""} data-program=${e.name}>
+      <td><button class="key small" onClick=${() => setProgram(e.name)}>${e.name === program ? "✓ " : ""}${e.name}</button></td>
+      <td class=${e.valid ? "ok" : "bad"}>${e.valid ? "valid" : e.problem}</td>
+      <td><button class="key small" onClick=${() => { setProgram(e.name); go("definition"); }}>EDIT</button>
+        <${CmdButton} conn=${conn} op="load" fields=${{ program: e.name }} label="LOAD" cls="small" testid=${`load-${e.name}`} disabled=${!e.valid} />
+        <button class="key small stop" onClick=${() => confirm(`Delete ${e.name}?`) && act("DELETE", `/api/programs/${encodeURIComponent(e.name)}`, undefined, () => e.name === program && setProgram(null))}>DELETE</button></td></tr>`)}
+    </table>${list.entries.length === 0 ? html`<p class="hint">The library is empty: NEW starts a program.</p>` : ""}</section>`;
+}
+
+function Field({ f, value, problem, onInput }) {
+  const cls = `field ${problem ? "problem" : ""}`;
+  const input = f.choices
+    ? html`<select data-key=${f.key} value=${value} onChange=${(e) => onInput(f.key, e.target.value)}><option value=""></option>${f.choices.map((c) => html`<option value=${c}>${c}</option>`)}</select>`
+    : html`<input data-key=${f.key} value=${value} inputmode=${f.kind === "num" ? "decimal" : "text"} onInput=${(e) => onInput(f.key, e.target.value)} />`;
+  return html`<label class=${cls}><span>${f.label}</span>${input}<span class="unit">${f.unit || ""}</span>${problem ? html`<em class="why" data-problem=${f.key}>${problem}</em>` : ""}</label>`;
+}
+
+function Derived({ plan }) {
+  if (!plan) return html`<p class="hint">The plan appears when every sub-menu is green.</p>`;
+  return html`<table class="kv" data-testid="derived">
+    <tr><td>gearbox ratio</td><td>${fmt(plan.egb_ratio, 6)}</td></tr>
+    <tr><td>differential</td><td>${fmt(plan.differential_deg_per_mm, 6)} deg/mm</td></tr>
+    <tr><td>hob swivel A</td><td>${fmt(plan.hob_swivel_deg, 3)} deg ${plan.hob_swivel_sense || ""}</td></tr>
+    ${plan.passes.map((p, i) => html`<tr><td>pass ${i + 1}</td><td>${Object.entries(p).filter(([, v]) => typeof v === "number").slice(0, 6).map(([k, v]) => `${k.replaceAll("_", " ")} ${fmt(v, 2)}`).join(", ")}</td></tr>`)}
+    <tr><td>cycle time</td><td data-testid="cycle-time">${fmt(plan.total_time_s / 60, 1)} min</td></tr>
+    ${plan.warnings.map((w) => html`<tr><td>warning</td><td class="warn">${w}</td></tr>`)}</table>`;
+}
+
+export function Definition({ conn, program, setProgram, go }) {
+  const [name, setName] = useState(program || sessionStorage.getItem("newName") || "");
+  const [isNew, setIsNew] = useState(!program);
+  const [values, setValues] = useState({});
+  const [extra, setExtra] = useState([]); // fields of the file the form has no place for: kept as they are
+  const [section, setSection] = useState("workpiece");
+  const [check, setCheck] = useState(null);
+  const [saved, setSaved] = useState(null);
+  const timer = useRef(null);
+  useEffect(() => {
+    if (!program) return;
+    api("GET", `/api/form/${encodeURIComponent(program)}`).then((r) => {
+      if (!r.ok) return setSaved({ ok: false, text: r.refused });
+      const v = {}, x = [];
+      for (const f of r.fields) (KNOWN.has(f.key) ? (v[f.key] = f.text) : x.push(f));
+      setValues(v); setExtra(x); setIsNew(false); setName(program);
+    });
+  }, [program]);
+  const fields = () => [
+    ...SECTIONS.flatMap(([, , fs]) => fs.map((f) => ({ key: f.key, kind: f.kind, text: values[f.key] || "" }))),
+    ...extra,
+  ];
+  useEffect(() => {
+    clearTimeout(timer.current);
+    timer.current = setTimeout(() => api("POST", "/api/check", { fields: fields() }).then(setCheck), 250);
+  }, [values]);
+  const set = (k, v) => setValues({ ...values, [k]: v });
+  const problemOf = (k) => check && (check.problems || []).filter((p) => p.key === k).map((p) => p.message).join("; ");
+  const state = (s) => (check && check.sections ? check.sections[s] : "missing");
+  const allGreen = check && check.plan && SECTIONS.every(([s]) => state(s) === "ok");
+  const save = async () => {
+    const r = await api("POST", "/api/save", { name, new: isNew, fields: fields() });
+    setSaved({ ok: r.ok, text: r.ok ? `saved as ${name}` : r.refused, problems: r.problems });
+    if (r.ok) { setIsNew(false); setProgram(name); sessionStorage.removeItem("newName"); }
+  };
+  const [, , current] = SECTIONS.find(([s]) => s === section);
+  const unplaced = check ? (check.problems || []).filter((p) => !KNOWN.has(p.key)) : [];
+  return html`<section class="definition">
+    <div class="row submenus">${SECTIONS.map(([s, label]) => html`<button class=${`key submenu ${state(s)} ${s === section ? "on" : ""}`} data-section=${s} data-state=${state(s)} onClick=${() => setSection(s)}>${label}</button>`)}</div>
+    <div class="grid2">
+      <div class="card"><h2>${isNew ? "New program" : "Program"} <input value=${name} data-testid="definition-name" onInput=${(e) => setName(e.target.value)} /></h2>
+        ${current.map((f) => html`<${Field} f=${f} value=${values[f.key] || ""} problem=${problemOf(f.key)} onInput=${set} />`)}
+        ${unplaced.length ? html`<div class="bad" data-testid="other-problems">${unplaced.map((p) => html`<div>${p.key || "program"}: ${p.message}</div>`)}</div>` : ""}
+        <div class="row"><button class="key primary" data-testid="save" onClick=${save} disabled=${!name}>SAVE</button>
+          <button class="key" data-testid="go-single" disabled=${!allGreen || !program} onClick=${() => go("single")}>SINGLE MODE</button>
+          <button class="key" data-testid="go-automatic" disabled=${!allGreen || !program} onClick=${() => go("automatic")}>AUTOMATIC</button></div>
+        ${saved ? html`<p class=${saved.ok ? "ok" : "bad"} data-testid="save-answer">${saved.text}</p>` : ""}</div>
+      <div class="card"><h2>Derived values</h2><${Derived} plan=${check && check.plan} /></div>
+    </div></section>`;
+}

@@ -1,0 +1,78 @@
+// The HMI page: the status line (always visible), the screens of the thesis's operator
+// interface, and one connection to hob-hmi. Every button is a loop command or a library
+// call; every message shown is the loop's or the Rust checks' own text.
+import { render } from "preact";
+import { useState, useEffect } from "preact/hooks";
+import { html, fmt, CmdButton, Toasts } from "./ui.mjs";
+import { Conn } from "./conn.mjs";
+import { installReleaseOnLeave } from "./hold.mjs";
+import { PowerUp, Jog, Automatic, Single, Alarms, Diagnostics, Report } from "./screens.mjs";
+import { Programs, Definition } from "./library.mjs";
+
+const conn = new Conn("/ws/panel");
+conn.toasts = [];
+let toastKey = 1;
+conn.toast = (a, label) => {
+  conn.toasts = [{ ...a, label, key: toastKey++ }, ...conn.toasts].slice(0, 4);
+  const key = conn.toasts[0].key;
+  if (a.ok) setTimeout(() => conn.dismiss(key), 4000);
+  conn.notify();
+};
+conn.dismiss = (key) => { conn.toasts = conn.toasts.filter((t) => t.key !== key); conn.notify(); };
+installReleaseOnLeave(conn);
+
+const SCREENS = [
+  ["powerup", "POWER-UP"], ["jog", "JOG"], ["programs", "PROGRAMS"], ["definition", "DEFINITION"],
+  ["single", "SINGLE"], ["automatic", "AUTOMATIC"], ["report", "REPORT"], ["alarms", "ALARMS"],
+  ["diagnostics", "DIAGNOSTICS"],
+];
+
+function Status({ conn }) {
+  const f = conn.frame, s = f && f.state;
+  const stale = conn.serverStale;
+  const silent = f && f.silent_ms !== null && f.silent_ms !== undefined;
+  let age;
+  if (stale) age = html`<span class="bad" data-testid="stale">HMI SERVER NOT ANSWERING: the values below are old</span>`;
+  else if (!s) age = html`<span class="bad" data-testid="stale">NO DATA FROM THE LOOP (is hob-rt running?)</span>`;
+  else if (silent) age = html`<span class="bad" data-testid="stale">NO DATA FROM THE LOOP for ${(f.silent_ms / 1000).toFixed(1)} s: the values below are old</span>`;
+  else age = html`<span class="ok" data-testid="age">live, ${fmt(f.loop_age_ms, 1)} ms old</span>`;
+  const ov = s && (s.feed_override_percent !== 100 || s.spindle_override_percent !== 100);
+  return html`<header class=${`status ${stale || silent || !s ? "is-stale" : ""}`} data-testid="status">
+    <div class="st-state"><span class="label">state</span><b data-testid="state">${s ? s.state : "-"}</b>${s && s.hold ? html` <b class="warn">FEED HOLD</b>` : ""}</div>
+    <div><span class="label">pass</span><b data-testid="pass">${s && s.passes ? `${s.pass} of ${s.passes}` : "-"}</b></div>
+    <div><span class="label">reference</span><b data-testid="referenced">X ${s && s.referenced.x ? "✓" : "✗"} Y ${s && s.referenced.y ? "✓" : "✗"}</b></div>
+    ${ov ? html`<div class="warn" data-testid="overrides">feed ${fmt(s.feed_override_percent, 0)} % spindle ${fmt(s.spindle_override_percent, 0)} %</div>` : ""}
+    <div class="age">${age}</div>
+    <div class="st-reset"><${CmdButton} conn=${conn} op="reset" label="RESET" cls="reset" /></div>
+    ${s && s.alarm ? html`<div class="alarm" data-testid="alarm">
+      <div><b>ALARM</b> ${s.alarm.text}</div>
+      <div><span class="label">the machine</span> ${s.alarm.reaction}</div>
+      <div><span class="label">remedy</span> ${s.alarm.remedy}</div>
+      <div><span class="label">to continue</span> ${s.alarm.how_to_continue}</div></div>` : ""}
+  </header>`;
+}
+
+function App() {
+  const [, setTick] = useState(0);
+  const [screen, setScreen] = useState(location.hash.slice(1) || "powerup");
+  const [program, setProgram] = useState(null); // the library program being defined/loaded
+  useEffect(() => conn.subscribe(() => setTick((t) => t + 1)), []);
+  useEffect(() => {
+    const raf = setInterval(() => setTick((t) => t + 1), 40);
+    return () => clearInterval(raf);
+  }, []);
+  const go = (s) => { setScreen(s); location.hash = s; };
+  const props = { conn, program, setProgram, go };
+  const body = {
+    powerup: PowerUp, jog: Jog, programs: Programs, definition: Definition, single: Single,
+    automatic: Automatic, report: Report, alarms: Alarms, diagnostics: Diagnostics,
+  }[screen] || PowerUp;
+  return html`<div class="shell">
+    <${Status} conn=${conn} />
+    <nav>${SCREENS.map(([k, label]) => html`<button class=${`nav ${k === screen ? "on" : ""}`} data-screen=${k} onClick=${() => go(k)}>${label}</button>`)}</nav>
+    <main data-testid=${`screen-${screen}`}><${body} ...${props} /></main>
+    <${Toasts} conn=${conn} />
+  </div>`;
+}
+
+render(html`<${App} />`, document.getElementById("app"));

@@ -1,0 +1,228 @@
+// The machine's screens: power-up, jog and set-up, single mode with the span measurement,
+// automatic, the cut report, alarms, diagnostics. Values come from the loop's frames; every
+// button is one loop command whose answer (accepted, or the loop's refusal) is shown.
+import { useState, useEffect } from "preact/hooks";
+import { html, fmt, CmdButton } from "./ui.mjs";
+import { HoldKey } from "./hold.mjs";
+import { SyncPlot } from "./plot.mjs";
+import { api } from "./conn.mjs";
+
+const sig = (s, list, name) => {
+  const x = s && s[list].find((v) => v.name === name);
+  return x ? x.active : undefined;
+};
+
+function Check({ ok, label, detail, testid }) {
+  const cls = ok === undefined ? "unknown" : ok ? "ok" : "bad";
+  return html`<li class=${`check ${cls}`} data-testid=${testid}><span class="mark">${ok === undefined ? "?" : ok ? "✓" : "✗"}</span> ${label}${detail ? html` <small>${detail}</small>` : ""}</li>`;
+}
+
+export function PowerUp({ conn }) {
+  const s = conn.frame && conn.frame.state;
+  const on = (l, n) => sig(s, l, n);
+  const drives = (a) => s && s.drives_enabled.includes(a);
+  return html`<section class="grid2">
+    <div class="card"><h2>Safety chain</h2>
+      <p class="hint">Its reset needs: VFD ready, the PC's reset relay on, lube and coolant pumps off, e-stops released, then the RESET button on the panel.</p>
+      <ul class="checks">
+        <${Check} ok=${on("inputs", "safety_chain_closed")} label="safety chain closed" testid="chain" />
+        <${Check} ok=${s && !on("inputs", "estop_pressed")} label="e-stop released" />
+        <${Check} ok=${on("inputs", "vfd_ready")} label="VFD ready" />
+        <${Check} ok=${s && !on("inputs", "vfd_fault")} label="no VFD fault" />
+        <${Check} ok=${on("outputs", "pc_reset_relay")} label="PC reset relay on" />
+        <${Check} ok=${on("outputs", "pc_ok_relay")} label="PC-OK relay on (controller healthy)" />
+        <${Check} ok=${s && !on("outputs", "coolant_pump")} label="coolant pump off" />
+        <${Check} ok=${s && s.io_valid} label="I/O coupler answering" />
+      </ul></div>
+    <div class="card"><h2>Lubrication and drives</h2>
+      <ul class="checks">
+        <li class="check info" data-testid="lube">lube pump <b>${s ? (on("outputs", "lube_pump") ? "running" : "off") : "-"}</b>, pressure switch <b>${s ? (on("inputs", "lube_pressure_ok") ? "on" : "off") : "-"}</b>
+          <small>the pump runs at power-up and after every 5 m of travel; its pressure must come within the machine file's time, else the LUBE alarm</small></li>
+        <${Check} ok=${drives("B")} label="drive B (table) enabled" testid="drive-B" />
+        <${Check} ok=${drives("X")} label="drive X (radial) enabled" testid="drive-X" />
+        <${Check} ok=${drives("Y")} label="drive Y (axial) enabled" testid="drive-Y" />
+      </ul></div>
+    <div class="card wide"><h2>Referencing</h2>
+      <p class="hint">X and Y find their home switch and index pulse (CiA 402 homing). Until then they jog only slowly, and no cycle starts.</p>
+      <ul class="checks">
+        <${Check} ok=${s && s.referenced.x} label="X referenced" testid="ref-x" />
+        <${Check} ok=${s && s.referenced.y} label="Y referenced" testid="ref-y" />
+      </ul>
+      <div class="row">
+        <${CmdButton} conn=${conn} op="home" fields=${{ axis: "x" }} label="HOME X" testid="home-x" />
+        <${CmdButton} conn=${conn} op="home" fields=${{ axis: "y" }} label="HOME Y" testid="home-y" />
+        <${CmdButton} conn=${conn} op="home" fields=${{ axis: "all" }} label="HOME ALL" cls="primary" testid="home-all" />
+      </div></div>
+  </section>`;
+}
+
+const STEPS = [0.001, 0.01, 0.1, 1];
+
+export function Jog({ conn, program }) {
+  const s = conn.frame && conn.frame.state;
+  const [speed, setSpeed] = useState(300);
+  const [step, setStep] = useState(0.1);
+  const [rpm, setRpm] = useState(20);
+  const [dia, setDia] = useState("");
+  const [height, setHeight] = useState("");
+  const [plan, setPlan] = useState(null);
+  useEffect(() => {
+    if (!program) return;
+    api("GET", `/api/plan/${encodeURIComponent(program)}`).then((r) => setPlan(r.ok ? r.plan : null));
+  }, [program]);
+  const unref = conn.hello && conn.hello.jog.unreferenced_mm_min;
+  const pos = (label, v, unit, testid) => html`<div class="pos"><span class="label">${label}</span><b data-testid=${testid}>${s ? fmt(v, 3) : "-"}</b> ${unit}</div>`;
+  return html`<section class="grid2">
+    <div class="card"><h2>Positions</h2>
+      ${pos("X", s && s.x_mm.act, "mm", "pos-x")}${pos("Y", s && s.y_mm.act, "mm", "pos-y")}
+      ${pos("B", s && s.b_deg.act, "deg", "pos-b")}${pos("C", s && s.spindle_rpm, "rpm", "pos-c")}
+      <div class="hint">work offsets X ${fmt(s && s.x_offset_mm, 4)} mm, Y ${fmt(s && s.y_offset_mm, 4)} mm${s && s.moving_axis ? html` · <b data-testid="moving">${s.moving_axis} moving</b>` : ""}</div>
+    </div>
+    <div class="card"><h2>Continuous jog (hold the key)</h2>
+      <div class="row">speed <select value=${speed} onChange=${(e) => setSpeed(Number(e.target.value))} data-testid="jog-speed">
+        ${[60, 300, 1000, 3000].map((v) => html`<option value=${v}>${v} mm/min (deg/min B)</option>`)}</select></div>
+      ${s && (!s.referenced.x || !s.referenced.y) ? html`<p class="warn">Not referenced: X and Y jog at ${unref} mm/min at most, only the hardware limits protect.</p>` : ""}
+      <div class="jogpad">
+        ${["x", "y", "b"].map((a) => html`<div class="row">
+          <${HoldKey} conn=${conn} axis=${a} dir="-" speed=${speed} label=${`${a.toUpperCase()} −`} />
+          <${HoldKey} conn=${conn} axis=${a} dir="+" speed=${speed} label=${`${a.toUpperCase()} +`} /></div>`)}
+      </div></div>
+    <div class="card"><h2>Incremental jog</h2>
+      <div class="row">${STEPS.map((v) => html`<button class=${`key small ${v === step ? "on" : ""}`} onClick=${() => setStep(v)}>${v}</button>`)}</div>
+      ${["x", "y", "b"].map((a) => html`<div class="row">
+        <${CmdButton} conn=${conn} op="jog" fields=${{ axis: a, distance: -step }} label=${`${a.toUpperCase()} −${step}`} testid=${`step-${a}-minus`} />
+        <${CmdButton} conn=${conn} op="jog" fields=${{ axis: a, distance: step }} label=${`${a.toUpperCase()} +${step}`} testid=${`step-${a}-plus`} /></div>`)}
+    </div>
+    <div class="card"><h2>Hob spindle C</h2>
+      <p class="hint">Latched: it turns until SPINDLE OFF or STOP (no dead-man on C yet).</p>
+      <div class="row"><input type="number" inputmode="decimal" value=${rpm} onInput=${(e) => setRpm(e.target.value)} /> rpm
+        <${CmdButton} conn=${conn} op="spindle" fields=${{ rpm: Number(rpm) }} label="SPINDLE ON" />
+        <${CmdButton} conn=${conn} op="spindle" fields=${{ rpm: 0 }} label="SPINDLE OFF" /></div></div>
+    <div class="card"><h2>Touch-off</h2>
+      <p class="hint">Bring the hob onto a gauge of known size, then enter it: the loop sets the work offset and saves it.</p>
+      <div class="row">X: gauge diameter <input type="number" inputmode="decimal" value=${dia} data-testid="touch-x-value" onInput=${(e) => setDia(e.target.value)} /> mm
+        <${CmdButton} conn=${conn} op="touch_off" fields=${{ axis: "x", value: Number(dia) }} label="TOUCH OFF X" testid="touch-x" disabled=${dia === ""} /></div>
+      <div class="row">Y: gauge top above the table <input type="number" inputmode="decimal" value=${height} data-testid="touch-y-value" onInput=${(e) => setHeight(e.target.value)} /> mm
+        <${CmdButton} conn=${conn} op="touch_off" fields=${{ axis: "y", value: Number(height) }} label="TOUCH OFF Y" testid="touch-y" disabled=${height === ""} /></div></div>
+    <div class="card"><h2>Set-up sheet${program ? `: ${program}` : ""}</h2>
+      ${plan ? html`<table class="kv" data-testid="setup-sheet">
+        <tr><td>hob swivel A (set by hand)</td><td><b>${fmt(plan.hob_swivel_deg, 3)} deg</b> ${plan.hob_swivel_sense || ""}</td></tr>
+        <tr><td>gearbox ratio (table rev per hob rev)</td><td>${fmt(plan.egb_ratio, 6)}</td></tr>
+        <tr><td>differential</td><td>${fmt(plan.differential_deg_per_mm, 6)} deg/mm</td></tr>
+        ${Object.entries(plan.signs || {}).map(([k, v]) => html`<tr><td>${k.replaceAll("_", " ")}</td><td>${String(v)}</td></tr>`)}
+      </table>` : html`<p class="hint">Pick a program in PROGRAMS to see its set-up.</p>`}</div>
+  </section>`;
+}
+
+export function Single({ conn, program }) {
+  const s = conn.frame && conn.frame.state;
+  const [k, setK] = useState("");
+  const [w, setW] = useState("");
+  const [res, setRes] = useState(null);
+  const compute = async () => setRes(await api("POST", "/api/span", { program, k: Number(k), measured_mm: Number(w) }));
+  const carry = async () => setRes({ ...res, carried: await api("POST", `/api/span/carry`, { program, k: Number(k), measured_mm: Number(w) }) });
+  return html`<section class="grid2">
+    <div class="card"><h2>Single pass${program ? `: ${program}` : ""}</h2>
+      <p class="hint">One pass at the program's single depth, then measure the span and carry the depth left into the automatic program.</p>
+      <div class="row">
+        <${CmdButton} conn=${conn} op="load" fields=${{ program: program || "" }} label="LOAD" disabled=${!program} />
+        <${CmdButton} conn=${conn} op="start" fields=${{ single: true }} label="START SINGLE" cls="primary" testid="start-single" />
+        <${CmdButton} conn=${conn} op="stop" label="STOP" cls="stop" /></div>
+      <div class="pos"><span class="label">state</span><b>${s ? s.state : "-"}</b></div></div>
+    <div class="card"><h2>Span measurement</h2>
+      <div class="row">teeth spanned k <input type="number" data-key="span.k" value=${k} onInput=${(e) => setK(e.target.value)} /></div>
+      <div class="row">measured span W <input type="number" inputmode="decimal" data-key="span.measured_mm" value=${w} onInput=${(e) => setW(e.target.value)} /> mm</div>
+      <div class="row"><button class="key" onClick=${compute} disabled=${!program} data-testid="span-compute">COMPUTE</button>
+        <button class="key primary" onClick=${carry} disabled=${!res || !res.ok} data-testid="span-carry">CARRY INTO PROGRAM</button></div>
+      ${res && !res.ok ? html`<p class="bad" data-testid="span-refused">${res.refused} ${(res.problems || []).map((p) => html`<br />${p.key}: ${p.message}`)}</p>` : ""}
+      ${res && res.ok ? html`<table class="kv" data-testid="span-result">${Object.entries(res.inputs || {}).map(([k2, v]) => html`<tr><td>${k2}</td><td>${typeof v === "number" ? fmt(v, 4) : v}</td></tr>`)}</table>` : ""}
+      ${res && res.carried ? html`<p class=${res.carried.ok ? "ok" : "bad"}>${res.carried.ok ? `saved: total depth ${fmt(res.carried.total_depth_mm, 3)} mm` : res.carried.refused}</p>` : ""}
+    </div></section>`;
+}
+
+export function Automatic({ conn, program }) {
+  const s = conn.frame && conn.frame.state;
+  const ranges = conn.hello ? conn.hello.overrides : { feed: [0, 120], spindle: [50, 120] };
+  const [feed, setFeed] = useState(100);
+  const progress = s && s.passes ? (100 * Math.max(0, s.pass - 1)) / s.passes : 0;
+  return html`<section class="grid2">
+    <div class="card wide"><h2>Automatic${program ? `: ${program}` : ""}</h2>
+      <div class="row">
+        <${CmdButton} conn=${conn} op="load" fields=${{ program: program || "" }} label="LOAD" disabled=${!program} />
+        <${CmdButton} conn=${conn} op="start" fields=${{ single: false }} label="CYCLE START" cls="primary" testid="start-auto" />
+        <${CmdButton} conn=${conn} op="hold" label="FEED HOLD" testid="feed-hold" />
+        <${CmdButton} conn=${conn} op="resume" label="RESUME" testid="resume" />
+        <${CmdButton} conn=${conn} op="stop" label="STOP" cls="stop" />
+        <${CmdButton} conn=${conn} op="continue" label=${s && s.continue_pass ? `CONTINUE FROM PASS ${s.continue_pass}` : "CONTINUE"} disabled=${!(s && s.continue_pass)} />
+        <${CmdButton} conn=${conn} op="new_blank" label="NEW BLANK" /></div>
+      <div class="progress"><div style=${`width:${progress}%`}></div></div>
+      <div class="row"><span class="label">state</span><b data-testid="auto-state">${s ? s.state : "-"}</b>
+        <span class="label">pass</span><b>${s ? `${s.pass} of ${s.passes}` : "-"}</b>
+        <span class="label">sync error</span><b>${s ? fmt(s.sync_error_arcsec, 2) : "-"}"</b>
+        <span class="label">bound</span><b>${s && s.bound_arcsec ? `±${fmt(s.bound_arcsec, 1)}"` : "-"}</b></div>
+      <${SyncPlot} points=${conn.plot} bound=${s && s.bound_arcsec} version=${conn.frame && conn.frame.seq} /></div>
+    <div class="card"><h2>Feed override</h2>
+      <div class="row">${[50, 80, 100, 120].filter((p) => p >= ranges.feed[0] && p <= ranges.feed[1]).map((p) => html`
+        <${CmdButton} conn=${conn} op="override" fields=${{ what: "feed", percent: p }} label=${`${p} %`} testid=${`feed-${p}`} />`)}</div>
+      <div class="row"><input type="range" min=${ranges.feed[0]} max=${ranges.feed[1]} step="5" value=${feed} onInput=${(e) => setFeed(Number(e.target.value))} /> ${feed} %
+        <${CmdButton} conn=${conn} op="override" fields=${{ what: "feed", percent: feed }} label="SET" testid="feed-set" /></div></div>
+    <div class="card"><h2>Spindle override</h2>
+      <div class="row">${[80, 100, 110, 120].filter((p) => p >= ranges.spindle[0] && p <= ranges.spindle[1]).map((p) => html`
+        <${CmdButton} conn=${conn} op="override" fields=${{ what: "spindle", percent: p }} label=${`${p} %`} testid=${`spindle-${p}`} />`)}</div>
+      <p class="hint">In the cut the spindle speed ramps to the new value (10 rpm/s) so the table keeps up.</p></div>
+  </section>`;
+}
+
+export function Report() {
+  const [r, setR] = useState(null);
+  const load = () => api("GET", "/api/cut/report").then(setR);
+  useEffect(() => { load(); }, []);
+  if (!r) return html`<p>reading the logger's record...</p>`;
+  if (!r.ok) return html`<section class="card"><h2>Cut report</h2><p class="bad">${r.refused}</p><button class="key" onClick=${load}>READ AGAIN</button></section>`;
+  const tol = r.grade5_single_pitch_um;
+  return html`<section class="card report" data-testid="report"><h2>Cut report</h2>
+    <p>${r.samples} samples recorded, ${r.missing} missing (cycles ${r.first_cycle}..${r.last_cycle}); pitch radius ${fmt(r.pitch_radius_mm, 3)} mm; ISO 1328-1 single pitch tolerance, grade 5: ${fmt(tol, 2)} um; bound (a quarter): ${fmt(r.bound_um, 2)} um.</p>
+    <table class="grid"><tr><th>pass</th><th>time s</th><th>samples</th><th>RMS "</th><th>max "</th><th>RMS um</th><th>max um</th><th>max / tolerance</th><th>feed override %</th><th>spindle override %</th></tr>
+      ${r.passes.map((p) => html`<tr data-testid="report-pass"><td>${p.pass}</td><td>${fmt(p.time_s, 1)}</td><td>${p.samples}</td><td>${fmt(p.sync_err_rms_arcsec, 2)}</td><td>${fmt(p.sync_err_max_arcsec, 2)}</td>
+        <td>${fmt(p.sync_err_rms_um, 3)}</td><td>${fmt(p.sync_err_max_um, 3)}</td><td class=${p.sync_err_max_um > r.bound_um ? "bad" : "ok"}>${fmt((100 * p.sync_err_max_um) / tol, 1)} %</td>
+        <td>${p.feed_override_min_percent === undefined ? "-" : `${fmt(p.feed_override_min_percent, 0)}..${fmt(p.feed_override_max_percent, 0)}`}</td>
+        <td>${p.spindle_override_min_percent === undefined ? "-" : `${fmt(p.spindle_override_min_percent, 0)}..${fmt(p.spindle_override_max_percent, 0)}`}</td></tr>`)}</table>
+    <div class="row noprint"><button class="key" onClick=${load}>READ AGAIN</button><button class="key" onClick=${() => window.print()}>PRINT</button></div></section>`;
+}
+
+const time = (e) => (e.utc_ms ? new Date(e.utc_ms).toLocaleTimeString("en-GB", { hour12: false }) : `cycle ${e.cycle}`);
+
+export function Alarms({ conn }) {
+  const [only, setOnly] = useState(false);
+  const list = [...conn.events].reverse().filter((e) => !only || e.kind === "alarm");
+  return html`<section class="card"><h2>Alarms and events</h2>
+    <div class="row"><button class=${`key small ${only ? "on" : ""}`} onClick=${() => setOnly(!only)}>${only ? "ALL EVENTS" : "ALARMS ONLY"}</button>
+      ${conn.lost.length ? html`<span class="warn">events ${conn.lost.map((l) => `${l.from}..${l.to}`).join(", ")} are older than the HMI's memory: ${conn.lost[0].why}</span>` : ""}</div>
+    <table class="grid events"><tr><th>#</th><th>time</th><th>who</th><th>what</th></tr>
+      ${list.map((e) => html`<tr class=${e.kind} data-testid="event"><td>${e.seq}</td><td>${time(e)}</td><td>${e.operator ? "operator" : "machine"}</td>
+        <td>${e.text}${e.alarm ? html`<div class="small"><b>the machine:</b> ${e.alarm.reaction}<br /><b>remedy:</b> ${e.alarm.remedy}<br /><b>to continue:</b> ${e.alarm.how_to_continue}</div>` : ""}</td></tr>`)}</table></section>`;
+}
+
+export function Diagnostics({ conn }) {
+  const s = conn.frame && conn.frame.state, st = conn.stats;
+  const pct = (p) => (p ? html`<td>${fmt(p.min, 1)}</td><td>${fmt(p.p50, 1)}</td><td>${fmt(p.p99, 1)}</td><td>${fmt(p.p999, 1)}</td><td>${fmt(p.max, 1)}</td><td>${p.count}</td>` : "");
+  const bus = conn.events.filter((e) => e.kind === "bus").slice(-20).reverse();
+  return html`<section class="grid2">
+    <div class="card"><h2>The loop</h2>${st ? html`
+      <table class="grid"><tr><th>us</th><th>min</th><th>p50</th><th>p99</th><th>p99.9</th><th>max</th><th>cycles</th></tr>
+        <tr><td>wake-up latency</td>${pct(st.wake_us)}</tr><tr><td>compute</td>${pct(st.compute_us)}</tr></table>
+      <table class="kv"><tr><td>period</td><td>${fmt(st.period_us, 0)} us</td></tr><tr><td>overruns</td><td data-testid="overruns">${st.overruns}</td></tr>
+        <tr><td>heap allocations in cycles</td><td data-testid="allocations">${st.system_allocations_in_cycle} (pool ${st.pool_allocations_in_cycle})</td></tr>
+        <tr><td>scheduling</td><td>${st.fifo_priority > 0 ? `SCHED_FIFO ${st.fifo_priority}` : "NOT SCHED_FIFO"}, ${st.core >= 0 ? `core ${st.core}` : "not pinned"}, memory ${st.memory_locked ? "locked" : "NOT locked"}</td></tr>
+        <tr><td>bus</td><td>${st.bus}, ${st.tx_errors} frames not sent</td></tr>
+        <tr><td>samples the HMI missed</td><td>${conn.frame ? conn.frame.samples_missed : "-"}</td></tr></table>` : html`<p>no stats from the loop yet</p>`}</div>
+    <div class="card"><h2>Drives and CAN nodes</h2>
+      <table class="kv">${["B", "X", "Y"].map((a) => html`<tr><td>drive ${a}</td><td>${s ? (s.drives_silent.includes(a) ? "SILENT (no feedback)" : s.drives_enabled.includes(a) ? "operation enabled" : "not enabled") : "-"}</td></tr>`)}
+        <tr><td>I/O coupler</td><td>${s ? (s.io_valid ? "answering" : "NOT VALID") : "-"}</td></tr></table>
+      <h3>Bus events (EMCY, heartbeats)</h3>
+      ${bus.length ? html`<ul>${bus.map((e) => html`<li>${time(e)} ${e.text}</li>`)}</ul>` : html`<p class="hint">none since the HMI started</p>`}</div>
+    <div class="card wide"><h2>I/O signals</h2>
+      <div class="signals">${s ? [...s.inputs.map((x) => ({ ...x, dir: "in" })), ...s.outputs.map((x) => ({ ...x, dir: "out" }))].map((x) => html`
+        <div class=${`signal ${x.active ? "on" : ""}`} data-signal=${x.name}><span>${x.dir} ${x.bit}</span> ${x.name.replaceAll("_", " ")}</div>`) : "-"}</div></div>
+  </section>`;
+}

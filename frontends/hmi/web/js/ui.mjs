@@ -1,0 +1,29 @@
+// The view library (Preact with htm: ES modules, no build step) and small shared pieces.
+import { h } from "preact";
+import htm from "htm";
+
+export const html = htm.bind(h);
+
+export const fmt = (x, digits = 3) => (x === null || x === undefined || Number.isNaN(x) ? "-" : Number(x).toFixed(digits));
+
+/** A command button: sends, shows the loop's answer beside it (refusals in red). */
+export function CmdButton({ conn, op, fields, label, cls = "", disabled, onAnswer, testid }) {
+  const click = async (ev) => {
+    const el = ev.currentTarget;
+    el.classList.add("busy");
+    const a = await conn.cmd(op, fields || {});
+    el.classList.remove("busy");
+    conn.toast(a, label);
+    if (onAnswer) onAnswer(a);
+  };
+  return html`<button class=${`key ${cls}`} data-testid=${testid || `cmd-${op}`} disabled=${disabled} onClick=${click}>${label}</button>`;
+}
+
+/** The last answers, newest first: refusals stay until tapped away. */
+export function Toasts({ conn }) {
+  const list = conn.toasts || [];
+  return html`<div class="toasts">${list.map(
+    (t) => html`<div class=${`toast ${t.ok ? "ok" : "refused"}`} data-testid="toast" onClick=${() => conn.dismiss(t.key)}>
+      <b>${t.label}:</b> ${t.ok ? "accepted" : "REFUSED"}${t.refusal ? ` (${t.refusal})` : ""} ${t.text}</div>`,
+  )}</div>`;
+}
