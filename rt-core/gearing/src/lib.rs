@@ -24,4 +24,5 @@ pub mod gearbox;
 pub mod iso1328;
 pub mod shapes;
 pub mod signs;
+pub mod span;
 pub mod units;

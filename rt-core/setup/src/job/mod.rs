@@ -574,5 +574,6 @@ fn count(p: &mut Problems, key: &str, value: i64, lo: u32, hi: u32) -> Option<u3
     }
 }
 
+pub mod span;
 #[cfg(test)]
 mod tests;
