@@ -117,3 +117,93 @@ pub async fn save(State(app): Shared, Json(s): Json<Save>) -> Response {
         Err(r) => refusal(&r),
     }
 }
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Span {
+    program: String,
+    k: u32,
+    measured_mm: f64,
+    #[serde(default)]
+    drawing_mm: Option<f64>,
+}
+
+fn span_correction(
+    app: &App,
+    s: &Span,
+) -> Result<(String, hob_setup::job::span::SpanCorrection), Box<Response>> {
+    let refused = |r: Refusal| Box::new(refusal(&r));
+    let text = app.library.text(Kind::Program, &s.program).map_err(refused)?;
+    let origin = app.library.path(Kind::Program, &s.program).map_err(refused)?;
+    let resolved = app.library.resolve(&origin, &text).map_err(refused)?;
+    let program = hob_setup::job::Program::parse(&origin, &resolved).map_err(|e| {
+        Box::new(
+            (
+                StatusCode::UNPROCESSABLE_ENTITY,
+                Json(json!({"refused": e.to_string(), "problems": problems_of(&e, &text)})),
+            )
+                .into_response(),
+        )
+    })?;
+    let reading = hob_setup::job::span::SpanReading {
+        k: s.k,
+        measured_mm: s.measured_mm,
+        drawing_mm: s.drawing_mm,
+    };
+    let c = hob_setup::job::span::correction(&program, reading).map_err(|p| {
+        let problems: Vec<Value> = p
+            .as_slice()
+            .iter()
+            .map(|p| json!({"key": p.key, "message": p.message}))
+            .collect();
+        Box::new(
+            (
+                StatusCode::UNPROCESSABLE_ENTITY,
+                Json(json!({"refused": "the span reading is refused", "problems": problems})),
+            )
+                .into_response(),
+        )
+    })?;
+    Ok((text, c))
+}
+
+/// `POST /api/span`: the depth still to cut from the span over k teeth, with every input.
+pub async fn span(State(app): Shared, Json(s): Json<Span>) -> Response {
+    match span_correction(&app, &s) {
+        Ok((_, c)) => Json(json!({"ok": true, "inputs": c})).into_response(),
+        Err(r) => *r,
+    }
+}
+
+/// `POST /api/span/carry`: the new total depth written into the library program (checked
+/// as any change; the file is rewritten from its fields, its comments are not kept).
+pub async fn span_carry(State(app): Shared, Json(s): Json<Span>) -> Response {
+    let (text, c) = match span_correction(&app, &s) {
+        Ok(x) => x,
+        Err(r) => return *r,
+    };
+    let mut fields = match form::fields(&text) {
+        Ok(f) => f,
+        Err(e) => return bad_request(format!("program {}: not TOML: {e}", s.program)),
+    };
+    let depth = format!("{:.4}", c.new_total_depth_mm);
+    match fields.iter_mut().find(|f| f.key == "strategy.total_depth_mm") {
+        Some(f) => f.text = depth,
+        None => return bad_request(format!("program {}: no strategy.total_depth_mm", s.program)),
+    }
+    let new_text = match form::to_toml(&fields) {
+        Ok(t) => t,
+        Err(e) => return bad_request(e),
+    };
+    match app.library.replace_program(&s.program, &new_text, &app.machine) {
+        Ok(_) => {
+            Json(json!({"ok": true, "total_depth_mm": c.new_total_depth_mm, "inputs": c})).into_response()
+        }
+        Err(Refusal::Invalid { what, error }) => (
+            StatusCode::UNPROCESSABLE_ENTITY,
+            Json(json!({"refused": format!("{what}: {error}"), "problems": problems_of(&error, &new_text)})),
+        )
+            .into_response(),
+        Err(r) => refusal(&r),
+    }
+}

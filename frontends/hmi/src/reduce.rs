@@ -125,6 +125,9 @@ pub struct EventLog {
     capacity: usize,
     /// Event numbers the loop skipped or the HMI never received.
     pub missed: u64,
+    /// Times the loop's numbering started over (a restarted loop): a page that saw the
+    /// old numbers must start over too.
+    pub generation: u64,
 }
 
 impl EventLog {
@@ -133,6 +136,7 @@ impl EventLog {
             ring: VecDeque::with_capacity(capacity),
             capacity: capacity.max(1),
             missed: 0,
+            generation: 0,
         }
     }
 
@@ -146,6 +150,7 @@ impl EventLog {
                 }
                 // A restarted loop numbers from 1 again: start over.
                 self.ring.clear();
+                self.generation += 1;
             } else {
                 self.missed += e.seq - last.seq - 1;
             }
@@ -256,8 +261,10 @@ mod tests {
         // A restarted loop numbers from 1 again.
         let mut restarted = ev(1);
         restarted.cycle = 99;
+        assert_eq!(log.generation, 0);
         log.push(restarted);
         assert_eq!(log.since(0), Since::Events(vec![restarted]));
+        assert_eq!(log.generation, 1);
     }
 
     proptest! {

@@ -129,6 +129,8 @@ pub fn panel_router(app: Arc<App>, vendor_files: Arc<Vendor>, host: String) -> R
         .route("/api/plan/{name}", get(definition::plan))
         .route("/api/check", post(definition::check))
         .route("/api/save", post(definition::save))
+        .route("/api/span", post(definition::span))
+        .route("/api/span/carry", post(definition::span_carry))
         .with_state(app);
     Router::new()
         .route("/", get(index))

@@ -38,6 +38,8 @@ enum Out<'a> {
         to: u64,
         why: &'static str,
     },
+    /// The loop restarted: its events are numbered from 1 again.
+    EventsRestart,
     Stats {
         #[serde(flatten)]
         stats: &'a crate::protocol::StatsView,
@@ -93,6 +95,7 @@ pub async fn serve(ws: WebSocket, app: Arc<App>, panel: bool) {
     let mut jog = JogSession::new(app.commands.clone());
     // Until the page says hello, it gets nothing.
     let mut last_event: Option<u64> = None;
+    let mut generation = app.hub.book().log.generation;
     let mut last_frame = 0u64;
     let mut tick = tokio::time::interval(Duration::from_secs(1));
     loop {
@@ -125,7 +128,7 @@ pub async fn serve(ws: WebSocket, app: Arc<App>, panel: bool) {
                             break;
                         }
                         last_event = Some(seen);
-                        if !send_events(&mut s, &app, &mut last_event).await {
+                        if !send_events(&mut s, &app, &mut last_event, &mut generation).await {
                             break;
                         }
                     }
@@ -184,7 +187,7 @@ pub async fn serve(ws: WebSocket, app: Arc<App>, panel: bool) {
                     break;
                 }
                 events_head.borrow_and_update();
-                if !send_events(&mut s, &app, &mut last_event).await {
+                if !send_events(&mut s, &app, &mut last_event, &mut generation).await {
                     break;
                 }
             }
@@ -213,17 +216,24 @@ pub async fn serve(ws: WebSocket, app: Arc<App>, panel: bool) {
     let _ = jog.release();
 }
 
-/// Every event after `last` (nothing before the page's hello).
-async fn send_events(s: &mut Socket, app: &App, last: &mut Option<u64>) -> bool {
+/// Every event after `last` (nothing before the page's hello). A restarted HMI server
+/// starts with no events and gets the loop's recent ones later: the page's number stands
+/// until then. A restarted loop numbers from 1 again: the page is told and starts over.
+async fn send_events(s: &mut Socket, app: &App, last: &mut Option<u64>, generation: &mut u64) -> bool {
     let Some(mut seen) = *last else { return true };
-    let (events, lost) = {
+    let (events, lost, restarted) = {
         let book = app.hub.book();
-        if book.log.head() < seen {
-            // The loop restarted and numbers its events from 1 again.
+        let restarted = book.log.generation != *generation;
+        *generation = book.log.generation;
+        if restarted {
             seen = 0;
         }
-        book.since(seen)
+        let (events, lost) = book.since(seen);
+        (events, lost, restarted)
     };
+    if restarted && !s.send(&Out::EventsRestart).await {
+        return false;
+    }
     if let Some((from, to)) = lost
         && !s
             .send(&Out::EventsLost {
@@ -235,9 +245,14 @@ async fn send_events(s: &mut Socket, app: &App, last: &mut Option<u64>) -> bool 
     {
         return false;
     }
-    if let Some(e) = events.last() {
-        *last = Some(e.seq);
-        return s.send(&Out::Events { list: &events }).await;
+    match events.last() {
+        Some(e) => {
+            *last = Some(e.seq);
+            s.send(&Out::Events { list: &events }).await
+        }
+        None => {
+            *last = Some(seen);
+            true
+        }
     }
-    true
 }

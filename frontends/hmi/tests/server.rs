@@ -193,6 +193,44 @@ async fn a_reconnecting_page_gets_exactly_the_events_it_missed() {
 }
 
 #[tokio::test]
+async fn a_restarted_server_sends_a_page_only_what_it_had_not_seen() {
+    // The page saw up to 3 from the server before it was killed; the new server starts
+    // with no events and receives the loop's history (1..=5) after the page's hello.
+    let f = start(false).await;
+    let origin = format!("http://{}", f.addr);
+    let mut ws = connect(&f, "/ws/panel", &origin).await.unwrap();
+    send(&mut ws, json!({"t": "hello", "last_event": 3})).await;
+    next(&mut ws, "hello", Duration::from_secs(2)).await;
+    tokio::time::sleep(Duration::from_millis(100)).await;
+    {
+        let mut b = f.bridge.lock().unwrap();
+        for s in 1..=5 {
+            b.event(event(s));
+        }
+    }
+    let mut seqs = Vec::new();
+    while seqs.last() != Some(&5) {
+        let ev = next(&mut ws, "events", Duration::from_secs(2)).await;
+        seqs.extend(
+            ev["list"]
+                .as_array()
+                .unwrap()
+                .iter()
+                .map(|e| e["seq"].as_u64().unwrap()),
+        );
+    }
+    assert_eq!(seqs, vec![4, 5]);
+    // The loop restarts: its numbers start over, and the page is told before it gets them.
+    f.bridge.lock().unwrap().event(EventSample {
+        cycle: 999,
+        ..event(1)
+    });
+    next(&mut ws, "events_restart", Duration::from_secs(2)).await;
+    let ev = next(&mut ws, "events", Duration::from_secs(2)).await;
+    assert_eq!(ev["list"][0]["seq"], 1);
+}
+
+#[tokio::test]
 async fn closing_the_page_mid_jog_releases_the_jog() {
     let f = start(false).await;
     let origin = format!("http://{}", f.addr);

@@ -59,11 +59,15 @@ export class Conn {
         if (this.plot.length > PLOT_POINTS) this.plot.splice(0, this.plot.length - PLOT_POINTS);
         break;
       case "events":
+        // By number: an event the page has is never listed twice.
         for (const e of m.list) {
-          if (e.seq > this.lastEvent || e.seq < this.lastEvent - 100000) this.events.push(e);
-          this.lastEvent = e.seq;
+          if (e.seq > this.lastEvent) { this.events.push(e); this.lastEvent = e.seq; }
         }
         if (this.events.length > 2000) this.events.splice(0, this.events.length - 2000);
+        break;
+      case "events_restart":
+        this.events.push({ seq: 0, cycle: 0, kind: "restart", operator: false, text: "the loop restarted: its events are numbered from 1 again" });
+        this.lastEvent = 0;
         break;
       case "events_lost":
         this.lost.push(m);

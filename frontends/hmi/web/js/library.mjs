@@ -84,7 +84,7 @@ function Derived({ plan }) {
     <tr><td>gearbox ratio</td><td>${fmt(plan.egb_ratio, 6)}</td></tr>
     <tr><td>differential</td><td>${fmt(plan.differential_deg_per_mm, 6)} deg/mm</td></tr>
     <tr><td>hob swivel A</td><td>${fmt(plan.hob_swivel_deg, 3)} deg ${plan.hob_swivel_sense || ""}</td></tr>
-    ${plan.passes.map((p, i) => html`<tr><td>pass ${i + 1}</td><td>${Object.entries(p).filter(([, v]) => typeof v === "number").slice(0, 6).map(([k, v]) => `${k.replaceAll("_", " ")} ${fmt(v, 2)}`).join(", ")}</td></tr>`)}
+    ${plan.passes.map((p, i) => html`<tr><td>pass ${i + 1} (${p.kind})</td><td>depth ${fmt(p.depth_mm, 3)} mm, v<sub>c</sub> ${fmt(p.cutting_speed_m_min, 1)} m/min, hob ${fmt(p.spindle_rpm, 1)} rpm, table ${fmt(p.table_rpm, 2)} rpm, feed ${fmt(p.feed_mm_per_rev, 2)} mm/rev = ${fmt(p.axial_feed_mm_min, 1)} mm/min, Y ${fmt(p.y_start_mm, 1)} → ${fmt(p.y_end_mm, 1)} mm (stroke ${fmt(Math.abs(p.y_end_mm - p.y_start_mm), 1)} mm), ${fmt(p.pass_time_s, 0)} s</td></tr>`)}
     <tr><td>cycle time</td><td data-testid="cycle-time">${fmt(plan.total_time_s / 60, 1)} min</td></tr>
     ${plan.warnings.map((w) => html`<tr><td>warning</td><td class="warn">${w}</td></tr>`)}</table>`;
 }
