@@ -184,8 +184,16 @@ pub async fn alarms(State(app): Shared, Query(b): Query<Before>) -> Response {
     Json(json!({"events": list, "missed": book.log.missed})).into_response()
 }
 
-/// `GET /api/report`: the cut report from the logger's record (`hob log report`).
-pub async fn report(State(app): Shared) -> Response {
+#[derive(Debug, Deserialize)]
+pub struct Range {
+    first: Option<u64>,
+    last: Option<u64>,
+}
+
+/// `GET /api/cut/report[?first=C&last=C]`: the report of a cut from the logger's record
+/// (`hob log report`), by default the newest finished cycle the HMI saw (from the loop's
+/// acceptance of START to its CYCLE_DONE), else the whole recording, and says which.
+pub async fn report(State(app): Shared, Query(q): Query<Range>) -> Response {
     let Some(dir) = app.log_dir.clone() else {
         return (
             StatusCode::NOT_FOUND,
@@ -193,9 +201,20 @@ pub async fn report(State(app): Shared) -> Response {
         )
             .into_response();
     };
-    let r = tokio::task::spawn_blocking(move || hob_logger::export::report(&dir)).await;
+    let newest = app.hub.book().log.last_cycle_run();
+    let (range, what) = match (q.first, q.last, newest) {
+        (Some(f), Some(l), _) => ((f, l), format!("cycles {f} .. {l}")),
+        (_, _, Some((f, l))) => ((f, l), format!("the last cycle run, cycles {f} .. {l}")),
+        _ => (
+            (0, u64::MAX),
+            "the whole recording (no finished cycle since the HMI started)".to_string(),
+        ),
+    };
+    let r =
+        tokio::task::spawn_blocking(move || hob_logger::export::report_cycles(&dir, range.0, range.1)).await;
     match r {
         Ok(Ok(r)) => Json(json!({
+            "what": what,
             "samples": r.samples,
             "first_cycle": r.first_cycle,
             "last_cycle": r.last_cycle,

@@ -126,7 +126,12 @@ impl Bridge {
             // The loop's real period, for dating events.
             self.period_ns = s.sync_time_ns - prev.sync_time_ns;
         }
-        self.interval.push(s.cycle, s.sync_error_arcsec, gap);
+        self.interval.push(
+            s.cycle,
+            s.sync_error_arcsec,
+            gap,
+            s.state == hob_ipc::codec::State::Cut.code(),
+        );
         self.newest = Some((s, now));
     }
 

@@ -19,6 +19,8 @@ pub struct PlotPoint {
     pub n: u32,
     /// Cycles missing inside or just before this interval (samples the HMI never got).
     pub gap: u64,
+    /// A sample of the interval was in the cut (where the bound applies).
+    pub cut: bool,
 }
 
 /// Reduces samples into one [`PlotPoint`] per interval.
@@ -28,8 +30,8 @@ pub struct Interval {
 }
 
 impl Interval {
-    /// Adds one sample; `gap`: the cycles missing before it.
-    pub fn push(&mut self, cycle: u64, value: f64, gap: u64) {
+    /// Adds one sample; `gap`: the cycles missing before it; `cut`: the tool in the cut.
+    pub fn push(&mut self, cycle: u64, value: f64, gap: u64, cut: bool) {
         if !value.is_finite() {
             return;
         }
@@ -41,6 +43,7 @@ impl Interval {
                 p.last = value;
                 p.n += 1;
                 p.gap += gap;
+                p.cut |= cut;
             }
             None => {
                 self.open = Some(PlotPoint {
@@ -51,6 +54,7 @@ impl Interval {
                     last: value,
                     n: 1,
                     gap,
+                    cut,
                 })
             }
         }
@@ -74,6 +78,7 @@ pub fn merge(points: &[PlotPoint]) -> Option<PlotPoint> {
         last: p.last,
         n: a.n + p.n,
         gap: a.gap + p.gap,
+        cut: a.cut || p.cut,
     }))
 }
 
@@ -179,6 +184,22 @@ impl EventLog {
         }
     }
 
+    /// The cycles of the newest finished cycle: from the loop's acceptance of its START to
+    /// its CYCLE_DONE (the cut report's range).
+    pub fn last_cycle_run(&self) -> Option<(u64, u64)> {
+        use hob_ipc::{command, event_kind};
+        let done = self.ring.iter().rposition(|e| e.kind == event_kind::CYCLE_DONE)?;
+        let last = self.ring[done].cycle;
+        let first = self
+            .ring
+            .iter()
+            .take(done)
+            .rev()
+            .find(|e| e.kind == event_kind::ACCEPTED && e.a == command::START)?
+            .cycle;
+        Some((first, last))
+    }
+
     /// Up to `count` events before `seq` (0: the newest), newest first: the alarm screen's pages.
     pub fn page_before(&self, seq: u64, count: usize) -> Vec<EventSample> {
         self.ring
@@ -208,7 +229,7 @@ mod tests {
     fn a_one_cycle_spike_survives_the_reduction() {
         let mut i = Interval::default();
         for c in 0..40u64 {
-            i.push(c, if c == 17 { 500.0 } else { 1.0 }, 0);
+            i.push(c, if c == 17 { 500.0 } else { 1.0 }, 0, c == 39);
         }
         let p = i.take().expect("a point");
         assert_eq!(
@@ -267,6 +288,31 @@ mod tests {
         assert_eq!(log.generation, 1);
     }
 
+    #[test]
+    fn the_last_cycle_run_goes_from_its_start_to_its_cycle_done() {
+        use hob_ipc::{command, event_kind};
+        let at = |seq: u64, cycle: u64, kind: u32, a: u32| EventSample {
+            seq,
+            cycle,
+            kind,
+            a,
+            ..EventSample::default()
+        };
+        let mut log = EventLog::new(64);
+        assert_eq!(log.last_cycle_run(), None);
+        log.push(at(1, 100, event_kind::ACCEPTED, command::START));
+        log.push(at(2, 900, event_kind::CYCLE_DONE, 0));
+        log.push(at(3, 1000, event_kind::ACCEPTED, command::START));
+        log.push(at(4, 1100, event_kind::ACCEPTED, command::FEED_HOLD));
+        assert_eq!(
+            log.last_cycle_run(),
+            Some((100, 900)),
+            "the running one is not done"
+        );
+        log.push(at(5, 2000, event_kind::CYCLE_DONE, 0));
+        assert_eq!(log.last_cycle_run(), Some((1000, 2000)));
+    }
+
     proptest! {
         #[test]
         fn the_points_keep_the_extremes_of_the_series(
@@ -276,7 +322,7 @@ mod tests {
             let mut i = Interval::default();
             let mut points = Vec::new();
             for (c, v) in values.iter().enumerate() {
-                i.push(c as u64, *v, 0);
+                i.push(c as u64, *v, 0, false);
                 if (c + 1) % width == 0 {
                     points.extend(i.take());
                 }
@@ -290,7 +336,7 @@ mod tests {
             // Merging the points equals reducing the whole series at once.
             let mut whole = Interval::default();
             for (c, v) in values.iter().enumerate() {
-                whole.push(c as u64, *v, 0);
+                whole.push(c as u64, *v, 0, false);
             }
             prop_assert_eq!(whole.take(), Some(all));
         }

@@ -100,7 +100,20 @@ fn cycle_period_s(states: &[StateSample]) -> f64 {
 }
 
 pub fn report(dir: &Path) -> Result<Report, String> {
-    let states = crate::read_dir_states(dir)?;
+    report_cycles(dir, 0, u64::MAX)
+}
+
+/// The report of the cycles `first ..= last` of a recording: one cut (a frontend takes the
+/// range from the loop's events: the accepted start, the cycle done).
+pub fn report_cycles(dir: &Path, first: u64, last: u64) -> Result<Report, String> {
+    let mut states = crate::read_dir_states(dir)?;
+    states.retain(|s| (first..=last).contains(&s.cycle));
+    if states.is_empty() {
+        return Err(format!(
+            "{}: no sample of cycles {first} .. {last} recorded",
+            dir.display()
+        ));
+    }
     let gear = states.iter().find(|s| s.pitch_radius_mm > 0.0).ok_or_else(|| {
         format!(
             "{}: no program was loaded while recording: nothing to report per pass",
@@ -277,6 +290,26 @@ mod tests {
         }
         assert!(lines[0].ends_with("| feed 80-100 %, spindle 100 %"), "{text}");
         assert!(lines[1].ends_with("| feed 100 %, spindle 100 %"), "{text}");
+    }
+
+    #[test]
+    fn a_range_of_cycles_reports_only_that_cut() {
+        let dir = recorded("range");
+        // Cycles 6 ..= 6: pass 2 only; the whole recording has both passes.
+        let r = report_cycles(&dir, 6, 6).unwrap();
+        let all = report(&dir).unwrap();
+        let none = report_cycles(&dir, 100, 200);
+        let _ = std::fs::remove_dir_all(&dir);
+        assert_eq!((r.samples, r.first_cycle, r.last_cycle), (1, 6, 6));
+        assert_eq!(
+            r.passes.iter().filter(|p| p.samples > 0).count(),
+            1,
+            "{:?}",
+            r.passes
+        );
+        assert_eq!(r.passes.last().map(|p| p.pass), Some(2));
+        assert_eq!((all.samples, all.passes.len()), (6, 2));
+        assert!(none.unwrap_err().contains("no sample of cycles 100 .. 200"));
     }
 
     #[test]

@@ -91,7 +91,8 @@ test("a new program through the sub-menus, a single pass, the span, the automati
   // The cut report from the logger's record.
   await page.locator('nav [data-screen="report"]').tap();
   await page.locator('[data-testid="report-pass"]').first().waitFor({ timeout: 20000 });
-  assert.ok((await page.locator('[data-testid="report-pass"]').count()) >= 1);
+  assert.match(await page.locator('[data-testid="report-what"]').innerText(), /the last cycle run/);
+  assert.equal(await page.locator('[data-testid="report-pass"]').count(), 2, "the automatic program's two passes, not the single pass's");
   await shot(page, "report");
   await page.close();
 });

@@ -52,7 +52,7 @@ export class Conn {
         this.frame = m;
         this.lastFrameAt = performance.now();
         if (m.plot) {
-          this.plot.push({ c0: m.plot.c0, min: m.plot.min, max: m.plot.max, gap: m.skipped > 0 || m.plot.gap > 0 });
+          this.plot.push({ c0: m.plot.c0, min: m.plot.min, max: m.plot.max, gap: m.skipped > 0 || m.plot.gap > 0, cut: m.plot.cut });
         } else if (m.skipped > 0 && this.plot.length) {
           this.plot[this.plot.length - 1].gap = true;
         }

@@ -27,13 +27,14 @@ export function SyncPlot({ points, bound, version }) {
       g.strokeStyle = "#e0a030"; g.setLineDash([6, 4]);
       for (const b of [bound, -bound]) { g.beginPath(); g.moveTo(50, y(b)); g.lineTo(w, y(b)); g.stroke(); }
       g.setLineDash([]);
-      g.fillStyle = "#e0a030"; g.fillText(`bound ±${bound.toFixed(1)}"`, 4, y(bound) - 4);
+      g.fillStyle = "#e0a030"; g.fillText(`bound ±${bound.toFixed(1)}" in the cut`, 4, y(bound) - 4);
     }
     cols.forEach((p, i) => {
       const x = 50 + i;
       if (p.gap) { g.fillStyle = "#553"; g.fillRect(x, 0, 1, hgt); }
-      const over = bound && (Math.abs(p.min) > bound || Math.abs(p.max) > bound);
-      g.fillStyle = over ? "#ff5050" : "#50d0ff";
+      // The bound holds in the cut; engaging, leaving and idle are drawn grey.
+      const over = p.cut && bound && (Math.abs(p.min) > bound || Math.abs(p.max) > bound);
+      g.fillStyle = !p.cut ? "#6a7885" : over ? "#ff5050" : "#50d0ff";
       g.fillRect(x, y(p.max), 1, Math.max(1, y(p.min) - y(p.max)));
     });
   }, [version, bound]);

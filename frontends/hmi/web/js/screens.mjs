@@ -135,7 +135,8 @@ export function Single({ conn, program }) {
       <div class="row"><button class="key" onClick=${compute} disabled=${!program} data-testid="span-compute">COMPUTE</button>
         <button class="key primary" onClick=${carry} disabled=${!res || !res.ok} data-testid="span-carry">CARRY INTO PROGRAM</button></div>
       ${res && !res.ok ? html`<p class="bad" data-testid="span-refused">${res.refused} ${(res.problems || []).map((p) => html`<br />${p.key}: ${p.message}`)}</p>` : ""}
-      ${res && res.ok ? html`<table class="kv" data-testid="span-result">${Object.entries(res.inputs || {}).map(([k2, v]) => html`<tr><td>${k2}</td><td>${typeof v === "number" ? fmt(v, 4) : v}</td></tr>`)}</table>` : ""}
+      ${res && res.ok ? html`<table class="kv" data-testid="span-result">${Object.entries(res.inputs || {}).map(([k2, v]) => html`<tr><td>${k2.replaceAll("_", " ").replace(/ mm$/, " (mm)").replace(/ deg$/, " (deg)")}</td><td>${typeof v === "number" && !Number.isInteger(v) ? fmt(v, 4) : v}</td></tr>`)}</table>
+        <p class="hint">depth to cut = (measured span − drawing's span) / (2 sin α<sub>n</sub>); new total depth = single pass depth + depth to cut</p>` : ""}
       ${res && res.carried ? html`<p class=${res.carried.ok ? "ok" : "bad"}>${res.carried.ok ? `saved: total depth ${fmt(res.carried.total_depth_mm, 3)} mm` : res.carried.refused}</p>` : ""}
     </div></section>`;
 }
@@ -181,6 +182,7 @@ export function Report() {
   if (!r.ok) return html`<section class="card"><h2>Cut report</h2><p class="bad">${r.refused}</p><button class="key" onClick=${load}>READ AGAIN</button></section>`;
   const tol = r.grade5_single_pitch_um;
   return html`<section class="card report" data-testid="report"><h2>Cut report</h2>
+    <p data-testid="report-what"><b>${r.what}</b></p>
     <p>${r.samples} samples recorded, ${r.missing} missing (cycles ${r.first_cycle}..${r.last_cycle}); pitch radius ${fmt(r.pitch_radius_mm, 3)} mm; ISO 1328-1 single pitch tolerance, grade 5: ${fmt(tol, 2)} um; bound (a quarter): ${fmt(r.bound_um, 2)} um.</p>
     <table class="grid"><tr><th>pass</th><th>time s</th><th>samples</th><th>RMS "</th><th>max "</th><th>RMS um</th><th>max um</th><th>max / tolerance</th><th>feed override %</th><th>spindle override %</th></tr>
       ${r.passes.map((p) => html`<tr data-testid="report-pass"><td>${p.pass}</td><td>${fmt(p.time_s, 1)}</td><td>${p.samples}</td><td>${fmt(p.sync_err_rms_arcsec, 2)}</td><td>${fmt(p.sync_err_max_arcsec, 2)}</td>
