@@ -24,6 +24,12 @@ pub struct SimulationConfig {
     pub safety_stop_delay_s: f64,
     /// What the drives' position counters (0x6064) read at power-on (see [`DriveCounters`]).
     pub drive_counters: DriveCounters,
+    /// With incremental counters: X and Y power up at a random position within this many
+    /// mm of their home position instead of anywhere in their travel (referencing still
+    /// runs, over a short way). For test runs whose clock is slow (the emulated guest);
+    /// absent: anywhere in the travel.
+    #[serde(default)]
+    pub power_on_near_home_mm: Option<f64>,
 }
 
 /// What the drives' position counters read at power-on. The encoders are incremental
@@ -132,6 +138,9 @@ impl PlantConfig {
         );
         p.within("simulation.sync_jitter_us", s.sync_jitter_us, 0.0, 200.0, "us");
         p.non_negative("simulation.safety_stop_delay_s", s.safety_stop_delay_s);
+        if let Some(mm) = s.power_on_near_home_mm {
+            p.positive("simulation.power_on_near_home_mm", mm);
+        }
         let sp = &self.spindle;
         p.require(sp.motor_pole_pairs >= 1, "spindle.motor_pole_pairs", || {
             "must be at least 1".into()

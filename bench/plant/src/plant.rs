@@ -56,6 +56,24 @@ pub struct Start {
 impl Start {
     /// X and Y at a random position within their soft limits (drawn from `seed`), the
     /// table at `table_deg`: where an unreferenced machine may stand at power-on.
+    /// X and Y at a random position within `within_mm` of their home position (and within
+    /// their soft limits), drawn from `seed`; the table at `table_deg`.
+    pub fn random_near_home(machine: &MachineConfig, seed: u64, within_mm: f64, table_deg: f64) -> Self {
+        let far = Self::random_within_travel(machine, seed, table_deg);
+        let near = |a: &LinearAxisConfig, at: f64| {
+            // The draw within the travel, mapped onto the home position's neighbourhood.
+            let u = (at - a.soft_limit_min_mm) / (a.soft_limit_max_mm - a.soft_limit_min_mm);
+            let lo = (a.homing.home_position_mm - within_mm).max(a.soft_limit_min_mm);
+            let hi = (a.homing.home_position_mm + within_mm).min(a.soft_limit_max_mm);
+            lo + u * (hi - lo)
+        };
+        Self {
+            x_mm: near(&machine.x, far.x_mm),
+            y_mm: near(&machine.y, far.y_mm),
+            table_deg,
+        }
+    }
+
     pub fn random_within_travel(machine: &MachineConfig, seed: u64, table_deg: f64) -> Self {
         let mut rng = seed.wrapping_mul(0x9E37_79B9_7F4A_7C15) | 1;
         let mut uniform = || {

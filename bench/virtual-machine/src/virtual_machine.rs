@@ -232,17 +232,18 @@ pub struct VirtualMachine {
 impl VirtualMachine {
     /// The virtual machine at power-on with the machine standing at `start`; with
     /// `simulation.drive_counters = "incremental"` X and Y stand at a random position
-    /// within their travel instead (from `simulation.seed`) and every drive's counter
-    /// starts at 0.
+    /// within their travel instead (from `simulation.seed`; near their home position with
+    /// `simulation.power_on_near_home_mm`) and every drive's counter starts at 0.
     pub fn new(machine: &MachineConfig, plant: &PlantConfig, start: Start, gashes: u32) -> Self {
         let plan = BusPlan::from_machine(machine);
         let spindle = (plan.spindle_encoder.index, plan.spindle_encoder.sub);
         let names = ["hob-sim drive B (table)", "hob-sim drive X", "hob-sim drive Y"];
         let start = match plant.simulation.drive_counters {
             DriveCounters::Referenced => start,
-            DriveCounters::Incremental => {
-                Start::random_within_travel(machine, plant.simulation.seed, start.table_deg)
-            }
+            DriveCounters::Incremental => match plant.simulation.power_on_near_home_mm {
+                Some(mm) => Start::random_near_home(machine, plant.simulation.seed, mm, start.table_deg),
+                None => Start::random_within_travel(machine, plant.simulation.seed, start.table_deg),
+            },
         };
         let physics = Plant::new(plant, machine, start, gashes);
         let drives = std::array::from_fn(|i| {

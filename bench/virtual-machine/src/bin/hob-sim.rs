@@ -74,6 +74,12 @@ struct Args {
     /// counters read the machine position as if referenced before.
     #[arg(long)]
     incremental: bool,
+    /// With incremental counters, X and Y power up within MM of their home position (a
+    /// short referencing: for runs on a slow clock, the emulated guest's fault cases). Also
+    /// set by the environment variable HOB_SIM_NEAR_HOME_MM. Sets
+    /// `simulation.power_on_near_home_mm`.
+    #[arg(long, value_name = "MM")]
+    power_on_near_home: Option<f64>,
 }
 
 fn main() -> ExitCode {
@@ -91,6 +97,25 @@ fn run(a: Args) -> Result<(), String> {
     let mut plant = PlantConfig::load(&a.plant).map_err(|e| e.to_string())?;
     if a.incremental {
         plant.simulation.drive_counters = hob_plant::config::DriveCounters::Incremental;
+    }
+    let near_env = std::env::var("HOB_SIM_NEAR_HOME_MM")
+        .ok()
+        .filter(|v| !v.is_empty());
+    let near = match (a.power_on_near_home, near_env) {
+        (Some(mm), _) => Some(mm),
+        (None, Some(v)) => Some(
+            v.parse::<f64>()
+                .map_err(|_| format!("HOB_SIM_NEAR_HOME_MM={v}: not a number of mm"))?,
+        ),
+        (None, None) => None,
+    };
+    if let Some(mm) = near {
+        if !(mm.is_finite() && mm > 0.0) {
+            return Err(format!(
+                "--power-on-near-home {mm}: must be a distance above 0 mm"
+            ));
+        }
+        plant.simulation.power_on_near_home_mm = Some(mm);
     }
     let mut start = Start {
         x_mm: 150.0,

@@ -519,3 +519,68 @@ fn a_drive_running_into_a_hardware_limit_in_csp_faults_with_an_emcy() {
     );
     assert!(vm.plant.x_mm() < 252.5, "stopped: {}", vm.plant.x_mm());
 }
+
+/// SYNCs until Y reports its homing completed (none: not within `max`).
+fn syncs_to_home_y(vm: &mut VirtualMachine, max: u32) -> Option<u32> {
+    enabled(vm, Y, 6);
+    write(vm, Y, object::CONTROLWORD, 0, &0x1Fu16.to_le_bytes()).unwrap();
+    (1..=max).find(|_| {
+        sync(vm);
+        HomingProgress::from_statusword(statusword(vm, Y)) == HomingProgress::Completed
+    })
+}
+
+#[test]
+fn powered_up_near_home_the_drives_still_home_over_a_short_way() {
+    let m = machine();
+    let mut p = plant_config();
+    p.simulation.drive_counters = DriveCounters::Incremental;
+    p.simulation.seed = 7;
+    let mut far = vm_with(&p, at(150.0, 150.0));
+    let far_y0 = far.plant.y_mm();
+    let far_syncs = syncs_to_home_y(&mut far, 200_000).expect("homed from anywhere");
+    for seed in 1..=8 {
+        p.simulation.seed = seed;
+        p.simulation.power_on_near_home_mm = Some(20.0);
+        let mut vm = vm_with(&p, at(150.0, 150.0));
+        let (x0, y0) = (vm.plant.x_mm(), vm.plant.y_mm());
+        for (axis, at_mm) in [(&m.x, x0), (&m.y, y0)] {
+            assert!(
+                (at_mm - axis.homing.home_position_mm).abs() <= 20.0 + 1e-9,
+                "seed {seed}: {at_mm} mm"
+            );
+            assert!(
+                (axis.soft_limit_min_mm..=axis.soft_limit_max_mm).contains(&at_mm),
+                "seed {seed}: {at_mm} mm"
+            );
+        }
+        assert_eq!(
+            read(&mut vm, Y, object::POSITION_ACTUAL, 0),
+            0,
+            "counter 0 at power-on"
+        );
+        let syncs = syncs_to_home_y(&mut vm, 200_000)
+            .unwrap_or_else(|| panic!("seed {seed}: Y did not home from {y0} mm"));
+        assert!(
+            (vm.plant.y_mm() - 440.0).abs() < 0.002,
+            "seed {seed}: {}",
+            vm.plant.y_mm()
+        );
+        if seed == 7 {
+            assert!(
+                syncs * 3 < far_syncs,
+                "near home ({y0:.1} mm) {syncs} SYNCs, from {far_y0:.1} mm {far_syncs}"
+            );
+        }
+    }
+    // A distance of 0 or less is refused by the plant file's check.
+    p.simulation.power_on_near_home_mm = Some(0.0);
+    let mut problems = hob_setup::config::Problems::new();
+    p.validate(&mut problems);
+    assert!(
+        problems
+            .as_slice()
+            .iter()
+            .any(|q| q.key == "simulation.power_on_near_home_mm")
+    );
+}
