@@ -1,41 +1,31 @@
 //! The state of each sub-menu of the program definition (green: complete and valid; red:
-//! missing or invalid), from the Rust checks of the whole program file.
+//! missing or invalid) from `hob_setup::job::form::check_sections`: each table read on its
+//! own, then the whole program checked and planned as `hob check` does; a library tool
+//! filled in from the library.
 
 use crate::app::App;
-use crate::definition::problems_of;
-use hob_store::library::Refusal;
+use hob_setup::job::form::{SECTIONS, check_sections};
 use serde_json::{Value, json};
-
-/// The program's tables, in the order of the sub-menus.
-pub const SECTIONS: [&str; 4] = ["workpiece", "tool", "cycle", "strategy"];
 
 /// Checks a program file made from the form: `{sections, problems, plan}`.
 pub fn check(app: &App, text: &str) -> Value {
-    let origin = app.library.dir().join("(the program being defined)");
-    let (problems, plan) = match app.library.check_program(&origin, text, &app.machine) {
-        Ok(p) => (Vec::new(), serde_json::to_value(p).ok()),
-        Err(Refusal::Invalid { error, .. }) => (problems_of(&error, text), None),
-        Err(other) => (
-            vec![json!({"key": "tool.library", "message": other.to_string()})],
-            None,
-        ),
+    let resolve = |name: &str| -> Result<toml::Table, String> {
+        let record = app.library.tool(name).map_err(|e| e.to_string())?;
+        match toml::Value::try_from(&record.tool) {
+            Ok(toml::Value::Table(t)) => Ok(t),
+            Ok(_) => Err(format!("the library tool {name:?} is not a table")),
+            Err(e) => Err(format!("the library tool {name:?}: {e}")),
+        }
     };
-    let present = |s: &str| text.lines().any(|l| l.trim() == format!("[{s}]"));
-    let mut sections = serde_json::Map::new();
-    for s in SECTIONS {
-        let mine = problems.iter().any(|p| {
-            p["key"]
-                .as_str()
-                .is_some_and(|k| k == s || k.starts_with(&format!("{s}.")) || k.starts_with(&format!("{s}[")))
-        });
-        let state = if !present(s) {
-            "missing"
-        } else if mine {
-            "invalid"
-        } else {
-            "ok"
-        };
-        sections.insert(s.into(), json!(state));
-    }
-    json!({"ok": true, "sections": sections, "problems": problems, "plan": plan, "toml": text})
+    let c = check_sections(text, &app.machine, &resolve);
+    let sections: serde_json::Map<String, Value> = SECTIONS
+        .iter()
+        .map(|s| ((*s).to_string(), json!(c.state(s))))
+        .collect();
+    let problems: Vec<Value> = c
+        .problems
+        .iter()
+        .map(|p| json!({"key": p.key, "message": p.message}))
+        .collect();
+    json!({"ok": true, "sections": sections, "problems": problems, "plan": c.plan, "toml": text})
 }

@@ -96,9 +96,49 @@ pub fn locate_key(src: &str, path: &str) -> Option<Position> {
     best.map(|b| position_of(src, b))
 }
 
+/// The key path (as [`locate_key`] takes it: dotted, `[i]` for array elements) of the
+/// deepest key or element whose text contains byte offset `byte` of `src`: where a parser's
+/// error points, named as the operator's form names the field.
+pub fn key_at(src: &str, byte: usize) -> Option<String> {
+    fn within(span: std::ops::Range<usize>, byte: usize) -> bool {
+        span.start <= byte && byte < span.end.max(span.start + 1)
+    }
+    // Depth first: a table's own span may cover only its header, so every child is looked
+    // at, and the deepest entry containing the byte wins.
+    fn find(v: &DeValue<'_>, path: &str, byte: usize) -> Option<String> {
+        match v {
+            DeValue::Table(t) => t.iter().find_map(|(k, x)| {
+                let p = if path.is_empty() {
+                    k.get_ref().to_string()
+                } else {
+                    format!("{path}.{}", k.get_ref())
+                };
+                find(x.get_ref(), &p, byte)
+                    .or_else(|| (within(k.span(), byte) || within(x.span(), byte)).then_some(p))
+            }),
+            DeValue::Array(a) => a.iter().enumerate().find_map(|(i, x)| {
+                let p = format!("{path}[{i}]");
+                find(x.get_ref(), &p, byte).or_else(|| within(x.span(), byte).then_some(p))
+            }),
+            _ => None,
+        }
+    }
+    let root = DeTable::parse(src).ok()?;
+    find(&DeValue::Table(root.get_ref().clone()), "", byte)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn the_key_at_a_byte_is_the_deepest_one_written_there() {
+        let at = |needle: &str| key_at(SRC, SRC.find(needle).expect("in SRC"));
+        assert_eq!(at("17").as_deref(), Some("workpiece.teeth"));
+        assert_eq!(at("-0.01").as_deref(), Some("workpiece.contour[1][1]"));
+        assert_eq!(at("\"hob\"").as_deref(), Some("tool.kind"));
+        assert_eq!(key_at(SRC, SRC.len() + 5), None);
+    }
 
     const SRC: &str =
         "[workpiece]\nteeth = 17\ncontour = [[0.0, 0.0], [20.0, -0.01]]\n\n[tool]\nkind = \"hob\"\n";

@@ -574,6 +574,7 @@ fn count(p: &mut Problems, key: &str, value: i64, lo: u32, hi: u32) -> Option<u3
     }
 }
 
+pub mod form;
 pub mod span;
 #[cfg(test)]
 mod tests;
