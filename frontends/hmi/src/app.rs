@@ -6,8 +6,10 @@ use crate::bridge::Hub;
 use crate::commander::Commander;
 use hob_ipc::CommandRequest;
 use hob_setup::config::machine::MachineConfig;
+use hob_setup::planner::Plan;
 use hob_store::library::{Kind, Library};
 use std::path::PathBuf;
+use std::sync::Mutex;
 
 #[derive(Debug)]
 pub struct App {
@@ -19,6 +21,9 @@ pub struct App {
     pub log_dir: Option<PathBuf>,
     /// The `hello` the page gets: the machine's name, limits and signal names.
     pub hello: serde_json::Value,
+    /// The plan of the program this HMI loaded last (accepted by the loop), for the time
+    /// left; only used while the loop's program looks like it (passes, gear).
+    pub loaded: Mutex<Option<(String, Plan)>>,
 }
 
 impl App {
@@ -37,12 +42,13 @@ impl App {
             library,
             log_dir,
             hello,
+            loaded: Mutex::new(None),
         }
     }
 
     /// A library program as `hob load --lib NAME` sends it: its text with the library tool
-    /// filled in; the loop parses and checks it again and answers.
-    pub fn load_request(&self, name: &str) -> Result<CommandRequest, String> {
+    /// filled in (the loop parses and checks it again and answers), and its plan.
+    pub fn load_request(&self, name: &str) -> Result<(CommandRequest, Plan), String> {
         let text = self
             .library
             .text(Kind::Program, name)
@@ -52,7 +58,36 @@ impl App {
             .path(Kind::Program, name)
             .map_err(|e| e.to_string())?;
         let resolved = self.library.resolve(&origin, &text).map_err(|e| e.to_string())?;
-        CommandRequest::load_program(&format!("library program {name}"), &resolved)
+        let plan =
+            hob_setup::planner::plan_source(&origin, &resolved, &self.machine).map_err(|e| e.to_string())?;
+        Ok((
+            CommandRequest::load_program(&format!("library program {name}"), &resolved)?,
+            plan,
+        ))
+    }
+
+    /// Remembers the plan of a program the loop accepted from this HMI.
+    pub fn loaded(&self, name: &str, plan: Plan) {
+        *self
+            .loaded
+            .lock()
+            .unwrap_or_else(std::sync::PoisonError::into_inner) = Some((name.to_string(), plan));
+    }
+
+    /// The time left of the cycle under way (`hob_setup::planner::progress`), when the loop's
+    /// program is the one this HMI loaded (same number of passes and gear) and a pass runs.
+    pub fn time_left_s(&self, s: &crate::protocol::StateView, pitch_radius_mm: f64) -> Option<f64> {
+        let loaded = self
+            .loaded
+            .lock()
+            .unwrap_or_else(std::sync::PoisonError::into_inner);
+        let (_, plan) = loaded.as_ref()?;
+        let same = plan.passes.len() == s.passes as usize
+            && (plan.pitch_diameter_mm - 2.0 * pitch_radius_mm).abs() < 1e-6;
+        if !same || s.pass == 0 {
+            return None;
+        }
+        hob_setup::planner::progress::time_left_s(plan, s.pass, s.y_mm.act, s.feed_override_percent)
     }
 }
 

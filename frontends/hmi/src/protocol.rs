@@ -78,6 +78,8 @@ pub struct StateView {
     pub events_lost: u64,
     /// The plot's bound for the loaded gear, arcsec (none without a program).
     pub bound_arcsec: Option<f64>,
+    /// The loaded gear's pitch radius (0 without a program).
+    pub pitch_radius_mm: f64,
 }
 
 fn axes(bits: u8) -> Vec<&'static str> {
@@ -167,6 +169,7 @@ impl StateView {
             overruns: s.overruns,
             events_lost: s.events_lost,
             bound_arcsec: bound_arcsec(s.pitch_radius_mm, s.normal_module_mm),
+            pitch_radius_mm: s.pitch_radius_mm,
         }
     }
 }

@@ -27,6 +27,8 @@ enum Out<'a> {
     },
     Frame {
         skipped: u64,
+        /// The cycle's time left, when this HMI knows the loaded program's plan.
+        time_left_s: Option<f64>,
         #[serde(flatten)]
         frame: &'a Frame,
     },
@@ -69,6 +71,27 @@ struct Waiting {
 }
 
 impl Waiting {
+    /// As [`Waiting::answer`], running `accepted` first when the loop accepts.
+    fn answer_then(
+        &self,
+        id: u64,
+        reply: tokio::sync::oneshot::Receiver<Reply>,
+        accepted: impl FnOnce() + Send + 'static,
+    ) {
+        let tx = self.tx.clone();
+        tokio::spawn(async move {
+            let a = match reply.await {
+                Ok(Ok(r)) => Answer::of(id, &r),
+                Ok(Err(e)) => Answer::refused(id, e),
+                Err(_) => Answer::refused(id, "the HMI's command thread has stopped"),
+            };
+            if a.ok {
+                accepted();
+            }
+            let _ = tx.send((a, false));
+        });
+    }
+
     /// Forwards the loop's answer to `id` when it comes; `jog`: a jog's answer (only a
     /// refusal is shown; it also ends the hold).
     fn answer(&self, id: u64, reply: tokio::sync::oneshot::Receiver<Reply>, jog: bool) {
@@ -82,6 +105,11 @@ impl Waiting {
             let _ = tx.send((a, jog));
         });
     }
+}
+
+fn time_left(app: &App, f: &Frame) -> Option<f64> {
+    let s = f.state.as_ref()?;
+    app.time_left_s(s, s.pitch_radius_mm)
 }
 
 /// Serves one browser until it goes.
@@ -124,7 +152,7 @@ pub async fn serve(ws: WebSocket, app: Arc<App>, panel: bool) {
                         }
                         let f = frames.borrow_and_update().clone();
                         last_frame = f.seq;
-                        if !s.send(&Out::Frame { skipped: 0, frame: &f }).await {
+                        if !s.send(&Out::Frame { skipped: 0, time_left_s: time_left(&app, &f), frame: &f }).await {
                             break;
                         }
                         last_event = Some(seen);
@@ -133,12 +161,19 @@ pub async fn serve(ws: WebSocket, app: Arc<App>, panel: bool) {
                         }
                     }
                     _ if !panel => break,
+                    ClientMsg::Cmd { id, op: Op::Load { program } } => match app.load_request(&program) {
+                        Ok((r, plan)) => {
+                            let app2 = app.clone();
+                            waiting.answer_then(id, app.commands.submit(r), move || app2.loaded(&program, plan));
+                        }
+                        Err(e) => {
+                            if !s.send(&Out::Answer(&Answer::refused(id, e))).await {
+                                break;
+                            }
+                        }
+                    },
                     ClientMsg::Cmd { id, op } => {
-                        let req = match &op {
-                            Op::Load { program } => app.load_request(program),
-                            other => other.request(),
-                        };
-                        match req {
+                        match op.request() {
                             Ok(r) => waiting.answer(id, app.commands.submit(r), false),
                             Err(e) => {
                                 if !s.send(&Out::Answer(&Answer::refused(id, e))).await {
@@ -178,7 +213,7 @@ pub async fn serve(ws: WebSocket, app: Arc<App>, panel: bool) {
                 }
                 let skipped = f.seq.saturating_sub(last_frame + 1);
                 last_frame = f.seq;
-                if !s.send(&Out::Frame { skipped, frame: &f }).await {
+                if !s.send(&Out::Frame { skipped, time_left_s: time_left(&app, &f), frame: &f }).await {
                     break;
                 }
             }

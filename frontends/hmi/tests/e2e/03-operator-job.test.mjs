@@ -78,6 +78,7 @@ test("a new program through the sub-menus, a single pass, the span, the automati
   await page.locator('[data-testid="cmd-load"]').tap();
   await page.locator('[data-testid="start-auto"]').tap();
   await waitFor("the automatic cut", () => status().state === "cut", 180000, 200);
+  await waitFor("the time left on AUTOMATIC", async () => /^\d+:\d\d$/.test(await page.locator('[data-testid="time-left"]').innerText()), 5000);
   await page.locator('[data-testid="feed-80"]').tap();
   await waitFor("feed override 80 % in the loop", () => status().feed_override_percent === 80, 5000);
   await page.locator('[data-testid="overrides"]').waitFor({ timeout: 3000 });

@@ -58,6 +58,8 @@ export function PowerUp({ conn }) {
 
 const STEPS = [0.001, 0.01, 0.1, 1];
 
+const mmss = (t) => `${Math.floor(t / 60)}:${String(Math.floor(t % 60)).padStart(2, "0")}`;
+
 export function Jog({ conn, program }) {
   const s = conn.frame && conn.frame.state;
   const [speed, setSpeed] = useState(300);
@@ -159,6 +161,7 @@ export function Automatic({ conn, program }) {
       <div class="progress"><div style=${`width:${progress}%`}></div></div>
       <div class="row"><span class="label">state</span><b data-testid="auto-state">${s ? s.state : "-"}</b>
         <span class="label">pass</span><b>${s ? `${s.pass} of ${s.passes}` : "-"}</b>
+        <span class="label">time left</span><b data-testid="time-left">${conn.frame && conn.frame.time_left_s !== null && conn.frame.time_left_s !== undefined ? mmss(conn.frame.time_left_s) : s && s.pass ? "unknown (the program was not loaded here)" : "-"}</b>
         <span class="label">sync error</span><b>${s ? fmt(s.sync_error_arcsec, 2) : "-"}"</b>
         <span class="label">bound</span><b>${s && s.bound_arcsec ? `±${fmt(s.bound_arcsec, 1)}"` : "-"}</b></div>
       <${SyncPlot} points=${conn.plot} bound=${s && s.bound_arcsec} version=${conn.frame && conn.frame.seq} /></div>

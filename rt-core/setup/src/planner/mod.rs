@@ -13,6 +13,7 @@
 //! ```
 
 pub mod motion;
+pub mod progress;
 
 use crate::config::machine::MachineConfig;
 use crate::config::{LoadError, Problems};
