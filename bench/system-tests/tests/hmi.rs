@@ -28,10 +28,8 @@ fn path(p: &Path) -> String {
     p.display().to_string()
 }
 
-#[test]
-#[ignore = "needs the release binaries, Chromium and frontends/hmi/node_modules: run by ci/test"]
-fn the_touch_hmi_in_chromium() {
-    let mut b = Bench::new("hmi");
+/// The machine side on this bench's bus, and the environment the node scripts read.
+fn stack(b: &mut Bench) -> Vec<(&'static str, String)> {
     let hmi_exe = b.bin.join("hob-hmi");
     assert!(hmi_exe.is_file(), "{}: not built", hmi_exe.display());
     let vendor = b.root.join("frontends/hmi/node_modules");
@@ -56,8 +54,8 @@ fn the_touch_hmi_in_chromium() {
     ])
     .stdin(std::process::Stdio::piped());
     let sim = b.spawn_cmd("hob-sim", sim, "sim.txt");
-    // Kept open: hob-sim --control ends with its standard input.
-    let _faults = b.stdin_of(sim);
+    // Kept open as long as the bench: hob-sim --control ends with its standard input.
+    std::mem::forget(b.stdin_of(sim));
     std::thread::sleep(Duration::from_millis(300));
     let state_file = b.art.join("machine-state.toml");
     b.spawn(
@@ -96,27 +94,28 @@ fn the_touch_hmi_in_chromium() {
         .get("tool.outside_diameter_mm")
         .as_float()
         .unwrap();
-    let shots = std::env::var("HOB_HMI_SHOTS").unwrap_or_else(|_| path(&b.art.join("screens")));
     b.wait_state("idle", Duration::from_secs(300));
+    vec![
+        ("HOB_INSTANCE", b.instance.clone()),
+        ("HOB_BIN", path(&b.bin)),
+        ("HOB_MACHINE", path(&machine)),
+        ("HOB_LIBRARY", path(&library)),
+        ("HOB_LOG_DIR", path(&log_dir)),
+        ("HOB_VENDOR", path(&vendor)),
+        ("HOB_TOOL_TIP_MM", tip_mm.to_string()),
+    ]
+}
 
+/// Runs node with `args` in the workspace root and `env`, its output in `log`; fails the
+/// test with that output when node fails or takes longer than `limit`.
+fn node(b: &mut Bench, args: &[&str], env: &[(&'static str, String)], log: &str, limit: Duration) {
     let started = Instant::now();
     let mut node = Command::new("node");
-    node.current_dir(&b.root)
-        .args([
-            "--test",
-            "--test-concurrency=1",
-            "--test-timeout=600000",
-            "frontends/hmi/tests/e2e/",
-        ])
-        .env("HOB_INSTANCE", &b.instance)
-        .env("HOB_BIN", &b.bin)
-        .env("HOB_MACHINE", &machine)
-        .env("HOB_LIBRARY", &library)
-        .env("HOB_LOG_DIR", &log_dir)
-        .env("HOB_VENDOR", &vendor)
-        .env("HOB_TOOL_TIP_MM", tip_mm.to_string())
-        .env("HOB_HMI_SHOTS", &shots);
-    let log = b.art.join("node-tests.txt");
+    node.current_dir(&b.root).args(args);
+    for (k, v) in env {
+        node.env(k, v);
+    }
+    let log = b.art.join(log);
     let out = std::fs::File::create(&log).unwrap();
     let mut child = node
         .stdout(out.try_clone().unwrap())
@@ -127,23 +126,61 @@ fn the_touch_hmi_in_chromium() {
         if let Some(s) = child.try_wait().unwrap() {
             break s;
         }
-        if started.elapsed() > SUITE_TIMEOUT {
+        if started.elapsed() > limit {
             let _ = child.kill();
-            panic!(
-                "the browser tests took over {} s: {}",
-                SUITE_TIMEOUT.as_secs(),
-                log.display()
-            );
+            panic!("node {args:?} took over {} s: {}", limit.as_secs(), log.display());
         }
         std::thread::sleep(Duration::from_millis(200));
     };
     let text = std::fs::read_to_string(&log).unwrap();
     eprintln!("{text}");
-    eprintln!("browser tests: {:.0} s", started.elapsed().as_secs_f64());
+    eprintln!("node {args:?}: {:.0} s", started.elapsed().as_secs_f64());
     assert!(
         status.success(),
-        "the browser tests failed ({}); the log above",
+        "node {args:?} failed ({}); the log above",
         log.display()
     );
     b.check_alive();
+}
+
+#[test]
+#[ignore = "needs the release binaries, Chromium and frontends/hmi/node_modules: run by ci/test"]
+fn the_touch_hmi_in_chromium() {
+    let mut b = Bench::new("hmi");
+    let mut env = stack(&mut b);
+    let shots = std::env::var("HOB_HMI_SHOTS").unwrap_or_else(|_| path(&b.art.join("screens")));
+    env.push(("HOB_HMI_SHOTS", shots));
+    node(
+        &mut b,
+        &[
+            "--test",
+            "--test-concurrency=1",
+            "--test-timeout=600000",
+            "frontends/hmi/tests/e2e/",
+        ],
+        &env,
+        "node-tests.txt",
+        SUITE_TIMEOUT,
+    );
+}
+
+/// The HMI's figures (docs/performance.md, "The touch HMI"): not part of ci/test.
+/// `HOB_HMI_BENCH_S` seconds of frames (default 60), then 200 command round trips; the
+/// JSON in `target/service-artifacts/hmi-figures/figures.json`.
+#[test]
+#[ignore = "a benchmark: HOB_BIN=target/release cargo test -p hob-system-tests --release --test hmi hmi_figures -- --ignored --nocapture"]
+fn hmi_figures() {
+    let mut b = Bench::new("hmi-figures");
+    let mut env = stack(&mut b);
+    env.push(("HOB_HMI_FIGURES", path(&b.art.join("figures.json"))));
+    if let Ok(s) = std::env::var("HOB_HMI_BENCH_S") {
+        env.push(("HOB_HMI_BENCH_S", s));
+    }
+    node(
+        &mut b,
+        &["frontends/hmi/tests/bench/figures.mjs"],
+        &env,
+        "figures.txt",
+        Duration::from_secs(3600),
+    );
 }

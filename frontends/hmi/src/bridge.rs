@@ -81,6 +81,7 @@ impl Bridge {
         let empty = Frame {
             seq: 0,
             loop_age_ms: None,
+            sample_utc_ms: None,
             silent_ms: None,
             samples_missed: 0,
             loop_restarts: 0,
@@ -175,12 +176,14 @@ impl Bridge {
                 period_ns: self.period_ns,
             });
         }
+        let loop_age_ms = self
+            .newest
+            .as_ref()
+            .map(|(s, _)| mono_ns.saturating_sub(s.sync_time_ns) as f64 / 1e6);
         let frame = Arc::new(Frame {
             seq: self.frame_seq,
-            loop_age_ms: self
-                .newest
-                .as_ref()
-                .map(|(s, _)| mono_ns.saturating_sub(s.sync_time_ns) as f64 / 1e6),
+            loop_age_ms,
+            sample_utc_ms: loop_age_ms.map(|age| utc_ms as f64 - age),
             silent_ms,
             samples_missed: self.gaps.missed,
             loop_restarts: self.gaps.restarts,

@@ -207,3 +207,36 @@ pub async fn span_carry(State(app): Shared, Json(s): Json<Span>) -> Response {
         Err(r) => refusal(&r),
     }
 }
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ToolFromForm {
+    name: String,
+    fields: Vec<Field>,
+}
+
+/// `POST /api/tool-from-form`: the definition's own tool fields stored as a new library
+/// tool (`hob lib tools create`'s checks; refused, nothing written).
+pub async fn tool_from_form(State(app): Shared, Json(t): Json<ToolFromForm>) -> Response {
+    let tool: Vec<Field> = t
+        .fields
+        .into_iter()
+        .filter(|f| f.key.starts_with("tool.") && f.key != "tool.library")
+        .collect();
+    let text = match form::to_toml(&tool) {
+        Ok(body) => format!(
+            "format_version = {}\n\n{body}",
+            hob_store::library::TOOL_FORMAT_VERSION
+        ),
+        Err(e) => return bad_request(e),
+    };
+    match app.library.create_tool(&t.name, &text) {
+        Ok(_) => (StatusCode::CREATED, Json(json!({"ok": true, "name": t.name}))).into_response(),
+        Err(Refusal::Invalid { what, error }) => (
+            StatusCode::UNPROCESSABLE_ENTITY,
+            Json(json!({"refused": format!("{what}: {error}"), "problems": problems_of(&error, &text)})),
+        )
+            .into_response(),
+        Err(r) => refusal(&r),
+    }
+}

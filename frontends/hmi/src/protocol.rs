@@ -283,6 +283,9 @@ pub struct Frame {
     pub seq: u64,
     /// How old the newest sample is, from its SYNC time (the bus included).
     pub loop_age_ms: Option<f64>,
+    /// The wall-clock time of the newest sample's SYNC, ms since the epoch (the page
+    /// measures the state-to-screen latency against it).
+    pub sample_utc_ms: Option<f64>,
     /// No sample from the loop for this long (over the silence limit), ms.
     pub silent_ms: Option<u64>,
     /// Cycles the HMI never received since it started, and loop restarts it saw.

@@ -130,6 +130,7 @@ pub fn panel_router(app: Arc<App>, vendor_files: Arc<Vendor>, host: String) -> R
         .route("/api/check", post(definition::check))
         .route("/api/save", post(definition::save))
         .route("/api/span", post(definition::span))
+        .route("/api/tool-from-form", post(definition::tool_from_form))
         .route("/api/span/carry", post(definition::span_carry))
         .with_state(app);
     Router::new()

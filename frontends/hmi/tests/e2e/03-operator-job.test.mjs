@@ -48,6 +48,17 @@ test("a new program through the sub-menus, a single pass, the span, the automati
     for (const [k, v] of Object.entries(CHOICES[s])) await page.locator(`[data-key="${k}"]`).selectOption(v);
     for (const [k, v] of Object.entries(GEAR[s])) await page.locator(`[data-key="${k}"]`).fill(v);
     await waitFor(`${s} green`, async () => (await sectionState(page, s)) === "ok", 10000);
+    if (s === "tool") {
+      // The hob into the tool library, then picked from it: the program names it.
+      await page.locator('[data-testid="tool-name"]').fill("hob-m5-test");
+      await page.locator('[data-testid="tool-save"]').tap();
+      await page.locator('[data-testid="tool-answer"].ok').waitFor({ timeout: 10000 });
+      await page.locator('[data-tool="hob-m5-test"] >> text=PICK').tap();
+      assert.equal(await page.locator('[data-key="tool.library"]').inputValue(), "hob-m5-test");
+      assert.equal(await page.locator('[data-key="tool.gashes"]').inputValue(), "", "the own fields cleared");
+      await waitFor("TOOL green with the library tool", async () => (await sectionState(page, s)) === "ok", 10000);
+      await shot(page, "definition-tool");
+    }
   }
   await page.locator('[data-testid="derived"]').waitFor({ timeout: 10000 });
   assert.match(await page.locator('[data-testid="cycle-time"]').innerText(), /min/);
@@ -85,6 +96,9 @@ test("a new program through the sub-menus, a single pass, the span, the automati
   await page.locator('[data-testid="feed-hold"]').tap();
   await waitFor("feed hold in the loop", () => status().hold, 5000);
   await shot(page, "automatic");
+  await page.setViewportSize({ width: 1920, height: 1080 });
+  await shot(page, "automatic-1920x1080");
+  await page.setViewportSize({ width: 1280, height: 800 });
   await page.locator('[data-testid="resume"]').tap();
   await waitFor("resumed", () => !status().hold, 5000);
   await waitFor("the cycle done", () => status().state === "idle", 600000, 500);

@@ -35,5 +35,13 @@ test("kill -9 of hob-hmi mid-cut changes nothing in the loop; the page resynchro
   const texts = (await page.locator('[data-testid="event"]').allInnerTexts()).join("\n");
   assert.match(texts, /cycle done/, "the end of the pass is missing from the page");
   await shot(page, "alarms");
+  // DIAGNOSTICS: the loop's timing from its stats, the drives, every named signal.
+  await page.locator('nav [data-screen="diagnostics"]').tap();
+  await page.locator('[data-testid="overruns"]').waitFor({ timeout: 5000 });
+  assert.equal(await page.locator('[data-signal]').count(), 23, "15 inputs and 8 outputs of the machine file");
+  await shot(page, "diagnostics");
+  await page.locator('nav [data-screen="jog"]').tap();
+  await page.setViewportSize({ width: 1920, height: 1080 });
+  await shot(page, "jog-1920x1080");
   await page.close();
 });

@@ -51,6 +51,10 @@ export class Conn {
       case "frame":
         this.frame = m;
         this.lastFrameAt = performance.now();
+        if (this.latency && m.sample_utc_ms) {
+          // State to screen: from the sample's SYNC to the next paint after it arrived.
+          requestAnimationFrame(() => this.latency.push(performance.timeOrigin + performance.now() - m.sample_utc_ms));
+        }
         if (m.plot) {
           this.plot.push({ c0: m.plot.c0, min: m.plot.min, max: m.plot.max, gap: m.skipped > 0 || m.plot.gap > 0, cut: m.plot.cut });
         } else if (m.skipped > 0 && this.plot.length) {

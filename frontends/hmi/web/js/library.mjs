@@ -17,6 +17,10 @@ export const SECTIONS = [
     num("workpiece.face_width_mm", "face width", "mm"), num("workpiece.outside_diameter_mm", "outside diameter", "mm"),
     num("workpiece.height_above_table_mm", "height above the table", "mm"), num("workpiece.allowance_mm", "approach/exit allowance", "mm"),
     num("workpiece.crowning.height_mm", "crowning: arc height (or radius below)", "mm"), num("workpiece.crowning.radius_mm", "crowning: radius", "mm"),
+    ...[0, 1, 2, 3, 4, 5].flatMap((i) => [
+      num(`workpiece.contour[${i}][0]`, `contour point ${i + 1}: along the face`, "mm"),
+      num(`workpiece.contour[${i}][1]`, `contour point ${i + 1}: X offset`, "mm"),
+    ]),
   ]],
   ["tool", "TOOL", [
     str("tool.library", "library tool (or the fields below)"), pick("tool.kind", "kind", ["hob", "disk"]),
@@ -78,6 +82,77 @@ function Field({ f, value, problem, onInput }) {
   return html`<label class=${cls}><span>${f.label}</span>${input}<span class="unit">${f.unit || ""}</span>${problem ? html`<em class="why" data-problem=${f.key}>${problem}</em>` : ""}</label>`;
 }
 
+/** A sketch of the X shape along the face: crowning arc and contour points, X offsets
+ *  exaggerated so that hundredths of a mm show; from the typed values, drawn only. */
+function ShapeSketch({ values }) {
+  const w = Number(values["workpiece.face_width_mm"]);
+  const h = Number(values["workpiece.crowning.height_mm"] || 0);
+  const pts = [0, 1, 2, 3, 4, 5]
+    .map((i) => [values[`workpiece.contour[${i}][0]`], values[`workpiece.contour[${i}][1]`]])
+    .filter(([a, b]) => a !== undefined && a !== "" && b !== undefined && b !== "")
+    .map(([a, b]) => [Number(a), Number(b)]);
+  if (!(w > 0)) return html`<p class="hint">The sketch of the shape appears with the face width.</p>`;
+  const n = 40, line = [];
+  for (let k = 0; k <= n; k++) {
+    const y = (w * k) / n;
+    const crown = h ? h * (1 - (2 * y / w - 1) ** 2) : 0;
+    line.push([y, crown]);
+  }
+  const all = [...line.map((p) => p[1]), ...pts.map((p) => p[1]), 0];
+  const span = Math.max(1e-6, Math.max(...all) - Math.min(...all));
+  const lo = Math.min(...all);
+  const X = (y) => 20 + (360 * y) / w, Y = (o) => 130 - (100 * (o - lo)) / span;
+  return html`<svg class="sketch" viewBox="0 0 400 150" data-testid="shape-sketch">
+    <line x1="20" y1=${Y(0)} x2="380" y2=${Y(0)} stroke="#556" />
+    <polyline fill="none" stroke="#50d0ff" stroke-width="2" points=${line.map(([y, o]) => `${X(y)},${Y(o)}`).join(" ")} />
+    ${pts.length ? html`<polyline fill="none" stroke="#ffc040" stroke-width="2" points=${pts.map(([y, o]) => `${X(y)},${Y(o)}`).join(" ")} />` : ""}
+    ${pts.map(([y, o]) => html`<circle cx=${X(y)} cy=${Y(o)} r="4" fill="#ffc040" />`)}
+    <text x="20" y="146" fill="#9fb0c0" font-size="12">face 0</text><text x="330" y="146" fill="#9fb0c0" font-size="12">${w} mm</text>
+    <text x="24" y="14" fill="#9fb0c0" font-size="12">X offset, ${(span * 1000).toFixed(0)} um full height</text></svg>`;
+}
+
+/** The tool library in the TOOL sub-menu: each tool valid or not, its usage; pick one for
+ *  the program, delete one, or store the program's own tool as a new one. */
+function ToolLibrary({ values, setValues, fields }) {
+  const [list, setList] = useState(null);
+  const [usage, setUsage] = useState({});
+  const [name, setName] = useState("");
+  const [msg, setMsg] = useState(null);
+  const refresh = async () => {
+    const r = await api("GET", "/api/tools");
+    setList(r);
+    const u = {};
+    for (const e of r.entries || []) {
+      const t = await api("GET", `/api/tools/${encodeURIComponent(e.name)}`);
+      u[e.name] = t.usage;
+    }
+    setUsage(u);
+  };
+  useEffect(() => { refresh(); }, []);
+  const pickTool = (n) => {
+    const v = { ...values };
+    for (const k of Object.keys(v)) if (k.startsWith("tool.")) delete v[k];
+    v["tool.library"] = n;
+    setValues(v);
+  };
+  const act = async (method, path, body) => {
+    const r = await api(method, path, body);
+    setMsg(r.ok ? { ok: true, text: "done" } : { ok: false, text: r.refused });
+    refresh();
+  };
+  if (!list) return html`<p class="hint">reading the tool library...</p>`;
+  return html`<div class="tools" data-testid="tool-library"><h3>Tool library</h3>
+    <table class="grid">${(list.entries || []).map((e) => html`<tr data-tool=${e.name}>
+      <td>${e.name}</td><td class=${e.valid ? "ok" : "bad"}>${e.valid ? "valid" : e.problem}</td>
+      <td class="small">${usage[e.name] ? `${usage[e.name].passes_cut} passes, ${Number(usage[e.name].y_travel_in_cut_m).toFixed(2)} m in the cut${usage[e.name].last_used_utc ? `, last ${usage[e.name].last_used_utc}` : ""}` : ""}</td>
+      <td><button class="key small" disabled=${!e.valid} onClick=${() => pickTool(e.name)}>PICK</button>
+        <button class="key small stop" onClick=${() => confirm(`Delete the tool ${e.name}?`) && act("DELETE", `/api/tools/${encodeURIComponent(e.name)}`)}>DELETE</button></td></tr>`)}</table>
+    ${list.entries && list.entries.length === 0 ? html`<p class="hint">No tools in the library yet.</p>` : ""}
+    <div class="row">new tool <input value=${name} data-testid="tool-name" onInput=${(e) => setName(e.target.value)} />
+      <button class="key" data-testid="tool-save" disabled=${!name} onClick=${() => act("POST", "/api/tool-from-form", { name, fields: fields() })}>STORE THE FIELDS ABOVE AS A LIBRARY TOOL</button></div>
+    ${msg ? html`<p class=${msg.ok ? "ok" : "bad"} data-testid="tool-answer">${msg.text}</p>` : ""}</div>`;
+}
+
 function Derived({ plan }) {
   if (!plan) return html`<p class="hint">The plan appears when every sub-menu is green.</p>`;
   return html`<table class="kv" data-testid="derived">
@@ -116,7 +191,9 @@ export function Definition({ conn, program, setProgram, go }) {
     timer.current = setTimeout(() => api("POST", "/api/check", { fields: fields() }).then(setCheck), 250);
   }, [values]);
   const set = (k, v) => setValues({ ...values, [k]: v });
-  const problemOf = (k) => check && (check.problems || []).filter((p) => p.key === k).map((p) => p.message).join("; ");
+  // A problem of a whole contour point (workpiece.contour[2]) shows on both its fields.
+  const covers = (pk, k) => pk === k || (pk !== "" && k.startsWith(`${pk}[`));
+  const problemOf = (k) => check && (check.problems || []).filter((p) => covers(p.key, k)).map((p) => p.message).join("; ");
   const state = (s) => (check && check.sections ? check.sections[s] : "missing");
   const allGreen = check && check.plan && SECTIONS.every(([s]) => state(s) === "ok");
   const save = async () => {
@@ -125,12 +202,14 @@ export function Definition({ conn, program, setProgram, go }) {
     if (r.ok) { setIsNew(false); setProgram(name); sessionStorage.removeItem("newName"); }
   };
   const [, , current] = SECTIONS.find(([s]) => s === section);
-  const unplaced = check ? (check.problems || []).filter((p) => !KNOWN.has(p.key)) : [];
+  const unplaced = check ? (check.problems || []).filter((p) => ![...KNOWN].some((k) => covers(p.key, k))) : [];
   return html`<section class="definition">
     <div class="row submenus">${SECTIONS.map(([s, label]) => html`<button class=${`key submenu ${state(s)} ${s === section ? "on" : ""}`} data-section=${s} data-state=${state(s)} onClick=${() => setSection(s)}>${label}</button>`)}</div>
     <div class="grid2">
       <div class="card"><h2>${isNew ? "New program" : "Program"} <input value=${name} data-testid="definition-name" onInput=${(e) => setName(e.target.value)} /></h2>
         ${current.map((f) => html`<${Field} f=${f} value=${values[f.key] || ""} problem=${problemOf(f.key)} onInput=${set} />`)}
+        ${section === "workpiece" ? html`<${ShapeSketch} values=${values} />` : ""}
+        ${section === "tool" ? html`<${ToolLibrary} values=${values} setValues=${setValues} fields=${fields} />` : ""}
         ${unplaced.length ? html`<div class="bad" data-testid="other-problems">${unplaced.map((p) => html`<div>${p.key || "program"}: ${p.message}</div>`)}</div>` : ""}
         <div class="row"><button class="key primary" data-testid="save" onClick=${save} disabled=${!name}>SAVE</button>
           <button class="key" data-testid="go-single" disabled=${!allGreen || !program} onClick=${() => go("single")}>SINGLE MODE</button>

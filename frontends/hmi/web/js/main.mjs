@@ -20,6 +20,8 @@ conn.toast = (a, label) => {
 };
 conn.dismiss = (key) => { conn.toasts = conn.toasts.filter((t) => t.key !== key); conn.notify(); };
 installReleaseOnLeave(conn);
+// For the HMI's benchmark (frontends/hmi/tests/bench/figures.mjs): the page's connection.
+window.hobConn = conn;
 
 const SCREENS = [
   ["powerup", "POWER-UP"], ["jog", "JOG"], ["programs", "PROGRAMS"], ["definition", "DEFINITION"],
