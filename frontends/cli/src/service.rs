@@ -84,8 +84,8 @@ pub fn jog_hold(
     release: bool,
 ) -> Result<String, (u8, String)> {
     let r = hob_ipc::request::jog_continuous(axis, direction, speed).map_err(refused)?;
-    let a =
-        codec::Axis::parse(axis).ok_or_else(|| refused(format!("jog-hold: axis {axis} is not x, y or b")))?;
+    // The builder accepted the axis: its code names it.
+    let axis_name = codec::Axis::from_code(r.axis).map_or("?", codec::Axis::name);
     if !(seconds.is_finite() && seconds >= 0.0) {
         return Err((2, format!("jog-hold: --seconds {seconds} is not a duration")));
     }
@@ -112,13 +112,11 @@ pub fn jog_hold(
             return Err((2, answer.text()));
         }
         Ok(format!(
-            "jog {} {direction}: {renewals} renewals, released\n",
-            a.name()
+            "jog {axis_name} {direction}: {renewals} renewals, released\n"
         ))
     } else {
         Ok(format!(
-            "jog {} {direction}: {renewals} renewals, then none (the dead-man stops it)\n",
-            a.name()
+            "jog {axis_name} {direction}: {renewals} renewals, then none (the dead-man stops it)\n"
         ))
     }
 }
