@@ -312,6 +312,83 @@ pub enum Fault {
     PositionLost = 16,
 }
 
+// The pieces of the fault texts (literals, so that each text is one `&'static str`).
+
+/// A fault in a cycle when X and the table can both still move (`seq_on_fault`:
+/// `FaultRetract` from the cut or the infeed, else `FaultStop`).
+macro_rules! reaction_retract {
+    () => {
+        "in the cut (or the infeed) X retracted to its safe position with the gearbox still \
+         engaged, so the hob left its tooth gap (Y stopped, the X clamp opened); then the machine \
+         stopped (gearbox out, spindle and axes to rest, 15 s at most) and PC-OK dropped, which \
+         opens the safety chain; elsewhere in a cycle it stopped where it was, then PC-OK dropped"
+    };
+}
+
+/// A fault in a cycle that the table cannot follow.
+macro_rules! reaction_table_lost {
+    () => {
+        "in the cut the table could no longer follow: the spindle stopped and the gearbox \
+         disengaged at once, X pulled the hob out of the work (Y stopped), then the machine came \
+         to rest and PC-OK dropped, which opens the safety chain; elsewhere in a cycle the \
+         spindle stopped and the gearbox disengaged at once, the machine stopped where it was, \
+         then PC-OK dropped"
+    };
+}
+
+/// A fault in a cycle under which X cannot move.
+macro_rules! reaction_x_stuck {
+    () => {
+        "in a cycle X could not move: the machine stopped where it was, the hob in the work if \
+         it was there (gearbox out, spindle and axes to rest, 15 s at most), then PC-OK dropped, \
+         which opens the safety chain"
+    };
+}
+
+macro_rules! reaction_outside {
+    () => {
+        "; outside a cycle (idle, jogging, referencing) the spindle stopped and PC-OK dropped at once"
+    };
+}
+
+/// The watchdog's reaction to a loop faulted with a node lost (`hob-watchdog`).
+macro_rules! reaction_watchdog {
+    () => {
+        "; with the loop faulted, the watchdog switched every output of the I/O coupler off by \
+         SDO (spindle reference 0 V) and quick-stopped every drive"
+    };
+}
+
+/// PC-OK dropped on every fault: the chain closes again only once it is back.
+macro_rules! continue_reset {
+    () => {
+        "RESET (PC-OK comes back), then the reset button on the panel closes the safety chain \
+         and the machine powers up to idle"
+    };
+}
+
+macro_rules! continue_pass {
+    () => {
+        "CONTINUE re-enters the interrupted pass on the same tooth gaps (if a cycle was \
+         interrupted and the same program is loaded), or START"
+    };
+}
+
+/// What comes `before` the reset, the reset, what comes `between` it and the pass.
+macro_rules! continue_after {
+    ($before:literal, $between:literal) => {
+        concat!($before, continue_reset!(), $between, continue_pass!())
+    };
+}
+
+/// The table lost its position after the part's tooth phase was recorded.
+macro_rules! continue_phase_lost {
+    () => {
+        "the part on the table has lost its tooth phase and cannot be finished on the same \
+         gaps: CONTINUE is refused; NEW BLANK with a new part, then START"
+    };
+}
+
 /// Why referencing failed (the `end` byte of a [`Fault::HomingFailed`] alarm).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 #[repr(u8)]
@@ -457,20 +534,20 @@ impl Fault {
     }
 
     /// What the machine did on this fault, in the operator's words (docs: README, "What a
-    /// fault does").
+    /// fault does"): the control core's fault reaction (`seq_on_fault`) for the alarm's
+    /// axis, in the cut, elsewhere in a cycle and outside one; for a lost node also what
+    /// the watchdog did once the loop stood faulted.
     pub fn reaction(self, a: &AlarmCode) -> &'static str {
-        if !self.x_can_move(a) {
-            "in a cycle X cannot move: the machine stopped where it is (gearbox out, spindle and \
-             axes to rest), then PC-OK dropped and the safety chain opened; outside a cycle the \
-             spindle stopped and PC-OK dropped at once"
-        } else if !self.table_can_follow(a) {
-            "in the cut the table could no longer follow: the spindle stopped and the gearbox \
-             disengaged at once, X pulled the hob out of the work, then PC-OK dropped; outside a \
-             cycle the spindle stopped and PC-OK dropped at once"
-        } else {
-            "in the cut X retracted with the gearbox still engaged (the hob left its tooth gap), \
-             then the machine stopped (gearbox out, spindle and axes to rest), then PC-OK \
-             dropped; outside a cycle the spindle stopped and PC-OK dropped at once"
+        let watchdog = matches!(self, Fault::FeedbackLost | Fault::IoLost);
+        match (self.x_can_move(a), self.table_can_follow(a), watchdog) {
+            (false, _, false) => concat!(reaction_x_stuck!(), reaction_outside!()),
+            (false, _, true) => concat!(reaction_x_stuck!(), reaction_outside!(), reaction_watchdog!()),
+            (true, false, false) => concat!(reaction_table_lost!(), reaction_outside!()),
+            (true, false, true) => {
+                concat!(reaction_table_lost!(), reaction_outside!(), reaction_watchdog!())
+            }
+            (true, true, false) => concat!(reaction_retract!(), reaction_outside!()),
+            (true, true, true) => concat!(reaction_retract!(), reaction_outside!(), reaction_watchdog!()),
         }
     }
 
@@ -478,28 +555,40 @@ impl Fault {
     pub const fn remedy(self) -> &'static str {
         match self {
             Fault::SafetyChainOpen => {
-                "find what opened the chain (e-stop, limit switch, VFD fault relay, PC-OK): \
-                 POWER-UP shows each condition of its reset; then press the reset button"
+                "find what opened the chain: an e-stop button, a hardware limit switch, the VFD's \
+                 fault relay or PC-OK; POWER-UP shows what the chain's reset needs (VFD ready, PC \
+                 reset relay, lube and coolant pumps off, e-stop released, the reset button)"
             }
             Fault::EmergencyStop => {
-                "release the e-stop button once the danger is gone, then the reset button"
+                "find why the e-stop was pressed and make the machine safe, then release the e-stop \
+                 button: while it is pressed the alarm comes back at once after RESET"
             }
             Fault::HardwareLimit => {
-                "the axis is on its limit switch: find why it got there (offsets, program, a \
-                 lost reference); move it off the switch in the other direction by jog after RESET"
+                "the slide stands on its limit switch, which keeps the safety chain open (no drive \
+                 enable, so no jog) and the alarm back after RESET: move it off the switch by hand; \
+                 then find why it got there (soft limits guard only a referenced axis, the work \
+                 offsets, the program)"
             }
             Fault::SoftLimit => {
-                "check the program's positions and the work offsets (touch-off) against the axis's travel"
+                "a command went outside the soft limits (soft_limit_min_mm, soft_limit_max_mm of \
+                 [x] or [y] in the machine file): check the work offsets (touch-off) and the \
+                 program's positions against the axis's travel"
             }
             Fault::FollowingError => {
-                "the axis could not follow its command: look for an obstruction, a collision, \
-                 a seized slide, a brake not released or a drive at its current limit"
+                "the axis could not follow its command (max_following_error_mm of the axis, or of \
+                 the table): look for an obstruction, a collision, a seized slide, a brake not \
+                 released or a drive at its current limit"
             }
             Fault::DriveFault => {
-                "read the drive's EMCY in DIAGNOSTICS (over-current, over-temperature, encoder), \
-                 repair the cause at the drive"
+                "read the drive's EMCY in DIAGNOSTICS (over-current, over-temperature, encoder) and \
+                 repair the cause at the drive; RESET sends the drive a fault reset, and a fault \
+                 still there after the drives' 2 s enable time is this alarm again"
             }
-            Fault::VfdFault => "read the fault code on the spindle VFD's display and repair its cause",
+            Fault::VfdFault => {
+                "read the fault code on the spindle VFD's display, repair its cause and reset the \
+                 VFD: until then its fault relay keeps the safety chain open and the alarm comes back \
+                 after RESET"
+            }
             Fault::SyncLost => {
                 "the table left the coarse window: check the spindle encoder and its coupling, \
                  the table drive's tuning and the cutting load (speeds, feed, worn hob)"
@@ -508,20 +597,28 @@ impl Fault {
                 "the spindle did not reach its speed: check the VFD (enable, its own fault), the \
                  belt and the spindle encoder"
             }
-            Fault::LubeTimeout => "check the lubricant level, the pump, the filter and the pressure switch",
+            Fault::LubeTimeout => {
+                "the pressure switch did not confirm: check the lubricant level, the pump and its \
+                 fuse, the filter, the lines and the switch"
+            }
             Fault::ClampTimeout => "check the X clamp's magnet, its supply and its feedback switch",
             Fault::FeedbackLost => {
-                "the drive's position frames stopped: check its CAN cable and connector, its \
-                 supply, the bus termination; DIAGNOSTICS lists the heartbeats and EMCYs"
+                "the drive's position frames stopped: check its CAN cable and connectors, the bus \
+                 termination and the drive's supply (did it restart?); DIAGNOSTICS lists the \
+                 heartbeats and EMCYs"
             }
-            Fault::IoLost => "the I/O coupler stopped answering: check its CAN cable, supply and node id",
+            Fault::IoLost => {
+                "the I/O coupler stopped answering: check its CAN cable, its supply, the bus \
+                 termination and its node id"
+            }
             Fault::DriveNotEnabled => {
                 "the drive did not reach \"operation enabled\": check its enable input (safety \
                  chain), its supply and its own fault"
             }
             Fault::HomingFailed => {
-                "check the home switch and its cable, the homing speeds and the axis's travel \
-                 ([x.homing], [y.homing] in the machine file)"
+                "the alarm says why (mode not confirmed, homing not started, the drive's homing \
+                 error, timeout): check the home switch and its cable, the homing method, speeds \
+                 and timeout ([x.homing], [y.homing] in the machine file) and the axis's travel"
             }
             Fault::PositionLost => {
                 "the drive restarted or its encoder jumped: check its supply and encoder cable; \
@@ -530,24 +627,53 @@ impl Fault {
         }
     }
 
-    /// How work goes on after the remedy.
+    /// How work goes on after the remedy (what the control core asks of `CONTINUE`: the
+    /// interrupted pass kept, X and Y referenced, the table's position kept since the
+    /// part's tooth phase was recorded).
     pub const fn how_to_continue(self) -> &'static str {
         match self {
-            Fault::PositionLost | Fault::HomingFailed => {
-                "RESET, reference X and Y again (HOME); a part on the table has lost its tooth \
-                 phase if B lost its position: NEW BLANK, CONTINUE is refused"
+            Fault::EmergencyStop => continue_after!("with the e-stop released: ", "; then "),
+            Fault::HardwareLimit => continue_after!(
+                "with the slide off the switch: ",
+                "; HOME the axis if its reference is in doubt; then "
+            ),
+            Fault::VfdFault => continue_after!("with the VFD reset: ", "; then "),
+            Fault::LubeTimeout => continue_after!(
+                "",
+                " (RESET runs the lubrication again and the machine waits for its pressure); then "
+            ),
+            Fault::SoftLimit => concat!(
+                continue_reset!(),
+                "; START and CONTINUE check the program against the soft limits again: correct \
+                 the work offsets or load a corrected program (a changed program cannot be \
+                 continued: START it)"
+            ),
+            Fault::HomingFailed => concat!(
+                continue_reset!(),
+                "; HOME again: the axis that failed is not referenced (homing drops its reference \
+                 first), START and CONTINUE are refused until it is; a pass interrupted before is \
+                 still there for CONTINUE"
+            ),
+            Fault::PositionLost => concat!(
+                continue_reset!(),
+                "; X or Y: HOME it (its reference is gone), then CONTINUE re-enters the \
+                 interrupted pass; B: ",
+                continue_phase_lost!()
+            ),
+            Fault::FeedbackLost | Fault::IoLost => {
+                "once the node answers again, restart hob-rt: the watchdog acted and re-arms only \
+                 for a new loop, and a node that restarted is configured only by hob-rt's start-up; \
+                 the new loop has no reference, no interrupted pass and no tooth phase: the reset \
+                 button on the panel, HOME X and Y, then START; a part interrupted on the table \
+                 cannot be finished on the same gaps: NEW BLANK with a new part"
             }
-            Fault::FeedbackLost => {
-                "RESET; if the drive kept its position, CONTINUE re-enters the interrupted pass; \
-                 if it restarted, reference again (HOME), and for B: NEW BLANK"
-            }
-            Fault::SafetyChainOpen | Fault::EmergencyStop => {
-                "reset button on the panel, then RESET; CONTINUE re-enters the interrupted pass \
-                 on the same tooth gaps"
-            }
-            _ => {
-                "RESET, then CONTINUE re-enters the interrupted pass on the same tooth gaps (or START a new cycle)"
-            }
+            Fault::SafetyChainOpen
+            | Fault::FollowingError
+            | Fault::DriveFault
+            | Fault::SyncLost
+            | Fault::SpindleSpeed
+            | Fault::ClampTimeout
+            | Fault::DriveNotEnabled => continue_after!("", "; then "),
         }
     }
 
@@ -1000,21 +1126,33 @@ mod tests {
 
     #[test]
     fn every_fault_says_what_the_machine_did_what_to_repair_and_how_to_go_on() {
-        for f in Fault::ALL {
+        // Every code the wire can carry, with every axis and end byte an alarm can hold.
+        let faults: Vec<Fault> = (0..=u32::from(u8::MAX)).filter_map(Fault::from_code).collect();
+        assert_eq!(faults, Fault::ALL);
+        for f in faults {
             for axis in [0u8, 1, 2, 3] {
-                let a = AlarmCode {
-                    code: f.code(),
-                    axis,
-                    end: 2,
-                    ..AlarmCode::default()
-                };
-                assert!(f.reaction(&a).len() > 40, "{f:?} axis {axis}");
+                for end in [0u8, 1, 2] {
+                    let a = AlarmCode {
+                        code: f.code(),
+                        axis,
+                        end,
+                        ..AlarmCode::default()
+                    };
+                    let r = f.reaction(&a);
+                    assert!(
+                        r.len() > 40 && r.contains("PC-OK dropped"),
+                        "{f:?} axis {axis}: {r}"
+                    );
+                    // Outside a cycle every fault stops the spindle and drops PC-OK at once.
+                    assert!(r.contains("outside a cycle"), "{f:?}: {r}");
+                }
             }
             assert!(f.remedy().len() > 30, "{f:?}: {}", f.remedy());
-            assert!(
-                f.how_to_continue().starts_with("RESET") || f.how_to_continue().starts_with("reset"),
-                "{f:?}"
-            );
+            let c = f.how_to_continue();
+            // PC-OK dropped on every fault and opened the chain: its reset button is part
+            // of going on, whatever the fault.
+            assert!(c.contains("reset button"), "{f:?}: {c}");
+            assert!(c.contains("START"), "{f:?}: {c}");
         }
         // The three reactions are told apart by the axis.
         let b = AlarmCode {
@@ -1035,7 +1173,43 @@ mod tests {
             Fault::DriveFault.reaction(&x),
             Fault::DriveFault.reaction(&y),
         ];
-        assert!(texts[0].contains("disengaged at once") && texts[1].contains("stopped where it is"));
-        assert!(texts[2].contains("retracted with the gearbox still engaged"));
+        assert!(texts[0].contains("disengaged at once") && texts[1].contains("stopped where it was"));
+        assert!(texts[2].contains("retracted to its safe position with the gearbox still engaged"));
+        assert!(texts.iter().all(|t| !t.contains("watchdog")));
+        // A lost node: the watchdog acts too, and only a restarted hob-rt re-arms it.
+        let lost = AlarmCode {
+            code: Fault::FeedbackLost.code(),
+            ..y
+        };
+        assert!(Fault::FeedbackLost.reaction(&lost).contains("watchdog"));
+        assert!(Fault::IoLost.reaction(&AlarmCode::default()).contains("watchdog"));
+        for f in [Fault::FeedbackLost, Fault::IoLost] {
+            assert!(f.how_to_continue().contains("restart hob-rt"), "{f:?}");
+        }
+    }
+
+    #[test]
+    fn continue_is_offered_only_where_the_loop_accepts_it() {
+        // CONTINUE needs the interrupted pass, X and Y referenced and the table's position
+        // kept (`Command::Continue` in the control core).
+        let continues = |f: Fault| f.how_to_continue().contains("CONTINUE re-enters");
+        for f in [
+            Fault::SafetyChainOpen,
+            Fault::EmergencyStop,
+            Fault::FollowingError,
+            Fault::DriveFault,
+            Fault::SyncLost,
+            Fault::LubeTimeout,
+            Fault::PositionLost,
+        ] {
+            assert!(continues(f), "{f:?}: {}", f.how_to_continue());
+        }
+        // After a restart of hob-rt nothing is left to continue.
+        assert!(!continues(Fault::FeedbackLost) && !continues(Fault::IoLost));
+        // A table that lost its position refuses CONTINUE; an axis that lost its reference
+        // needs HOME first.
+        let p = Fault::PositionLost.how_to_continue();
+        assert!(p.contains("CONTINUE is refused") && p.contains("NEW BLANK") && p.contains("HOME"));
+        assert!(Fault::HomingFailed.how_to_continue().contains("HOME again"));
     }
 }

@@ -392,3 +392,50 @@ pub fn status(watch: bool, json: bool) -> Result<String, (u8, String)> {
         );
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use hob_ipc::AlarmCode;
+    use hob_ipc::codec::{Axis, Fault};
+
+    fn snapshot(alarm: AlarmCode) -> Snapshot {
+        Snapshot {
+            state: StateSample {
+                alarm,
+                ..StateSample::default()
+            },
+            stats: None,
+            events: Vec::new(),
+        }
+    }
+
+    #[test]
+    fn an_active_alarm_is_shown_with_the_reaction_the_remedy_and_how_to_continue() {
+        let alarm = AlarmCode {
+            code: Fault::DriveFault.code(),
+            axis: Axis::Y.code(),
+            ..AlarmCode::default()
+        };
+        let text = status_text(&snapshot(alarm));
+        let f = Fault::DriveFault;
+        for line in [
+            "alarm    drive fault Y".to_string(),
+            format!("         the machine: {}", f.reaction(&alarm)),
+            format!("         remedy: {}", f.remedy()),
+            format!("         to continue: {}", f.how_to_continue()),
+        ] {
+            assert!(text.lines().any(|l| l == line), "no line {line:?} in\n{text}");
+        }
+    }
+
+    #[test]
+    fn without_an_alarm_there_is_nothing_to_remedy() {
+        let text = status_text(&snapshot(AlarmCode::default()));
+        assert!(text.lines().any(|l| l == "alarm    none"), "{text}");
+        assert!(
+            !text.contains("remedy:") && !text.contains("to continue:"),
+            "{text}"
+        );
+    }
+}
