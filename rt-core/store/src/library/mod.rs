@@ -135,6 +135,14 @@ fn io_error(path: &Path) -> impl FnOnce(io::Error) -> Refusal + '_ {
     }
 }
 
+/// A tool's text parsed and validated; refused as `tool NAME not <not_done>`.
+fn check_tool(path: &Path, name: &str, not_done: &str, text: &str) -> Result<ToolRecord, Refusal> {
+    ToolRecord::parse(path, text).map_err(|error| Refusal::Invalid {
+        what: format!("tool {name:?} not {not_done}"),
+        error,
+    })
+}
+
 /// A load error on one line, for listings.
 fn one_line(e: &LoadError) -> String {
     e.to_string().replace("\n  ", "; ")
@@ -343,11 +351,61 @@ impl Library {
     pub fn create_tool(&self, name: &str, text: &str) -> Result<ToolRecord, Refusal> {
         let path = self.path(Kind::Tool, name)?;
         self.refuse_existing(Kind::Tool, name, &path)?;
-        let record = ToolRecord::parse(&path, text).map_err(|error| Refusal::Invalid {
-            what: format!("tool {name:?} not created"),
-            error,
-        })?;
+        let record = check_tool(&path, name, "created", text)?;
         self.write_new(Kind::Tool, name, &path, text)?;
+        Ok(record)
+    }
+
+    /// Writes a changed tool over an existing one (atomically, as
+    /// [`Library::replace_program`]); refused (nothing written) when it does not exist or
+    /// the text is not a valid tool record. What the tool has cut is recorded by the cuts
+    /// ([`Library::record_usage`]), never typed: a text without `[usage]` keeps the stored
+    /// usage (written after the text), one with another usage than the stored one is
+    /// refused. Over a stored file that no longer parses, the text is taken as it is.
+    pub fn replace_tool(&self, name: &str, text: &str) -> Result<ToolRecord, Refusal> {
+        let path = self.path(Kind::Tool, name)?;
+        self.refuse_missing(Kind::Tool, name, &path)?;
+        let stored = match self.tool(name) {
+            Ok(r) => Some(r.usage),
+            Err(Refusal::Invalid { .. }) => None,
+            Err(e) => return Err(e),
+        };
+        let mut record = check_tool(&path, name, "changed", text)?;
+        let gives_usage = toml::from_str::<toml::Table>(text).is_ok_and(|t| t.contains_key("usage"));
+        let mut written = text.to_string();
+        match stored {
+            Some(usage) if gives_usage => {
+                let mut p = hob_setup::config::Problems::new();
+                p.require(record.usage == usage, "usage", || {
+                    format!(
+                        "is what the tool has cut, recorded after each cut, and stays as stored \
+                         ({usage:?}); leave [usage] out or as it is"
+                    )
+                });
+                p.into_result(&path, text).map_err(|error| Refusal::Invalid {
+                    what: format!("tool {name:?} not changed"),
+                    error,
+                })?;
+            }
+            Some(usage) => {
+                #[derive(serde::Serialize)]
+                struct UsageTable<'a> {
+                    usage: &'a Usage,
+                }
+                let table = toml::to_string(&UsageTable { usage: &usage }).map_err(|e| Refusal::Io {
+                    path: path.clone(),
+                    error: io::Error::other(format!("the stored usage does not serialise: {e}")),
+                })?;
+                if !written.ends_with('\n') {
+                    written.push('\n');
+                }
+                written.push('\n');
+                written.push_str(&table);
+                record.usage = usage;
+            }
+            None => {}
+        }
+        atomic::write_atomic(&path, written.as_bytes()).map_err(io_error(&path))?;
         Ok(record)
     }
 

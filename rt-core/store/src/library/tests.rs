@@ -155,6 +155,81 @@ fn a_changed_program_replaces_the_old_only_when_it_checks() {
     assert_eq!(left.len(), 1, "{left:?}");
 }
 
+/// The bytes and the modification time of a file.
+fn contents_and_mtime(path: &Path) -> (Vec<u8>, std::time::SystemTime) {
+    (
+        std::fs::read(path).unwrap(),
+        std::fs::metadata(path).unwrap().modified().unwrap(),
+    )
+}
+
+#[test]
+fn a_changed_tool_replaces_the_old_only_when_it_is_valid_and_keeps_its_usage() {
+    let lib = library("lib-replace-tool");
+    let longer = hob_m5_record().replace("length_mm = 100.0", "length_mm = 120.0");
+    assert_ne!(longer, hob_m5_record());
+    let e = lib.replace_tool("hob-m5-a", &longer).unwrap_err();
+    assert!(
+        matches!(e, Refusal::Missing { .. }),
+        "a replace creates nothing: {e}"
+    );
+    assert!(lib.names(Kind::Tool).unwrap().is_empty());
+    lib.create_tool("hob-m5-a", &hob_m5_record()).unwrap();
+    let used = lib
+        .record_usage("hob-m5-a", 4, 0.5, "2025-03-01T08:15:00Z")
+        .unwrap();
+    let path = lib.path(Kind::Tool, "hob-m5-a").unwrap();
+    let before = contents_and_mtime(&path);
+    // Refused, nothing written: an invalid field, a usage other than the recorded one.
+    let zero = used.to_toml().replace("gashes = 10", "gashes = 0");
+    let e = lib.replace_tool("hob-m5-a", &zero).unwrap_err().to_string();
+    assert!(
+        e.contains("tool \"hob-m5-a\" not changed") && e.contains("tool.gashes"),
+        "{e}"
+    );
+    let typed = used.to_toml().replace("passes_cut = 4", "passes_cut = 0");
+    assert_ne!(typed, used.to_toml());
+    let e = lib.replace_tool("hob-m5-a", &typed).unwrap_err().to_string();
+    assert!(
+        e.contains("usage") && e.contains("recorded after each cut"),
+        "{e}"
+    );
+    assert_eq!(
+        contents_and_mtime(&path),
+        before,
+        "a refused replace changed the file"
+    );
+    // The tool's fields alone: the recorded usage stays.
+    let r = lib.replace_tool("hob-m5-a", &longer).unwrap();
+    assert!((r.tool.length_mm - 120.0).abs() < 1e-12);
+    assert_eq!(r.usage, used.usage);
+    assert_eq!(lib.tool("hob-m5-a").unwrap(), r);
+    assert!(lib.text(Kind::Tool, "hob-m5-a").unwrap().starts_with(&longer));
+    // With the usage as stored: written as given.
+    let as_stored = r.to_toml().replace("gashes = 10", "gashes = 12");
+    let r = lib.replace_tool("hob-m5-a", &as_stored).unwrap();
+    assert_eq!(r.tool.gashes, 12);
+    assert_eq!(lib.text(Kind::Tool, "hob-m5-a").unwrap(), as_stored);
+    // A program resolving the tool still checks, and no temporary file is left beside it.
+    let text = spur_with_tool("[tool]\nlibrary = \"hob-m5-a\"\n");
+    lib.check_program(Path::new("p.toml"), &text, &shipped_for_tests())
+        .unwrap();
+    assert_eq!(lib.names(Kind::Tool).unwrap(), ["hob-m5-a"]);
+    assert_eq!(std::fs::read_dir(path.parent().unwrap()).unwrap().count(), 1);
+}
+
+#[test]
+fn a_tool_file_broken_by_hand_can_be_replaced() {
+    let lib = library("lib-replace-broken-tool");
+    lib.create_tool("t", &hob_m5_record()).unwrap();
+    let path = lib.path(Kind::Tool, "t").unwrap();
+    std::fs::write(&path, "format_version = 1\n[tool]\ngashes = \"ten\"\n").unwrap();
+    assert!(matches!(lib.tool("t"), Err(Refusal::Invalid { .. })));
+    let r = lib.replace_tool("t", &hob_m5_record()).unwrap();
+    assert_eq!(r.usage, Usage::default());
+    assert_eq!(lib.text(Kind::Tool, "t").unwrap(), hob_m5_record());
+}
+
 #[test]
 fn the_listing_checks_each_program_and_skips_temporary_files() {
     let lib = library("lib-list");
