@@ -99,21 +99,70 @@ fn cycle_period_s(states: &[StateSample]) -> f64 {
     }
 }
 
+/// The report of a whole recording (every run of `hob-rt` in it).
 pub fn report(dir: &Path) -> Result<Report, String> {
-    report_cycles(dir, 0, u64::MAX)
+    let states = crate::read_dir_states(dir)?;
+    if states.is_empty() {
+        return Err(format!("{}: no sample recorded", dir.display()));
+    }
+    report_of(dir, &states)
 }
 
 /// The report of the cycles `first ..= last` of a recording: one cut (a frontend takes the
-/// range from the loop's events: the accepted start, the cycle done).
+/// range from the loop's events: the accepted start, the cycle done). `hob-rt` counts its
+/// cycles from its start, so a recording over a restart holds the same cycle twice: the
+/// report is of the newest run holding any of the range ([`read_cycles`]).
 pub fn report_cycles(dir: &Path, first: u64, last: u64) -> Result<Report, String> {
-    let mut states = crate::read_dir_states(dir)?;
-    states.retain(|s| (first..=last).contains(&s.cycle));
+    let states = read_cycles(dir, first, last)?;
     if states.is_empty() {
         return Err(format!(
             "{}: no sample of cycles {first} .. {last} recorded",
             dir.display()
         ));
     }
+    report_of(dir, &states)
+}
+
+/// The samples of cycles `first ..= last` of the newest run of `hob-rt` that holds any
+/// (a run ends where the cycle counter goes back, as the logger's `gaps.log` says
+/// `restart`); only those samples are held while reading.
+pub fn read_cycles(dir: &Path, first: u64, last: u64) -> Result<Vec<StateSample>, String> {
+    let mut out = Vec::new();
+    let mut runs = Runs::default();
+    let mut out_run = None;
+    crate::format::for_each_state(dir, |s| {
+        let run = runs.of(s.cycle);
+        if (first..=last).contains(&s.cycle) {
+            if out_run != Some(run) {
+                out.clear();
+                out_run = Some(run);
+            }
+            out.push(s);
+        }
+    })?;
+    Ok(out)
+}
+
+/// Counts the runs of `hob-rt` in a recording, in order: a cycle not after the one before
+/// starts a new run.
+#[derive(Debug, Default)]
+struct Runs {
+    run: u32,
+    last_cycle: Option<u64>,
+}
+
+impl Runs {
+    fn of(&mut self, cycle: u64) -> u32 {
+        if self.last_cycle.is_some_and(|c| cycle <= c) {
+            self.run += 1;
+        }
+        self.last_cycle = Some(cycle);
+        self.run
+    }
+}
+
+/// The per-pass report of recorded samples (not empty, in order).
+fn report_of(dir: &Path, states: &[StateSample]) -> Result<Report, String> {
     let gear = states.iter().find(|s| s.pitch_radius_mm > 0.0).ok_or_else(|| {
         format!(
             "{}: no program was loaded while recording: nothing to report per pass",
@@ -122,10 +171,10 @@ pub fn report_cycles(dir: &Path, first: u64, last: u64) -> Result<Report, String
     })?;
     let mut b = SummaryBuilder::for_gear(gear.pitch_radius_mm, gear.normal_module_mm);
     let t0 = states.first().map_or(0, |s| s.sync_time_ns);
-    let period_s = cycle_period_s(&states);
+    let period_s = cycle_period_s(states);
     let mut missing = 0;
     let mut prev: Option<u64> = None;
-    for s in &states {
+    for s in states {
         if let Some(p) = prev
             && s.cycle > p + 1
         {
@@ -144,6 +193,115 @@ pub fn report_cycles(dir: &Path, first: u64, last: u64) -> Result<Report, String
         grade5_single_pitch_um: tol,
         passes,
     })
+}
+
+/// An event as the logger recorded it (`events.log`).
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct LoggedEvent {
+    /// Which run of `hob-rt` in the file, from 0 (its event numbers and cycles start again
+    /// at every start).
+    pub run: u32,
+    pub seq: u64,
+    pub cycle: u64,
+    /// The event's kind (`hob_ipc::event_kind`).
+    pub kind: u32,
+    /// The event in words, as `hob_ipc::codec::event_text` gave it when it was recorded.
+    pub text: String,
+}
+
+impl LoggedEvent {
+    pub fn is_alarm(&self) -> bool {
+        self.kind == hob_ipc::event_kind::ALARM
+    }
+}
+
+/// Every event of a log directory's `events.log`, in order, each once. A restarted logger
+/// is handed the loop's recent events again and writes them a second time: such a block
+/// (rising numbers up to the last one recorded, each the same as the one recorded under its
+/// number) is left out, and an event of it that the first logger missed is put in its place.
+/// Anything else numbered again is a restarted `hob-rt` (it numbers its events from 1): a new
+/// run. A last line without its line end (a logger killed while writing it) is left out; any
+/// other line that is not `seq cycle kind text` is refused with its line number.
+pub fn read_events(dir: &Path) -> Result<Vec<LoggedEvent>, String> {
+    let path = dir.join("events.log");
+    let text = std::fs::read_to_string(&path).map_err(|e| format!("{}: {e}", path.display()))?;
+    let whole = text.rsplit_once('\n').map_or("", |(lines, _partial)| lines);
+    let lines = whole
+        .lines()
+        .enumerate()
+        .map(|(i, line)| {
+            let (seq, cycle, kind, text) = crate::format::parse_event_line(line).ok_or_else(|| {
+                format!(
+                    "{}:{}: not an event line (seq cycle kind text): {line:?}",
+                    path.display(),
+                    i + 1
+                )
+            })?;
+            Ok(LoggedEvent {
+                run: 0,
+                seq,
+                cycle,
+                kind,
+                text,
+            })
+        })
+        .collect::<Result<Vec<_>, String>>()?;
+    let mut out: Vec<LoggedEvent> = Vec::with_capacity(lines.len());
+    let (mut run, mut run_start) = (0u32, 0usize);
+    let mut i = 0;
+    while i < lines.len() {
+        let seq = lines[i].seq;
+        if let Some(last) = out.last().map(|l| l.seq)
+            && seq <= last
+        {
+            let mut end = i + 1;
+            while end < lines.len() && lines[end].seq > lines[end - 1].seq && lines[end].seq <= last {
+                end += 1;
+            }
+            let block = &lines[i..end];
+            let this_run = &out[run_start..];
+            let recorded = |e: &LoggedEvent| this_run.binary_search_by_key(&e.seq, |l| l.seq);
+            let same = |e: &LoggedEvent, k: usize| {
+                let l = &this_run[k];
+                (l.cycle, l.kind, &l.text) == (e.cycle, e.kind, &e.text)
+            };
+            let repeat = block.iter().all(|e| recorded(e).map_or(true, |k| same(e, k)))
+                && block.iter().any(|e| recorded(e).is_ok());
+            if repeat {
+                // What the first logger missed goes into its place.
+                let missed: Vec<LoggedEvent> = block
+                    .iter()
+                    .filter(|e| recorded(e).is_err())
+                    .map(|e| LoggedEvent { run, ..e.clone() })
+                    .collect();
+                for e in missed {
+                    let at = run_start + out[run_start..].partition_point(|l| l.seq < e.seq);
+                    out.insert(at, e);
+                }
+                i = end;
+                continue;
+            }
+            run += 1;
+            run_start = out.len();
+        }
+        out.push(LoggedEvent {
+            run,
+            ..lines[i].clone()
+        });
+        i += 1;
+    }
+    Ok(out)
+}
+
+/// The events of cycles `first ..= last` (one cut: its alarms among them), of the newest run
+/// of `hob-rt` that holds any, as [`report_cycles`] takes its samples.
+pub fn events_in(dir: &Path, first: u64, last: u64) -> Result<Vec<LoggedEvent>, String> {
+    let mut events = read_events(dir)?;
+    events.retain(|e| (first..=last).contains(&e.cycle));
+    if let Some(newest) = events.last().map(|e| e.run) {
+        events.retain(|e| e.run == newest);
+    }
+    Ok(events)
 }
 
 pub fn report_text(dir: &Path, r: &Report) -> String {

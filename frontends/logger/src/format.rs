@@ -1,7 +1,7 @@
 //! State records: the field list (names and types, written into every file's header) and
 //! the encoder and decoder, which must follow it.
 
-use hob_ipc::{AlarmCode, AxisSample, StateSample};
+use hob_ipc::{AlarmCode, AxisSample, EventSample, StateSample};
 use std::path::{Path, PathBuf};
 
 /// Field names and types in record order.
@@ -256,6 +256,14 @@ pub fn state_files(dir: &Path) -> std::io::Result<Vec<PathBuf>> {
 /// (its header names their words `reserved0` and `reserved1`) gives its samples NaN
 /// overrides: not recorded, never 0 %.
 pub fn read_dir_states(dir: &Path) -> Result<Vec<StateSample>, String> {
+    let mut out = Vec::new();
+    for_each_state(dir, |s| out.push(s))?;
+    Ok(out)
+}
+
+/// Every state sample of a log directory, in order, handed to `f` one by one (a reader of
+/// a part of a long log holds only that part), read as [`read_dir_states`] reads them.
+pub fn for_each_state(dir: &Path, mut f: impl FnMut(StateSample)) -> Result<(), String> {
     let files = state_files(dir).map_err(|e| format!("{}: {e}", dir.display()))?;
     if files.is_empty() {
         return Err(format!(
@@ -263,19 +271,18 @@ pub fn read_dir_states(dir: &Path) -> Result<Vec<StateSample>, String> {
             dir.display()
         ));
     }
-    let mut out = Vec::new();
-    for f in files {
-        let bytes = std::fs::read(&f).map_err(|e| format!("{}: {e}", f.display()))?;
+    for path in files {
+        let bytes = std::fs::read(&path).map_err(|e| format!("{}: {e}", path.display()))?;
         let nl = bytes
             .iter()
             .position(|&b| b == b'\n')
-            .ok_or_else(|| format!("{}: no header line", f.display()))?;
+            .ok_or_else(|| format!("{}: no header line", path.display()))?;
         let h: serde_json::Value = serde_json::from_slice(&bytes[..nl])
-            .map_err(|e| format!("{}: header is not JSON: {e}", f.display()))?;
+            .map_err(|e| format!("{}: header is not JSON: {e}", path.display()))?;
         if h["format"] != "hob-state-log" || h["version"] != 1 || h["record_bytes"] != record_bytes() {
             return Err(format!(
                 "{}: header says {} version {} with {} bytes per record; this reader knows hob-state-log version 1 with {}",
-                f.display(),
+                path.display(),
                 h["format"],
                 h["version"],
                 h["record_bytes"],
@@ -285,7 +292,7 @@ pub fn read_dir_states(dir: &Path) -> Result<Vec<StateSample>, String> {
         let recorded = overrides_recorded(&h["fields"]).ok_or_else(|| {
             format!(
                 "{}: header's fields are not those of hob-state-log version 1 this reader knows: {}",
-                f.display(),
+                path.display(),
                 h["fields"]
             )
         })?;
@@ -296,11 +303,34 @@ pub fn read_dir_states(dir: &Path) -> Result<Vec<StateSample>, String> {
                     s.feed_override_percent = f64::NAN;
                     s.spindle_override_percent = f64::NAN;
                 }
-                out.push(s);
+                f(s);
             }
         }
     }
-    Ok(out)
+    Ok(())
+}
+
+/// An event's line in `events.log`: `seq cycle kind text`, the text as
+/// [`hob_ipc::codec::event_text`] words it (a line break in it written as `\n`, so that
+/// every event is one line).
+pub fn event_line(e: &EventSample) -> String {
+    format!(
+        "{} {} {} {}",
+        e.seq,
+        e.cycle,
+        e.kind,
+        hob_ipc::codec::event_text(e).replace('\n', "\\n")
+    )
+}
+
+/// The numbers and text of an `events.log` line (without its line end); `None` when it is
+/// not `seq cycle kind text`.
+pub fn parse_event_line(line: &str) -> Option<(u64, u64, u32, String)> {
+    let mut parts = line.splitn(4, ' ');
+    let seq = parts.next()?.parse().ok()?;
+    let cycle = parts.next()?.parse().ok()?;
+    let kind = parts.next()?.parse().ok()?;
+    Some((seq, cycle, kind, parts.next().unwrap_or("").to_string()))
 }
 
 #[cfg(test)]

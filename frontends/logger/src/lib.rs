@@ -8,7 +8,9 @@
 //!   "fields":[["cycle","u64"],...],"instance":..,"started_unix_s":..}`; then fixed-size
 //!   records, little-endian, fields in the header's order. A new file is started every
 //!   [`ROTATE_RECORDS`] records (and at every start of the logger).
-//! - `events.log`: one line per event: `seq cycle kind text`.
+//! - `events.log`: one line per event: `seq cycle kind text` ([`format::event_line`]). A
+//!   restarted logger is handed the loop's recent events again and writes them again;
+//!   [`export::read_events`] reads each event once, and tells the runs of `hob-rt` apart.
 //! - `gaps.log`: one line per run of samples the logger missed: `first_cycle last_cycle count`.
 //! - `logger.json`: written at exit and every second: samples recorded, samples lost,
 //!   events recorded, events lost, files.

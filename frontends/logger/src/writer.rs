@@ -150,14 +150,7 @@ impl LogWriter {
         }
         self.last_event = Some(e.seq);
         self.stats.events += 1;
-        writeln!(
-            self.events,
-            "{} {} {} {}",
-            e.seq,
-            e.cycle,
-            e.kind,
-            hob_ipc::codec::event_text(e)
-        )
+        writeln!(self.events, "{}", crate::format::event_line(e))
     }
 
     /// Flushes everything and writes `logger.json`.
