@@ -788,7 +788,7 @@ pub fn coupling_name(c: u32) -> &'static str {
 }
 
 /// Every [`command`] code, in code order.
-pub const COMMANDS: [u32; 17] = [
+pub const COMMANDS: [u32; 18] = [
     command::LOAD_PROGRAM,
     command::START,
     command::FEED_HOLD,
@@ -806,6 +806,7 @@ pub const COMMANDS: [u32; 17] = [
     command::SPINDLE_OVERRIDE,
     command::TOUCH_OFF,
     command::CONTINUE,
+    command::SPINDLE_HOLD,
 ];
 
 /// The command's name as the CLI spells it (`?` for a code this build does not know).
@@ -828,6 +829,7 @@ pub fn command_name(code: u32) -> &'static str {
         command::SPINDLE_OVERRIDE => "spindle override",
         command::TOUCH_OFF => "touch-off",
         command::CONTINUE => "continue",
+        command::SPINDLE_HOLD => "spindle hold",
         _ => "?",
     }
 }
@@ -890,6 +892,9 @@ pub fn event_text(e: &EventSample) -> String {
         event_kind::BUS => bus_event_text(e),
         event_kind::MESSAGE => e.text(),
         event_kind::REFERENCED => format!("{} referenced", axis_name(e.a)),
+        event_kind::DEAD_MAN_STOP if e.a == 0 => {
+            "hob spindle C stopped: its renewals stopped (dead-man)".into()
+        }
         event_kind::DEAD_MAN_STOP => {
             format!("jog {} stopped: its renewals stopped (dead-man)", axis_name(e.a))
         }
@@ -947,6 +952,24 @@ pub fn bus_event_text(e: &EventSample) -> String {
 }
 
 /// The name of a [`bus_kind`] code.
+/// A drive's CiA 402 power state, from its statusword ([`crate::StateSample::drive_statusword`]).
+pub fn cia402_state_name(statusword: u16) -> &'static str {
+    hob_canopen::cia402::PowerState::from_statusword(statusword).name()
+}
+
+/// A node's NMT state from its heartbeat code ([`crate::StateSample::nmt_state`]).
+pub fn nmt_state_name(code: u8) -> &'static str {
+    use hob_canopen::nmt::NmtState;
+    match code {
+        crate::NMT_NOT_HEARD => "not heard",
+        0x00 => NmtState::BootUp.name(),
+        0x04 => NmtState::Stopped.name(),
+        0x05 => NmtState::Operational.name(),
+        0x7F => NmtState::PreOperational.name(),
+        _ => "unknown",
+    }
+}
+
 pub fn bus_kind_name(k: u8) -> &'static str {
     match k {
         bus_kind::SHARED_MEMORY => "shm",

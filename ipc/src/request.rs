@@ -101,6 +101,13 @@ pub fn touch_off_value(axis: &str, value_mm: f64) -> Result<CommandRequest, Stri
     Ok(r)
 }
 
+/// `SPINDLE_HOLD` at `rpm`: the hob spindle turns while this is renewed (dead-man).
+pub fn spindle_hold(rpm: f64) -> CommandRequest {
+    let mut r = CommandRequest::new(command::SPINDLE_HOLD);
+    r.value = rpm;
+    r
+}
+
 /// `SPINDLE_ON` at `rpm`.
 pub fn spindle_on(rpm: f64) -> CommandRequest {
     let mut r = CommandRequest::new(command::SPINDLE_ON);

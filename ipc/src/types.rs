@@ -113,6 +113,31 @@ pub struct StateSample {
     /// Work offsets (touch-off), mm.
     pub x_offset_mm: f64,
     pub y_offset_mm: f64,
+    /// [`program_hash`] of the program text the loop loaded (0 without a program): a
+    /// frontend tells whether the program it loaded is still the loop's.
+    pub program_hash: u64,
+    /// Each drive's CiA 402 statusword (0x6041) as last received, B, X, Y.
+    pub drive_statusword: [u16; 3],
+    /// Each node's NMT state from its last heartbeat ([`NMT_NOT_HEARD`]: none yet), in the
+    /// bus plan's order: B, X, Y drives, then the I/O coupler.
+    pub nmt_state: [u8; 4],
+    pub _pad3: [u8; 2],
+    /// Cycles since each node's last heartbeat (same order), saturating.
+    pub heartbeat_age_cycles: [u32; 4],
+}
+
+/// [`StateSample::nmt_state`] of a node not heard from yet.
+pub const NMT_NOT_HEARD: u8 = 0xFF;
+
+/// The hash of a program text the loop publishes ([`StateSample::program_hash`]): 64-bit
+/// FNV-1a of its bytes, never 0 (0 is "no program").
+pub fn program_hash(text: &str) -> u64 {
+    let mut h: u64 = 0xcbf2_9ce4_8422_2325;
+    for b in text.bytes() {
+        h ^= u64::from(b);
+        h = h.wrapping_mul(0x0100_0000_01b3);
+    }
+    h.max(1)
 }
 
 /// Event kinds ([`EventSample::kind`]).
@@ -132,7 +157,8 @@ pub mod event_kind {
     pub const BUS: u32 = 11;
     /// An axis is referenced: `a` its axis code.
     pub const REFERENCED: u32 = 12;
-    /// A continuous jog was stopped by its dead-man: `a` the axis code.
+    /// A continuous jog was stopped by its dead-man: `a` the axis code (0: the hob spindle
+    /// C of a `SPINDLE_HOLD`).
     pub const DEAD_MAN_STOP: u32 = 13;
     /// A touch-off set a work offset: `a` the axis code, `value` the offset (mm).
     pub const OFFSET_CHANGED: u32 = 14;
@@ -216,6 +242,38 @@ pub struct Percentiles {
     pub max_ns: u64,
 }
 
+/// Buckets of [`Log2Histogram`]: up to 2^32 ns (4.3 s).
+pub const LOG2_BUCKETS: usize = 32;
+
+/// A whole distribution in powers of two: `counts[i]` values in [2^i, 2^(i+1)) ns (bucket 0
+/// also holds 0, the last everything above).
+#[derive(Debug, Clone, Copy, PartialEq, ZeroCopySend)]
+#[repr(C)]
+pub struct Log2Histogram {
+    pub counts: [u64; LOG2_BUCKETS],
+}
+
+impl Default for Log2Histogram {
+    fn default() -> Self {
+        Self {
+            counts: [0; LOG2_BUCKETS],
+        }
+    }
+}
+
+impl Log2Histogram {
+    /// The bucket of a value in ns.
+    pub fn bucket(ns: u64) -> usize {
+        (ns.max(1).ilog2() as usize).min(LOG2_BUCKETS - 1)
+    }
+
+    /// Adds `count` values of `ns`.
+    pub fn add(&mut self, ns: u64, count: u64) {
+        let b = &mut self.counts[Self::bucket(ns)];
+        *b = b.saturating_add(count);
+    }
+}
+
 /// The loop's own timing since it started, published by `hob-rt` twice a second.
 #[derive(Debug, Clone, Copy, Default, PartialEq, ZeroCopySend)]
 #[repr(C)]
@@ -242,6 +300,9 @@ pub struct StatsSample {
     pub cpu_dma_latency_us: i32,
     /// Frames the loop could not send (queue full, interface down).
     pub tx_errors: u64,
+    /// The whole distributions of the wake-up latency and the compute time.
+    pub wake_histogram: Log2Histogram,
+    pub compute_histogram: Log2Histogram,
 }
 
 /// Command codes ([`CommandRequest::command`]).
@@ -269,6 +330,9 @@ pub mod command {
     pub const TOUCH_OFF: u32 = 16;
     /// Continue the interrupted program from its interrupted pass.
     pub const CONTINUE: u32 = 17;
+    /// `value`: rpm. The hob spindle turns while this is renewed (a press-and-hold with a
+    /// dead-man, as `JOG_CONTINUOUS`); `SPINDLE_OFF` stops it at once.
+    pub const SPINDLE_HOLD: u32 = 18;
 }
 
 /// Directions of a continuous jog ([`CommandRequest::direction`]).
@@ -384,6 +448,31 @@ pub struct CanFrameSample {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn the_program_hash_is_fnv1a_and_never_the_no_program_zero() {
+        // The FNV-1a 64 reference values (draft-eastlake-fnv: "" and "a").
+        assert_eq!(program_hash(""), 0xcbf2_9ce4_8422_2325);
+        assert_eq!(program_hash("a"), 0xaf63_dc4c_8601_ec8c);
+        assert_ne!(
+            program_hash("[workpiece]\nteeth = 17\n"),
+            program_hash("[workpiece]\nteeth = 18\n")
+        );
+    }
+
+    #[test]
+    fn log2_buckets_hold_each_power_of_two() {
+        assert_eq!(Log2Histogram::bucket(0), 0);
+        assert_eq!(Log2Histogram::bucket(1), 0);
+        assert_eq!(Log2Histogram::bucket(2), 1);
+        assert_eq!(Log2Histogram::bucket(1023), 9);
+        assert_eq!(Log2Histogram::bucket(1024), 10);
+        assert_eq!(Log2Histogram::bucket(u64::MAX), LOG2_BUCKETS - 1);
+        let mut h = Log2Histogram::default();
+        h.add(1500, 3);
+        h.add(1500, u64::MAX);
+        assert_eq!(h.counts[10], u64::MAX, "saturates");
+    }
 
     #[test]
     fn text_is_cut_at_a_character_boundary() {

@@ -199,6 +199,14 @@ fn the_control_step_never_allocates() {
     d.until(5.0, |s| s == State::Idle);
     d.accepted(jog);
     d.until(5.0, |s| s == State::Idle);
+    // The hob spindle held (renewed), released by SPINDLE OFF, then stopped by its dead-man.
+    for _ in 0..5 {
+        d.accepted(Command::SpindleHold { rpm: 20.0 });
+        d.until(0.1, |_| false);
+    }
+    d.accepted(Command::SpindleOff);
+    d.accepted(Command::SpindleHold { rpm: 20.0 });
+    d.until(3.0, |_| false);
     let x_mm = d.sim.controller.status().x_mm;
     d.accepted(Command::TouchOff {
         axis: Axis::X,

@@ -38,6 +38,8 @@ pub enum EventKind {
     DeadManStop {
         axis: Axis,
     },
+    /// A held hob spindle's renewals stopped: the spindle was stopped.
+    SpindleDeadManStop,
     /// A touch-off set an axis' work offset (mm).
     OffsetChanged {
         axis: Axis,

@@ -243,6 +243,43 @@ impl Controller {
         }
     }
 
+    /// Checks and starts (or renews) a held hob spindle: only when idle (also while an axis
+    /// jogs), at most the machine's spindle speed.
+    pub(super) fn spindle_hold(&mut self, rpm: f64) -> Result<(), Refusal> {
+        match self.sequencer.state {
+            State::Idle | State::Jog => {}
+            State::Init => return Err(Refusal::NotReady),
+            _ => return Err(Refusal::CycleRunning),
+        }
+        if !(rpm.is_finite() && rpm > 0.0 && rpm <= self.params.spindle_max_rpm) {
+            return Err(Refusal::BadValue);
+        }
+        if self.sequencer.spindle_set_rpm > 0.0 && self.sequencer.spindle_hold_renewed_s.is_none() {
+            // Latched by SPINDLE ON: holding it would make it stop on release.
+            return Err(Refusal::NothingToDo);
+        }
+        self.sequencer.spindle_set_rpm = rpm;
+        self.sequencer.spindle_hold_renewed_s = Some(self.now_s());
+        Ok(())
+    }
+
+    /// One cycle of a held spindle: it stops when the renewals stop (the dead-man) and is
+    /// let go when the machine leaves idle and jog (a cycle or a fault owns the spindle).
+    pub(super) fn sequence_spindle_hold(&mut self) {
+        let Some(renewed_at_s) = self.sequencer.spindle_hold_renewed_s else {
+            return;
+        };
+        if !matches!(self.sequencer.state, State::Idle | State::Jog) {
+            self.sequencer.spindle_hold_renewed_s = None;
+            return;
+        }
+        if self.now_s() - renewed_at_s > self.params.deadman_s {
+            self.sequencer.spindle_hold_renewed_s = None;
+            self.sequencer.spindle_set_rpm = 0.0;
+            self.event(EventKind::SpindleDeadManStop);
+        }
+    }
+
     fn linear(&mut self, axis: Axis) -> (&mut super::profile::Profile, f64) {
         match axis {
             Axis::Y => (&mut self.y, self.params.y_limits.accel_mm_s2),

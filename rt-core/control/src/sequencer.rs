@@ -171,6 +171,11 @@ pub enum Command {
         rpm: f64,
     },
     SpindleOff,
+    /// The hob spindle at a speed while the operator holds it (renewed like a continuous
+    /// jog, stopped by its dead-man when the renewals stop), only when idle.
+    SpindleHold {
+        rpm: f64,
+    },
     /// A new blank is on the table: forget the recorded tooth phase.
     NewBlank,
 }
@@ -191,6 +196,8 @@ pub(super) struct Sequencer {
     feed_scale: f64,
     rev_start_deg: f64,
     pub(super) jog: JogMotion,
+    /// A held spindle (`SpindleHold`): when it was last renewed, s.
+    pub(super) spindle_hold_renewed_s: Option<f64>,
     /// The pass a fault or a stop interrupted (index, single mode), for "continue".
     pub interrupted: Option<(usize, bool)>,
     /// The table lost its position after the tooth phase of an interrupted part was
@@ -351,8 +358,14 @@ impl Controller {
                     self.note_interrupted();
                 }
                 match state {
-                    State::Idle => self.sequencer.spindle_set_rpm = 0.0,
+                    State::Idle => {
+                        self.sequencer.spindle_set_rpm = 0.0;
+                        self.sequencer.spindle_hold_renewed_s = None;
+                    }
                     State::Jog => {
+                        // Everything the operator set moving stops: the jog and the spindle.
+                        self.sequencer.spindle_set_rpm = 0.0;
+                        self.sequencer.spindle_hold_renewed_s = None;
                         self.jog_release()?;
                     }
                     State::Referencing => self.stop_referencing(),
@@ -440,13 +453,16 @@ impl Controller {
                     return Err(Refusal::BadValue);
                 }
                 self.sequencer.spindle_set_rpm = rpm;
+                self.sequencer.spindle_hold_renewed_s = None;
                 Ok(())
             }
+            Command::SpindleHold { rpm } => self.spindle_hold(rpm),
             Command::SpindleOff => {
                 if state.in_cycle() {
                     return Err(Refusal::CycleRunning);
                 }
                 self.sequencer.spindle_set_rpm = 0.0;
+                self.sequencer.spindle_hold_renewed_s = None;
                 Ok(())
             }
             Command::NewBlank => {
@@ -645,6 +661,7 @@ impl Controller {
     pub(super) fn sequence(&mut self) {
         let dt = self.params.period_s;
         self.sequencer.state_time_s += dt;
+        self.sequence_spindle_hold();
         let state = self.sequencer.state;
         self.sequencer.coolant = matches!(
             state,

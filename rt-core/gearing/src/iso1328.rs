@@ -8,9 +8,40 @@ pub fn single_pitch_tolerance_um(reference_diameter_mm: f64, normal_module_mm: f
     base * std::f64::consts::SQRT_2.powi(i32::from(grade) - 5)
 }
 
+/// The grade factor of ISO 1328-1:2013: each grade is sqrt(2) coarser than the one
+/// before, grade 5 the base.
+fn grade_factor(grade: u8) -> f64 {
+    std::f64::consts::SQRT_2.powi(i32::from(grade) - 5)
+}
+
+/// Cumulative pitch tolerance `F_p` (total, over the whole gear) in micrometres:
+/// `F_p = (0.002 d + 0.55 sqrt(d) + 0.7 m_n + 12) * sqrt(2)^(grade - 5)`, unrounded.
+pub fn cumulative_pitch_tolerance_um(reference_diameter_mm: f64, normal_module_mm: f64, grade: u8) -> f64 {
+    let d = reference_diameter_mm;
+    (0.002 * d + 0.55 * d.sqrt() + 0.7 * normal_module_mm + 12.0) * grade_factor(grade)
+}
+
+/// Helix slope tolerance `f_Hbeta` (equal to the helix form tolerance `f_fbeta`) in
+/// micrometres, for face width `b`: `(0.07 sqrt(d) + 0.45 sqrt(b) + 3) * sqrt(2)^(grade - 5)`.
+pub fn helix_slope_tolerance_um(reference_diameter_mm: f64, face_width_mm: f64, grade: u8) -> f64 {
+    (0.07 * reference_diameter_mm.sqrt() + 0.45 * face_width_mm.sqrt() + 3.0) * grade_factor(grade)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn cumulative_and_helix_tolerances_match_the_1995_tables_they_replaced() {
+        // ISO 1328-1:1995, grade 5, d 50..125 mm, m 3.5..6 mm: F_p = 20 um; the 2013
+        // formula at d = 85, m = 5 gives 20.7 um. Helix, b 20..40 mm: f_Hbeta = 6.0 um;
+        // the formula at d = 85, b = 40 gives 6.5 um.
+        let fp = cumulative_pitch_tolerance_um(85.0, 5.0, 5);
+        assert!((fp - 20.741).abs() < 1e-3, "{fp}");
+        let fh = helix_slope_tolerance_um(85.0, 40.0, 5);
+        assert!((fh - 6.491).abs() < 1e-3, "{fh}");
+        assert!((cumulative_pitch_tolerance_um(85.0, 5.0, 4) * std::f64::consts::SQRT_2 - fp).abs() < 1e-9);
+    }
 
     #[test]
     fn grade_5_module_5_d_85_is_about_7_um() {

@@ -501,6 +501,11 @@ impl Cyclic {
         self.liveness
     }
 
+    /// Each drive's statusword (0x6041) as last received (B, X, Y).
+    pub fn statuswords(&self) -> [u16; 3] {
+        self.statusword
+    }
+
     /// Whether every drive whose synchronous TPDO came in the last cycle has sent it
     /// again since the last [`Self::inputs`] (a lockstep runner waits for this; a drive
     /// that went silent is not waited for).

@@ -27,7 +27,8 @@ use std::time::{Duration, Instant};
 #[derive(Debug, Clone, Copy)]
 #[allow(clippy::large_enum_variant)]
 pub enum Mail {
-    Load(CycleProgram),
+    /// A program and the [`hob_ipc::program_hash`] of the text it was built from.
+    Load(CycleProgram, u64),
     Command(Command),
 }
 
@@ -55,7 +56,9 @@ pub fn build_program(name: &str, text: &str, machine: &MachineConfig) -> Result<
 /// Turns a request into mail for the loop, or the reason it is malformed.
 pub fn to_mail(req: &CommandRequest, machine: &MachineConfig) -> Result<Mail, String> {
     if req.command == command::LOAD_PROGRAM {
-        return build_program(&req.name(), &req.text(), machine).map(Mail::Load);
+        let text = req.text();
+        return build_program(&req.name(), &text, machine)
+            .map(|p| Mail::Load(p, hob_ipc::program_hash(&text)));
     }
     encode::command_from_code(&encode::Args::from_request(req))
         .map(Mail::Command)
@@ -171,7 +174,7 @@ pub fn answer(
     match mailbox.ask(mail) {
         Ok(Ok(offsets)) => {
             let text = match mail {
-                Mail::Load(p) => format!("loaded {} ({} passes)", req.name(), p.passes().len()),
+                Mail::Load(p, _) => format!("loaded {} ({} passes)", req.name(), p.passes().len()),
                 Mail::Command(c @ Command::TouchOff { .. }) => save_offsets(state_file, offsets, c),
                 Mail::Command(_) => format!("{what}: accepted"),
             };

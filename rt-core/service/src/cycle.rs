@@ -45,6 +45,8 @@ pub struct RtLoop<B: CanBus> {
     pub counters: Arc<LoopCounters>,
     pub period_ns: u64,
     event_seq: u64,
+    /// The hash of the loaded program's text (published while a program is loaded).
+    program_hash: u64,
     bus_events: [Option<BusEvent>; BUS_EVENTS],
     outputs: CycleOutputs,
 }
@@ -73,6 +75,7 @@ impl<B: CanBus> RtLoop<B> {
             counters,
             period_ns,
             event_seq: 0,
+            program_hash: 0,
             bus_events: [None; BUS_EVENTS],
             outputs: CycleOutputs::default(),
         }
@@ -116,7 +119,7 @@ impl<B: CanBus> RtLoop<B> {
         }
         if let Ok(mail) = self.mailbox.requests.try_recv() {
             let verdict = match mail {
-                Mail::Load(p) => self.controller.load(p),
+                Mail::Load(p, hash) => self.controller.load(p).map(|()| self.program_hash = hash),
                 Mail::Command(c) => self.controller.command(c),
             }
             .map(|()| self.controller.offsets());
@@ -152,6 +155,12 @@ impl<B: CanBus> RtLoop<B> {
         s.events_lost = self.controller.events().lost();
         s.pitch_radius_mm = pitch_radius_mm;
         s.normal_module_mm = normal_module_mm;
+        s.program_hash = if loaded { self.program_hash } else { 0 };
+        s.drive_statusword = self.cyclic.statuswords();
+        for (i, l) in self.cyclic.liveness().iter().enumerate() {
+            s.nmt_state[i] = l.state.map_or(hob_ipc::NMT_NOT_HEARD, |n| n as u8);
+            s.heartbeat_age_cycles[i] = l.cycles_since_heartbeat;
+        }
         if let Ok(sample) = self.state_pub.loan_uninit() {
             let _ = sample.write_payload(s).send();
         }

@@ -350,6 +350,7 @@ pub const fn command_code(c: Command) -> Args {
         Command::Jog { axis: a, distance } => Args::of(command::JOG).axis(a).value(distance),
         Command::SpindleOn { rpm } => Args::of(command::SPINDLE_ON).value(rpm),
         Command::SpindleOff => Args::of(command::SPINDLE_OFF),
+        Command::SpindleHold { rpm } => Args::of(command::SPINDLE_HOLD).value(rpm),
         Command::NewBlank => Args::of(command::NEW_BLANK),
         Command::Home { axes } => match axes {
             HomeAxes::X => Args::of(command::HOME).axis(Axis::X),
@@ -393,6 +394,7 @@ pub fn command_from_code(a: &Args) -> Option<Command> {
         },
         command::SPINDLE_ON => Command::SpindleOn { rpm: a.value },
         command::SPINDLE_OFF => Command::SpindleOff,
+        command::SPINDLE_HOLD => Command::SpindleHold { rpm: a.value },
         command::NEW_BLANK => Command::NewBlank,
         command::HOME => Command::Home {
             axes: match a.axis {
@@ -474,6 +476,10 @@ pub fn event_sample(seq: u64, e: &Event) -> EventSample {
         EventKind::DeadManStop { axis: a } => {
             s.kind = event_kind::DEAD_MAN_STOP;
             s.a = u32::from(axis(a).code());
+        }
+        EventKind::SpindleDeadManStop => {
+            // Axis 0: the hob spindle C (it has no axis code of its own).
+            s.kind = event_kind::DEAD_MAN_STOP;
         }
         EventKind::OffsetChanged { axis: a, offset_mm } => {
             s.kind = event_kind::OFFSET_CHANGED;

@@ -75,6 +75,15 @@ pub fn percentiles(h: &Histogram<u64>) -> Percentiles {
     }
 }
 
+/// A distribution in powers of two (for a frontend's histogram; off the loop).
+pub fn log2(h: &Histogram<u64>) -> hob_ipc::Log2Histogram {
+    let mut out = hob_ipc::Log2Histogram::default();
+    for v in h.iter_recorded() {
+        out.add(v.value_iterated_to(), v.count_at_value());
+    }
+    out
+}
+
 /// HdrHistogram's percentile distribution text (`.hgrm`, as `HistogramLogProcessor` and
 /// the plotters read it), values in microseconds.
 pub fn hgrm(h: &Histogram<u64>) -> String {
@@ -246,6 +255,8 @@ impl StatsTiming {
         StatsSample {
             wake_latency: percentiles(&self.total.wake_ns),
             compute: percentiles(&self.total.compute_ns),
+            wake_histogram: log2(&self.total.wake_ns),
+            compute_histogram: log2(&self.total.compute_ns),
             ..StatsSample::default()
         }
     }
@@ -289,6 +300,22 @@ mod tests {
         t.record(0, u64::MAX);
         assert_eq!(t.wake_ns.len(), 1);
         assert!(t.compute_ns.max() >= HIGHEST_NS / 2);
+    }
+
+    #[test]
+    fn the_log2_histogram_keeps_every_count_in_its_power_of_two() {
+        let mut h = histogram();
+        for ns in [0, 1, 3, 1000, 1023, 1024, 50_000, 50_000, 2_000_000] {
+            record(&mut h, ns);
+        }
+        let l = log2(&h);
+        assert_eq!(l.counts.iter().sum::<u64>(), 9);
+        assert_eq!(l.counts[0], 2, "0 and 1 ns");
+        assert_eq!(l.counts[1], 1, "3 ns");
+        assert_eq!(l.counts[9], 2, "1000 and 1023 ns");
+        assert_eq!(l.counts[10], 1, "1024 ns");
+        assert_eq!(l.counts[15], 2, "50 us");
+        assert_eq!(l.counts[20], 1, "2 ms");
     }
 
     #[test]

@@ -107,6 +107,7 @@ mod old {
             Command::SpindleOverride { .. } => "spindle override",
             Command::TouchOff { .. } => "touch-off",
             Command::Continue => "continue",
+            Command::SpindleHold { .. } => "spindle hold",
         }
     }
 }
@@ -213,6 +214,7 @@ fn every_command() -> Vec<Command> {
         Command::FeedOverride { percent: 87.5 },
         Command::SpindleOverride { percent: 110.0 },
         Command::Continue,
+        Command::SpindleHold { rpm: 42.5 },
     ];
     for axis in AXES {
         v.push(Command::Jog {
