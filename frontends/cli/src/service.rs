@@ -230,6 +230,19 @@ pub fn status_text(s: &Snapshot) -> String {
         st.digital_inputs,
         st.digital_outputs
     );
+    let nodes: Vec<String> = ["B", "X", "Y", "I/O"]
+        .iter()
+        .enumerate()
+        .map(|(i, n)| {
+            let cia = if i < 3 {
+                format!(", {}", codec::cia402_state_name(st.drive_statusword[i]))
+            } else {
+                String::new()
+            };
+            format!("{n} {}{cia}", codec::nmt_state_name(st.nmt_state[i]))
+        })
+        .collect();
+    let _ = writeln!(o, "nodes    {}", nodes.join("   "));
     match &s.stats {
         Some(x) => {
             let _ = writeln!(
@@ -302,6 +315,26 @@ pub fn status_text(s: &Snapshot) -> String {
     o
 }
 
+/// The CAN nodes as the loop sees them: each drive's CiA 402 state and statusword, each
+/// node's NMT state and the cycles since its heartbeat.
+fn drives_json(st: &hob_ipc::StateSample) -> serde_json::Value {
+    let node = |i: usize| {
+        serde_json::json!({
+            "nmt": codec::nmt_state_name(st.nmt_state[i]),
+            "heartbeat_age_cycles": st.heartbeat_age_cycles[i],
+        })
+    };
+    let mut nodes = serde_json::Map::new();
+    for (i, name) in ["B", "X", "Y"].iter().enumerate() {
+        let mut n = node(i);
+        n["cia402"] = codec::cia402_state_name(st.drive_statusword[i]).into();
+        n["statusword"] = format!("0x{:04X}", st.drive_statusword[i]).into();
+        nodes.insert((*name).into(), n);
+    }
+    nodes.insert("io".into(), node(3));
+    nodes.into()
+}
+
 pub fn status_json(s: &Snapshot) -> String {
     let st = &s.state;
     let p = |p: &hob_ipc::Percentiles| {
@@ -333,6 +366,11 @@ pub fn status_json(s: &Snapshot) -> String {
         "passes_total": st.passes_total,
         "program_loaded": st.program_loaded != 0,
         "alarm": codec::alarm_text(&st.alarm),
+        "alarm_reaction": codec::Fault::of(&st.alarm).map_or(String::new(), |f| f.reaction(&st.alarm).to_string()),
+        "alarm_remedy": codec::Fault::of(&st.alarm).map_or("", codec::Fault::remedy),
+        "alarm_how_to_continue": codec::Fault::of(&st.alarm).map_or("", codec::Fault::how_to_continue),
+        "program_hash": (st.program_hash != 0).then(|| format!("{:016x}", st.program_hash)),
+        "drives": drives_json(st),
         "x_mm": st.x_mm.actual,
         "y_mm": st.y_mm.actual,
         "table_deg": st.table_deg.actual,
