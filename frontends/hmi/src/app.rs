@@ -11,6 +11,14 @@ use hob_store::library::{Kind, Library};
 use std::path::PathBuf;
 use std::sync::Mutex;
 
+/// A program this HMI loaded into the loop.
+#[derive(Debug, Clone)]
+pub struct Loaded {
+    pub name: String,
+    pub plan: Plan,
+    pub hash: u64,
+}
+
 #[derive(Debug)]
 pub struct App {
     pub hub: Hub,
@@ -21,9 +29,9 @@ pub struct App {
     pub log_dir: Option<PathBuf>,
     /// The `hello` the page gets: the machine's name, limits and signal names.
     pub hello: serde_json::Value,
-    /// The plan of the program this HMI loaded last (accepted by the loop), for the time
-    /// left; only used while the loop's program looks like it (passes, gear).
-    pub loaded: Mutex<Option<(String, Plan)>>,
+    /// The program this HMI loaded last (accepted by the loop): its name, plan and the
+    /// [`hob_ipc::program_hash`] of the text sent; used while the loop publishes that hash.
+    pub loaded: Mutex<Option<Loaded>>,
 }
 
 impl App {
@@ -47,8 +55,9 @@ impl App {
     }
 
     /// A library program as `hob load --lib NAME` sends it: its text with the library tool
-    /// filled in (the loop parses and checks it again and answers), and its plan.
-    pub fn load_request(&self, name: &str) -> Result<(CommandRequest, Plan), String> {
+    /// filled in (the loop parses and checks it again and answers), and what to remember
+    /// once the loop accepts it.
+    pub fn load_request(&self, name: &str) -> Result<(CommandRequest, Loaded), String> {
         let text = self
             .library
             .text(Kind::Program, name)
@@ -62,32 +71,42 @@ impl App {
             hob_setup::planner::plan_source(&origin, &resolved, &self.machine).map_err(|e| e.to_string())?;
         Ok((
             CommandRequest::load_program(&format!("library program {name}"), &resolved)?,
-            plan,
+            Loaded {
+                name: name.to_string(),
+                plan,
+                hash: hob_ipc::program_hash(&resolved),
+            },
         ))
     }
 
-    /// Remembers the plan of a program the loop accepted from this HMI.
-    pub fn loaded(&self, name: &str, plan: Plan) {
+    /// Remembers a program the loop accepted from this HMI.
+    pub fn loaded(&self, l: Loaded) {
         *self
             .loaded
             .lock()
-            .unwrap_or_else(std::sync::PoisonError::into_inner) = Some((name.to_string(), plan));
+            .unwrap_or_else(std::sync::PoisonError::into_inner) = Some(l);
     }
 
-    /// The time left of the cycle under way (`hob_setup::planner::progress`), when the loop's
-    /// program is the one this HMI loaded (same number of passes and gear) and a pass runs.
-    pub fn time_left_s(&self, s: &crate::protocol::StateView, pitch_radius_mm: f64) -> Option<f64> {
+    /// The program this HMI loaded, while the loop's program is that text (its hash).
+    pub fn loaded_here(&self, program_hash: u64) -> Option<Loaded> {
         let loaded = self
             .loaded
             .lock()
             .unwrap_or_else(std::sync::PoisonError::into_inner);
-        let (_, plan) = loaded.as_ref()?;
-        let same = plan.passes.len() == s.passes as usize
-            && (plan.pitch_diameter_mm - 2.0 * pitch_radius_mm).abs() < 1e-6;
-        if !same || s.pass == 0 {
+        loaded
+            .as_ref()
+            .filter(|l| program_hash != 0 && l.hash == program_hash)
+            .cloned()
+    }
+
+    /// The time left of the cycle under way (`hob_setup::planner::progress`), when the loop's
+    /// program is the one this HMI loaded and a pass runs.
+    pub fn time_left_s(&self, s: &crate::protocol::StateView) -> Option<f64> {
+        if s.pass == 0 {
             return None;
         }
-        hob_setup::planner::progress::time_left_s(plan, s.pass, s.y_mm.act, s.feed_override_percent)
+        let l = self.loaded_here(s.program_hash)?;
+        hob_setup::planner::progress::time_left_s(&l.plan, s.pass, s.y_mm.act, s.feed_override_percent)
     }
 }
 

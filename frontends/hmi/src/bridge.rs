@@ -187,7 +187,10 @@ impl Bridge {
             silent_ms,
             samples_missed: self.gaps.missed,
             loop_restarts: self.gaps.restarts,
-            state: self.newest.as_ref().map(|(s, _)| StateView::of(s, &self.io)),
+            state: self
+                .newest
+                .as_ref()
+                .map(|(s, _)| StateView::of(s, &self.io, self.period_ns)),
             plot: self.interval.take(),
             events_head: *self.events_head.borrow(),
         });

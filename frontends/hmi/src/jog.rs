@@ -63,9 +63,19 @@ impl JogSession {
         rx
     }
 
-    /// Finger down: starts a continuous jog (a running one of this socket is replaced).
+    /// Finger down: starts a continuous jog, or for axis `c` turns the hob spindle at
+    /// `speed` rpm (a running hold of this socket is replaced).
     pub fn hold(&mut self, id: u64, axis: &str, dir: &str, speed: f64, now: Instant) -> Result<Sent, String> {
-        let req = request::jog_continuous(axis, dir, speed)?;
+        let req = if axis.eq_ignore_ascii_case("c") {
+            if dir != "+" {
+                return Err(format!(
+                    "spindle hold: the hob spindle turns one way only, not {dir}"
+                ));
+            }
+            request::spindle_hold(speed)
+        } else {
+            request::jog_continuous(axis, dir, speed)?
+        };
         self.active = Some((id, req));
         Ok(Sent {
             id,
@@ -101,8 +111,13 @@ impl JogSession {
 
     /// Finger up, page hidden, socket closed: releases a running jog at once.
     pub fn release(&mut self) -> Option<oneshot::Receiver<Reply>> {
-        self.active.take()?;
-        Some(self.commander.submit(CommandRequest::new(command::JOG_RELEASE)))
+        let (_, held) = self.active.take()?;
+        let stop = if held.command == command::SPINDLE_HOLD {
+            command::SPINDLE_OFF
+        } else {
+            command::JOG_RELEASE
+        };
+        Some(self.commander.submit(CommandRequest::new(stop)))
     }
 }
 
@@ -190,6 +205,28 @@ mod tests {
             fake.join().expect("fake loop"),
             vec![command::JOG_CONTINUOUS, command::JOG_RELEASE]
         );
+    }
+
+    #[test]
+    fn a_held_spindle_is_renewed_as_a_jog_and_stopped_by_spindle_off() {
+        let (commander, jobs) = Commander::new();
+        let fake = answer_all(jobs);
+        rt().block_on(async {
+            let mut s = JogSession::new(commander);
+            assert!(s.hold(1, "c", "-", 20.0, Instant::now()).is_err(), "one way only");
+            let t0 = Instant::now();
+            s.hold(2, "c", "+", 20.0, t0)
+                .expect("a hold")
+                .reply
+                .await
+                .expect("answer")
+                .expect("ok");
+            let r = s.renew(t0 + Duration::from_millis(100)).expect("forwarded");
+            r.reply.await.expect("answer").expect("ok");
+            drop(s);
+        });
+        let (h, off) = (command::SPINDLE_HOLD, command::SPINDLE_OFF);
+        assert_eq!(fake.join().expect("fake loop"), vec![h, h, off]);
     }
 
     #[test]

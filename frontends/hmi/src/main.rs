@@ -29,9 +29,14 @@ struct Args {
     /// Where the panel is served: a loopback address only (port 0: any free port).
     #[arg(long, default_value = "127.0.0.1:8080")]
     bind: SocketAddr,
-    /// Also serve a view-only screen (no commands, no changes) at this address.
-    #[arg(long)]
+    /// Also serve a view-only screen (no commands, no changes) at this address; needs
+    /// --view-token-file.
+    #[arg(long, requires = "view_token_file")]
     view_bind: Option<SocketAddr>,
+    /// The view-only screen's secret (at least 16 printable characters): a remote browser
+    /// opens http://ADDR/?token=SECRET once and keeps it in a cookie.
+    #[arg(long)]
+    view_token_file: Option<PathBuf>,
     /// The npm install holding Preact and htm (default: next to the binary in
     /// ../share/hob/hmi/vendor, else frontends/hmi/node_modules).
     #[arg(long)]
@@ -72,6 +77,16 @@ fn run(a: Args) -> Result<(), String> {
     if a.silence_ms == 0 {
         return Err("--silence-ms must be above 0".into());
     }
+    let view_token = match &a.view_token_file {
+        Some(f) => Some(
+            std::fs::read_to_string(f)
+                .map_err(|e| format!("--view-token-file {}: {e}", f.display()))
+                .and_then(|t| {
+                    web::ViewToken::new(&t).map_err(|e| format!("--view-token-file {}: {e}", f.display()))
+                })?,
+        ),
+        None => None,
+    };
     let machine = MachineConfig::load(&a.machine).map_err(|e| e.to_string())?;
     let library_dir = a
         .library
@@ -110,13 +125,13 @@ fn run(a: Args) -> Result<(), String> {
             "hob-hmi: serving the panel at http://{addr}/ (instance {})",
             hob_ipc::instance()
         );
-        if let Some(v) = a.view_bind {
+        if let (Some(v), Some(token)) = (a.view_bind, view_token) {
             let vl = tokio::net::TcpListener::bind(v)
                 .await
                 .map_err(|e| format!("--view-bind {v}: {e}"))?;
             let vaddr = vl.local_addr().map_err(|e| e.to_string())?;
-            let view = web::view_router(app.clone(), vendor, vaddr.to_string());
-            println!("hob-hmi: serving a view-only screen at http://{vaddr}/");
+            let view = web::view_router(app.clone(), vendor, token);
+            println!("hob-hmi: serving a view-only screen at http://{vaddr}/ (open it once with ?token=)");
             tokio::spawn(async move { axum::serve(vl, view).await });
         }
         let stopping = async {

@@ -44,6 +44,32 @@ pub struct Referenced {
     pub table: bool,
 }
 
+/// A CAN node as the loop sees it: its NMT state from the heartbeat, the heartbeat's age,
+/// and for a drive its CiA 402 state and statusword.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct NodeView {
+    pub name: &'static str,
+    pub nmt: &'static str,
+    pub heartbeat_age_ms: f64,
+    pub cia402: Option<&'static str>,
+    pub statusword: Option<String>,
+}
+
+/// The nodes of a state sample, in the bus plan's order; `period_ns` dates the heartbeats.
+pub fn nodes(s: &StateSample, period_ns: u64) -> Vec<NodeView> {
+    ["B", "X", "Y", "I/O"]
+        .iter()
+        .enumerate()
+        .map(|(i, name)| NodeView {
+            name,
+            nmt: codec::nmt_state_name(s.nmt_state[i]),
+            heartbeat_age_ms: f64::from(s.heartbeat_age_cycles[i]) * period_ns as f64 / 1e6,
+            cia402: (i < 3).then(|| codec::cia402_state_name(s.drive_statusword[i])),
+            statusword: (i < 3).then(|| format!("0x{:04X}", s.drive_statusword[i])),
+        })
+        .collect()
+}
+
 /// One state sample in words.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct StateView {
@@ -80,6 +106,11 @@ pub struct StateView {
     pub bound_arcsec: Option<f64>,
     /// The loaded gear's pitch radius (0 without a program).
     pub pitch_radius_mm: f64,
+    /// The loaded program's text hash (0: none); not sent (a u64 is not a JS number).
+    #[serde(skip)]
+    pub program_hash: u64,
+    /// The CAN nodes (drives and coupler).
+    pub nodes: Vec<NodeView>,
 }
 
 fn axes(bits: u8) -> Vec<&'static str> {
@@ -115,7 +146,8 @@ pub fn bound_arcsec(pitch_radius_mm: f64, normal_module_mm: f64) -> Option<f64> 
 }
 
 impl StateView {
-    pub fn of(s: &StateSample, io: &IoMap) -> Self {
+    /// `period_ns`: the loop's period (the heartbeats' age is counted in cycles).
+    pub fn of(s: &StateSample, io: &IoMap, period_ns: u64) -> Self {
         let signals = |list: &[(&'static str, hob_setup::config::machine::DigitalBinding)], raw: u32| {
             list.iter()
                 .map(|(name, b)| Signal {
@@ -170,6 +202,8 @@ impl StateView {
             events_lost: s.events_lost,
             bound_arcsec: bound_arcsec(s.pitch_radius_mm, s.normal_module_mm),
             pitch_radius_mm: s.pitch_radius_mm,
+            program_hash: s.program_hash,
+            nodes: nodes(s, period_ns),
         }
     }
 }
@@ -237,6 +271,8 @@ pub struct StatsView {
     pub memory_locked: bool,
     pub bus: &'static str,
     pub tx_errors: u64,
+    pub wake_bars: Vec<BarView>,
+    pub compute_bars: Vec<BarView>,
 }
 
 #[derive(Debug, Clone, PartialEq, Serialize)]
@@ -247,6 +283,33 @@ pub struct PercentilesView {
     pub p99: f64,
     pub p999: f64,
     pub max: f64,
+}
+
+/// One bar of a histogram: values from `lo_us` up to `hi_us`, and how many.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct BarView {
+    pub lo_us: f64,
+    pub hi_us: f64,
+    pub count: u64,
+}
+
+/// The bars of a power-of-two histogram from its lowest to its highest filled bucket (empty
+/// ones between them kept, so that a tail stands apart).
+pub fn bars(h: &hob_ipc::Log2Histogram) -> Vec<BarView> {
+    let filled = |i: &usize| h.counts[*i] > 0;
+    let (Some(lo), Some(hi)) = (
+        (0..h.counts.len()).find(filled),
+        (0..h.counts.len()).rev().find(filled),
+    ) else {
+        return Vec::new();
+    };
+    (lo..=hi)
+        .map(|i| BarView {
+            lo_us: if i == 0 { 0.0 } else { (1u64 << i) as f64 / 1e3 },
+            hi_us: (1u64 << (i + 1)) as f64 / 1e3,
+            count: h.counts[i],
+        })
+        .collect()
 }
 
 impl StatsView {
@@ -272,6 +335,8 @@ impl StatsView {
             memory_locked: s.memory_locked != 0,
             bus: codec::bus_kind_name(s.bus_kind),
             tx_errors: s.tx_errors,
+            wake_bars: bars(&s.wake_histogram),
+            compute_bars: bars(&s.compute_histogram),
         }
     }
 }
@@ -505,13 +570,49 @@ mod tests {
         )))
         .expect("the shipped machine file")
         .io;
-        let v = StateView::of(&s, &io);
+        let v = StateView::of(&s, &io, 1_000_000);
         let a = v.alarm.expect("an alarm");
         assert!(
             !a.text.is_empty() && !a.remedy.is_empty() && !a.how_to_continue.is_empty(),
             "{a:?}"
         );
         assert_eq!(v.inputs.len(), io.inputs.bindings().len());
+    }
+
+    #[test]
+    fn histogram_bars_span_the_filled_buckets_and_keep_the_empty_ones_between() {
+        let mut h = hob_ipc::Log2Histogram::default();
+        h.add(20_000, 990);
+        h.add(300_000, 1);
+        let b = bars(&h);
+        assert_eq!(b.len(), 5, "2^14 .. 2^18 ns");
+        assert_eq!((b[0].lo_us, b[0].count), (16.384, 990));
+        assert_eq!((b[4].hi_us, b[4].count), (524.288, 1));
+        assert!(b[1..4].iter().all(|x| x.count == 0));
+        assert!(bars(&hob_ipc::Log2Histogram::default()).is_empty());
+    }
+
+    #[test]
+    fn the_nodes_are_named_from_their_statuswords_and_heartbeats() {
+        let s = StateSample {
+            drive_statusword: [0x0237, 0x0008, 0x0040],
+            nmt_state: [0x05, 0x7F, 0x04, hob_ipc::NMT_NOT_HEARD],
+            heartbeat_age_cycles: [10, 0, 250, u32::MAX],
+            ..Default::default()
+        };
+        let n = nodes(&s, 2_000_000);
+        let got: Vec<_> = n.iter().map(|n| (n.name, n.nmt, n.cia402)).collect();
+        assert_eq!(
+            got,
+            [
+                ("B", "operational", Some("operation enabled")),
+                ("X", "pre-operational", Some("fault")),
+                ("Y", "stopped", Some("switch on disabled")),
+                ("I/O", "not heard", None),
+            ]
+        );
+        assert_eq!(n[0].heartbeat_age_ms, 20.0);
+        assert_eq!(n[2].statusword.as_deref(), Some("0x0040"));
     }
 
     #[test]

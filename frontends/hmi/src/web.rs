@@ -88,6 +88,15 @@ async fn index() -> Response {
     file("index.html", ASSETS[0].1)
 }
 
+/// The page of the view-only screen: the same page on the view socket.
+async fn view_index() -> Response {
+    let page = ASSETS[0].1.replace(
+        r#"<meta name="hob-socket" content="/ws/panel">"#,
+        r#"<meta name="hob-socket" content="/ws/view">"#,
+    );
+    file("index.html", &page)
+}
+
 async fn asset(Path(name): Path<String>) -> Response {
     match ASSETS.iter().find(|(n, _)| *n == name) {
         Some((n, t)) => file(n, t),
@@ -146,7 +155,8 @@ pub fn panel_router(app: Arc<App>, vendor_files: Arc<Vendor>, host: String) -> R
 
 /// A view-only screen elsewhere: the page, the view socket and the reports. It has no
 /// command socket and no route that changes anything (built apart, not a flag per request).
-pub fn view_router(app: Arc<App>, vendor_files: Arc<Vendor>, host: String) -> Router {
+/// Every request needs the view token ([`view_allowed`]).
+pub fn view_router(app: Arc<App>, vendor_files: Arc<Vendor>, token: ViewToken) -> Router {
     let files = Files {
         app: app.clone(),
         vendor: vendor_files,
@@ -156,13 +166,134 @@ pub fn view_router(app: Arc<App>, vendor_files: Arc<Vendor>, host: String) -> Ro
         .route("/api/cut/report", get(api::report))
         .with_state(app);
     Router::new()
-        .route("/", get(index))
+        .route("/", get(view_index))
         .route("/assets/{name}", get(asset))
         .route("/vendor/{name}", get(vendor))
         .route("/ws/view", get(ws_view))
         .with_state(files)
         .merge(api)
-        .layer(middleware::from_fn_with_state(Arc::new(host), guard))
+        .layer(middleware::from_fn_with_state(Arc::new(token), view_guard))
+}
+
+/// The secret of the view-only screen: a remote browser opens `/?token=SECRET` once and
+/// keeps it in a cookie.
+#[derive(Clone)]
+pub struct ViewToken(String);
+
+impl std::fmt::Debug for ViewToken {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str("ViewToken(..)")
+    }
+}
+
+/// The cookie holding the view token.
+pub const VIEW_COOKIE: &str = "hob_view";
+/// The shortest token taken (printable ASCII, no spaces, `;` or `=`).
+pub const VIEW_TOKEN_MIN_CHARS: usize = 16;
+
+impl ViewToken {
+    /// A token as read from its file (`--view-token-file`), checked.
+    pub fn new(text: &str) -> Result<Self, String> {
+        let t = text.trim();
+        if t.len() < VIEW_TOKEN_MIN_CHARS {
+            return Err(format!(
+                "the view token is {} characters, at least {VIEW_TOKEN_MIN_CHARS} are needed \
+                 (e.g. `head -c 24 /dev/urandom | base64 > FILE`)",
+                t.len()
+            ));
+        }
+        if !t
+            .bytes()
+            .all(|b| b.is_ascii_graphic() && b != b';' && b != b'=' && b != b'&')
+        {
+            return Err("the view token holds a character other than printable ASCII (or ; = &)".into());
+        }
+        Ok(Self(t.to_string()))
+    }
+
+    /// Compares in time independent of where the first difference is.
+    fn matches(&self, given: &str) -> bool {
+        let (a, b) = (self.0.as_bytes(), given.as_bytes());
+        a.len() == b.len() && a.iter().zip(b).fold(0u8, |acc, (x, y)| acc | (x ^ y)) == 0
+    }
+}
+
+/// What the view guard does with a request.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum ViewVerdict {
+    Pass,
+    /// The link with the token: set the cookie and go to the page.
+    SetCookie,
+    Unauthorised(&'static str),
+    Forbidden(&'static str),
+}
+
+/// Whether a request to the view-only screen may pass: it needs the token (in its cookie,
+/// an `Authorization: Bearer` header, or once in the page's link `/?token=`), and a
+/// WebSocket needs an `Origin` of the host it asks (no other site's page reads the machine
+/// through a viewer's browser). The token, not the host name, guards it: a remote screen
+/// reaches the machine by whatever name the shop's network gives it.
+pub fn view_allowed(headers: &HeaderMap, path: &str, query: Option<&str>, token: &ViewToken) -> ViewVerdict {
+    if path == "/"
+        && let Some(q) = query
+        && let Some(t) = q.split('&').find_map(|kv| kv.strip_prefix("token="))
+    {
+        return if token.matches(t) {
+            ViewVerdict::SetCookie
+        } else {
+            ViewVerdict::Unauthorised("this link's token is not the view token")
+        };
+    }
+    let cookie_ok = headers.get_all(header::COOKIE).iter().any(|v| {
+        v.to_str().ok().is_some_and(|c| {
+            c.split(';')
+                .filter_map(|kv| kv.trim().strip_prefix(VIEW_COOKIE)?.strip_prefix('='))
+                .any(|t| token.matches(t))
+        })
+    });
+    let bearer_ok = headers
+        .get(header::AUTHORIZATION)
+        .and_then(|v| v.to_str().ok())
+        .and_then(|v| v.strip_prefix("Bearer "))
+        .is_some_and(|t| token.matches(t));
+    if !(cookie_ok || bearer_ok) {
+        return ViewVerdict::Unauthorised(
+            "view-only screen of hob: open it with the link that holds its token (/?token=...)",
+        );
+    }
+    if path.starts_with("/ws/") {
+        let host = headers
+            .get(header::HOST)
+            .and_then(|h| h.to_str().ok())
+            .unwrap_or("");
+        let origin = headers
+            .get(header::ORIGIN)
+            .and_then(|h| h.to_str().ok())
+            .unwrap_or("");
+        if host.is_empty() || origin != format!("http://{host}") {
+            return ViewVerdict::Forbidden("the view socket is served only to this server's own page");
+        }
+    }
+    ViewVerdict::Pass
+}
+
+async fn view_guard(State(token): State<Arc<ViewToken>>, req: Request<Body>, next: Next) -> Response {
+    match view_allowed(req.headers(), req.uri().path(), req.uri().query(), &token) {
+        ViewVerdict::Pass => next.run(req).await,
+        ViewVerdict::SetCookie => (
+            StatusCode::SEE_OTHER,
+            [
+                (header::LOCATION, "/".to_string()),
+                (
+                    header::SET_COOKIE,
+                    format!("{VIEW_COOKIE}={}; HttpOnly; SameSite=Strict; Path=/", token.0),
+                ),
+            ],
+        )
+            .into_response(),
+        ViewVerdict::Unauthorised(why) => (StatusCode::UNAUTHORIZED, why).into_response(),
+        ViewVerdict::Forbidden(why) => (StatusCode::FORBIDDEN, why).into_response(),
+    }
 }
 
 /// Whether a request may pass: its `Host` must be the address served (no DNS rebinding),
@@ -233,5 +364,65 @@ mod tests {
         );
         let rebound = h(&[(header::HOST, "attacker.example:8080")]);
         assert!(allowed(&rebound, &Method::GET, "/", served).is_err());
+    }
+
+    #[test]
+    fn the_view_screen_needs_its_token_and_its_own_origin_on_the_socket() {
+        let t = ViewToken::new("0123456789abcdefXYZ\n").expect("a token");
+        assert!(ViewToken::new("short").is_err());
+        assert!(ViewToken::new("0123456789abcdef ghij").is_err(), "a space");
+        let none = h(&[(header::HOST, "hobber:8081")]);
+        assert!(matches!(
+            view_allowed(&none, "/", None, &t),
+            ViewVerdict::Unauthorised(_)
+        ));
+        assert!(matches!(
+            view_allowed(&none, "/api/cut/report", None, &t),
+            ViewVerdict::Unauthorised(_)
+        ));
+        assert_eq!(
+            view_allowed(&none, "/", Some("token=0123456789abcdefXYZ"), &t),
+            ViewVerdict::SetCookie
+        );
+        assert!(matches!(
+            view_allowed(&none, "/", Some("token=0123456789abcdefXYY"), &t),
+            ViewVerdict::Unauthorised(_)
+        ));
+        let cookie = h(&[
+            (header::HOST, "hobber:8081"),
+            (header::COOKIE, "a=b; hob_view=0123456789abcdefXYZ"),
+        ]);
+        assert_eq!(
+            view_allowed(&cookie, "/assets/app.css", None, &t),
+            ViewVerdict::Pass
+        );
+        let bearer = h(&[
+            (header::HOST, "hobber:8081"),
+            (header::AUTHORIZATION, "Bearer 0123456789abcdefXYZ"),
+        ]);
+        assert_eq!(
+            view_allowed(&bearer, "/api/cut/report", None, &t),
+            ViewVerdict::Pass
+        );
+        // The socket: the token and the page's own origin.
+        assert!(matches!(
+            view_allowed(&cookie, "/ws/view", None, &t),
+            ViewVerdict::Forbidden(_)
+        ));
+        let own = h(&[
+            (header::HOST, "hobber:8081"),
+            (header::COOKIE, "hob_view=0123456789abcdefXYZ"),
+            (header::ORIGIN, "http://hobber:8081"),
+        ]);
+        assert_eq!(view_allowed(&own, "/ws/view", None, &t), ViewVerdict::Pass);
+        let foreign = h(&[
+            (header::HOST, "hobber:8081"),
+            (header::COOKIE, "hob_view=0123456789abcdefXYZ"),
+            (header::ORIGIN, "http://evil.example"),
+        ]);
+        assert!(matches!(
+            view_allowed(&foreign, "/ws/view", None, &t),
+            ViewVerdict::Forbidden(_)
+        ));
     }
 }

@@ -29,6 +29,8 @@ enum Out<'a> {
         skipped: u64,
         /// The cycle's time left, when this HMI knows the loaded program's plan.
         time_left_s: Option<f64>,
+        /// The library program this HMI loaded, while it is the loop's program.
+        loaded_here: Option<String>,
         #[serde(flatten)]
         frame: &'a Frame,
     },
@@ -108,8 +110,11 @@ impl Waiting {
 }
 
 fn time_left(app: &App, f: &Frame) -> Option<f64> {
-    let s = f.state.as_ref()?;
-    app.time_left_s(s, s.pitch_radius_mm)
+    app.time_left_s(f.state.as_ref()?)
+}
+
+fn loaded_here(app: &App, f: &Frame) -> Option<String> {
+    app.loaded_here(f.state.as_ref()?.program_hash).map(|l| l.name)
 }
 
 /// Serves one browser until it goes.
@@ -152,7 +157,7 @@ pub async fn serve(ws: WebSocket, app: Arc<App>, panel: bool) {
                         }
                         let f = frames.borrow_and_update().clone();
                         last_frame = f.seq;
-                        if !s.send(&Out::Frame { skipped: 0, time_left_s: time_left(&app, &f), frame: &f }).await {
+                        if !s.send(&Out::Frame { skipped: 0, time_left_s: time_left(&app, &f), loaded_here: loaded_here(&app, &f), frame: &f }).await {
                             break;
                         }
                         last_event = Some(seen);
@@ -162,9 +167,9 @@ pub async fn serve(ws: WebSocket, app: Arc<App>, panel: bool) {
                     }
                     _ if !panel => break,
                     ClientMsg::Cmd { id, op: Op::Load { program } } => match app.load_request(&program) {
-                        Ok((r, plan)) => {
+                        Ok((r, loaded)) => {
                             let app2 = app.clone();
-                            waiting.answer_then(id, app.commands.submit(r), move || app2.loaded(&program, plan));
+                            waiting.answer_then(id, app.commands.submit(r), move || app2.loaded(loaded));
                         }
                         Err(e) => {
                             if !s.send(&Out::Answer(&Answer::refused(id, e))).await {
@@ -213,7 +218,7 @@ pub async fn serve(ws: WebSocket, app: Arc<App>, panel: bool) {
                 }
                 let skipped = f.seq.saturating_sub(last_frame + 1);
                 last_frame = f.seq;
-                if !s.send(&Out::Frame { skipped, time_left_s: time_left(&app, &f), frame: &f }).await {
+                if !s.send(&Out::Frame { skipped, time_left_s: time_left(&app, &f), loaded_here: loaded_here(&app, &f), frame: &f }).await {
                     break;
                 }
             }

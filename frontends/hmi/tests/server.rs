@@ -46,6 +46,9 @@ fn fake_loop(jobs: std::sync::mpsc::Receiver<Job>, seen: Arc<Mutex<Vec<u32>>>) {
     });
 }
 
+/// The view-only screen's token in these tests.
+const VIEW_TOKEN: &str = "test-token-0123456789";
+
 async fn start(view: bool) -> Fixture {
     let dir = std::env::temp_dir().join(format!(
         "hob-hmi-server-{}-{:?}",
@@ -63,7 +66,7 @@ async fn start(view: bool) -> Fixture {
     let addr = listener.local_addr().unwrap().to_string();
     let vendor = Arc::new(Vendor::default());
     let router = if view {
-        web::view_router(app, vendor, addr.clone())
+        web::view_router(app, vendor, web::ViewToken::new(VIEW_TOKEN).unwrap())
     } else {
         web::panel_router(app, vendor, addr.clone())
     };
@@ -82,6 +85,10 @@ async fn connect(f: &Fixture, path: &str, origin: &str) -> Result<Ws, String> {
     let mut req = format!("ws://{}{path}", f.addr).into_client_request().unwrap();
     req.headers_mut()
         .insert("origin", HeaderValue::from_str(origin).unwrap());
+    req.headers_mut().insert(
+        "cookie",
+        HeaderValue::from_str(&format!("{}={VIEW_TOKEN}", web::VIEW_COOKIE)).unwrap(),
+    );
     tokio_tungstenite::connect_async(req)
         .await
         .map(|(ws, _)| ws)
@@ -318,22 +325,47 @@ async fn a_foreign_origin_is_refused_and_the_view_screen_cannot_command() {
         }
     }
     assert!(v.seen.lock().unwrap().is_empty());
+    // Without its token the view screen shows nothing; the link with it sets the cookie.
+    let r = raw_http(&v.addr, "GET /api/cut/report", &origin, "").await;
+    assert!(r.starts_with("HTTP/1.1 401"), "{r}");
+    let r = raw_http(&v.addr, "GET /", &origin, "").await;
+    assert!(r.starts_with("HTTP/1.1 401"), "{r}");
+    let r = raw_http(&v.addr, &format!("GET /?token={VIEW_TOKEN}"), &origin, "").await;
+    assert!(r.starts_with("HTTP/1.1 303"), "{r}");
+    assert!(
+        r.contains(&format!("{}={VIEW_TOKEN}; HttpOnly", web::VIEW_COOKIE)),
+        "{r}"
+    );
+    let mut no_cookie = format!("ws://{}/ws/view", v.addr).into_client_request().unwrap();
+    no_cookie
+        .headers_mut()
+        .insert("origin", HeaderValue::from_str(&origin).unwrap());
+    assert!(
+        tokio_tungstenite::connect_async(no_cookie).await.is_err(),
+        "a socket without the token"
+    );
     // And it has no route that changes the library.
-    let client = tokio::net::TcpStream::connect(&v.addr).await.unwrap();
-    drop(client);
-    let r = raw_http(&v.addr, "DELETE /api/programs/x", &origin).await;
+    let cookie = format!("Cookie: {}={VIEW_TOKEN}\r\n", web::VIEW_COOKIE);
+    let r = raw_http(&v.addr, "GET /", &origin, &cookie).await;
+    assert!(
+        r.starts_with("HTTP/1.1 200") && r.contains(r#"content="/ws/view""#),
+        "the view page uses the view socket: {r}"
+    );
+    let r = raw_http(&v.addr, "DELETE /api/programs/x", &origin, &cookie).await;
     assert!(
         r.starts_with("HTTP/1.1 404") || r.starts_with("HTTP/1.1 405"),
         "{r}"
     );
-    let r = raw_http(&f.addr, "DELETE /api/programs/x", "http://evil.example").await;
+    let r = raw_http(&f.addr, "DELETE /api/programs/x", "http://evil.example", "").await;
     assert!(r.starts_with("HTTP/1.1 403"), "{r}");
 }
 
-async fn raw_http(addr: &str, line: &str, origin: &str) -> String {
+async fn raw_http(addr: &str, line: &str, origin: &str, extra_headers: &str) -> String {
     use tokio::io::{AsyncReadExt, AsyncWriteExt};
     let mut s = tokio::net::TcpStream::connect(addr).await.unwrap();
-    let req = format!("{line} HTTP/1.1\r\nHost: {addr}\r\nOrigin: {origin}\r\nConnection: close\r\n\r\n");
+    let req = format!(
+        "{line} HTTP/1.1\r\nHost: {addr}\r\nOrigin: {origin}\r\n{extra_headers}Connection: close\r\n\r\n"
+    );
     s.write_all(req.as_bytes()).await.unwrap();
     let mut out = String::new();
     s.read_to_string(&mut out).await.unwrap();

@@ -38,6 +38,10 @@ test("PROGRAMS lists the library with each program's state; LOAD loads one into 
   await page.locator('[data-testid="load-session-gear"]').tap();
   await page.locator('[data-testid="toast"].ok').first().waitFor({ timeout: 10000 });
   await waitFor("the program loaded in the loop", () => status().program_loaded, 5000);
+  // The loop publishes the hash of the text it was given: the status line names the program.
+  assert.match(status().program_hash || "", /^[0-9a-f]{16}$/);
+  await waitFor("the status line names the loaded program", async () =>
+    (await page.locator('[data-testid="loaded-program"]').innerText()).includes("session-gear"), 5000);
   await shot(page, "programs");
   await page.close();
 });
@@ -70,6 +74,41 @@ test("closing the page while holding Y+ stops Y", async () => {
   assert.equal(status().state, "jog");
   await page.close();
   await waitFor("Y stopped after the page closed", () => status().state === "idle", 3000, 50);
+});
+
+test("holding C turns the hob spindle; lifting stops it, and so does closing the page", async () => {
+  const page = await open("jog");
+  await page.locator('[data-testid="spindle-rpm"]').fill("20");
+  const t = await touchHold(page, '[data-jog="c+"]', 1500);
+  const held = status();
+  assert.ok(held.spindle_rpm > 10, `spindle ${held.spindle_rpm} rpm while held at 20`);
+  assert.equal(held.state, "idle", "a held spindle is no jog of an axis");
+  await t.lift();
+  await waitFor("the spindle stopped after the lift", () => status().spindle_rpm < 0.5, 5000, 50);
+  assert.doesNotMatch(status().events.map((e) => e.text).join("\n"), /spindle C stopped: its renewals/, "released, not the dead-man");
+  // Held again and the page closed: released by the server (or else by the loop's dead-man).
+  await touchHold(page, '[data-jog="c+"]', 1000);
+  assert.ok(status().spindle_rpm > 5, "turning again");
+  await page.close();
+  await waitFor("the spindle stopped after the page closed", () => status().spindle_rpm < 0.5, 5000, 50);
+});
+
+test("DIAGNOSTICS shows each CAN node's NMT state and each drive's CiA 402 state as the loop reports them", async () => {
+  const page = await open("diagnostics");
+  const loop = status();
+  for (const [node, want] of Object.entries(loop.drives)) {
+    const name = node === "io" ? "I/O" : node;
+    const row = page.locator(`[data-node="${name}"]`);
+    await row.waitFor({ timeout: 5000 });
+    const text = await row.innerText();
+    assert.match(text, new RegExp(want.nmt), `${name}: ${text}`);
+    if (want.cia402) assert.match(text, new RegExp(want.cia402), `${name}: ${text}`);
+  }
+  assert.equal(loop.drives.B.nmt, "operational");
+  assert.equal(loop.drives.Y.cia402, "operation enabled");
+  await page.locator('[data-testid="wake-histogram"] .bar').first().waitFor({ timeout: 5000 });
+  await shot(page, "diagnostics-nodes");
+  await page.close();
 });
 
 test("touch-off X sets the offset the loop reports; an absurd gauge is refused with the loop's reason and changes nothing", async () => {

@@ -9,7 +9,10 @@ import { installReleaseOnLeave } from "./hold.mjs";
 import { PowerUp, Jog, Automatic, Single, Alarms, Diagnostics, Report } from "./screens.mjs";
 import { Programs, Definition } from "./library.mjs";
 
-const conn = new Conn("/ws/panel");
+// The panel's socket, or the view-only one where the server says so (its page's meta).
+const socket = document.querySelector('meta[name="hob-socket"]').content;
+const conn = new Conn(socket);
+conn.viewOnly = socket === "/ws/view";
 conn.toasts = [];
 let toastKey = 1;
 conn.toast = (a, label) => {
@@ -23,11 +26,14 @@ installReleaseOnLeave(conn);
 // For the HMI's benchmark (frontends/hmi/tests/bench/figures.mjs): the page's connection.
 window.hobConn = conn;
 
-const SCREENS = [
+// A view-only screen (another PC in the shop) shows what runs, never a command or a change.
+const VIEW_SCREENS = ["automatic", "report", "alarms", "diagnostics"];
+const ALL_SCREENS = [
   ["powerup", "POWER-UP"], ["jog", "JOG"], ["programs", "PROGRAMS"], ["definition", "DEFINITION"],
   ["single", "SINGLE"], ["automatic", "AUTOMATIC"], ["report", "REPORT"], ["alarms", "ALARMS"],
   ["diagnostics", "DIAGNOSTICS"],
 ];
+const SCREENS = conn.viewOnly ? ALL_SCREENS.filter(([k]) => VIEW_SCREENS.includes(k)) : ALL_SCREENS;
 
 function Status({ conn }) {
   const f = conn.frame, s = f && f.state;
@@ -42,10 +48,11 @@ function Status({ conn }) {
   return html`<header class=${`status ${stale || silent || !s ? "is-stale" : ""}`} data-testid="status">
     <div class="st-state"><span class="label">state</span><b data-testid="state">${s ? s.state : "-"}</b>${s && s.hold ? html` <b class="warn">FEED HOLD</b>` : ""}</div>
     <div><span class="label">pass</span><b data-testid="pass">${s && s.passes ? `${s.pass} of ${s.passes}` : "-"}</b></div>
+    <div><span class="label">program</span><b data-testid="loaded-program">${!s ? "-" : !s.program_loaded ? "none" : f.loaded_here ? f.loaded_here : html`<span class="warn">loaded elsewhere (plan unknown here)</span>`}</b></div>
     <div><span class="label">reference</span><b data-testid="referenced">X ${s && s.referenced.x ? "✓" : "✗"} Y ${s && s.referenced.y ? "✓" : "✗"}</b></div>
     ${ov ? html`<div class="warn" data-testid="overrides">feed ${fmt(s.feed_override_percent, 0)} % spindle ${fmt(s.spindle_override_percent, 0)} %</div>` : ""}
     <div class="age">${age}</div>
-    <div class="st-reset"><${CmdButton} conn=${conn} op="reset" label="RESET" cls="reset" /></div>
+    <div class="st-reset">${conn.viewOnly ? html`<b class="warn" data-testid="view-only">VIEW ONLY</b>` : html`<${CmdButton} conn=${conn} op="reset" label="RESET" cls="reset" />`}</div>
     ${s && s.alarm ? html`<div class="alarm" data-testid="alarm">
       <div><b>ALARM</b> ${s.alarm.text}</div>
       <div><span class="label">the machine</span> ${s.alarm.reaction}</div>
@@ -56,7 +63,9 @@ function Status({ conn }) {
 
 function App() {
   const [, setTick] = useState(0);
-  const [screen, setScreen] = useState(location.hash.slice(1) || "powerup");
+  const first = conn.viewOnly ? "automatic" : "powerup";
+  const asked = location.hash.slice(1);
+  const [screen, setScreen] = useState(SCREENS.some(([k]) => k === asked) ? asked : first);
   const [program, setProgram] = useState(null); // the library program being defined/loaded
   useEffect(() => conn.subscribe(() => setTick((t) => t + 1)), []);
   useEffect(() => {
@@ -68,7 +77,7 @@ function App() {
   const body = {
     powerup: PowerUp, jog: Jog, programs: Programs, definition: Definition, single: Single,
     automatic: Automatic, report: Report, alarms: Alarms, diagnostics: Diagnostics,
-  }[screen] || PowerUp;
+  }[screen] || (conn.viewOnly ? Automatic : PowerUp);
   return html`<div class="shell">
     <${Status} conn=${conn} />
     <nav>${SCREENS.map(([k, label]) => html`<button class=${`nav ${k === screen ? "on" : ""}`} data-screen=${k} onClick=${() => go(k)}>${label}</button>`)}</nav>

@@ -96,9 +96,11 @@ export function Jog({ conn, program }) {
         <${CmdButton} conn=${conn} op="jog" fields=${{ axis: a, distance: step }} label=${`${a.toUpperCase()} +${step}`} testid=${`step-${a}-plus`} /></div>`)}
     </div>
     <div class="card"><h2>Hob spindle C</h2>
-      <p class="hint">Latched: it turns until SPINDLE OFF or STOP (no dead-man on C yet).</p>
-      <div class="row"><input type="number" inputmode="decimal" value=${rpm} onInput=${(e) => setRpm(e.target.value)} /> rpm
-        <${CmdButton} conn=${conn} op="spindle" fields=${{ rpm: Number(rpm) }} label="SPINDLE ON" />
+      <p class="hint">HOLD C turns the hob while your finger is on it (dead-man, as the jog keys). SPINDLE ON latches it until SPINDLE OFF or STOP.</p>
+      <div class="row"><input type="number" inputmode="decimal" value=${rpm} data-testid="spindle-rpm" onInput=${(e) => setRpm(e.target.value)} /> rpm
+        <${HoldKey} conn=${conn} axis="c" dir="+" speed=${rpm} label="HOLD C" />
+        <b data-testid="spindle-actual">${s ? `${fmt(s.spindle_rpm, 1)} rpm` : "-"}</b></div>
+      <div class="row"><${CmdButton} conn=${conn} op="spindle" fields=${{ rpm: Number(rpm) }} label="SPINDLE ON" />
         <${CmdButton} conn=${conn} op="spindle" fields=${{ rpm: 0 }} label="SPINDLE OFF" /></div></div>
     <div class="card"><h2>Touch-off</h2>
       <p class="hint">Bring the hob onto a gauge of known size, then enter it: the loop sets the work offset and saves it.</p>
@@ -107,6 +109,7 @@ export function Jog({ conn, program }) {
       <div class="row">Y: gauge top above the table <input type="number" inputmode="decimal" value=${height} data-testid="touch-y-value" onInput=${(e) => setHeight(e.target.value)} /> mm
         <${CmdButton} conn=${conn} op="touch_off" fields=${{ axis: "y", value: Number(height) }} label="TOUCH OFF Y" testid="touch-y" disabled=${height === ""} /></div></div>
     <div class="card"><h2>Set-up sheet${program ? `: ${program}` : ""}</h2>
+      ${plan && s && s.program_loaded && conn.frame.loaded_here !== program ? html`<p class="warn" data-testid="setup-not-loaded">The loop has another program loaded${conn.frame.loaded_here ? ` (${conn.frame.loaded_here})` : ""}: this sheet is for ${program}, load it before setting up.</p>` : ""}
       ${plan ? html`<table class="kv" data-testid="setup-sheet">
         <tr><td>hob swivel A (set by hand)</td><td><b>${fmt(plan.hob_swivel_deg, 3)} deg</b> ${plan.hob_swivel_sense || ""}</td></tr>
         <tr><td>gearbox ratio (table rev per hob rev)</td><td>${fmt(plan.egb_ratio, 6)}</td></tr>
@@ -208,6 +211,17 @@ export function Alarms({ conn }) {
         <td>${e.text}${e.alarm ? html`<div class="small"><b>the machine:</b> ${e.alarm.reaction}<br /><b>remedy:</b> ${e.alarm.remedy}<br /><b>to continue:</b> ${e.alarm.how_to_continue}</div>` : ""}</td></tr>`)}</table></section>`;
 }
 
+// A whole distribution as bars in powers of two; the bar's length is log10 of its count, so
+// that a tail of one cycle in a million is still seen.
+function Bars({ title, bars, testid }) {
+  if (!bars || !bars.length) return "";
+  const top = Math.log10(Math.max(...bars.map((b) => b.count)) + 1);
+  const us = (v) => (v >= 1000 ? `${fmt(v / 1000, 1)} ms` : `${fmt(v, v < 10 ? 1 : 0)} us`);
+  return html`<div class="bars" data-testid=${testid}><h3>${title} (cycles, log scale)</h3>
+    ${bars.map((b) => html`<div class="bar"><span class="range">${us(b.lo_us)}–${us(b.hi_us)}</span>
+      <span class="fill" style=${`width:${top > 0 ? (70 * Math.log10(b.count + 1)) / top : 0}%`}></span><span class="n">${b.count}</span></div>`)}</div>`;
+}
+
 export function Diagnostics({ conn }) {
   const s = conn.frame && conn.frame.state, st = conn.stats;
   const pct = (p) => (p ? html`<td>${fmt(p.min, 1)}</td><td>${fmt(p.p50, 1)}</td><td>${fmt(p.p99, 1)}</td><td>${fmt(p.p999, 1)}</td><td>${fmt(p.max, 1)}</td><td>${p.count}</td>` : "");
@@ -216,14 +230,19 @@ export function Diagnostics({ conn }) {
     <div class="card"><h2>The loop</h2>${st ? html`
       <table class="grid"><tr><th>us</th><th>min</th><th>p50</th><th>p99</th><th>p99.9</th><th>max</th><th>cycles</th></tr>
         <tr><td>wake-up latency</td>${pct(st.wake_us)}</tr><tr><td>compute</td>${pct(st.compute_us)}</tr></table>
+      <${Bars} title="wake-up latency" bars=${st.wake_bars} testid="wake-histogram" />
+      <${Bars} title="compute time" bars=${st.compute_bars} testid="compute-histogram" />
       <table class="kv"><tr><td>period</td><td>${fmt(st.period_us, 0)} us</td></tr><tr><td>overruns</td><td data-testid="overruns">${st.overruns}</td></tr>
         <tr><td>heap allocations in cycles</td><td data-testid="allocations">${st.system_allocations_in_cycle} (pool ${st.pool_allocations_in_cycle})</td></tr>
         <tr><td>scheduling</td><td>${st.fifo_priority > 0 ? `SCHED_FIFO ${st.fifo_priority}` : "NOT SCHED_FIFO"}, ${st.core >= 0 ? `core ${st.core}` : "not pinned"}, memory ${st.memory_locked ? "locked" : "NOT locked"}</td></tr>
         <tr><td>bus</td><td>${st.bus}, ${st.tx_errors} frames not sent</td></tr>
         <tr><td>samples the HMI missed</td><td>${conn.frame ? conn.frame.samples_missed : "-"}</td></tr></table>` : html`<p>no stats from the loop yet</p>`}</div>
     <div class="card"><h2>Drives and CAN nodes</h2>
-      <table class="kv">${["B", "X", "Y"].map((a) => html`<tr><td>drive ${a}</td><td>${s ? (s.drives_silent.includes(a) ? "SILENT (no feedback)" : s.drives_enabled.includes(a) ? "operation enabled" : "not enabled") : "-"}</td></tr>`)}
-        <tr><td>I/O coupler</td><td>${s ? (s.io_valid ? "answering" : "NOT VALID") : "-"}</td></tr></table>
+      <table class="grid" data-testid="nodes"><tr><th>node</th><th>NMT</th><th>heartbeat</th><th>CiA 402</th><th>statusword</th><th>feedback</th></tr>
+        ${s ? s.nodes.map((n) => html`<tr data-node=${n.name}><td>${n.name === "I/O" ? "I/O coupler" : `drive ${n.name}`}</td>
+          <td class=${n.nmt === "operational" ? "" : "warn"}>${n.nmt}</td><td>${n.nmt === "not heard" ? "-" : `${fmt(n.heartbeat_age_ms, 0)} ms ago`}</td>
+          <td class=${n.cia402 && n.cia402.includes("fault") ? "warn" : ""}>${n.cia402 || "-"}</td><td>${n.statusword || "-"}</td>
+          <td>${n.name === "I/O" ? (s.io_valid ? "inputs current" : "NOT VALID") : s.drives_silent.includes(n.name) ? "SILENT" : "current"}</td></tr>`) : ""}</table>
       <h3>Bus events (EMCY, heartbeats)</h3>
       ${bus.length ? html`<ul>${bus.map((e) => html`<li>${time(e)} ${e.text}</li>`)}</ul>` : html`<p class="hint">none since the HMI started</p>`}</div>
     <div class="card wide"><h2>I/O signals</h2>

@@ -16,7 +16,8 @@ export function CmdButton({ conn, op, fields, label, cls = "", disabled, onAnswe
     conn.toast(a, label);
     if (onAnswer) onAnswer(a);
   };
-  return html`<button class=${`key ${cls}`} data-testid=${testid || `cmd-${op}`} disabled=${disabled} onClick=${click}>${label}</button>`;
+  // A view-only screen sends no command: its buttons are shown, never active.
+  return html`<button class=${`key ${cls}`} data-testid=${testid || `cmd-${op}`} disabled=${disabled || conn.viewOnly} onClick=${click}>${label}</button>`;
 }
 
 /** The last answers, newest first: refusals stay until tapped away. */

@@ -80,6 +80,7 @@ export async function shot(page, name) {
 
 /** Touch down on an element, hold for ms, lift: real touch events through CDP. */
 export async function touchHold(page, selector, ms) {
+  await page.locator(selector).scrollIntoViewIfNeeded();
   const box = await page.locator(selector).boundingBox();
   if (!box) throw new Error(`${selector}: not on screen`);
   const cdp = await page.context().newCDPSession(page);
