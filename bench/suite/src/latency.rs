@@ -30,6 +30,8 @@ pub struct Args {
     pub iface: String,
     /// Keep the machine configuration's bus timing (else relaxed for a virtual machine).
     pub strict: bool,
+    /// With `Load::Hmi`: the length of a block, s.
+    pub block_s: u64,
 }
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, clap::ValueEnum)]
@@ -38,6 +40,9 @@ pub enum Load {
     None,
     /// `hackbench -P -g 2`: processes passing messages over sockets on every core.
     Hackbench,
+    /// The touch HMI: hob-hmi and Chromium rendering AUTOMATIC's live plot, on and off in
+    /// blocks (`crate::hmi_load`).
+    Hmi,
 }
 
 /// Wake-ups a period or more late and the deadlines they skipped.
@@ -100,6 +105,9 @@ pub struct LoopBench {
     pub cyclictest: CyclictestResult,
     pub hob_rt: LoopResult,
     pub ratio: Ratios,
+    /// With `--load hmi`: the blocks with the HMI on and off.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub hmi: Option<crate::hmi_load::HmiEffect>,
 }
 
 fn ratio(a: f64, b: f64) -> f64 {
@@ -133,7 +141,8 @@ impl Background {
 
 fn start_load(load: Load) -> Result<Background, String> {
     match load {
-        Load::None => Ok(Background(None)),
+        // The HMI is started by the measuring thread (off the loop's core) and switched per block.
+        Load::None | Load::Hmi => Ok(Background(None)),
         Load::Hackbench => {
             Background::spawn(Command::new("hackbench").args(["-P", "-g", "2", "-l", "100000000"]))
                 .map_err(|e| format!("hackbench (apt install rt-tests, or bash ci/bench-setup): {e}"))
@@ -141,14 +150,17 @@ fn start_load(load: Load) -> Result<Background, String> {
     }
 }
 
+/// One run of cyclictest for `seconds`; `tag` names its files (`cyclictest{tag}.json`).
 fn run_cyclictest(
     a: &Args,
+    seconds: u64,
+    tag: &str,
     period_us: u64,
     prio: u32,
     core: u32,
     cpu_dma_latency_us: u32,
 ) -> Result<(CyclictestResult, hdrhistogram::Histogram<u64>), String> {
-    let json = a.out.join("cyclictest.json");
+    let json = a.out.join(format!("cyclictest{tag}.json"));
     let args = [
         "-m".to_string(),
         "-q".into(),
@@ -161,10 +173,13 @@ fn run_cyclictest(
         "-t".into(),
         "1".into(),
         "-D".into(),
-        a.seconds.to_string(),
+        seconds.to_string(),
         "-h".into(),
         "100000".into(),
-        format!("--histfile={}", a.out.join("cyclictest.hist").display()),
+        format!(
+            "--histfile={}",
+            a.out.join(format!("cyclictest{tag}.hist")).display()
+        ),
         format!("--json={}", json.display()),
         format!("--latency={cpu_dma_latency_us}"),
     ];
@@ -195,8 +210,14 @@ fn run_cyclictest(
     ))
 }
 
-/// hob-rt cutting the program again and again until `cycles` are done.
-fn run_loop(a: &Args, machine_file: &Path, cycles: u64) -> Result<u32, String> {
+/// hob-rt cutting the program again and again until `cycles` are done; `on_sample` sees
+/// every state sample this process receives.
+fn run_loop(
+    a: &Args,
+    machine_file: &Path,
+    cycles: u64,
+    on_sample: &mut dyn FnMut(&hob_ipc::StateSample),
+) -> Result<u32, String> {
     // The instance is fixed at its first use in this process: the children get that one.
     hob_ipc::use_instance(&format!("bench-{}", std::process::id()));
     let instance = hob_ipc::instance();
@@ -230,24 +251,32 @@ fn run_loop(a: &Args, machine_file: &Path, cycles: u64) -> Result<u32, String> {
     let mut last_pass = 0;
     let end = Instant::now() + Duration::from_secs(cycles / 1000 + 120);
     loop {
-        if let Some(s) = ports.wait_state(Duration::from_millis(200)) {
+        let mut newest = None;
+        while let Some(s) = ports.next_state() {
+            on_sample(&s);
             if s.pass != last_pass && s.pass > 0 {
                 passes += 1;
             }
             last_pass = s.pass;
-            if State::from_code(s.state) == Some(State::Idle) {
-                if !loaded {
-                    let r = client
-                        .request(&load, Duration::from_secs(3))
-                        .map_err(|e| e.to_string())?;
-                    if r.accepted == 0 {
-                        return Err(format!("load refused: {}", r.text()));
-                    }
-                    loaded = true;
+            newest = Some(s);
+        }
+        if newest.is_none() {
+            std::thread::sleep(Duration::from_millis(20));
+        }
+        if let Some(s) = newest
+            && State::from_code(s.state) == Some(State::Idle)
+        {
+            if !loaded {
+                let r = client
+                    .request(&load, Duration::from_secs(3))
+                    .map_err(|e| e.to_string())?;
+                if r.accepted == 0 {
+                    return Err(format!("load refused: {}", r.text()));
                 }
-                // Cut the same blank again; a refused start is tried at the next idle sample.
-                let _ = client.request(&start, Duration::from_secs(3));
+                loaded = true;
             }
+            // Cut the same blank again; a refused start is tried at the next idle sample.
+            let _ = client.request(&start, Duration::from_secs(3));
         }
         if let Some(d) = procs.dead() {
             if d.starts_with("hob-rt exited (exit status: 0)") {
@@ -281,12 +310,19 @@ pub fn run(a: &Args) -> Result<LoopBench, String> {
     // which pin themselves), so the rest of the process and the load started above keep
     // every core.
     let cycles = a.seconds * 1_000_000 / period_us;
+    let mut hmi_effect = None;
     let measured = std::thread::scope(|scope| {
         scope
             .spawn(|| {
                 hob_rt_os::keep_off_core(core);
-                let ct = run_cyclictest(a, period_us, prio, core, idle_us)?;
-                Ok::<_, String>((ct, run_loop(a, &machine_file, cycles)?))
+                if a.load == Load::Hmi {
+                    let (ct, passes, effect) =
+                        run_hmi_blocks(a, &machine_file, period_us, prio, core, idle_us)?;
+                    hmi_effect = Some(effect);
+                    return Ok::<_, String>((ct, passes));
+                }
+                let ct = run_cyclictest(a, a.seconds, "", period_us, prio, core, idle_us)?;
+                Ok::<_, String>((ct, run_loop(a, &machine_file, cycles, &mut |_| {})?))
             })
             .join()
             .map_err(|_| "the loop benchmark's thread panicked".to_string())
@@ -337,7 +373,11 @@ pub fn run(a: &Args) -> Result<LoopBench, String> {
         },
         cyclictest: ct,
         hob_rt,
+        hmi: hmi_effect,
     };
+    if let Some(e) = &result.hmi {
+        std::fs::write(a.out.join("hmi-blocks.txt"), e.text()).map_err(|e| e.to_string())?;
+    }
     std::fs::write(a.out.join("cyclictest.hgrm"), stats::hgrm(&ct_hist)).map_err(|e| e.to_string())?;
     let svg = plot::percentile_svg(
         &format!(
@@ -363,6 +403,129 @@ pub fn run(a: &Args) -> Result<LoopBench, String> {
     std::fs::write(a.out.join("loop.svg"), svg).map_err(|e| e.to_string())?;
     crate::write_json(&a.out.join("loop.json"), &result)?;
     Ok(result)
+}
+
+/// What [`run_hmi_blocks`] returns: cyclictest's blocks merged (with their histogram), the
+/// passes cut, and the blocks' comparison.
+type HmiBlocks = (
+    (CyclictestResult, hdrhistogram::Histogram<u64>),
+    u32,
+    crate::hmi_load::HmiEffect,
+);
+
+/// `--load hmi`: cyclictest's blocks, then hob-rt's, each with the HMI on and off in the
+/// order of [`crate::hmi_load::block_on`]. Returns cyclictest's blocks merged (the run's
+/// cyclictest result), the passes cut, and the blocks' comparison.
+fn run_hmi_blocks(
+    a: &Args,
+    machine_file: &Path,
+    period_us: u64,
+    prio: u32,
+    core: u32,
+    idle_us: u32,
+) -> Result<HmiBlocks, String> {
+    use crate::hmi_load::{Block, HmiEffect, HmiLoad, block_on};
+    let block_s = a.block_s.max(1);
+    // A whole number of on-off-off-on rounds, at least one, for each program.
+    let n = (a.seconds / block_s).div_ceil(4).max(1) as usize * 4;
+    hob_ipc::use_instance(&format!("bench-{}", std::process::id()));
+    let mut hmi = HmiLoad::start(machine_file, &a.out, Duration::from_secs(8))?;
+    let mut blocks = Vec::new();
+    let mut merged = hist::new();
+    let mut last = None;
+    for i in 0..n {
+        hmi.set(block_on(i));
+        let (cpu0, t0) = (hmi.cpu_s(), Instant::now());
+        let (r, h) = run_cyclictest(a, block_s, &format!("-block{i}"), period_us, prio, core, idle_us)?;
+        blocks.push(Block::of(
+            "cyclictest",
+            i,
+            block_on(i),
+            &h,
+            hmi.cpu_s() - cpu0,
+            t0.elapsed().as_secs_f64(),
+        ));
+        merged.add(&h).map_err(|e| e.to_string())?;
+        last = Some(r);
+    }
+    if !hmi.alive() {
+        return Err(format!(
+            "hob-hmi or Chromium exited during cyclictest's blocks: see {}",
+            a.out.display()
+        ));
+    }
+    let mut ct = last.ok_or("no cyclictest block")?;
+    let (wakeups, periods_skipped) = hist::late_wakeups(&merged, period_us * 1000);
+    ct.wake = hist::summary(&merged);
+    ct.late = Late {
+        wakeups,
+        periods_skipped,
+    };
+    ct.command = format!("{} ({n} blocks of {block_s} s)", ct.command);
+    // hob-rt: warm up (power-up, referencing) with the HMI on, then the blocks by the
+    // samples' SYNC time.
+    hmi.set(true);
+    let warmup_ns = 15_000_000_000u64;
+    let block_ns = block_s * 1_000_000_000;
+    let cycles = (warmup_ns + n as u64 * block_ns + 3_000_000_000) / (period_us * 1000);
+    let mut first_ns = None;
+    let mut current: Option<(usize, hdrhistogram::Histogram<u64>, f64)> = None;
+    let mut prev_cycle = None;
+    let mut missed = 0u64;
+    let mut rt_blocks = Vec::new();
+    let passes = run_loop(a, machine_file, cycles, &mut |s| {
+        if let Some(p) = prev_cycle
+            && s.cycle > p + 1
+        {
+            missed += s.cycle - p - 1;
+        }
+        prev_cycle = Some(s.cycle);
+        let t0 = *first_ns.get_or_insert(s.sync_time_ns);
+        let t = s.sync_time_ns.saturating_sub(t0);
+        let block = (t >= warmup_ns)
+            .then(|| ((t - warmup_ns) / block_ns) as usize)
+            .filter(|b| *b < n);
+        if current.as_ref().map(|c| c.0) != block {
+            if let Some((i, h, cpu0)) = current.take() {
+                rt_blocks.push(Block::of(
+                    "hob-rt",
+                    i,
+                    block_on(i),
+                    &h,
+                    hmi.cpu_s() - cpu0,
+                    block_s as f64,
+                ));
+            }
+            if let Some(b) = block {
+                hmi.set(block_on(b));
+                current = Some((b, hist::new(), hmi.cpu_s()));
+            } else {
+                hmi.set(true);
+            }
+        }
+        if let Some((_, h, _)) = current.as_mut() {
+            hist::record(h, u64::from(s.wake_latency_ns));
+        }
+    })?;
+    if let Some((i, h, cpu0)) = current.take() {
+        rt_blocks.push(Block::of(
+            "hob-rt",
+            i,
+            block_on(i),
+            &h,
+            hmi.cpu_s() - cpu0,
+            block_s as f64,
+        ));
+    }
+    if rt_blocks.len() < n {
+        return Err(format!("hob-rt's blocks: {} of {n} measured", rt_blocks.len()));
+    }
+    blocks.extend(rt_blocks);
+    Ok((
+        (ct, merged),
+        passes,
+        HmiEffect::of(block_s as f64, blocks, missed),
+    ))
 }
 
 /// The summary a person reads.
@@ -401,6 +564,9 @@ pub fn text(r: &LoopBench) -> String {
         "hob-rt compute us: p50 {:.1} p99 {:.1} p99.9 {:.1} p99.99 {:.1} max {:.1}; overruns {}; {} passes cut; system heap allocations in cycles {}\n",
         c.p50_us, c.p99_us, c.p999_us, c.p9999_us, c.max_us, r.hob_rt.overruns, r.hob_rt.passes_cut, r.hob_rt.system_allocations_in_cycles
     ));
+    if let Some(e) = &r.hmi {
+        o.push_str(&e.text());
+    }
     o
 }
 

@@ -10,6 +10,7 @@ pub mod bus;
 pub mod busload;
 pub mod gate;
 pub mod hist;
+pub mod hmi_load;
 pub mod latency;
 pub mod plot;
 pub mod step;

@@ -40,6 +40,10 @@ enum Cmd {
         /// `hob demo`).
         #[arg(long)]
         strict: bool,
+        /// With `--load hmi`: seconds per block (the HMI on or off; cyclictest's blocks,
+        /// then hob-rt's, `--seconds` of each).
+        #[arg(long, default_value_t = 5)]
+        block_s: u64,
     },
     /// One-way latency of a state sample between processes: iceoryx2 and a Unix datagram
     /// socket, at 1 kHz and flat out.
@@ -160,6 +164,7 @@ fn run(cli: Cli) -> Result<bool, String> {
             iface,
             program,
             strict,
+            block_s,
         } => {
             let r = latency::run(&latency::Args {
                 seconds: *seconds,
@@ -170,6 +175,7 @@ fn run(cli: Cli) -> Result<bool, String> {
                 program: program.clone(),
                 iface: default_iface(iface.clone()),
                 strict: *strict,
+                block_s: *block_s,
             })?;
             say(latency::text(&r));
             say(format!("results: {}\n", out.display()));
@@ -260,6 +266,7 @@ fn run(cli: Cli) -> Result<bool, String> {
                     program: step::programs_dir(&cli.machine).join("demo-short-spur-z17-m5.toml"),
                     iface: default_iface(iface.clone()),
                     strict: false,
+                    block_s: 5,
                 })
                 .map(|r| say(latency::text(&r)))
             };
