@@ -17,6 +17,7 @@
 
 pub mod export;
 pub mod format;
+pub mod predicted;
 pub mod trace;
 pub mod writer;
 

@@ -1,0 +1,279 @@
+//! What ISO 1328-1 would measure on the gear a cut made, from the table's true error along
+//! the cut: the gear is judged by its single pitch deviation `f_pt` (adjacent teeth), its
+//! cumulative pitch deviation `F_p` and its helix, not by the peak of the error.
+//!
+//! In hobbing every tooth gap is generated anew at each revolution of the table while Y
+//! feeds across the face: a face section (one table revolution, `feed` mm of Y) holds each
+//! gap once, and gap `k`'s flanks in that section sit where the table was when gap `k`
+//! passed the hob. So the table's error (at the pitch circle, um) at the moment each gap
+//! passed is that gap's position deviation in that section. Per section: `f_pt` is the
+//! largest difference between neighbouring gaps (around the whole gear), `F_p` the range
+//! of the positions (a common offset of all gaps moves the teeth, not their spacing). Along
+//! the face: a gap's position from section to section is the controller's share of the
+//! helix deviation. The gear's figures are the worst section's; the finished gear is the
+//! last pass's sections.
+
+use hob_gearing::iso1328;
+use serde::Serialize;
+
+/// The table's true error at one instant of the cut.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct TrueSample {
+    /// The table's true angle, deg (unwrapped, either direction).
+    pub table_deg: f64,
+    pub y_mm: f64,
+    /// The table's error against the gearbox law, at the pitch circle, um.
+    pub error_um: f64,
+}
+
+/// One face section: each gap's position deviation (um), by gap number.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Section {
+    pub y_mm: f64,
+    pub gap_um: Vec<f64>,
+}
+
+impl Section {
+    /// The largest difference between neighbouring gaps, around the whole gear, um.
+    pub fn single_pitch_um(&self) -> f64 {
+        let z = self.gap_um.len();
+        (0..z)
+            .map(|k| (self.gap_um[k] - self.gap_um[(k + z - 1) % z]).abs())
+            .fold(0.0, f64::max)
+    }
+
+    /// The range of the gaps' positions, um.
+    pub fn cumulative_pitch_um(&self) -> f64 {
+        let max = self.gap_um.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+        let min = self.gap_um.iter().copied().fold(f64::INFINITY, f64::min);
+        max - min
+    }
+}
+
+/// The face sections of a stretch of the cut: gap `k` passes the hob when the table is at
+/// `phase_deg + k * 360 / teeth` (mod 360); a section is complete when every gap has passed
+/// once. The error is interpolated at the crossing; an incomplete last revolution is left
+/// out.
+pub fn sections(samples: &[TrueSample], teeth: u32, phase_deg: f64) -> Vec<Section> {
+    let z = teeth.max(1) as usize;
+    let pitch_deg = 360.0 / z as f64;
+    let mut out = Vec::new();
+    let mut gap_um = vec![f64::NAN; z];
+    let (mut filled, mut y_sum) = (0usize, 0.0);
+    for w in samples.windows(2) {
+        let (a, b) = (w[0], w[1]);
+        let ua = (a.table_deg - phase_deg) / pitch_deg;
+        let ub = (b.table_deg - phase_deg) / pitch_deg;
+        if ua == ub {
+            continue;
+        }
+        let (lo, hi) = (ua.min(ub), ua.max(ub));
+        // Every gap position crossed in (lo, hi], in the order the table met them.
+        let first = lo.floor() as i64 + 1;
+        let last = hi.floor() as i64;
+        let crossings: Box<dyn Iterator<Item = i64>> = if ub > ua {
+            Box::new(first..=last)
+        } else {
+            Box::new((first..=last).rev())
+        };
+        for n in crossings {
+            let f = (n as f64 - ua) / (ub - ua);
+            let k = n.rem_euclid(z as i64) as usize;
+            if gap_um[k].is_nan() {
+                filled += 1;
+            }
+            gap_um[k] = a.error_um + f * (b.error_um - a.error_um);
+            y_sum += a.y_mm + f * (b.y_mm - a.y_mm);
+            if filled == z {
+                out.push(Section {
+                    y_mm: y_sum / z as f64,
+                    gap_um: std::mem::replace(&mut gap_um, vec![f64::NAN; z]),
+                });
+                filled = 0;
+                y_sum = 0.0;
+            }
+        }
+    }
+    out
+}
+
+/// The controller's share of the gear's deviations, with the tolerances of a grade.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct PredictedGear {
+    pub sections: usize,
+    /// Worst section's single pitch deviation, um.
+    pub single_pitch_um: f64,
+    /// Worst section's cumulative pitch deviation, um.
+    pub cumulative_pitch_um: f64,
+    /// The largest range of one gap's position over the face sections, um.
+    pub helix_um: f64,
+    pub grade: u8,
+    pub single_pitch_tolerance_um: f64,
+    pub cumulative_pitch_tolerance_um: f64,
+    pub helix_tolerance_um: f64,
+}
+
+impl PredictedGear {
+    /// From the sections of a pass (none: `None`), against `grade` for a gear of reference
+    /// diameter `d`, normal module `m_n` and face width `b`.
+    pub fn of(
+        sections: &[Section],
+        grade: u8,
+        reference_diameter_mm: f64,
+        normal_module_mm: f64,
+        face_width_mm: f64,
+    ) -> Option<Self> {
+        let first = sections.first()?;
+        let z = first.gap_um.len();
+        let helix_um = (0..z)
+            .map(|k| {
+                let (lo, hi) = sections
+                    .iter()
+                    .map(|s| s.gap_um[k])
+                    .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), v| {
+                        (lo.min(v), hi.max(v))
+                    });
+                hi - lo
+            })
+            .fold(0.0, f64::max);
+        Some(Self {
+            sections: sections.len(),
+            single_pitch_um: sections.iter().map(Section::single_pitch_um).fold(0.0, f64::max),
+            cumulative_pitch_um: sections
+                .iter()
+                .map(Section::cumulative_pitch_um)
+                .fold(0.0, f64::max),
+            helix_um,
+            grade,
+            single_pitch_tolerance_um: iso1328::single_pitch_tolerance_um(
+                reference_diameter_mm,
+                normal_module_mm,
+                grade,
+            ),
+            cumulative_pitch_tolerance_um: iso1328::cumulative_pitch_tolerance_um(
+                reference_diameter_mm,
+                normal_module_mm,
+                grade,
+            ),
+            helix_tolerance_um: iso1328::helix_slope_tolerance_um(
+                reference_diameter_mm,
+                face_width_mm,
+                grade,
+            ),
+        })
+    }
+
+    /// The shares of the tolerances: single pitch, cumulative pitch, helix.
+    pub fn shares(&self) -> (f64, f64, f64) {
+        (
+            self.single_pitch_um / self.single_pitch_tolerance_um,
+            self.cumulative_pitch_um / self.cumulative_pitch_tolerance_um,
+            self.helix_um / self.helix_tolerance_um,
+        )
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::f64::consts::PI;
+
+    /// `revs` table revolutions in `steps` samples per revolution, the error a function of
+    /// the table angle (deg) and Y; Y feeds 2 mm per revolution.
+    fn cut(revs: f64, steps: usize, backwards: bool, e: impl Fn(f64, f64) -> f64) -> Vec<TrueSample> {
+        let n = (revs * steps as f64) as usize;
+        (0..=n)
+            .map(|i| {
+                let turn = i as f64 / steps as f64;
+                let deg = if backwards { -360.0 * turn } else { 360.0 * turn } + 0.3;
+                let y = 2.0 * turn;
+                TrueSample {
+                    table_deg: deg,
+                    y_mm: y,
+                    error_um: e(deg, y),
+                }
+            })
+            .collect()
+    }
+
+    #[test]
+    fn no_error_and_a_common_offset_make_no_pitch_deviation() {
+        for e in [0.0, 3.7] {
+            let s = sections(&cut(5.0, 1000, false, |_, _| e), 17, 0.0);
+            // Gap positions every 360/17 deg from 21.2 to 1800 deg: 85 crossings, 5 sections.
+            assert_eq!(s.len(), 5);
+            let g = PredictedGear::of(&s, 5, 85.0, 5.0, 40.0).unwrap();
+            assert!(
+                g.single_pitch_um < 1e-12 && g.cumulative_pitch_um < 1e-12 && g.helix_um < 1e-12,
+                "{g:?}"
+            );
+            assert!(s.iter().all(|x| x.gap_um.iter().all(|v| (v - e).abs() < 1e-12)));
+        }
+    }
+
+    #[test]
+    fn a_once_per_revolution_error_is_cumulative_pitch_twice_its_amplitude() {
+        // Eccentricity: e = A sin(table). Gaps sample it at 360/z apart: F_p = 2A (to the
+        // sampling of the sine), f_pt = 2 A sin(pi / z).
+        let (a, z) = (1.5, 17u32);
+        for backwards in [false, true] {
+            let s = sections(
+                &cut(4.0, 3600, backwards, |deg, _| a * deg.to_radians().sin()),
+                z,
+                0.0,
+            );
+            let g = PredictedGear::of(&s, 5, 85.0, 5.0, 40.0).unwrap();
+            let fpt = 2.0 * a * (PI / f64::from(z)).sin();
+            assert!(
+                (g.single_pitch_um - fpt).abs() < 1e-3,
+                "{backwards}: {g:?} vs {fpt}"
+            );
+            // z samples of a sine: the largest is at least cos(pi / z) of its peak.
+            let fp_min = 2.0 * a * (PI / f64::from(z)).cos();
+            assert!(
+                g.cumulative_pitch_um <= 2.0 * a + 1e-9 && g.cumulative_pitch_um >= fp_min - 1e-3,
+                "{backwards}: {g:?}"
+            );
+            assert!(g.helix_um < 1e-3, "the same error every revolution: no helix");
+        }
+    }
+
+    #[test]
+    fn one_gap_cut_late_shows_in_both_of_its_neighbouring_pitches() {
+        // 2 um at gap 5 only (the table late while it passed): f_pt = 2, F_p = 2.
+        let z = 20u32;
+        let pitch = 360.0 / f64::from(z);
+        let s = sections(
+            &cut(3.0, 7200, false, |deg, _| {
+                let at = (deg / pitch - 5.0).rem_euclid(f64::from(z));
+                if !(0.05..=z as f64 - 0.05).contains(&at) {
+                    2.0
+                } else {
+                    0.0
+                }
+            }),
+            z,
+            0.0,
+        );
+        let g = PredictedGear::of(&s, 5, 85.0, 5.0, 40.0).unwrap();
+        assert!(
+            (g.single_pitch_um - 2.0).abs() < 1e-9 && (g.cumulative_pitch_um - 2.0).abs() < 1e-9,
+            "{g:?}"
+        );
+        assert!(s.iter().all(|x| (x.gap_um[5] - 2.0).abs() < 1e-9));
+    }
+
+    #[test]
+    fn a_drift_along_the_face_is_helix_not_pitch() {
+        // 0.5 um more per mm of Y, 2 mm per section: each gap moves 1 um per section, the
+        // pitch only by the drift within one revolution between neighbours.
+        let s = sections(&cut(5.0, 3600, false, |_, y| 0.5 * y), 17, 0.0);
+        let g = PredictedGear::of(&s, 5, 85.0, 5.0, 40.0).unwrap();
+        assert!((g.helix_um - 1.0 * (s.len() - 1) as f64).abs() < 1e-6, "{g:?}");
+        // Neighbours 1/17 revolution apart: 2/17 mm of Y, except across the section's start
+        // and end (a whole revolution less one pitch).
+        assert!(g.single_pitch_um <= 0.5 * 2.0 + 1e-9, "{g:?}");
+        let (fpt, fp, fh) = g.shares();
+        assert!(fpt > 0.0 && fp > 0.0 && fh > 0.0);
+    }
+}
