@@ -78,6 +78,9 @@ enum Command {
         /// For comparisons: synchronism windows never hold the feed or fault the cut.
         #[arg(long)]
         no_windows: bool,
+        /// The ISO 1328-1 grade (1-11) the predicted gear is judged against.
+        #[arg(long, default_value_t = 5, value_parser = clap::value_parser!(u8).range(1..=11))]
+        grade: u8,
         /// Output directory.
         #[arg(long, value_name = "DIR", default_value = "out/simulate")]
         out: PathBuf,
@@ -172,6 +175,7 @@ fn run(command: Command) -> Result<(), Failure> {
             no_predictor,
             single,
             no_windows,
+            grade,
             out,
         } => {
             let machine = load_machine(machine.as_deref())?;
@@ -184,6 +188,7 @@ fn run(command: Command) -> Result<(), Failure> {
                 },
                 single,
                 windows_off: no_windows,
+                grade,
                 ..Default::default()
             };
             let args = simulate::Args {

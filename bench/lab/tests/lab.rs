@@ -40,9 +40,22 @@ fn simulate_writes_the_trace_and_the_summary() {
     let out = std::env::temp_dir().join(format!("hob-cli-sim-{}", std::process::id()));
     let o = hob(&["simulate", p.to_str().unwrap(), "--out", out.to_str().unwrap()]);
     assert!(o.status.success(), "{}", text(&o.stderr));
-    let line = text(&o.stdout);
-    assert_eq!(line.lines().count(), 1, "{line}");
-    assert!(line.contains(": done in") && line.contains("bound"), "{line}");
+    let out_text = text(&o.stdout);
+    let mut out_lines = out_text.lines();
+    let line = out_lines.next().unwrap_or_default();
+    assert!(line.contains(": done in") && line.contains("bound"), "{out_text}");
+    // Then the predicted gear of each of the two passes, in order.
+    let predicted: Vec<&str> = out_lines.collect();
+    assert_eq!(predicted.len(), 2, "{out_text}");
+    for (i, l) in predicted.iter().enumerate() {
+        assert!(
+            l.starts_with(&format!("  pass {}: predicted gear", i + 1))
+                && l.contains("f_pt")
+                && l.contains("F_p")
+                && l.contains("of grade 5"),
+            "{out_text}"
+        );
+    }
     let trace = std::fs::read_to_string(out.join("trace.csv")).unwrap();
     let mut lines = trace.lines();
     let header = lines.next().unwrap();
@@ -119,8 +132,10 @@ fn max_um(s: &serde_json::Value) -> f64 {
 #[test]
 fn simulate_flags_change_what_the_summary_reports_as_documented() {
     // docs/accuracy.md: with both parts the error is within the bound; without
-    // cross-coupling a constant lag remains (larger); without the predictor (its windows
-    // widened, else it faults) the table follows a 2 ms old angle (far larger).
+    // cross-coupling the table's reaction to the spindle's speed changes remains (larger;
+    // the factor of 2 measured before was the simulated drives applying each target one
+    // physics step early, fixed); without the predictor (its windows widened, else it
+    // faults) the table follows a 2 ms old angle (far larger).
     let (line, full) = simulate("full", &[]);
     assert_eq!(full["completed"], true, "{line}");
     assert_eq!(full["cross_coupling"], true);
@@ -134,7 +149,7 @@ fn simulate_flags_change_what_the_summary_reports_as_documented() {
     assert_eq!(no_ccc["cross_coupling"], false);
     assert!(line.contains("ccc off, predictor on"), "{line}");
     assert!(
-        max_um(&no_ccc) > 2.0 * max_um(&full),
+        max_um(&no_ccc) > max_um(&full),
         "without CCC {} um, with {} um",
         max_um(&no_ccc),
         max_um(&full)

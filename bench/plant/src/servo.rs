@@ -96,10 +96,14 @@ impl Servo {
         }
     }
 
-    /// Advances the physics by `dt_s`.
+    /// Advances the physics by `dt_s`: the drive samples its reference at the start of the
+    /// step (the time since SYNC before the step) and holds its torque over it, as a drive's
+    /// loop sampled at the physics step does. (Sampling at the end of the step applied each
+    /// target one step early: a delay of `period - dt` instead of the period the controller
+    /// predicts for.)
     pub fn advance(&mut self, dt_s: f64) {
-        self.since_sync_s += dt_s;
         let share = (self.since_sync_s / self.period_s).min(1.0);
+        self.since_sync_s += dt_s;
         let reference = self.target_prev_counts + (self.target_counts - self.target_prev_counts) * share;
         let ff_rad_s = (self.target_counts - self.target_prev_counts) / self.period_s / self.p.counts_per_rad;
         let active = self.enabled && !self.fault;

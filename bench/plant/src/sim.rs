@@ -35,6 +35,8 @@ pub struct SimOptions {
     /// For comparisons only: synchronism windows so wide that they never hold the feed or
     /// fault the cut (to measure what a configuration without the predictor would cut).
     pub windows_off: bool,
+    /// The ISO 1328-1 grade the predicted gear of each pass is judged against.
+    pub grade: u8,
 }
 
 impl Default for SimOptions {
@@ -45,6 +47,7 @@ impl Default for SimOptions {
             single: false,
             max_time_s: 7200.0,
             windows_off: false,
+            grade: 5,
         }
     }
 }
@@ -292,9 +295,14 @@ pub fn workpiece_for(
     }
 }
 
-/// Per-pass statistics of a plan's gear.
-pub fn summary_builder(plan: &Plan) -> SummaryBuilder {
-    SummaryBuilder::for_gear(plan.pitch_diameter_mm / 2.0, plan.normal_module_mm)
+/// Per-pass statistics of a plan's gear, with the gear each pass leaves predicted at the
+/// ISO 1328-1 grade `grade`.
+pub fn summary_builder(plan: &Plan, grade: u8) -> SummaryBuilder {
+    SummaryBuilder::for_gear(plan.pitch_diameter_mm / 2.0, plan.normal_module_mm).predicting(
+        plan.teeth,
+        plan.face_width_mm,
+        grade,
+    )
 }
 
 /// The run's `summary.json` from the per-pass statistics of its trace.
@@ -343,7 +351,7 @@ pub fn run_program(
     let machine = &machine;
     let mut sim = Simulation::for_program(machine, plant_cfg, program, plan, job);
     sim.controller.set_angle_source(options.angle_source);
-    let mut builder = summary_builder(plan);
+    let mut builder = summary_builder(plan, options.grade);
     let period = sim.period_s;
     let mut both = |row: &TraceRow| {
         builder.add(row, period);

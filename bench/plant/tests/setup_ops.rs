@@ -274,7 +274,7 @@ fn overrides_changed_in_the_cut_scale_feed_and_spindle_and_keep_the_gearbox_law(
     }
 
     // (a) The synchronisation error over the whole cut, both passes, within the bound.
-    let mut builder = summary_builder(&plan);
+    let mut builder = summary_builder(&plan, 5);
     let period_s = f64::from(m.control.cycle_period_us) * 1e-6;
     for r in &all {
         builder.add(r, period_s);

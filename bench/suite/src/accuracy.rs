@@ -78,6 +78,18 @@ pub struct Row {
     pub max_of_grade5: f64,
     /// The control core's bound (a quarter of f_p), um.
     pub bound_um: f64,
+    /// The finished gear (the last pass) as ISO 1328-1 would measure it, the controller's
+    /// share from the true error where each gap passed the hob (`hob_logger::predicted`):
+    /// single pitch deviation f_pt and cumulative pitch deviation F_p, um, and each as a
+    /// share of its grade-4 tolerance. None where the last pass completed no face section.
+    #[serde(default)]
+    pub finished_fpt_um: Option<f64>,
+    #[serde(default)]
+    pub finished_fp_um: Option<f64>,
+    #[serde(default)]
+    pub finished_fpt_of_grade4: Option<f64>,
+    #[serde(default)]
+    pub finished_fp_of_grade4: Option<f64>,
 }
 
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -124,6 +136,7 @@ fn one(
             SpindleAngleSource::LastMeasured
         },
         windows_off: !predictor,
+        grade: 4,
         ..SimOptions::default()
     };
     let s = run_program(
@@ -140,7 +153,12 @@ fn one(
     let gear = path
         .file_stem()
         .map_or_else(String::new, |n| n.to_string_lossy().to_string());
+    let finished = s.passes.last().and_then(|p| p.predicted.as_ref());
     Ok(Row {
+        finished_fpt_um: finished.map(|g| g.single_pitch_um),
+        finished_fp_um: finished.map(|g| g.cumulative_pitch_um),
+        finished_fpt_of_grade4: finished.map(|g| g.shares().0),
+        finished_fp_of_grade4: finished.map(|g| g.shares().1),
         gear,
         disturbance: d,
         cross_coupling: ccc,
@@ -211,14 +229,22 @@ pub fn run(a: &Args) -> Result<AccuracyBench, String> {
     Ok(r)
 }
 
+/// "0.71 (40 %)", or "-" where the last pass completed no face section.
+fn share(um: Option<f64>, of: Option<f64>) -> String {
+    match (um, of) {
+        (Some(um), Some(of)) => format!("{um:.2} ({:.0} %)", of * 100.0),
+        _ => "-".into(),
+    }
+}
+
 pub fn text(r: &AccuracyBench) -> String {
     let mut o = String::from(
-        "| gear | disturbance | CCC | predictor | RMS arcsec | max arcsec | RMS um | max um | max of grade-5 f_p | bound um | result |\n|---|---|---|---|---|---|---|---|---|---|---|\n",
+        "| gear | disturbance | CCC | predictor | RMS arcsec | max arcsec | RMS um | max um | max of grade-5 f_p | bound um | finished f_pt um (of grade 4) | finished F_p um (of grade 4) | result |\n|---|---|---|---|---|---|---|---|---|---|---|---|---|\n",
     );
     let onoff = |b: bool| if b { "on" } else { "off" };
     for x in &r.rows {
         o.push_str(&format!(
-            "| {} | {} | {} | {} | {:.2} | {:.2} | {:.2} | {:.2} | {:.0} % | {:.2} | {} |\n",
+            "| {} | {} | {} | {} | {:.2} | {:.2} | {:.2} | {:.2} | {:.0} % | {:.2} | {} | {} | {} |\n",
             x.gear,
             x.disturbance.name(),
             onoff(x.cross_coupling),
@@ -229,6 +255,8 @@ pub fn text(r: &AccuracyBench) -> String {
             x.max_um,
             x.max_of_grade5 * 100.0,
             x.bound_um,
+            share(x.finished_fpt_um, x.finished_fpt_of_grade4),
+            share(x.finished_fp_um, x.finished_fp_of_grade4),
             match &x.fault {
                 Some(f) => format!("fault {f}"),
                 None if x.completed => "done".into(),

@@ -55,46 +55,91 @@ impl Section {
 /// once. The error is interpolated at the crossing; an incomplete last revolution is left
 /// out.
 pub fn sections(samples: &[TrueSample], teeth: u32, phase_deg: f64) -> Vec<Section> {
-    let z = teeth.max(1) as usize;
-    let pitch_deg = 360.0 / z as f64;
-    let mut out = Vec::new();
-    let mut gap_um = vec![f64::NAN; z];
-    let (mut filled, mut y_sum) = (0usize, 0.0);
-    for w in samples.windows(2) {
-        let (a, b) = (w[0], w[1]);
-        let ua = (a.table_deg - phase_deg) / pitch_deg;
-        let ub = (b.table_deg - phase_deg) / pitch_deg;
-        if ua == ub {
-            continue;
+    let mut b = SectionBuilder::new(teeth, phase_deg);
+    for s in samples {
+        b.add(*s);
+    }
+    b.finish()
+}
+
+/// [`sections`] one sample at a time, for a recording too long to hold: the memory is one
+/// section's gaps and the sections completed.
+#[derive(Debug, Clone)]
+pub struct SectionBuilder {
+    pitch_deg: f64,
+    phase_deg: f64,
+    prev: Option<TrueSample>,
+    gap_um: Vec<f64>,
+    filled: usize,
+    y_sum: f64,
+    out: Vec<Section>,
+}
+
+impl SectionBuilder {
+    pub fn new(teeth: u32, phase_deg: f64) -> Self {
+        let z = teeth.max(1) as usize;
+        Self {
+            pitch_deg: 360.0 / z as f64,
+            phase_deg,
+            prev: None,
+            gap_um: vec![f64::NAN; z],
+            filled: 0,
+            y_sum: 0.0,
+            out: Vec::new(),
+        }
+    }
+
+    /// The next sample of a continuous stretch of the cut.
+    pub fn add(&mut self, b: TrueSample) {
+        let Some(a) = self.prev.replace(b) else {
+            return;
+        };
+        let z = self.gap_um.len();
+        let ua = (a.table_deg - self.phase_deg) / self.pitch_deg;
+        let ub = (b.table_deg - self.phase_deg) / self.pitch_deg;
+        if ua == ub || !ua.is_finite() || !ub.is_finite() {
+            return;
         }
         let (lo, hi) = (ua.min(ub), ua.max(ub));
         // Every gap position crossed in (lo, hi], in the order the table met them.
         let first = lo.floor() as i64 + 1;
         let last = hi.floor() as i64;
-        let crossings: Box<dyn Iterator<Item = i64>> = if ub > ua {
-            Box::new(first..=last)
-        } else {
-            Box::new((first..=last).rev())
-        };
-        for n in crossings {
+        let count = (last - first + 1).max(0);
+        for i in 0..count {
+            let n = if ub > ua { first + i } else { last - i };
             let f = (n as f64 - ua) / (ub - ua);
             let k = n.rem_euclid(z as i64) as usize;
-            if gap_um[k].is_nan() {
-                filled += 1;
+            if self.gap_um[k].is_nan() {
+                self.filled += 1;
             }
-            gap_um[k] = a.error_um + f * (b.error_um - a.error_um);
-            y_sum += a.y_mm + f * (b.y_mm - a.y_mm);
-            if filled == z {
-                out.push(Section {
-                    y_mm: y_sum / z as f64,
-                    gap_um: std::mem::replace(&mut gap_um, vec![f64::NAN; z]),
+            self.gap_um[k] = a.error_um + f * (b.error_um - a.error_um);
+            self.y_sum += a.y_mm + f * (b.y_mm - a.y_mm);
+            if self.filled == z {
+                self.out.push(Section {
+                    y_mm: self.y_sum / z as f64,
+                    gap_um: std::mem::replace(&mut self.gap_um, vec![f64::NAN; z]),
                 });
-                filled = 0;
-                y_sum = 0.0;
+                self.filled = 0;
+                self.y_sum = 0.0;
             }
         }
     }
-    out
+
+    /// The stretch ends (the cut left, a sample missing): the next sample starts a new
+    /// one; the gaps already crossed in the open section stay.
+    pub fn interrupt(&mut self) {
+        self.prev = None;
+    }
+
+    /// The sections completed.
+    pub fn finish(self) -> Vec<Section> {
+        self.out
+    }
+
+    /// The sections completed so far.
+    pub fn completed(&self) -> &[Section] {
+        &self.out
+    }
 }
 
 /// The controller's share of the gear's deviations, with the tolerances of a grade.

@@ -2,6 +2,7 @@
 //! export` writes from a recording and the simulated machine writes from a run, and what
 //! `hob log report` and the demo judge the cut by.
 
+use crate::predicted::{PredictedGear, SectionBuilder, TrueSample};
 use hob_gearing::iso1328::single_pitch_tolerance_um;
 use hob_gearing::units::arcsec_to_um_at_radius;
 use hob_ipc::codec::State;
@@ -106,6 +107,11 @@ pub struct PassSummary {
     /// rows; none likewise.
     pub spindle_override_min_percent: Option<f64>,
     pub spindle_override_max_percent: Option<f64>,
+    /// What ISO 1328-1 would measure on the gear this pass left, from the true error where
+    /// each tooth gap passed the hob ([`crate::predicted`]); none where the gear's teeth
+    /// are not known (a recorded log) or the pass did not complete a table revolution in
+    /// the cut.
+    pub predicted: Option<PredictedGear>,
     /// Y of the previous row in the cut of this pass (none after a row out of the cut).
     #[serde(skip)]
     last_cut_y_mm: Option<f64>,
@@ -127,6 +133,10 @@ pub struct SummaryBuilder {
     passes: Vec<PassSummary>,
     pitch_radius_mm: f64,
     normal_module_mm: f64,
+    /// The gear's teeth, face width and the grade its predicted deviations are judged at,
+    /// when known ([`Self::predicting`]).
+    gear: Option<(u32, f64, u8)>,
+    sections: Vec<SectionBuilder>,
 }
 
 impl SummaryBuilder {
@@ -136,7 +146,16 @@ impl SummaryBuilder {
             passes: Vec::new(),
             pitch_radius_mm,
             normal_module_mm,
+            gear: None,
+            sections: Vec::new(),
         }
+    }
+
+    /// Also predicts the gear each pass leaves (`PassSummary::predicted`): `teeth` gaps,
+    /// the face width, judged against ISO 1328-1 grade `grade`.
+    pub fn predicting(mut self, teeth: u32, face_width_mm: f64, grade: u8) -> Self {
+        self.gear = Some((teeth, face_width_mm, grade));
+        self
     }
 
     /// The per-pass statistics, and the ISO 1328-1 grade-5 single pitch tolerance (um).
@@ -157,6 +176,12 @@ impl SummaryBuilder {
             p.sync_err_max_dev_um = arcsec_to_um_at_radius(p.sync_err_max_dev_arcsec, r);
             p.work_twist_max_um = arcsec_to_um_at_radius(p.work_twist_max_arcsec, r);
         }
+        if let Some((_, face_width_mm, grade)) = self.gear {
+            for (p, b) in self.passes.iter_mut().zip(self.sections) {
+                p.predicted =
+                    PredictedGear::of(&b.finish(), grade, 2.0 * r, self.normal_module_mm, face_width_mm);
+            }
+        }
         let tol = single_pitch_tolerance_um(2.0 * r, self.normal_module_mm, 5);
         (self.passes, tol)
     }
@@ -174,6 +199,21 @@ impl SummaryBuilder {
                 max: f64::NEG_INFINITY,
                 ..PassSummary::default()
             });
+        }
+        if let Some((teeth, _, _)) = self.gear {
+            while self.sections.len() <= idx {
+                self.sections.push(SectionBuilder::new(teeth, 0.0));
+            }
+            // The gaps are generated while the hob is in the cut, a feed hold included (the
+            // table turns on, Y stands): every synchronised row in the cut.
+            match row.sync_err_arcsec.filter(|_| row.state == State::Cut) {
+                Some(e) => self.sections[idx].add(TrueSample {
+                    table_deg: row.table_deg,
+                    y_mm: row.y_mm,
+                    error_um: arcsec_to_um_at_radius(e, self.pitch_radius_mm),
+                }),
+                None => self.sections[idx].interrupt(),
+            }
         }
         let p = &mut self.passes[idx];
         p.time_s = row.t_s - p.first_t + period_s;

@@ -95,6 +95,8 @@ pub struct Plan {
     /// `None` for spur.
     pub helix_hand: Option<Hand>,
     pub pitch_diameter_mm: f64,
+    /// The gear's face width (the helix tolerances of ISO 1328-1 depend on it).
+    pub face_width_mm: f64,
     /// Lead of the gear's helix; `None` for spur.
     pub helix_lead_mm: Option<f64>,
     /// Table revolutions per hob revolution (z0/z); 0 for tooth-by-tooth (indexing).
@@ -220,6 +222,7 @@ impl<'a> Planner<'a> {
             helix_deg: w.helix_deg,
             helix_hand: helical.then_some(w.helix_hand),
             pitch_diameter_mm: pitch_diameter,
+            face_width_mm: w.face_width_mm,
             helix_lead_mm: helix_lead_mm(w.helix_deg, w.module_mm, self.c.teeth),
             egb_ratio: if self.is_indexing() {
                 0.0
