@@ -244,6 +244,7 @@ fn run_loop(
         .map_err(|e| e.to_string())?;
     let text = std::fs::read_to_string(&a.program).map_err(|e| format!("{}: {e}", a.program.display()))?;
     let load = CommandRequest::load_program(&a.program.display().to_string(), &text)?;
+    let home_all = hob_ipc::request::home("all")?;
     let mut start = CommandRequest::new(command::START);
     start.single = 0;
     let mut loaded = false;
@@ -266,17 +267,26 @@ fn run_loop(
         if let Some(s) = newest
             && State::from_code(s.state) == Some(State::Idle)
         {
-            if !loaded {
-                let r = client
-                    .request(&load, Duration::from_secs(3))
-                    .map_err(|e| e.to_string())?;
-                if r.accepted == 0 {
-                    return Err(format!("load refused: {}", r.text()));
+            // The loop cuts only with X and Y referenced (bits 1 and 2): reference them
+            // first, as an operator does after power-up; a refused or running homing is
+            // asked again at the next idle sample.
+            if s.referenced & 0b110 != 0b110 {
+                if s.moving_axis == 0 {
+                    let _ = client.request(&home_all, Duration::from_secs(3));
                 }
-                loaded = true;
+            } else {
+                if !loaded {
+                    let r = client
+                        .request(&load, Duration::from_secs(3))
+                        .map_err(|e| e.to_string())?;
+                    if r.accepted == 0 {
+                        return Err(format!("load refused: {}", r.text()));
+                    }
+                    loaded = true;
+                }
+                // Cut the same blank again; a refused start is tried at the next idle sample.
+                let _ = client.request(&start, Duration::from_secs(3));
             }
-            // Cut the same blank again; a refused start is tried at the next idle sample.
-            let _ = client.request(&start, Duration::from_secs(3));
         }
         if let Some(d) = procs.dead() {
             if d.starts_with("hob-rt exited (exit status: 0)") {
