@@ -172,16 +172,49 @@ pub struct Before {
     before: u64,
 }
 
-/// `GET /api/alarms?before=SEQ`: a page of older events, newest first.
+/// `GET /api/alarms/page?before=SEQ`: a page of older events, newest first: from the HMI's own
+/// ring, then, older than the ring holds, from the logger's `events.log` (newest run of
+/// `hob-rt`) when hob-hmi has `--log-dir`. `from_log` says how many came from the log.
 pub async fn alarms(State(app): Shared, Query(b): Query<Before>) -> Response {
-    let book = app.hub.book();
-    let list: Vec<EventView> = book
-        .log
-        .page_before(b.before, 200)
-        .iter()
-        .map(|e| EventView::of(e, book.clock))
-        .collect();
-    Json(json!({"events": list, "missed": book.log.missed})).into_response()
+    const PAGE: usize = 200;
+    let (mut list, clock, missed) = {
+        let book = app.hub.book();
+        let list: Vec<EventView> = book
+            .log
+            .page_before(b.before, PAGE)
+            .iter()
+            .map(|e| EventView::of(e, book.clock))
+            .collect();
+        (list, book.clock, book.log.missed)
+    };
+    let mut from_log = 0;
+    let older_than = list.last().map_or(b.before, |e| e.seq);
+    if list.len() < PAGE
+        && older_than != 1
+        && let Some(dir) = app.log_dir.clone()
+    {
+        let want = PAGE - list.len();
+        let read = tokio::task::spawn_blocking(move || logged_before(&dir, older_than, want)).await;
+        if let Ok(Ok(events)) = read {
+            from_log = events.len();
+            list.extend(events.iter().map(|e| EventView::of_logged(e, clock)));
+        }
+    }
+    Json(json!({"events": list, "missed": missed, "from_log": from_log})).into_response()
+}
+
+/// The newest `count` events of the log's newest run numbered below `seq` (0: any), newest
+/// first.
+fn logged_before(
+    dir: &std::path::Path,
+    seq: u64,
+    count: usize,
+) -> Result<Vec<hob_logger::export::LoggedEvent>, String> {
+    let mut events = hob_logger::export::read_events(dir)?;
+    if let Some(newest) = events.last().map(|e| e.run) {
+        events.retain(|e| e.run == newest && (seq == 0 || e.seq < seq));
+    }
+    Ok(events.into_iter().rev().take(count).collect())
 }
 
 #[derive(Debug, Deserialize)]

@@ -241,6 +241,27 @@ impl EventView {
     }
 }
 
+impl EventView {
+    /// An event read back from the logger's `events.log` (older than the HMI's own ring):
+    /// the text as recorded, an alarm's advice from its recorded code (none on a line
+    /// written before the codes were).
+    pub fn of_logged(e: &hob_logger::export::LoggedEvent, clock: Option<CycleClock>) -> Self {
+        Self {
+            seq: e.seq,
+            cycle: e.cycle,
+            kind: codec::event_kind_name(e.kind).unwrap_or("?"),
+            operator: matches!(e.kind, event_kind::ACCEPTED | event_kind::REFUSED),
+            text: e.text.clone(),
+            alarm: if e.kind == event_kind::ALARM {
+                e.alarm.as_ref().and_then(alarm_view)
+            } else {
+                None
+            },
+            utc_ms: clock.map(|c| c.utc_ms(e.cycle)),
+        }
+    }
+}
+
 /// Dates cycles: a cycle whose wall-clock time is known, and the loop's period.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct CycleClock {

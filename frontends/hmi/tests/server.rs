@@ -50,18 +50,30 @@ fn fake_loop(jobs: std::sync::mpsc::Receiver<Job>, seen: Arc<Mutex<Vec<u32>>>) {
 const VIEW_TOKEN: &str = "test-token-0123456789";
 
 async fn start(view: bool) -> Fixture {
+    start_with(view, |_| None).await
+}
+
+/// [`start`] with the logger's directory `log(dir)` makes in the fixture's directory.
+async fn start_with(view: bool, log: impl FnOnce(&Path) -> Option<std::path::PathBuf>) -> Fixture {
     let dir = std::env::temp_dir().join(format!(
         "hob-hmi-server-{}-{:?}",
         std::process::id(),
         Instant::now()
     ));
     std::fs::create_dir_all(&dir).unwrap();
+    let log_dir = log(&dir);
     let m = machine();
     let (bridge, hub) = Bridge::new(m.io.clone(), Duration::from_millis(100));
     let (commands, jobs) = Commander::new();
     let seen = Arc::new(Mutex::new(Vec::new()));
     fake_loop(jobs, seen.clone());
-    let app = Arc::new(App::new(hub, commands, m, Library::open(&dir).unwrap(), None));
+    let app = Arc::new(App::new(
+        hub,
+        commands,
+        m,
+        Library::open(&dir.join("library")).unwrap(),
+        log_dir,
+    ));
     let listener = tokio::net::TcpListener::bind("127.0.0.1:0").await.unwrap();
     let addr = listener.local_addr().unwrap().to_string();
     let vendor = Arc::new(Vendor::default());
@@ -197,6 +209,71 @@ async fn a_reconnecting_page_gets_exactly_the_events_it_missed() {
     let ev = next(&mut ws, "events", Duration::from_secs(2)).await;
     assert_eq!(ev["list"][0]["seq"], 6);
     assert_eq!(ev["list"][0]["text"], "pass 6 started");
+}
+
+#[tokio::test]
+async fn older_alarms_come_from_the_loggers_record_with_their_advice() {
+    use hob_ipc::codec::Fault;
+    // The logger recorded events 1-3 before hob-hmi started (3: a following error of Y);
+    // the HMI itself saw 4 and 5.
+    let alarm = EventSample {
+        seq: 3,
+        cycle: 3,
+        kind: event_kind::ALARM,
+        alarm: hob_ipc::AlarmCode {
+            code: Fault::FollowingError.code(),
+            axis: 3,
+            value_a: 0.25,
+            ..Default::default()
+        },
+        ..Default::default()
+    };
+    let f = start_with(false, |dir| {
+        let log = dir.join("log");
+        std::fs::create_dir_all(&log).unwrap();
+        let lines: Vec<String> = [event(1), event(2), alarm]
+            .iter()
+            .map(|e| hob_logger::format::event_line(e) + "\n")
+            .collect();
+        std::fs::write(log.join("events.log"), lines.concat()).unwrap();
+        Some(log)
+    })
+    .await;
+    {
+        let mut b = f.bridge.lock().unwrap();
+        for s in 4..=5 {
+            b.event(event(s));
+        }
+    }
+    let origin = format!("http://{}", f.addr);
+    let body = |r: &str| -> Value { serde_json::from_str(r.split("\r\n\r\n").nth(1).unwrap()).unwrap() };
+    let page = body(&raw_http(&f.addr, "GET /api/alarms/page", &origin, "").await);
+    let seqs: Vec<u64> = page["events"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|e| e["seq"].as_u64().unwrap())
+        .collect();
+    assert_eq!(seqs, vec![5, 4, 3, 2, 1], "{page}");
+    assert_eq!(page["from_log"], 3, "{page}");
+    let logged = &page["events"][2];
+    assert_eq!(logged["kind"], "alarm", "{page}");
+    let fault = Fault::FollowingError;
+    assert_eq!(logged["alarm"]["remedy"], fault.remedy(), "{page}");
+    assert_eq!(
+        logged["alarm"]["how_to_continue"],
+        fault.how_to_continue(),
+        "{page}"
+    );
+    assert!(
+        logged["alarm"]["text"].as_str().unwrap().contains('Y'),
+        "the axis comes back with the code: {page}"
+    );
+    // A page before 4 is the log's alone; before 1 there is nothing.
+    let older = body(&raw_http(&f.addr, "GET /api/alarms/page?before=3", &origin, "").await);
+    assert_eq!(older["events"].as_array().unwrap().len(), 2, "{older}");
+    let none = body(&raw_http(&f.addr, "GET /api/alarms/page?before=1", &origin, "").await);
+    assert_eq!(none["events"].as_array().unwrap().len(), 0, "{none}");
 }
 
 #[tokio::test]

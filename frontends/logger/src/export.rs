@@ -196,7 +196,7 @@ fn report_of(dir: &Path, states: &[StateSample]) -> Result<Report, String> {
 }
 
 /// An event as the logger recorded it (`events.log`).
-#[derive(Debug, Clone, PartialEq, Eq)]
+#[derive(Debug, Clone, PartialEq)]
 pub struct LoggedEvent {
     /// Which run of `hob-rt` in the file, from 0 (its event numbers and cycles start again
     /// at every start).
@@ -207,6 +207,10 @@ pub struct LoggedEvent {
     pub kind: u32,
     /// The event in words, as `hob_ipc::codec::event_text` gave it when it was recorded.
     pub text: String,
+    /// An alarm's code and arguments (none on another event, or on an alarm's line written
+    /// before they were recorded): the reaction, remedy and way to continue follow from it
+    /// (`hob_ipc::codec::Fault`).
+    pub alarm: Option<hob_ipc::AlarmCode>,
 }
 
 impl LoggedEvent {
@@ -230,7 +234,7 @@ pub fn read_events(dir: &Path) -> Result<Vec<LoggedEvent>, String> {
         .lines()
         .enumerate()
         .map(|(i, line)| {
-            let (seq, cycle, kind, text) = crate::format::parse_event_line(line).ok_or_else(|| {
+            let l = crate::format::parse_event_line(line).ok_or_else(|| {
                 format!(
                     "{}:{}: not an event line (seq cycle kind text): {line:?}",
                     path.display(),
@@ -239,10 +243,11 @@ pub fn read_events(dir: &Path) -> Result<Vec<LoggedEvent>, String> {
             })?;
             Ok(LoggedEvent {
                 run: 0,
-                seq,
-                cycle,
-                kind,
-                text,
+                seq: l.seq,
+                cycle: l.cycle,
+                kind: l.kind,
+                text: l.text,
+                alarm: l.alarm,
             })
         })
         .collect::<Result<Vec<_>, String>>()?;

@@ -314,23 +314,65 @@ pub fn for_each_state(dir: &Path, mut f: impl FnMut(StateSample)) -> Result<(), 
 /// [`hob_ipc::codec::event_text`] words it (a line break in it written as `\n`, so that
 /// every event is one line).
 pub fn event_line(e: &EventSample) -> String {
-    format!(
-        "{} {} {} {}",
-        e.seq,
-        e.cycle,
-        e.kind,
-        hob_ipc::codec::event_text(e).replace('\n', "\\n")
-    )
+    let text = hob_ipc::codec::event_text(e).replace('\n', "\\n");
+    if e.kind == hob_ipc::event_kind::ALARM {
+        // The alarm's code and arguments after the kind (`kind@code/axis/end/a/b`): a frontend
+        // reading the log back gives the same reaction, remedy and way to continue as for
+        // an alarm it saw live. f64's Display reads back to the same value.
+        let a = &e.alarm;
+        format!(
+            "{} {} {}@{}/{}/{}/{}/{} {text}",
+            e.seq, e.cycle, e.kind, a.code, a.axis, a.end, a.value_a, a.value_b
+        )
+    } else {
+        format!("{} {} {} {text}", e.seq, e.cycle, e.kind)
+    }
+}
+
+/// An `events.log` line read back.
+#[derive(Debug, Clone, PartialEq)]
+pub struct EventLine {
+    pub seq: u64,
+    pub cycle: u64,
+    pub kind: u32,
+    /// The alarm's code and arguments, on an alarm's line (none on a line written before
+    /// they were recorded).
+    pub alarm: Option<AlarmCode>,
+    pub text: String,
 }
 
 /// The numbers and text of an `events.log` line (without its line end); `None` when it is
-/// not `seq cycle kind text`.
-pub fn parse_event_line(line: &str) -> Option<(u64, u64, u32, String)> {
+/// not `seq cycle kind[@code/axis/end/a/b] text`.
+pub fn parse_event_line(line: &str) -> Option<EventLine> {
     let mut parts = line.splitn(4, ' ');
     let seq = parts.next()?.parse().ok()?;
     let cycle = parts.next()?.parse().ok()?;
-    let kind = parts.next()?.parse().ok()?;
-    Some((seq, cycle, kind, parts.next().unwrap_or("").to_string()))
+    let kind_field = parts.next()?;
+    let (kind, alarm) = match kind_field.split_once('@') {
+        None => (kind_field.parse().ok()?, None),
+        Some((kind, alarm)) => {
+            let mut f = alarm.split('/');
+            let code = AlarmCode {
+                code: f.next()?.parse().ok()?,
+                axis: f.next()?.parse().ok()?,
+                end: f.next()?.parse().ok()?,
+                value_a: f.next()?.parse().ok()?,
+                value_b: f.next()?.parse().ok()?,
+                ..AlarmCode::default()
+            };
+            if f.next().is_some() {
+                return None;
+            }
+            (kind.parse().ok()?, Some(code))
+        }
+    };
+    Some(EventLine {
+        seq,
+        cycle,
+        kind,
+        alarm,
+        text: parts.next().unwrap_or("").to_string(),
+    })
 }
 
 #[cfg(test)]
@@ -414,5 +456,48 @@ mod tests {
         let e = read_dir_states(&dir).unwrap_err();
         assert!(e.contains("fields"), "{e}");
         let _ = std::fs::remove_dir_all(&dir);
+    }
+
+    #[test]
+    fn an_alarm_line_carries_its_code_back_and_an_old_line_still_reads() {
+        use hob_ipc::codec::Fault;
+        let e = EventSample {
+            seq: 17,
+            cycle: 123_456,
+            kind: hob_ipc::event_kind::ALARM,
+            alarm: AlarmCode {
+                code: Fault::FollowingError.code(),
+                axis: 3,
+                end: 0,
+                value_a: 0.1 + 0.2,
+                value_b: -1.0e-7,
+                ..AlarmCode::default()
+            },
+            ..EventSample::default()
+        };
+        let line = event_line(&e);
+        let read = parse_event_line(&line).expect(&line);
+        assert_eq!((read.seq, read.cycle, read.kind), (17, 123_456, e.kind), "{line}");
+        assert_eq!(read.alarm, Some(e.alarm), "{line}: every bit of the values back");
+        assert_eq!(read.text, hob_ipc::codec::event_text(&e).replace('\n', "\\n"));
+        // Another event: no code on the line.
+        let other = EventSample {
+            kind: hob_ipc::event_kind::STATE_CHANGED,
+            ..e
+        };
+        assert_eq!(parse_event_line(&event_line(&other)).unwrap().alarm, None);
+        // A line written before the codes were: the same text, no code.
+        let old = format!("17 123456 {} following error", e.kind);
+        let read = parse_event_line(&old).unwrap();
+        assert_eq!((read.alarm, read.text.as_str()), (None, "following error"));
+        // A code cut short or with a field too many is no event line.
+        for bad in [
+            "1 2 3@4/3/0/0.5 text",
+            "1 2 3@4/3/0/0.5/0/9 text",
+            "1 2 3@x/3/0/0/0 text",
+            "1 2 3@ text",
+        ] {
+            assert_eq!(parse_event_line(bad), None, "{bad}");
+        }
     }
 }

@@ -35,6 +35,25 @@ test("kill -9 of hob-hmi mid-cut changes nothing in the loop; the page resynchro
   const texts = (await page.locator('[data-testid="event"]').allInnerTexts()).join("\n");
   assert.match(texts, /cycle done/, "the end of the pass is missing from the page");
   await shot(page, "alarms");
+  // Older than the restarted server's memory: OLDER pages back through its ring, then the
+  // logger's record, down to this run's first event, each once and none missing.
+  const fresh = await ctx.newPage();
+  await fresh.goto(`${hmi.url}#alarms`);
+  await fresh.waitForSelector('[data-testid="event"]', { timeout: 10000 });
+  const older = fresh.locator('[data-testid="older-events"]');
+  for (let i = 0; i < 30 && (await older.innerText()) === "OLDER"; i++) {
+    const before = await fresh.locator('[data-testid="event"]').count();
+    await older.tap();
+    await waitFor("the older page", async () => (await fresh.locator('[data-testid="event"]').count()) > before
+      || (await older.innerText()) !== "OLDER", 5000, 50);
+  }
+  const all = (await fresh.locator('[data-testid="event"] td:first-child').allInnerTexts()).map(Number);
+  assert.equal(new Set(all).size, all.length, `events listed twice: ${all.join(",")}`);
+  const lo = Math.min(...all), hi = Math.max(...all);
+  assert.equal(lo, 1, `OLDER did not reach the run's first event: ${all.join(",")}`);
+  assert.equal(all.length, hi - lo + 1, `events missing between ${lo} and ${hi}: ${all.join(",")}`);
+  console.log(`OLDER: ${all.length} events, 1..${hi}; ${await fresh.locator('[data-testid="older-note"]').allInnerTexts()}`);
+  await fresh.close();
   // DIAGNOSTICS: the loop's timing from its stats, the drives, every named signal.
   await page.locator('nav [data-screen="diagnostics"]').tap();
   await page.locator('[data-testid="overruns"]').waitFor({ timeout: 5000 });

@@ -202,9 +202,21 @@ const time = (e) => (e.utc_ms ? new Date(e.utc_ms).toLocaleTimeString("en-GB", {
 
 export function Alarms({ conn }) {
   const [only, setOnly] = useState(false);
-  const list = [...conn.events].reverse().filter((e) => !only || e.kind === "alarm");
+  // Pages older than the live events: the server's ring, then the logger's record.
+  const [older, setOlder] = useState({ list: [], done: false, note: "" });
+  const live = [...conn.events].reverse();
+  const oldest = [...live, ...older.list].reduce((m, e) => Math.min(m, e.seq), Infinity);
+  const more = () => api("GET", `/api/alarms/page?before=${Number.isFinite(oldest) ? oldest : 0}`).then((r) => {
+    if (!r.ok) { setOlder({ ...older, note: r.refused || `HTTP ${r.status}` }); return; }
+    const seen = new Set([...live, ...older.list].map((e) => e.seq));
+    const fresh = r.events.filter((e) => !seen.has(e.seq));
+    setOlder({ list: [...older.list, ...fresh], done: fresh.length === 0, note: r.from_log ? `${r.from_log} from the logger's record` : "" });
+  });
+  const list = [...live, ...older.list].filter((e) => !only || e.kind === "alarm");
   return html`<section class="card"><h2>Alarms and events</h2>
     <div class="row"><button class=${`key small ${only ? "on" : ""}`} onClick=${() => setOnly(!only)}>${only ? "ALL EVENTS" : "ALARMS ONLY"}</button>
+      <button class="key small" data-testid="older-events" disabled=${older.done} onClick=${more}>${older.done ? "NO OLDER EVENTS" : "OLDER"}</button>
+      ${older.note ? html`<span class="small" data-testid="older-note">${older.note}</span>` : ""}
       ${conn.lost.length ? html`<span class="warn">events ${conn.lost.map((l) => `${l.from}..${l.to}`).join(", ")} are older than the HMI's memory: ${conn.lost[0].why}</span>` : ""}</div>
     <table class="grid events"><tr><th>#</th><th>time</th><th>who</th><th>what</th></tr>
       ${list.map((e) => html`<tr class=${e.kind} data-testid="event"><td>${e.seq}</td><td>${time(e)}</td><td>${e.operator ? "operator" : "machine"}</td>
