@@ -229,7 +229,18 @@ fn run_loop(
         Ok(c)
     };
     let mut sim = cmd("hob-sim")?;
-    sim.args(["--iface", &a.iface, "--machine", &mf, "--rt-priority", "75"]);
+    // X and Y power up within 20 mm of home: referencing (which the loop needs before it
+    // cuts) takes seconds, not the first half minute of a short run.
+    sim.args([
+        "--iface",
+        &a.iface,
+        "--machine",
+        &mf,
+        "--rt-priority",
+        "75",
+        "--power-on-near-home",
+        "20",
+    ]);
     sim.arg("--plant").arg(&a.plant).arg("--program").arg(&a.program);
     procs.spawn("hob-sim", sim, &a.out.join("hob-sim.log"))?;
     std::thread::sleep(Duration::from_millis(300));
