@@ -30,6 +30,48 @@ pub struct SimulationConfig {
     /// absent: anywhere in the travel.
     #[serde(default)]
     pub power_on_near_home_mm: Option<f64>,
+    /// The SYNC's lateness as a measured distribution instead of the uniform
+    /// `sync_jitter_us`: `[quantile, late_us]` pairs from 0 to 1 (a wake-up histogram of
+    /// the loop, `hob-bench loop`, with its tail), drawn by inverse transform. The SYNC is
+    /// only ever late (the loop wakes after its instant, never before). Empty: uniform.
+    #[serde(default)]
+    pub sync_late_quantiles_us: Vec<[f64; 2]>,
+}
+
+/// The loop's wake-up latency measured with `target/release/hob-bench loop --load hmi
+/// --seconds 160 --block-s 5` on the 2-core development VM, 2026-11-24 (hob-rt while it cut
+/// the demo job; docs/performance.md, "The touch HMI"): min 8.0, p50 15.0, p99 38.9,
+/// p99.9 141.6, p99.99 407.3 us. Its maximum (45 ms, a hypervisor stall that skipped whole
+/// periods) is left out: a stall longer than the period is a missed cycle, which the loop
+/// handles as such, not a late SYNC. The last point carries the p99.99 value to 1.
+pub const MEASURED_VM_SYNC_LATE_US: [[f64; 2]; 6] = [
+    [0.0, 8.0],
+    [0.5, 15.0],
+    [0.99, 38.9],
+    [0.999, 141.6],
+    [0.9999, 407.3],
+    [1.0, 407.3],
+];
+
+/// The value at quantile `u` (0..=1) of a `[quantile, value]` table, linear between points.
+pub fn quantile_value(table: &[[f64; 2]], u: f64) -> f64 {
+    let Some(first) = table.first() else {
+        return 0.0;
+    };
+    if u <= first[0] {
+        return first[1];
+    }
+    for w in table.windows(2) {
+        let ([q0, v0], [q1, v1]) = (w[0], w[1]);
+        if u <= q1 {
+            return if q1 > q0 {
+                v0 + (v1 - v0) * (u - q0) / (q1 - q0)
+            } else {
+                v1
+            };
+        }
+    }
+    table[table.len() - 1][1]
 }
 
 /// What the drives' position counters read at power-on. The encoders are incremental
@@ -141,6 +183,17 @@ impl PlantConfig {
         if let Some(mm) = s.power_on_near_home_mm {
             p.positive("simulation.power_on_near_home_mm", mm);
         }
+        let q = &s.sync_late_quantiles_us;
+        if !q.is_empty() {
+            let ends = q.first().map(|x| x[0]) == Some(0.0) && q.last().map(|x| x[0]) == Some(1.0);
+            let rising = q.windows(2).all(|w| w[1][0] > w[0][0] && w[1][1] >= w[0][1]);
+            let in_range = q
+                .iter()
+                .all(|x| x.iter().all(|v| v.is_finite()) && (0.0..=500.0).contains(&x[1]));
+            p.require(ends && rising && in_range, "simulation.sync_late_quantiles_us", || {
+                "must be [quantile, late_us] pairs from quantile 0 to 1, quantiles rising, lateness not falling, within 0 .. 500 us".into()
+            });
+        }
         let sp = &self.spindle;
         p.require(sp.motor_pole_pairs >= 1, "spindle.motor_pole_pairs", || {
             "must be at least 1".into()
@@ -208,5 +261,56 @@ impl PlantConfig {
             "peripherals.lube_pressure_delay_s",
             self.peripherals.lube_pressure_delay_s,
         );
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn shipped() -> (PlantConfig, String) {
+        let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../config/plant.toml");
+        let src = std::fs::read_to_string(&path).unwrap();
+        (toml::from_str(&src).unwrap(), src)
+    }
+
+    #[test]
+    fn a_quantile_table_is_read_linearly_between_its_points() {
+        let t = MEASURED_VM_SYNC_LATE_US;
+        assert_eq!(quantile_value(&t, 0.0), 8.0);
+        assert_eq!(quantile_value(&t, 0.25), 11.5);
+        assert_eq!(quantile_value(&t, 0.5), 15.0);
+        // Between p99.9 and p99.99: 5/9 of the way.
+        let want = 141.6 + (0.9995 - 0.999) / (0.9999 - 0.999) * (407.3 - 141.6);
+        assert!((quantile_value(&t, 0.9995) - want).abs() < 1e-9);
+        assert_eq!(quantile_value(&t, 1.0), 407.3);
+        assert_eq!(quantile_value(&[], 0.3), 0.0);
+    }
+
+    #[test]
+    fn the_measured_table_is_valid_and_a_broken_one_is_refused_by_its_key() {
+        let (mut c, _) = shipped();
+        c.simulation.sync_late_quantiles_us = MEASURED_VM_SYNC_LATE_US.to_vec();
+        let mut p = Problems::new();
+        c.validate(&mut p);
+        assert!(p.is_empty(), "{p:?}");
+        for bad in [
+            vec![[0.0, 8.0], [0.5, 15.0]],                           // does not reach 1
+            vec![[0.1, 8.0], [1.0, 15.0]],                           // does not start at 0
+            vec![[0.0, 15.0], [0.5, 8.0], [1.0, 20.0]],              // lateness falls
+            vec![[0.0, 8.0], [0.5, 15.0], [0.5, 20.0], [1.0, 30.0]], // quantile repeats
+            vec![[0.0, -1.0], [1.0, 15.0]],                          // early
+            vec![[0.0, 8.0], [1.0, 900.0]],                          // past half a period
+            vec![[0.0, 8.0], [1.0, f64::NAN]],
+        ] {
+            c.simulation.sync_late_quantiles_us = bad.clone();
+            let mut p = Problems::new();
+            c.validate(&mut p);
+            let text = format!("{p:?}");
+            assert!(
+                text.contains("simulation.sync_late_quantiles_us"),
+                "{bad:?}: {text}"
+            );
+        }
     }
 }

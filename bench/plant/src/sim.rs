@@ -77,6 +77,8 @@ pub struct Simulation {
     pub plant: Plant,
     period_s: f64,
     jitter_s: f64,
+    /// `simulation.sync_late_quantiles_us` (empty: uniform `jitter_s`).
+    late_quantiles_us: Vec<[f64; 2]>,
     rng: u64,
     cycle: u64,
     outputs: CycleOutputs,
@@ -92,6 +94,7 @@ impl Simulation {
             plant: Plant::new(plant_cfg, machine, start, gashes),
             period_s: params.period_s,
             jitter_s: plant_cfg.simulation.sync_jitter_us * 1e-6,
+            late_quantiles_us: plant_cfg.simulation.sync_late_quantiles_us.clone(),
             rng: plant_cfg.simulation.seed.wrapping_mul(0x9E37_79B9_7F4A_7C15) | 1,
             cycle: 0,
             outputs: CycleOutputs::default(),
@@ -129,7 +132,11 @@ impl Simulation {
         self.rng ^= self.rng << 25;
         self.rng ^= self.rng >> 27;
         let u = (self.rng.wrapping_mul(0x2545_F491_4F6C_DD1D) >> 11) as f64 / (1u64 << 53) as f64;
-        (2.0 * u - 1.0) * self.jitter_s
+        if self.late_quantiles_us.is_empty() {
+            (2.0 * u - 1.0) * self.jitter_s
+        } else {
+            crate::config::quantile_value(&self.late_quantiles_us, u) * 1e-6
+        }
     }
 
     /// One cycle; returns the trace row of this SYNC.

@@ -27,10 +27,19 @@ pub enum Disturbance {
     Nominal,
     /// Cutting torque x1.5, ripple x3, SYNC jitter x2.5.
     Heavy,
+    /// Nominal, but the SYNC late by the loop's wake-up latency as measured, with its tail
+    /// (`hob_plant::config::MEASURED_VM_SYNC_LATE_US`), instead of uniform jitter.
+    #[serde(rename = "measured-sync")]
+    MeasuredSync,
 }
 
 impl Disturbance {
-    pub const ALL: [Disturbance; 3] = [Disturbance::None, Disturbance::Nominal, Disturbance::Heavy];
+    pub const ALL: [Disturbance; 4] = [
+        Disturbance::None,
+        Disturbance::Nominal,
+        Disturbance::Heavy,
+        Disturbance::MeasuredSync,
+    ];
 
     pub fn apply(self, p: &PlantConfig) -> PlantConfig {
         let mut p = p.clone();
@@ -46,6 +55,9 @@ impl Disturbance {
                 p.spindle.cutting_ripple *= 3.0;
                 p.simulation.sync_jitter_us *= 2.5;
             }
+            Disturbance::MeasuredSync => {
+                p.simulation.sync_late_quantiles_us = hob_plant::config::MEASURED_VM_SYNC_LATE_US.to_vec();
+            }
         }
         p
     }
@@ -55,6 +67,7 @@ impl Disturbance {
             Disturbance::None => "none",
             Disturbance::Nominal => "nominal",
             Disturbance::Heavy => "heavy",
+            Disturbance::MeasuredSync => "measured-sync",
         }
     }
 }
