@@ -15,17 +15,26 @@ const pct = (v, p) => {
 const summary = (v) => ({ n: v.length, p50: pct(v, 50), p99: pct(v, 99), max: v.length ? Math.max(...v) : null });
 
 const hmi = await startHmi();
-const ctx = await browser();
+// --expose-gc: the live heap after a full collection is what says whether memory is bounded
+// (the used heap before it rises and falls with the collector's own schedule).
+const ctx = await browser(["--js-flags=--expose-gc"]);
 try {
   const page = await ctx.newPage();
   await page.goto(`${hmi.url}#automatic`);
   await page.waitForSelector('[data-testid="age"]', { timeout: 20000 });
   await page.evaluate(() => { window.hobConn.latency = []; });
-  const heap = [];
+  const heap = [], live = [];
   const t0 = Date.now();
   while (Date.now() - t0 < seconds * 1000) {
     await new Promise((r) => setTimeout(r, 5000));
-    heap.push(await page.evaluate(() => performance.memory ? performance.memory.usedJSHeapSize : null));
+    const [used, after] = await page.evaluate(() => {
+      if (!performance.memory) return [null, null];
+      const used = performance.memory.usedJSHeapSize;
+      if (window.gc) window.gc();
+      return [used, window.gc ? performance.memory.usedJSHeapSize : null];
+    });
+    heap.push(used);
+    live.push(after);
   }
   const latency = await page.evaluate(() => window.hobConn.latency);
   const rtt = await page.evaluate(async () => {
@@ -39,11 +48,15 @@ try {
     return t;
   });
   const mb = heap.filter((h) => h !== null).map((h) => h / 1048576);
+  const liveMb = live.filter((h) => h !== null).map((h) => h / 1048576);
+  // The live heap per minute (every 12th sample of 5 s), to see a trend, not only ends.
+  const perMinute = liveMb.filter((_, i) => i % 12 === 11).map((v) => Math.round(v * 100) / 100);
   const figures = {
     seconds,
     state_to_screen_ms: summary(latency),
     command_round_trip_ms: summary(rtt),
     js_heap_mb: { first: mb[0] ?? null, last: mb[mb.length - 1] ?? null, max: mb.length ? Math.max(...mb) : null, samples: mb.length },
+    js_live_heap_after_gc_mb: { first: liveMb[0] ?? null, last: liveMb[liveMb.length - 1] ?? null, max: liveMb.length ? Math.max(...liveMb) : null, per_minute: perMinute },
   };
   writeFileSync(out, JSON.stringify(figures, null, 2));
   console.log(JSON.stringify(figures, null, 2));

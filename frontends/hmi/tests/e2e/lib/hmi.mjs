@@ -60,11 +60,11 @@ export async function waitFor(what, f, timeoutMs = 60000, everyMs = 200) {
 export const CHROMIUM_ARGS = ["--headless", "--no-sandbox", "--disable-gpu", "--no-first-run", "--disable-background-networking",
   "--disable-component-update", "--disable-sync", "--disable-quic"];
 
-/** Chromium at the panel's size with touch. */
-export async function browser() {
+/** Chromium at the panel's size with touch (`extraArgs`: more command-line flags). */
+export async function browser(extraArgs = []) {
   const profile = mkdtempSync(join(tmpdir(), "hob-hmi-chromium-"));
   const ctx = await chromium.launchPersistentContext(profile, {
-    executablePath: "/usr/bin/chromium", args: CHROMIUM_ARGS, headless: true,
+    executablePath: "/usr/bin/chromium", args: [...CHROMIUM_ARGS, ...extraArgs], headless: true,
     viewport: { width: 1280, height: 800 }, hasTouch: true,
   });
   return ctx;
