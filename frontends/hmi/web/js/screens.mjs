@@ -241,7 +241,7 @@ export function Diagnostics({ conn }) {
   return html`<section class="grid2">
     <div class="card"><h2>The loop</h2>${st ? html`
       <table class="grid"><tr><th>us</th><th>min</th><th>p50</th><th>p99</th><th>p99.9</th><th>max</th><th>cycles</th></tr>
-        <tr><td>wake-up latency</td>${pct(st.wake_us)}</tr><tr><td>compute</td>${pct(st.compute_us)}</tr></table>
+        <tr><td>wake-up</td>${pct(st.wake_us)}</tr><tr><td>compute</td>${pct(st.compute_us)}</tr></table>
       <${Bars} title="wake-up latency" bars=${st.wake_bars} testid="wake-histogram" />
       <${Bars} title="compute time" bars=${st.compute_bars} testid="compute-histogram" />
       <table class="kv"><tr><td>period</td><td>${fmt(st.period_us, 0)} us</td></tr><tr><td>overruns</td><td data-testid="overruns">${st.overruns}</td></tr>
@@ -250,10 +250,10 @@ export function Diagnostics({ conn }) {
         <tr><td>bus</td><td>${st.bus}, ${st.tx_errors} frames not sent</td></tr>
         <tr><td>samples the HMI missed</td><td>${conn.frame ? conn.frame.samples_missed : "-"}</td></tr></table>` : html`<p>no stats from the loop yet</p>`}</div>
     <div class="card"><h2>Drives and CAN nodes</h2>
-      <table class="grid" data-testid="nodes"><tr><th>node</th><th>NMT</th><th>heartbeat</th><th>CiA 402</th><th>statusword</th><th>feedback</th></tr>
+      <table class="grid" data-testid="nodes"><tr><th>node</th><th>NMT</th><th>heartbeat</th><th>CiA 402 (statusword)</th><th>feedback</th></tr>
         ${s ? s.nodes.map((n) => html`<tr data-node=${n.name}><td>${n.name === "I/O" ? "I/O coupler" : `drive ${n.name}`}</td>
           <td class=${n.nmt === "operational" ? "" : "warn"}>${n.nmt}</td><td>${n.nmt === "not heard" ? "-" : `${fmt(n.heartbeat_age_ms, 0)} ms ago`}</td>
-          <td class=${n.cia402 && n.cia402.includes("fault") ? "warn" : ""}>${n.cia402 || "-"}</td><td>${n.statusword || "-"}</td>
+          <td class=${n.cia402 && n.cia402.includes("fault") ? "warn" : ""}>${n.cia402 || "-"}${n.statusword ? html`<div class="small">${n.statusword}</div>` : ""}</td>
           <td>${n.name === "I/O" ? (s.io_valid ? "inputs current" : "NOT VALID") : s.drives_silent.includes(n.name) ? "SILENT" : "current"}</td></tr>`) : ""}</table>
       <h3>Bus events (EMCY, heartbeats)</h3>
       ${bus.length ? html`<ul>${bus.map((e) => html`<li>${time(e)} ${e.text}</li>`)}</ul>` : html`<p class="hint">none since the HMI started</p>`}</div>
