@@ -508,14 +508,7 @@ fn run_hmi_blocks(
             .filter(|b| *b < n);
         if current.as_ref().map(|c| c.0) != block {
             if let Some((i, h, cpu0)) = current.take() {
-                rt_blocks.push(Block::of(
-                    "hob-rt",
-                    i,
-                    block_on(i),
-                    &h,
-                    hmi.cpu_s() - cpu0,
-                    block_s as f64,
-                ));
+                rt_blocks.push(rt_block(i, &h, hmi.cpu_s() - cpu0, block_s));
             }
             if let Some(b) = block {
                 hmi.set(block_on(b));
@@ -529,14 +522,7 @@ fn run_hmi_blocks(
         }
     })?;
     if let Some((i, h, cpu0)) = current.take() {
-        rt_blocks.push(Block::of(
-            "hob-rt",
-            i,
-            block_on(i),
-            &h,
-            hmi.cpu_s() - cpu0,
-            block_s as f64,
-        ));
+        rt_blocks.push(rt_block(i, &h, hmi.cpu_s() - cpu0, block_s));
     }
     if rt_blocks.len() < n {
         return Err(format!("hob-rt's blocks: {} of {n} measured", rt_blocks.len()));
@@ -547,6 +533,18 @@ fn run_hmi_blocks(
         passes,
         HmiEffect::of(block_s as f64, blocks, missed),
     ))
+}
+
+/// hob-rt's block `i` (the HMI on or off as [`crate::hmi_load::block_on`] orders it), its
+/// histogram and the HMI's CPU seconds in it.
+fn rt_block(
+    i: usize,
+    h: &hdrhistogram::Histogram<u64>,
+    hmi_cpu_s: f64,
+    block_s: u64,
+) -> crate::hmi_load::Block {
+    use crate::hmi_load::{Block, block_on};
+    Block::of("hob-rt", i, block_on(i), h, hmi_cpu_s, block_s as f64)
 }
 
 /// The summary a person reads.

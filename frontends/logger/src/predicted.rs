@@ -135,11 +135,6 @@ impl SectionBuilder {
     pub fn finish(self) -> Vec<Section> {
         self.out
     }
-
-    /// The sections completed so far.
-    pub fn completed(&self) -> &[Section] {
-        &self.out
-    }
 }
 
 /// The controller's share of the gear's deviations, with the tolerances of a grade.
