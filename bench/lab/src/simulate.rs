@@ -72,29 +72,8 @@ pub fn run(machine: &MachineConfig, a: &Args<'_>) -> Result<String, (bool, Strin
     let predicted: String = summary
         .passes
         .iter()
-        .map(|p| match &p.predicted {
-            Some(g) => {
-                let (fpt, fp, helix) = g.shares();
-                format!(
-                    "  pass {}: predicted gear (controller's share, {} face sections): f_pt {:.2} um ({:.0} % of grade {} {:.2} um), F_p {:.2} um ({:.0} % of {:.2} um), helix {:.2} um ({:.0} % of f_Hb {:.2} um)\n",
-                    p.pass,
-                    g.sections,
-                    g.single_pitch_um,
-                    100.0 * fpt,
-                    g.grade,
-                    g.single_pitch_tolerance_um,
-                    g.cumulative_pitch_um,
-                    100.0 * fp,
-                    g.cumulative_pitch_tolerance_um,
-                    g.helix_um,
-                    100.0 * helix,
-                    g.helix_tolerance_um,
-                )
-            }
-            None => format!(
-                "  pass {}: no predicted gear (no whole table revolution in the cut)\n",
-                p.pass
-            ),
+        .map(|p| {
+            hob_logger::predicted::pass_line(p.pass, p.predicted.as_ref(), p.controller_share.as_ref()) + "\n"
         })
         .collect();
     Ok(format!(

@@ -117,6 +117,32 @@ pub struct TablePlant {
     pub position_loop_hz: f64,
     pub velocity_feed_forward: f64,
     pub friction_motor_nm: f64,
+    /// Friction in the table's own bearings, Nm at the table: the load that keeps the
+    /// worm's play on its driving flank while the table turns without a cut.
+    pub bearing_friction_nm: f64,
+    /// The worm drive between the motor and the table (`[table.worm]`).
+    pub worm: WormPlant,
+}
+
+/// The table's worm drive ([`crate::worm`]): a single-start worm, the wheel with as many
+/// teeth as `table.worm_ratio` of the machine file.
+#[derive(Debug, Clone, PartialEq, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct WormPlant {
+    /// The wheel's pitch diameter, mm (its module is this over its teeth).
+    pub wheel_pitch_diameter_mm: f64,
+    /// The wheel's accuracy as an ISO 1328-1 grade (1 ..= 11): its eccentricity has the
+    /// range `F_p` and its teeth deviate by up to `f_pt` from their neighbours, the
+    /// tolerances of that grade; 0: a perfect wheel.
+    pub wheel_grade: u8,
+    /// The worm's axial runout, um (once per worm revolution, at the wheel's pitch circle).
+    pub worm_axial_runout_um: f64,
+    /// The play between worm and wheel, arcsec of the table.
+    pub backlash_arcsec: f64,
+    /// The drive's torsional stiffness at the table (worm shaft, bearings, mesh), Nm/rad.
+    pub stiffness_nm_rad: f64,
+    /// The mesh's damping as a share of critical, with the table's inertia on it.
+    pub damping_ratio: f64,
 }
 
 #[derive(Debug, Clone, PartialEq, Deserialize, Serialize)]
@@ -232,6 +258,45 @@ impl PlantConfig {
             "",
         );
         p.non_negative("table.friction_motor_nm", t.friction_motor_nm);
+        p.non_negative("table.bearing_friction_nm", t.bearing_friction_nm);
+        let w = &t.worm;
+        p.positive("table.worm.wheel_pitch_diameter_mm", w.wheel_pitch_diameter_mm);
+        p.require(w.wheel_grade <= 11, "table.worm.wheel_grade", || {
+            format!(
+                "must be an ISO 1328-1 grade 1 ..= 11, or 0 for a perfect wheel (is {})",
+                w.wheel_grade
+            )
+        });
+        p.within(
+            "table.worm.worm_axial_runout_um",
+            w.worm_axial_runout_um,
+            0.0,
+            100.0,
+            "um",
+        );
+        p.within(
+            "table.worm.backlash_arcsec",
+            w.backlash_arcsec,
+            0.0,
+            600.0,
+            "arcsec",
+        );
+        p.positive("table.worm.stiffness_nm_rad", w.stiffness_nm_rad);
+        p.within("table.worm.damping_ratio", w.damping_ratio, 0.001, 1.0, "");
+        // The table on the mesh rings at sqrt(k / J); the physics step must resolve it
+        // (semi-implicit Euler: a tenth of a period per step at least, with margin).
+        let ring_rad_s = (w.stiffness_nm_rad / t.table_inertia_kg_m2).sqrt();
+        let step_s = f64::from(s.inner_step_us) * 1e-6;
+        if t.table_inertia_kg_m2 > 0.0 && ring_rad_s * step_s > 0.5 {
+            p.require(false, "table.worm.stiffness_nm_rad", || {
+                format!(
+                    "rings the table at {:.0} Hz, too fast for simulation.inner_step_us {} (at most {:.0} Nm/rad at this step)",
+                    ring_rad_s / std::f64::consts::TAU,
+                    s.inner_step_us,
+                    (0.5 / step_s).powi(2) * t.table_inertia_kg_m2
+                )
+            });
+        }
         for (axis, a) in [("x", &self.x), ("y", &self.y)] {
             let k = |n: &str| format!("{axis}.{n}");
             for (n, v) in [

@@ -8,6 +8,8 @@
 //! - [`drive`]: what a CiA 402 drive adds: its incremental position counter, the modes
 //!   cyclic synchronous position and homing (methods 3 to 6 on the home switch and the
 //!   index pulse), the fault at a hardware limit;
+//! - [`worm`]: the table's worm drive: the wheel's pitch errors, the worm's runout, the
+//!   mesh's compliance and backlash, which the motor encoder does not see;
 //! - [`worklink`]: the work's torsional deflection under the cut (seed 003, about 20 Hz);
 //! - [`machine`]: the whole machine with its I/O (limit switches, lube pressure switch,
 //!   clamp, safety chain with a stop-category-1 delay) and fault injection;
@@ -21,3 +23,4 @@ pub mod servo;
 pub mod sim;
 pub mod spindle;
 pub mod worklink;
+pub mod worm;

@@ -7,6 +7,7 @@ use crate::drive::{Drive, DriveCommand, HomeGeometry, HomingParams, MODE_CSP};
 use crate::servo::{Servo, ServoParams};
 use crate::spindle::Spindle;
 use crate::worklink::WorkLink;
+use crate::worm::WormDrive;
 use hob_control::fault::{Axis, End};
 use hob_control::io::{Inputs, IoBits, Outputs};
 use hob_control::{AxisFeedback, ControlParams, CycleInputs, CycleOutputs};
@@ -107,6 +108,9 @@ pub struct Plant {
     pub drives: [Drive; 3],
     /// Torsional deflection of the work on the table under the cut (seed 003).
     pub work: WorkLink,
+    /// The worm drive between the B motor and the table.
+    pub worm: WormDrive,
+    worm_ratio: f64,
     spindle_counts_per_rad: f64,
     table_motor_rad_per_deg: f64,
     x_rad_per_mm: f64,
@@ -246,6 +250,14 @@ impl Plant {
             y,
             drives,
             work: WorkLink::new(t.work_link_t1_s, t.work_link_t2_s, t.work_link_stiffness_nm_rad),
+            worm: WormDrive::new(
+                &t.worm,
+                ratio,
+                t.table_inertia_kg_m2,
+                cfg.simulation.seed,
+                start.table_deg * table_motor_rad_per_deg / ratio,
+            ),
+            worm_ratio: ratio,
             spindle_counts_per_rad: f64::from(s.encoder_counts_per_rev) / TAU,
             table_motor_rad_per_deg,
             x_rad_per_mm,
@@ -320,10 +332,24 @@ impl Plant {
         self.spindle.angle_rad.to_degrees()
     }
 
-    /// True table angle (deg, continuous): the table on its worm wheel, as the drive
-    /// moved it. The work's own elastic twist on the table is [`Self::work_twist_arcsec`].
-    pub fn table_deg(&self) -> f64 {
+    /// The table angle the B motor commands through an ideal worm (deg, continuous): the
+    /// motor's true angle over the ratio. What the controller's share of the error is
+    /// measured on (the drive's motion, before the worm's errors).
+    pub fn table_drive_deg(&self) -> f64 {
         self.table.motor_rad / self.table_motor_rad_per_deg * self.params.table.sign
+    }
+
+    /// True table angle (deg, continuous): the table on its worm wheel, after the worm's
+    /// pitch errors, its play and its deflection under load ([`crate::worm`]). The work's own
+    /// elastic twist on the table is [`Self::work_twist_arcsec`].
+    pub fn table_deg(&self) -> f64 {
+        self.worm.table_rad.to_degrees() * self.params.table.sign
+    }
+
+    /// The blank's true angle (deg, continuous): the table plus the work's twist on it. What
+    /// the gear gets.
+    pub fn blank_deg(&self) -> f64 {
+        self.table_deg() + self.work_twist_arcsec() / 3600.0
     }
 
     /// Torsional deflection of the work relative to the table under the cut (seed 003's
@@ -568,16 +594,29 @@ impl Plant {
         self.spindle.load_share += (share - self.spindle.load_share) * (dt / CUT_FORCE_LAG_S).min(1.0);
         self.spindle.advance(set_hz, dt);
         // The cut's tangential force on the gear, resisting the table's motion.
+        let mut resisting = 0.0;
         if let Some(w) = self.workpiece {
             let force_n = self.spindle.cutting_torque_nm / (w.tool_diameter_mm / 2000.0);
             let torque = self.cfg.table.cut_force_share * force_n * w.pitch_radius_mm / 1000.0;
             // Resists the table's turning: on the drive through the worm, and on the work
             // link, which deflects back against the turning.
-            let resisting = torque * (self.table.motor_rad_s / 1.0).tanh();
-            self.table.disturbance_nm =
-                resisting / (self.table_motor_rad_per_deg * 180.0 / std::f64::consts::PI);
+            resisting = torque * (self.table.motor_rad_s / 1.0).tanh();
             self.work.advance(-resisting, dt);
         }
+        // The table's bearings resist its turning too; the worm carries both to the motor
+        // (rigidly reflected there), and the table body hangs on the mesh.
+        let drag = self.cfg.table.bearing_friction_nm * (self.worm.table_rad_s / 0.01).tanh();
+        let load_at_table_nm = resisting + drag;
+        self.table.disturbance_nm = load_at_table_nm / self.worm_ratio;
+        // Both sides of the mesh at the start of the step (the worm as the motor stands
+        // before its own step): a relative angle taken across different instants would
+        // swing with the step's length.
+        self.worm.advance(
+            self.table.motor_rad / self.worm_ratio,
+            self.table.motor_rad_s / self.worm_ratio,
+            load_at_table_nm,
+            dt,
+        );
         self.table.advance(dt);
         self.x.advance(dt);
         self.y.advance(dt);

@@ -167,22 +167,25 @@ impl Simulation {
     fn row(&self, t_s: f64) -> TraceRow {
         let s: Status = self.controller.status();
         let g = self.controller.gearbox();
-        let sync_err_arcsec = match (g.coupling(), g.phase_target_deg()) {
-            (Coupling::Synchronised, Some(target)) => {
-                let coupled = g
-                    .params()
-                    .coupled_deg(self.plant.spindle_deg(), self.plant.y_mm());
-                Some((self.plant.table_deg() - coupled - target) * 3600.0)
-            }
+        // The gearbox law for the true spindle angle and Y: where the table should be.
+        let law_deg = match (g.coupling(), g.phase_target_deg()) {
+            (Coupling::Synchronised, Some(target)) => Some(
+                g.params()
+                    .coupled_deg(self.plant.spindle_deg(), self.plant.y_mm())
+                    + target,
+            ),
             _ => None,
         };
+        let sync_err_arcsec = law_deg.map(|law| (self.plant.table_drive_deg() - law) * 3600.0);
+        let blank_err_arcsec = law_deg.map(|law| (self.plant.blank_deg() - law) * 3600.0);
         TraceRow {
             t_s,
             state: encode::state(s.state),
             hold: s.hold,
             pass: s.pass,
             spindle_deg: self.plant.spindle_deg(),
-            table_deg: self.plant.table_deg(),
+            // The table as its drive turned it (the truth at the blank is blank_err_arcsec).
+            table_deg: self.plant.table_drive_deg(),
             table_cmd_deg: s.table_cmd_deg,
             x_mm: self.plant.x_mm(),
             x_cmd_mm: s.x_cmd_mm,
@@ -190,6 +193,7 @@ impl Simulation {
             y_cmd_mm: s.y_cmd_mm,
             sync_err_arcsec,
             work_twist_arcsec: self.plant.work_twist_arcsec(),
+            blank_err_arcsec,
             feed_override_percent: Some(s.feed_override_percent),
             spindle_override_percent: Some(s.spindle_override_percent),
         }

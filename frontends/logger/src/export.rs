@@ -22,6 +22,7 @@ pub fn trace_row(s: &StateSample, t0_ns: u64) -> TraceRow {
         y_cmd_mm: s.y_mm.command,
         sync_err_arcsec: (s.coupling == Coupling::Synchronised.code()).then_some(s.sync_error_arcsec),
         work_twist_arcsec: 0.0,
+        blank_err_arcsec: None,
         // NaN: a log written before the overrides were recorded.
         feed_override_percent: Some(s.feed_override_percent).filter(|v| v.is_finite()),
         spindle_override_percent: Some(s.spindle_override_percent).filter(|v| v.is_finite()),

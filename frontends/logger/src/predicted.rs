@@ -211,6 +211,42 @@ impl PredictedGear {
             self.helix_um / self.helix_tolerance_um,
         )
     }
+
+    /// "f_pt 1.23 um (25 % of grade 5 5.02 um), F_p ..., helix ...": the deviations against
+    /// their tolerances, as the cut reports print them.
+    pub fn text(&self) -> String {
+        let (fpt, fp, helix) = self.shares();
+        format!(
+            "f_pt {:.2} um ({:.0} % of grade {} {:.2} um), F_p {:.2} um ({:.0} % of {:.2} um), helix {:.2} um ({:.0} % of f_Hb {:.2} um)",
+            self.single_pitch_um,
+            100.0 * fpt,
+            self.grade,
+            self.single_pitch_tolerance_um,
+            self.cumulative_pitch_um,
+            100.0 * fp,
+            self.cumulative_pitch_tolerance_um,
+            self.helix_um,
+            100.0 * helix,
+            self.helix_tolerance_um,
+        )
+    }
+}
+
+/// One pass's predicted gear as a report line (no newline): the gear (the truth at the
+/// blank) and the controller's share, either missing said so.
+pub fn pass_line(pass: u32, gear: Option<&PredictedGear>, controller: Option<&PredictedGear>) -> String {
+    let part = |g: Option<&PredictedGear>| g.map_or_else(|| "not known".to_string(), PredictedGear::text);
+    match gear.or(controller) {
+        None => format!(
+            "  pass {pass}: no predicted gear (no whole table revolution in the cut, or no truth recorded)"
+        ),
+        Some(g) => format!(
+            "  pass {pass}: predicted gear ({} face sections): {}; controller's share: {}",
+            g.sections,
+            part(gear),
+            part(controller)
+        ),
+    }
 }
 
 #[cfg(test)]

@@ -10,12 +10,16 @@ use serde::Serialize;
 
 /// Columns of `trace.csv`, in order.
 ///
-/// `sync_err_arcsec` is the true table against the gearbox law for the true spindle angle
-/// and Y (empty unless the gearbox is synchronised); `work_twist_arcsec` is the work's
-/// elastic twist on the table under the cut, which no encoder sees (reported apart);
-/// `feed_override_percent` (the axial feed Y) and `spindle_override_percent` are the
-/// overrides in force (empty where a recording holds none).
-pub const TRACE_HEADER: &str = "t_s,state,pass,spindle_deg,table_deg,table_cmd_deg,x_mm,x_cmd_mm,y_mm,y_cmd_mm,sync_err_arcsec,work_twist_arcsec,feed_override_percent,spindle_override_percent";
+/// `sync_err_arcsec` is the controller's share of the error: the table as the B motor
+/// turned it through an ideal worm (its true angle over the ratio) against the gearbox law
+/// for the true spindle angle and Y (empty unless the gearbox is synchronised; a
+/// recording holds the controller's own estimate here); `work_twist_arcsec` is the work's
+/// elastic twist on the table under the cut, which no encoder sees; `feed_override_percent`
+/// (the axial feed Y) and `spindle_override_percent` are the overrides in force (empty where
+/// a recording holds none); `blank_err_arcsec` is the truth, what the gear gets: the blank's
+/// angle after the worm's errors, its play and deflection and the work's twist, against the
+/// same law (empty where it is not known: a recording).
+pub const TRACE_HEADER: &str = "t_s,state,pass,spindle_deg,table_deg,table_cmd_deg,x_mm,x_cmd_mm,y_mm,y_cmd_mm,sync_err_arcsec,work_twist_arcsec,feed_override_percent,spindle_override_percent,blank_err_arcsec";
 
 /// One trace row.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -33,9 +37,13 @@ pub struct TraceRow {
     pub x_cmd_mm: f64,
     pub y_mm: f64,
     pub y_cmd_mm: f64,
-    /// True synchronisation error while the gearbox is synchronised.
+    /// The controller's share of the synchronisation error while the gearbox is
+    /// synchronised (the drive's motion through an ideal worm against the law).
     pub sync_err_arcsec: Option<f64>,
     pub work_twist_arcsec: f64,
+    /// The blank's true error against the law while the gearbox is synchronised: the
+    /// worm, its play and deflection and the work's twist included; none where not known.
+    pub blank_err_arcsec: Option<f64>,
     /// Feed override (the axial feed Y) set, percent, as the controller's status gives it
     /// (the spindle's speed follows its override on a ramp); none where it was not
     /// recorded (a log written before the overrides were).
@@ -53,6 +61,7 @@ impl TraceRow {
     /// The row as CSV (no newline).
     pub fn csv(&self) -> String {
         let err = self.sync_err_arcsec.map_or(String::new(), |e| format!("{e:.3}"));
+        let blank = self.blank_err_arcsec.map_or(String::new(), |e| format!("{e:.3}"));
         let feed = self
             .feed_override_percent
             .map_or(String::new(), |v| format!("{v:.2}"));
@@ -60,7 +69,7 @@ impl TraceRow {
             .spindle_override_percent
             .map_or(String::new(), |v| format!("{v:.2}"));
         format!(
-            "{:.3},{},{},{:.6},{:.6},{:.6},{:.5},{:.5},{:.5},{:.5},{err},{:.3},{feed},{spindle}",
+            "{:.3},{},{},{:.6},{:.6},{:.6},{:.5},{:.5},{:.5},{:.5},{err},{:.3},{feed},{spindle},{blank}",
             self.t_s,
             self.state_word(),
             self.pass,
@@ -107,11 +116,17 @@ pub struct PassSummary {
     /// rows; none likewise.
     pub spindle_override_min_percent: Option<f64>,
     pub spindle_override_max_percent: Option<f64>,
-    /// What ISO 1328-1 would measure on the gear this pass left, from the true error where
-    /// each tooth gap passed the hob ([`crate::predicted`]); none where the gear's teeth
-    /// are not known (a recorded log) or the pass did not complete a table revolution in
-    /// the cut.
+    /// What ISO 1328-1 would measure on the gear this pass left, from the blank's true
+    /// error (`blank_err_arcsec`) where each tooth gap passed the hob
+    /// ([`crate::predicted`]): the worm, its play and deflection and the work's twist
+    /// included. None where the truth or the gear's teeth are not known (a recorded log) or
+    /// the pass did not complete a table revolution in the cut.
     pub predicted: Option<PredictedGear>,
+    /// The controller's share of the same deviations: from `sync_err_arcsec`, the drive's
+    /// motion through an ideal worm. None likewise.
+    pub controller_share: Option<PredictedGear>,
+    /// Largest blank error in the cut (the truth), arcsec; none where not known.
+    pub blank_err_max_arcsec: Option<f64>,
     /// Y of the previous row in the cut of this pass (none after a row out of the cut).
     #[serde(skip)]
     last_cut_y_mm: Option<f64>,
@@ -136,7 +151,8 @@ pub struct SummaryBuilder {
     /// The gear's teeth, face width and the grade its predicted deviations are judged at,
     /// when known ([`Self::predicting`]).
     gear: Option<(u32, f64, u8)>,
-    sections: Vec<SectionBuilder>,
+    /// Per pass: the controller's share's sections and the blank's.
+    sections: Vec<[SectionBuilder; 2]>,
 }
 
 impl SummaryBuilder {
@@ -177,9 +193,12 @@ impl SummaryBuilder {
             p.work_twist_max_um = arcsec_to_um_at_radius(p.work_twist_max_arcsec, r);
         }
         if let Some((_, face_width_mm, grade)) = self.gear {
-            for (p, b) in self.passes.iter_mut().zip(self.sections) {
-                p.predicted =
-                    PredictedGear::of(&b.finish(), grade, 2.0 * r, self.normal_module_mm, face_width_mm);
+            for (p, [controller, blank]) in self.passes.iter_mut().zip(self.sections) {
+                let of = |b: SectionBuilder| {
+                    PredictedGear::of(&b.finish(), grade, 2.0 * r, self.normal_module_mm, face_width_mm)
+                };
+                p.controller_share = of(controller);
+                p.predicted = of(blank);
             }
         }
         let tol = single_pitch_tolerance_um(2.0 * r, self.normal_module_mm, 5);
@@ -202,17 +221,24 @@ impl SummaryBuilder {
         }
         if let Some((teeth, _, _)) = self.gear {
             while self.sections.len() <= idx {
-                self.sections.push(SectionBuilder::new(teeth, 0.0));
+                self.sections
+                    .push([SectionBuilder::new(teeth, 0.0), SectionBuilder::new(teeth, 0.0)]);
             }
             // The gaps are generated while the hob is in the cut, a feed hold included (the
             // table turns on, Y stands): every synchronised row in the cut.
-            match row.sync_err_arcsec.filter(|_| row.state == State::Cut) {
-                Some(e) => self.sections[idx].add(TrueSample {
-                    table_deg: row.table_deg,
-                    y_mm: row.y_mm,
-                    error_um: arcsec_to_um_at_radius(e, self.pitch_radius_mm),
-                }),
-                None => self.sections[idx].interrupt(),
+            let in_cut = row.state == State::Cut;
+            for (b, err) in self.sections[idx]
+                .iter_mut()
+                .zip([row.sync_err_arcsec, row.blank_err_arcsec])
+            {
+                match err.filter(|_| in_cut) {
+                    Some(e) => b.add(TrueSample {
+                        table_deg: row.table_deg,
+                        y_mm: row.y_mm,
+                        error_um: arcsec_to_um_at_radius(e, self.pitch_radius_mm),
+                    }),
+                    None => b.interrupt(),
+                }
             }
         }
         let p = &mut self.passes[idx];
@@ -234,6 +260,9 @@ impl SummaryBuilder {
                 &mut p.spindle_override_max_percent,
                 row.spindle_override_percent,
             );
+            if let Some(e) = row.blank_err_arcsec {
+                p.blank_err_max_arcsec = Some(p.blank_err_max_arcsec.unwrap_or(0.0).max(e.abs()));
+            }
             if let Some(e) = row.sync_err_arcsec {
                 p.samples += 1;
                 p.sum += e;
@@ -274,6 +303,7 @@ mod tests {
             y_cmd_mm: y_mm,
             sync_err_arcsec: None,
             work_twist_arcsec: 0.0,
+            blank_err_arcsec: None,
             feed_override_percent: Some(100.0),
             spindle_override_percent: Some(100.0),
         }
@@ -375,22 +405,28 @@ mod tests {
     }
 
     #[test]
-    fn the_csv_row_has_a_column_per_header_column_with_the_overrides_last() {
+    fn the_csv_row_has_a_column_per_header_column_with_the_overrides_then_the_truth_last() {
         let mut r = row(0.0, State::Cut, false, 1, 5.0);
         r.feed_override_percent = Some(85.0);
         r.spindle_override_percent = Some(110.5);
+        r.blank_err_arcsec = Some(-2.25);
         let cols: Vec<String> = r.csv().split(',').map(str::to_string).collect();
         let header: Vec<&str> = TRACE_HEADER.split(',').collect();
         assert_eq!(cols.len(), header.len(), "{cols:?}");
         assert_eq!(
-            header[header.len() - 2..],
-            ["feed_override_percent", "spindle_override_percent"]
+            header[header.len() - 3..],
+            [
+                "feed_override_percent",
+                "spindle_override_percent",
+                "blank_err_arcsec"
+            ]
         );
-        assert_eq!(cols[cols.len() - 2..], ["85.00", "110.50"]);
+        assert_eq!(cols[cols.len() - 3..], ["85.00", "110.50", "-2.250"]);
         r.feed_override_percent = None;
         r.spindle_override_percent = None;
+        r.blank_err_arcsec = None;
         let cols: Vec<String> = r.csv().split(',').map(str::to_string).collect();
         assert_eq!(cols.len(), header.len(), "{cols:?}");
-        assert_eq!(cols[cols.len() - 2..], ["", ""]);
+        assert_eq!(cols[cols.len() - 3..], ["", "", ""]);
     }
 }
