@@ -340,6 +340,47 @@ mod tests {
     }
 
     #[test]
+    fn a_worm_the_physics_cannot_resolve_or_out_of_range_is_refused_by_its_key() {
+        let (shipped, _) = shipped();
+        let refused = |edit: &dyn Fn(&mut PlantConfig), key: &str| {
+            let mut c = shipped.clone();
+            edit(&mut c);
+            let mut p = Problems::new();
+            c.validate(&mut p);
+            let text = format!("{p:?}");
+            assert!(text.contains(key), "{key}: {text}");
+        };
+        // 20 kg m2 at 100 us: at most (0.5 / 1e-4)^2 * 20 = 5e8 Nm/rad.
+        refused(
+            &|c| c.table.worm.stiffness_nm_rad = 6e8,
+            "table.worm.stiffness_nm_rad",
+        );
+        refused(
+            &|c| c.table.worm.stiffness_nm_rad = 0.0,
+            "table.worm.stiffness_nm_rad",
+        );
+        refused(&|c| c.table.worm.wheel_grade = 12, "table.worm.wheel_grade");
+        refused(
+            &|c| c.table.worm.backlash_arcsec = -1.0,
+            "table.worm.backlash_arcsec",
+        );
+        refused(&|c| c.table.worm.damping_ratio = 0.0, "table.worm.damping_ratio");
+        refused(
+            &|c| c.table.worm.worm_axial_runout_um = f64::NAN,
+            "table.worm.worm_axial_runout_um",
+        );
+        refused(
+            &|c| c.table.bearing_friction_nm = -5.0,
+            "table.bearing_friction_nm",
+        );
+        let mut ok = shipped.clone();
+        ok.table.worm.stiffness_nm_rad = 4.9e8;
+        let mut p = Problems::new();
+        ok.validate(&mut p);
+        assert!(p.is_empty(), "{p:?}");
+    }
+
+    #[test]
     fn a_quantile_table_is_read_linearly_between_its_points() {
         let t = MEASURED_VM_SYNC_LATE_US;
         assert_eq!(quantile_value(&t, 0.0), 8.0);

@@ -92,9 +92,10 @@ pub struct Row {
     /// The control core's bound (a quarter of f_p), um.
     pub bound_um: f64,
     /// The finished gear (the last pass) as ISO 1328-1 would measure it, the controller's
-    /// share from the true error where each gap passed the hob (`hob_logger::predicted`):
-    /// single pitch deviation f_pt and cumulative pitch deviation F_p, um, and each as a
-    /// share of its grade-4 tolerance. None where the last pass completed no face section.
+    /// share: from the drive's motion through an ideal worm against the law where each gap
+    /// passed the hob (`hob_logger::predicted`): single pitch deviation f_pt and cumulative
+    /// pitch deviation F_p, um, and each as a share of its grade-4 tolerance. None where the
+    /// last pass completed no face section.
     #[serde(default)]
     pub finished_fpt_um: Option<f64>,
     #[serde(default)]
@@ -103,6 +104,19 @@ pub struct Row {
     pub finished_fpt_of_grade4: Option<f64>,
     #[serde(default)]
     pub finished_fp_of_grade4: Option<f64>,
+    /// The same for the gear itself: from the blank's true error (the worm's pitch errors,
+    /// its play and compliance and the work's twist included).
+    #[serde(default)]
+    pub gear_fpt_um: Option<f64>,
+    #[serde(default)]
+    pub gear_fp_um: Option<f64>,
+    #[serde(default)]
+    pub gear_fpt_of_grade4: Option<f64>,
+    #[serde(default)]
+    pub gear_fp_of_grade4: Option<f64>,
+    /// Largest blank error in the cut (the truth), arcsec, worst pass.
+    #[serde(default)]
+    pub blank_max_arcsec: Option<f64>,
 }
 
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -166,12 +180,22 @@ fn one(
     let gear = path
         .file_stem()
         .map_or_else(String::new, |n| n.to_string_lossy().to_string());
-    let finished = s.passes.last().and_then(|p| p.predicted.as_ref());
+    let finished = s.passes.last().and_then(|p| p.controller_share.as_ref());
+    let gear_cut = s.passes.last().and_then(|p| p.predicted.as_ref());
     Ok(Row {
         finished_fpt_um: finished.map(|g| g.single_pitch_um),
         finished_fp_um: finished.map(|g| g.cumulative_pitch_um),
         finished_fpt_of_grade4: finished.map(|g| g.shares().0),
         finished_fp_of_grade4: finished.map(|g| g.shares().1),
+        gear_fpt_um: gear_cut.map(|g| g.single_pitch_um),
+        gear_fp_um: gear_cut.map(|g| g.cumulative_pitch_um),
+        gear_fpt_of_grade4: gear_cut.map(|g| g.shares().0),
+        gear_fp_of_grade4: gear_cut.map(|g| g.shares().1),
+        blank_max_arcsec: s
+            .passes
+            .iter()
+            .filter_map(|p| p.blank_err_max_arcsec)
+            .reduce(f64::max),
         gear,
         disturbance: d,
         cross_coupling: ccc,
@@ -252,12 +276,12 @@ fn share(um: Option<f64>, of: Option<f64>) -> String {
 
 pub fn text(r: &AccuracyBench) -> String {
     let mut o = String::from(
-        "| gear | disturbance | CCC | predictor | RMS arcsec | max arcsec | RMS um | max um | max of grade-5 f_p | bound um | finished f_pt um (of grade 4) | finished F_p um (of grade 4) | result |\n|---|---|---|---|---|---|---|---|---|---|---|---|---|\n",
+        "| gear | disturbance | CCC | predictor | RMS arcsec | max arcsec | RMS um | max um | max of grade-5 f_p | bound um | controller's f_pt um (of grade 4) | controller's F_p um (of grade 4) | gear f_pt um (of grade 4) | gear F_p um (of grade 4) | result |\n|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n",
     );
     let onoff = |b: bool| if b { "on" } else { "off" };
     for x in &r.rows {
         o.push_str(&format!(
-            "| {} | {} | {} | {} | {:.2} | {:.2} | {:.2} | {:.2} | {:.0} % | {:.2} | {} | {} | {} |\n",
+            "| {} | {} | {} | {} | {:.2} | {:.2} | {:.2} | {:.2} | {:.0} % | {:.2} | {} | {} | {} | {} | {} |\n",
             x.gear,
             x.disturbance.name(),
             onoff(x.cross_coupling),
@@ -270,11 +294,221 @@ pub fn text(r: &AccuracyBench) -> String {
             x.bound_um,
             share(x.finished_fpt_um, x.finished_fpt_of_grade4),
             share(x.finished_fp_um, x.finished_fp_of_grade4),
+            share(x.gear_fpt_um, x.gear_fpt_of_grade4),
+            share(x.gear_fp_um, x.gear_fp_of_grade4),
             match &x.fault {
                 Some(f) => format!("fault {f}"),
                 None if x.completed => "done".into(),
                 None => "not finished".into(),
             }
+        ));
+    }
+    o
+}
+
+/// One element of the machine between the drive and the gear, switched on alone over an
+/// ideal machine in the breakdown ([`breakdown`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum MachinePart {
+    /// A perfect wheel, no runout, no play, a stiff mesh (the table rings at 400 Hz): the
+    /// controller's share and the work's twist only.
+    Ideal,
+    /// The shipped wheel's pitch errors (its grade) alone.
+    WheelPitch,
+    /// The shipped worm's axial runout alone.
+    WormRunout,
+    /// The shipped backlash alone.
+    Backlash,
+    /// The shipped mesh stiffness (the table on it) alone.
+    Compliance,
+    /// Everything as shipped (`config/plant.toml`).
+    Shipped,
+}
+
+impl MachinePart {
+    pub const ALL: [MachinePart; 6] = [
+        MachinePart::Ideal,
+        MachinePart::WheelPitch,
+        MachinePart::WormRunout,
+        MachinePart::Backlash,
+        MachinePart::Compliance,
+        MachinePart::Shipped,
+    ];
+
+    pub fn name(self) -> &'static str {
+        match self {
+            MachinePart::Ideal => "ideal machine",
+            MachinePart::WheelPitch => "+ wheel pitch errors",
+            MachinePart::WormRunout => "+ worm runout",
+            MachinePart::Backlash => "+ backlash",
+            MachinePart::Compliance => "+ mesh compliance",
+            MachinePart::Shipped => "all (shipped plant)",
+        }
+    }
+
+    /// The plant with only this part of the worm drive as shipped.
+    pub fn apply(self, shipped: &PlantConfig) -> PlantConfig {
+        if self == MachinePart::Shipped {
+            return shipped.clone();
+        }
+        let mut p = shipped.clone();
+        let w = &mut p.table.worm;
+        let step_s = f64::from(p.simulation.inner_step_us) * 1e-6;
+        // A quarter of the stiffest mesh the physics step resolves (config validation).
+        let stiff = 0.25 * (0.5 / step_s).powi(2) * p.table.table_inertia_kg_m2;
+        let (grade, runout, backlash, stiffness) = (
+            w.wheel_grade,
+            w.worm_axial_runout_um,
+            w.backlash_arcsec,
+            w.stiffness_nm_rad,
+        );
+        w.wheel_grade = 0;
+        w.worm_axial_runout_um = 0.0;
+        w.backlash_arcsec = 0.0;
+        w.stiffness_nm_rad = stiff;
+        match self {
+            MachinePart::WheelPitch => w.wheel_grade = grade,
+            MachinePart::WormRunout => w.worm_axial_runout_um = runout,
+            MachinePart::Backlash => w.backlash_arcsec = backlash,
+            MachinePart::Compliance => w.stiffness_nm_rad = stiffness,
+            MachinePart::Ideal | MachinePart::Shipped => {}
+        }
+        p
+    }
+}
+
+/// One gear on one machine of the breakdown: the finished gear's deviations (grade 4).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct BreakdownRow {
+    pub gear: String,
+    pub part: MachinePart,
+    pub completed: bool,
+    pub controller_fpt_um: Option<f64>,
+    pub controller_fp_um: Option<f64>,
+    pub gear_fpt_um: Option<f64>,
+    pub gear_fp_um: Option<f64>,
+    pub gear_helix_um: Option<f64>,
+    pub fpt_tolerance_grade4_um: Option<f64>,
+    pub fp_tolerance_grade4_um: Option<f64>,
+}
+
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct BreakdownBench {
+    pub system: SystemInfo,
+    pub rows: Vec<BreakdownRow>,
+}
+
+fn breakdown_one(
+    machine: &MachineConfig,
+    plant: &PlantConfig,
+    path: &std::path::Path,
+    part: MachinePart,
+) -> Result<BreakdownRow, String> {
+    let (job, src) = Program::read(path).map_err(|e| e.to_string())?;
+    let mut p = Problems::new();
+    let cycle = CycleProgram::build(&job, machine, &mut p);
+    let plan = planner::plan(&job, machine, &mut p);
+    let (Some(cycle), Some(plan)) = (cycle, plan) else {
+        return Err(p
+            .into_result(path, &src)
+            .err()
+            .map_or_else(|| format!("{}: refused", path.display()), |e| e.to_string()));
+    };
+    let options = SimOptions {
+        grade: 4,
+        ..SimOptions::default()
+    };
+    let s = run_program(
+        machine,
+        &part.apply(plant),
+        &cycle,
+        &plan,
+        &job,
+        &options,
+        &mut |_| {},
+    )?;
+    let last = s.passes.last();
+    let controller = last.and_then(|p| p.controller_share.as_ref());
+    let gear_cut = last.and_then(|p| p.predicted.as_ref());
+    Ok(BreakdownRow {
+        gear: path
+            .file_stem()
+            .map_or_else(String::new, |n| n.to_string_lossy().to_string()),
+        part,
+        completed: s.completed,
+        controller_fpt_um: controller.map(|g| g.single_pitch_um),
+        controller_fp_um: controller.map(|g| g.cumulative_pitch_um),
+        gear_fpt_um: gear_cut.map(|g| g.single_pitch_um),
+        gear_fp_um: gear_cut.map(|g| g.cumulative_pitch_um),
+        gear_helix_um: gear_cut.map(|g| g.helix_um),
+        fpt_tolerance_grade4_um: gear_cut.map(|g| g.single_pitch_tolerance_um),
+        fp_tolerance_grade4_um: gear_cut.map(|g| g.cumulative_pitch_tolerance_um),
+    })
+}
+
+/// Where the finished gear's deviations come from: each program at the nominal
+/// disturbance, cross-coupling and predictor on, on an ideal machine and with each part of
+/// the worm drive alone, then all of them (`hob-bench accuracy --breakdown`).
+pub fn breakdown(a: &Args) -> Result<BreakdownBench, String> {
+    std::fs::create_dir_all(&a.out).map_err(|e| format!("{}: {e}", a.out.display()))?;
+    let machine = MachineConfig::load(&a.machine).map_err(|e| e.to_string())?;
+    let plant = PlantConfig::load(&a.plant).map_err(|e| e.to_string())?;
+    let cases: Vec<(PathBuf, MachinePart)> = a
+        .programs
+        .iter()
+        .flat_map(|p| MachinePart::ALL.map(|m| (p.clone(), m)))
+        .collect();
+    let threads = std::thread::available_parallelism().map_or(1, usize::from);
+    let mut rows: Vec<(usize, BreakdownRow)> = Vec::new();
+    std::thread::scope(|scope| -> Result<(), String> {
+        let handles: Vec<_> = (0..threads)
+            .map(|t| {
+                let (machine, plant, cases) = (&machine, &plant, &cases);
+                scope.spawn(move || -> Result<Vec<(usize, BreakdownRow)>, String> {
+                    cases
+                        .iter()
+                        .enumerate()
+                        .filter(|(i, _)| i % threads == t)
+                        .map(|(i, (p, m))| breakdown_one(machine, plant, p, *m).map(|r| (i, r)))
+                        .collect()
+                })
+            })
+            .collect();
+        for h in handles {
+            rows.extend(h.join().map_err(|_| "breakdown thread panicked".to_string())??);
+        }
+        Ok(())
+    })?;
+    rows.sort_by_key(|(i, _)| *i);
+    let r = BreakdownBench {
+        system: system::probe(),
+        rows: rows.into_iter().map(|(_, r)| r).collect(),
+    };
+    crate::write_json(&a.out.join("breakdown.json"), &r)?;
+    Ok(r)
+}
+
+pub fn breakdown_text(r: &BreakdownBench) -> String {
+    let mut o = String::from(
+        "| gear | machine | controller's f_pt um | controller's F_p um | gear f_pt um (of grade 4) | gear F_p um (of grade 4) | gear helix um | result |\n|---|---|---|---|---|---|---|---|\n",
+    );
+    let um = |v: Option<f64>| v.map_or_else(|| "-".to_string(), |v| format!("{v:.2}"));
+    let of = |v: Option<f64>, t: Option<f64>| match (v, t) {
+        (Some(v), Some(t)) => format!("{v:.2} ({:.0} %)", 100.0 * v / t),
+        _ => "-".to_string(),
+    };
+    for x in &r.rows {
+        o.push_str(&format!(
+            "| {} | {} | {} | {} | {} | {} | {} | {} |\n",
+            x.gear,
+            x.part.name(),
+            um(x.controller_fpt_um),
+            um(x.controller_fp_um),
+            of(x.gear_fpt_um, x.fpt_tolerance_grade4_um),
+            of(x.gear_fp_um, x.fp_tolerance_grade4_um),
+            um(x.gear_helix_um),
+            if x.completed { "done" } else { "not finished" },
         ));
     }
     o

@@ -65,6 +65,10 @@ pub struct AccuracyLimits {
     pub max_of_bound: f64,
     /// And each part must help: with it off the error must be larger.
     pub each_part_helps: bool,
+    /// The finished gear's single and cumulative pitch deviations, the controller's share,
+    /// over their ISO 1328-1 grade-4 tolerances, at the same levels with both parts on.
+    /// The gear's own (the worm and the twist included) are reported beside them.
+    pub controller_of_grade4: f64,
 }
 
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -324,6 +328,34 @@ pub fn accuracy_checks(r: &AccuracyBench, l: &AccuracyLimits) -> Vec<Check> {
                 c.measured = format!("not completed: {}", full.fault.as_deref().unwrap_or("timeout"));
             }
             v.push(c);
+            for (what, um, of) in [
+                ("f_pt", full.finished_fpt_um, full.finished_fpt_of_grade4),
+                ("F_p", full.finished_fp_um, full.finished_fp_of_grade4),
+            ] {
+                let name = format!("accuracy {gear}, {}: controller's {what} of grade 4", d.name());
+                v.push(match (um, of) {
+                    (Some(um), Some(of)) => Check {
+                        name,
+                        measured: format!("{of:.2} ({um:.2} um)"),
+                        limit: format!("<= {:.2}", l.controller_of_grade4),
+                        pass: Some(of <= l.controller_of_grade4),
+                    },
+                    _ => missing(&name, "no face section completed in the last pass".into()),
+                });
+            }
+            for (what, um, of) in [
+                ("f_pt", full.gear_fpt_um, full.gear_fpt_of_grade4),
+                ("F_p", full.gear_fp_um, full.gear_fp_of_grade4),
+            ] {
+                if let (Some(um), Some(of)) = (um, of) {
+                    v.push(Check {
+                        name: format!("accuracy {gear}, {}: the gear's {what} of grade 4", d.name()),
+                        measured: format!("{of:.2} ({um:.2} um)"),
+                        limit: "reported".into(),
+                        pass: None,
+                    });
+                }
+            }
             if l.each_part_helps {
                 for (what, other) in [
                     ("CCC", find(gear, d, false, true)),

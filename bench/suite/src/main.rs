@@ -97,6 +97,10 @@ enum Cmd {
         disturbances: Vec<Disturbance>,
         #[arg(long, default_value = "target/bench/accuracy")]
         out: PathBuf,
+        /// Instead: where the finished gear's deviations come from, the worm drive's parts
+        /// one at a time over an ideal machine (nominal disturbance, CCC and predictor on).
+        #[arg(long)]
+        breakdown: bool,
     },
     /// The worst-case CAN bus load of the configuration.
     BusLoad {
@@ -230,8 +234,9 @@ fn run(cli: Cli) -> Result<bool, String> {
             programs,
             disturbances,
             out,
+            breakdown,
         } => {
-            let r = accuracy::run(&accuracy::Args {
+            let args = accuracy::Args {
                 out: out.clone(),
                 machine: cli.machine.clone(),
                 plant: cli.plant.clone(),
@@ -245,8 +250,12 @@ fn run(cli: Cli) -> Result<bool, String> {
                 } else {
                     disturbances.clone()
                 },
-            })?;
-            say(accuracy::text(&r));
+            };
+            if *breakdown {
+                say(accuracy::breakdown_text(&accuracy::breakdown(&args)?));
+            } else {
+                say(accuracy::text(&accuracy::run(&args)?));
+            }
         }
         Cmd::BusLoad { out } => say(busload::text(&busload::run(&cli.machine, out)?)),
         Cmd::All {
