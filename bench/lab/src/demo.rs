@@ -186,7 +186,10 @@ pub fn run(machine: &MachineConfig, a: &DemoArgs<'_>) -> Result<String, (u8, Str
     .arg("--plant")
     .arg(a.plant)
     .arg("--program")
-    .arg(a.program);
+    .arg(a.program)
+    // The machine's truth beside the recording: the report grades the cut by it.
+    .arg("--truth")
+    .arg(dir.join(hob_logger::truth::FILE));
     procs
         .spawn("hob-sim", sim, &dir.join("hob-sim.log"))
         .map_err(fail)?;

@@ -639,8 +639,13 @@ pub struct Report {
     pub bound_um: f64,
     /// Cycles missing from the log.
     pub missing: u64,
-    /// Each pass's largest sync error at the pitch circle, um.
+    /// Each pass's largest sync error at the pitch circle, um: the truth's where the
+    /// simulated machine wrote one beside the log, else the controller's estimate.
     pub pass_max_um: Vec<f64>,
+    /// Whether the report is graded by the simulated machine's truth (`truth.csv`).
+    pub graded_by_truth: bool,
+    /// The passes with a predicted gear (from the truth).
+    pub predicted_passes: usize,
 }
 
 impl Report {
@@ -664,6 +669,14 @@ impl Report {
             .and_then(|v| v.parse().ok())
             .ok_or_else(|| format!("no 'N missing' in: {head}"))?;
         let mut pass_max_um = Vec::new();
+        let graded_by_truth = text
+            .lines()
+            .nth(1)
+            .is_some_and(|l| l.starts_with("graded by the simulated machine's truth"));
+        let predicted_passes = text
+            .lines()
+            .filter(|l| l.starts_with("  pass ") && l.contains(": predicted gear ("))
+            .count();
         for l in text.lines().skip(1) {
             let f: Vec<&str> = l.split_whitespace().collect();
             if l.starts_with(' ') && f.first().is_some_and(|p| p.parse::<u32>().is_ok()) {
@@ -678,6 +691,8 @@ impl Report {
             bound_um,
             missing,
             pass_max_um,
+            graded_by_truth,
+            predicted_passes,
         })
     }
 }
@@ -785,9 +800,24 @@ mod tests {
             Report {
                 bound_um: 1.77,
                 missing: 0,
-                pass_max_um: vec![1.03, 0.8]
+                pass_max_um: vec![1.03, 0.8],
+                graded_by_truth: false,
+                predicted_passes: 0,
             }
         );
+        // Graded by the truth: its pass lines, the estimate's and the predicted gear's
+        // lines are not passes.
+        let truth = text.replacen(
+            "\n",
+            "\ngraded by the simulated machine's truth (truth.csv: 30100 of 36520 samples joined): the error is ...\n",
+            1,
+        ) + "  the controller's estimate, pass 1: rms 0.186 max 0.758 um\n  \
+               pass 1: predicted gear (2 face sections): f_pt 2.43 um ...\n  \
+               pass 2: predicted gear (3 face sections): f_pt 2.60 um ...\n";
+        let r = Report::parse(&truth).unwrap();
+        assert!(r.graded_by_truth);
+        assert_eq!(r.predicted_passes, 2);
+        assert_eq!(r.pass_max_um, vec![1.03, 0.8]);
         assert_eq!(
             Report::parse(&text.replace(" 0 missing", " 10 missing"))
                 .unwrap()

@@ -126,6 +126,18 @@ fn demo_cuts_end_to_end() {
                 "no cycle column in the CSV: {header:?}"
             );
             assert_eq!(r.pass_max_um.len(), 2, "passes in the report:\n{}", report.stdout);
+            // Graded by the virtual machine's truth, not the controller's own estimate;
+            // and the gear each pass left, predicted from it.
+            assert!(
+                r.graded_by_truth,
+                "the report is not graded by hob-sim's truth:\n{}",
+                report.stdout
+            );
+            assert_eq!(
+                r.predicted_passes, 2,
+                "predicted gear per pass:\n{}",
+                report.stdout
+            );
             assert!(
                 worst <= r.bound_um,
                 "worst sync error {worst} um over the bound {} um",
@@ -134,7 +146,7 @@ fn demo_cuts_end_to_end() {
             assert_eq!(r.missing, 0, "cycles missing from the log");
             assert_eq!(logger.samples_lost, 0, "samples lost by the logger");
             format!(
-                "worst {worst:.3} um of {:.2} um, {} samples, 0 lost",
+                "worst {worst:.3} um of {:.2} um (the truth), {} samples, 0 lost",
                 r.bound_um, logger.samples
             )
         },

@@ -1,6 +1,7 @@
 //! `hob log export|report`: a recorded directory as CSV, and its per-pass statistics.
 
 use crate::trace::{PassSummary, SummaryBuilder, TRACE_HEADER, TraceRow};
+use crate::truth;
 use hob_ipc::StateSample;
 use hob_ipc::codec::{self, Coupling, State};
 use std::fmt::Write as _;
@@ -86,8 +87,31 @@ pub struct Report {
     pub missing: u64,
     pub pitch_radius_mm: f64,
     pub grade5_single_pitch_um: f64,
+    /// Per pass, from the controller's own estimate of its error (what the loop recorded).
     pub passes: Vec<PassSummary>,
+    /// The simulated machine's truth, where it wrote one beside the recording
+    /// ([`crate::truth`]).
+    pub truth: Option<TruthReport>,
 }
+
+/// A recording graded by the virtual machine's truth.
+#[derive(Debug, Clone)]
+pub struct TruthReport {
+    pub gear: truth::Gear,
+    /// Samples that found their truth row.
+    pub joined: usize,
+    /// Per pass, from the truth: the controller's share (the drive's motion through an
+    /// ideal worm) as the error, and the predicted gear from the blank's truth
+    /// (`PassSummary::predicted`) beside the controller's share of it.
+    pub passes: Vec<PassSummary>,
+    /// Per pass, the law's phase put back (arcsec): the mean of the truth less the
+    /// controller's estimate over the pass's synchronised cut. A constant that moves no
+    /// tooth against another.
+    pub phase_arcsec: Vec<f64>,
+}
+
+/// The ISO 1328-1 grade the predicted gear of a recording is judged against.
+pub const REPORT_GRADE: u8 = 5;
 
 /// The loop's cycle period as recorded: SYNC time over cycles from the first sample to the
 /// last (a log holds no configuration; 1 ms when it holds a single sample).
@@ -185,6 +209,20 @@ fn report_of(dir: &Path, states: &[StateSample]) -> Result<Report, String> {
         b.add(&trace_row(s, t0), period_s);
     }
     let (passes, tol) = b.passes();
+    let truth_path = dir.join(truth::FILE);
+    let truth = if truth_path.exists() {
+        let (g, rows) = truth::read(&truth_path)?;
+        Some(graded_by_truth(
+            states,
+            g,
+            &rows,
+            gear.pitch_radius_mm,
+            gear.normal_module_mm,
+            period_s,
+        ))
+    } else {
+        None
+    };
     Ok(Report {
         samples: states.len(),
         first_cycle: states.first().map_or(0, |s| s.cycle),
@@ -193,7 +231,84 @@ fn report_of(dir: &Path, states: &[StateSample]) -> Result<Report, String> {
         pitch_radius_mm: gear.pitch_radius_mm,
         grade5_single_pitch_um: tol,
         passes,
+        truth,
     })
+}
+
+/// Whether a recorded sample is in the cut with the gearbox synchronised (where the
+/// controller's estimate of its error is recorded).
+fn synchronised_cut(s: &StateSample) -> bool {
+    s.pass > 0 && s.state == State::Cut.code() && s.coupling == Coupling::Synchronised.code()
+}
+
+/// The recording's samples joined with the truth rows by their SYNC times: each pass's
+/// law phase first (the truth's drive error less the controller's estimate, averaged over
+/// the pass's synchronised cut), then the per-pass statistics of the truth with it.
+fn graded_by_truth(
+    states: &[StateSample],
+    g: truth::Gear,
+    rows: &[truth::TruthRow],
+    pitch_radius_mm: f64,
+    normal_module_mm: f64,
+    period_s: f64,
+) -> TruthReport {
+    let join = |f: &mut dyn FnMut(&StateSample, Option<truth::TruthRow>)| {
+        let mut from = 0;
+        for (i, s) in states.iter().enumerate() {
+            let next = states.get(i + 1).map(|n| n.sync_time_ns);
+            f(s, truth::row_for(rows, &mut from, s.sync_time_ns, next));
+        }
+    };
+    let mut sums: Vec<(f64, u64)> = Vec::new();
+    let mut joined = 0;
+    join(&mut |s, t| {
+        joined += usize::from(t.is_some());
+        if let Some(t) = t.filter(|_| synchronised_cut(s)) {
+            let i = s.pass as usize - 1;
+            if sums.len() <= i {
+                sums.resize(i + 1, (0.0, 0));
+            }
+            sums[i].0 += t.drive_err_arcsec - s.sync_error_arcsec;
+            sums[i].1 += 1;
+        }
+    });
+    let phase_arcsec: Vec<f64> = sums
+        .iter()
+        .map(|(sum, n)| if *n > 0 { sum / *n as f64 } else { 0.0 })
+        .collect();
+    let mut b = SummaryBuilder::for_gear(pitch_radius_mm, normal_module_mm).predicting(
+        g.teeth,
+        g.face_width_mm,
+        REPORT_GRADE,
+    );
+    let t0 = states.first().map_or(0, |s| s.sync_time_ns);
+    join(&mut |s, t| {
+        let mut row = trace_row(s, t0);
+        let phase = (s.pass as usize)
+            .checked_sub(1)
+            .and_then(|i| phase_arcsec.get(i))
+            .copied();
+        match (t, phase) {
+            (Some(t), Some(phase)) if row.sync_err_arcsec.is_some() => {
+                row.table_deg = t.table_drive_deg;
+                row.y_mm = t.y_mm;
+                row.sync_err_arcsec = Some(t.drive_err_arcsec - phase);
+                row.blank_err_arcsec = Some(t.blank_err_arcsec - phase);
+            }
+            // No truth for this sample: a gap in the truth, never the estimate in its place.
+            _ => {
+                row.sync_err_arcsec = None;
+                row.blank_err_arcsec = None;
+            }
+        }
+        b.add(&row, period_s);
+    });
+    TruthReport {
+        gear: g,
+        joined,
+        passes: b.passes().0,
+        phase_arcsec,
+    }
 }
 
 /// An event as the logger recorded it (`events.log`).
@@ -324,11 +439,30 @@ pub fn report_text(dir: &Path, r: &Report) -> String {
         r.grade5_single_pitch_um,
         r.grade5_single_pitch_um / 4.0
     );
+    let graded = match &r.truth {
+        Some(t) => {
+            let _ = writeln!(
+                o,
+                "graded by the simulated machine's truth ({}: {} of {} samples joined): the error is the drive's true motion against the gearbox law; the controller's own estimate follows",
+                truth::FILE,
+                t.joined,
+                r.samples
+            );
+            &t.passes
+        }
+        None => {
+            let _ = writeln!(
+                o,
+                "no truth recorded beside the log: the error is the controller's own estimate from its encoders"
+            );
+            &r.passes
+        }
+    };
     let _ = writeln!(
         o,
         "pass  cut s  samples  sync error arcsec: rms    max   |  um at pitch circle: rms    max   of grade 5 | overrides in the cut"
     );
-    for p in &r.passes {
+    for p in graded {
         let _ = writeln!(
             o,
             "{:>4} {:>6.1} {:>8} {:>24.3} {:>6.3} | {:>24.3} {:>6.3} {:>7.0} % | feed {}, spindle {}",
@@ -343,6 +477,22 @@ pub fn report_text(dir: &Path, r: &Report) -> String {
             percent_range(p.feed_override_min_percent, p.feed_override_max_percent),
             percent_range(p.spindle_override_min_percent, p.spindle_override_max_percent)
         );
+    }
+    if let Some(t) = &r.truth {
+        for p in &r.passes {
+            let _ = writeln!(
+                o,
+                "  the controller's estimate, pass {}: rms {:.3} max {:.3} um",
+                p.pass, p.sync_err_rms_um, p.sync_err_max_um
+            );
+        }
+        for p in &t.passes {
+            let _ = writeln!(
+                o,
+                "{}",
+                crate::predicted::pass_line(p.pass, p.predicted.as_ref(), p.controller_share.as_ref())
+            );
+        }
     }
     o
 }
@@ -482,5 +632,73 @@ mod tests {
         assert_eq!(percent_range(Some(100.0), Some(100.0)), "100 %");
         assert_eq!(percent_range(Some(85.5), Some(100.000_000_000_01)), "85.5-100 %");
         assert_eq!(percent_range(None, None), "-");
+    }
+
+    /// A recorded cut with the simulated machine's truth beside it: the report grades it by
+    /// the truth (the phase put back per pass from the estimate), leaves a sample without its
+    /// truth row out rather than using the estimate, and says so.
+    #[test]
+    fn a_recording_with_the_truth_beside_it_is_graded_by_the_truth() {
+        let dir = recorded("truth");
+        // The estimate is 0.5 arcsec x cycle; the truth: a phase of 3600.25 arcsec, the
+        // estimate plus 2 arcsec in pass 1 (cycles 2..=4 in the cut), read 30 us after each
+        // SYNC; cycle 3's row is missing.
+        let mut text = Vec::new();
+        truth::write_head(
+            &mut text,
+            truth::Gear {
+                teeth: 17,
+                face_width_mm: 40.0,
+            },
+        )
+        .unwrap();
+        for cycle in [1u64, 2, 4, 5, 6] {
+            let est = 0.5 * cycle as f64;
+            let extra = if (2..=4).contains(&cycle) {
+                2.0 + 0.1 * cycle as f64
+            } else {
+                0.0
+            };
+            let r = truth::TruthRow {
+                sync_ns: cycle * 1_000_000 + 30_000,
+                table_drive_deg: cycle as f64,
+                y_mm: 0.0,
+                drive_err_arcsec: 3600.25 + est + extra,
+                blank_err_arcsec: 3600.25 + est + extra + 1.0,
+            };
+            text.extend_from_slice(format!("{}\n", r.csv()).as_bytes());
+        }
+        std::fs::write(dir.join(truth::FILE), &text).unwrap();
+        let r = report(&dir).unwrap();
+        let t = r.truth.as_ref().expect("graded by the truth");
+        assert_eq!(t.joined, 5);
+        // Pass 1's synchronised cut with truth: cycles 2 and 4 (extra 2.2 and 2.4): phase
+        // 3600.25 + 2.3. The statistics count the cut without hold, cycle 2 only: its truth
+        // less the phase is 1.0 + 2.2 - 2.3 = 0.9 arcsec (the estimate there: 1.0).
+        assert!((t.phase_arcsec[0] - 3602.55).abs() < 1e-6, "{:?}", t.phase_arcsec);
+        let p1 = &t.passes[0];
+        assert_eq!(p1.samples, 1);
+        assert!((p1.sync_err_max_arcsec - 0.9).abs() < 1e-6, "{p1:?}");
+        // The estimate's own figures are kept beside: 0.5 x cycle, cycles 2 and 3 in the cut
+        // without hold (cycle 3 has no truth but its estimate).
+        assert!((r.passes[0].sync_err_max_arcsec - 1.5).abs() < 1e-9);
+        assert!((p1.blank_err_max_arcsec.unwrap() - 1.9).abs() < 1e-6, "{p1:?}");
+        let text = report_text(&dir, &r);
+        assert!(
+            text.lines()
+                .nth(1)
+                .is_some_and(|l| l.starts_with("graded by the simulated machine's truth (truth.csv: 5 of 6")),
+            "{text}"
+        );
+        assert!(text.contains("the controller's estimate, pass 1: rms"), "{text}");
+        // Without the file: the estimate, said so.
+        std::fs::remove_file(dir.join(truth::FILE)).unwrap();
+        let r = report(&dir).unwrap();
+        assert!(r.truth.is_none());
+        assert!(report_text(&dir, &r).contains("no truth recorded beside the log"));
+        // A broken truth file is refused with its name, not silently ignored.
+        std::fs::write(dir.join(truth::FILE), "garbage\n").unwrap();
+        assert!(report(&dir).unwrap_err().contains("truth.csv:1"));
+        let _ = std::fs::remove_dir_all(&dir);
     }
 }

@@ -19,6 +19,7 @@ pub mod export;
 pub mod format;
 pub mod predicted;
 pub mod trace;
+pub mod truth;
 pub mod writer;
 
 pub use format::{FIELDS, decode, encode, read_dir_states, record_bytes};

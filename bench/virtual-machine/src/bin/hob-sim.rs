@@ -80,6 +80,12 @@ struct Args {
     /// `simulation.power_on_near_home_mm`.
     #[arg(long, value_name = "MM")]
     power_on_near_home: Option<f64>,
+    /// Write the machine's truth to FILE, one row per SYNC (`hob_logger::truth`): the
+    /// drive's and the blank's true error against the gearbox law of `--program` (which
+    /// it needs). Put beside the logger's recording as `truth.csv`, `hob log report`
+    /// grades the cut by it.
+    #[arg(long, value_name = "FILE", requires = "program")]
+    truth: Option<PathBuf>,
 }
 
 fn main() -> ExitCode {
@@ -124,6 +130,8 @@ fn run(a: Args) -> Result<(), String> {
     };
     let mut gashes = 10;
     let mut workpiece = None;
+    // The gearbox law of the program (without its phase) and its gear, for the truth.
+    let mut law = None;
     if let Some(p) = &a.program {
         let (job, src) = Program::read(p).map_err(|e| e.to_string())?;
         let mut problems = Problems::new();
@@ -136,6 +144,14 @@ fn run(a: Args) -> Result<(), String> {
                 .map_or_else(|| "program refused".into(), |e| e.to_string()));
         };
         start = hob_plant::sim::start_for(&cycle);
+        law = Some((
+            cycle.ratio_signed,
+            cycle.differential_signed_deg_per_mm,
+            hob_logger::truth::Gear {
+                teeth: plan.teeth,
+                face_width_mm: job.workpiece.face_width_mm,
+            },
+        ));
         gashes = job.tool.gashes.max(1) as u32;
         workpiece = Some(hob_plant::sim::workpiece_for(
             &cycle,
@@ -193,6 +209,13 @@ fn run(a: Args) -> Result<(), String> {
             eprintln!("hob-sim: {p}");
         }
     }
+    let truth = match (&a.truth, law) {
+        (Some(path), Some((ratio, differential, gear))) => {
+            Some((truth_writer(path, gear)?, ratio, differential))
+        }
+        _ => None,
+    };
+    let mut truth_syncs = 0;
     let mut bus = hob_can_transport::shm::open_bus(&a.iface, "hob-sim-can")?;
     let (tx, rx) = std::sync::mpsc::channel::<String>();
     if a.control {
@@ -241,6 +264,21 @@ fn run(a: Args) -> Result<(), String> {
         if answer_priority.is_some() {
             fifo(rt_priority);
         }
+        // The machine as it stood at the SYNC (the period's physics are still owed).
+        if let Some((tx, ratio, differential)) = &truth
+            && vm.syncs() != truth_syncs
+        {
+            truth_syncs = vm.syncs();
+            let p = &vm.plant;
+            let law_deg = ratio * p.spindle_deg() + differential * p.y_mm();
+            let _ = tx.send(hob_logger::truth::TruthRow {
+                sync_ns: hob_rt_os::now_ns(),
+                table_drive_deg: p.table_drive_deg(),
+                y_mm: p.y_mm(),
+                drive_err_arcsec: (p.table_drive_deg() - law_deg) * 3600.0,
+                blank_err_arcsec: (p.blank_deg() - law_deg) * 3600.0,
+            });
+        }
         // The answers are on the bus: now the period's physics.
         vm.settle();
         let busy = served.map_err(|e| e.to_string())? > 0;
@@ -280,6 +318,44 @@ fn run(a: Args) -> Result<(), String> {
             bus.wait_for_frame(Duration::from_millis(5));
         }
     }
+}
+
+/// The truth file's writer: a thread of its own (the simulator answers SYNCs), fed rows
+/// over a channel, flushing at least every half second.
+fn truth_writer(
+    path: &std::path::Path,
+    gear: hob_logger::truth::Gear,
+) -> Result<std::sync::mpsc::Sender<hob_logger::truth::TruthRow>, String> {
+    use std::io::Write as _;
+    let file = std::fs::File::create(path).map_err(|e| format!("--truth {}: {e}", path.display()))?;
+    let mut w = std::io::BufWriter::new(file);
+    hob_logger::truth::write_head(&mut w, gear).map_err(|e| format!("--truth {}: {e}", path.display()))?;
+    let (tx, rx) = std::sync::mpsc::channel::<hob_logger::truth::TruthRow>();
+    let shown = path.display().to_string();
+    std::thread::spawn(move || {
+        let mut flushed = Instant::now();
+        loop {
+            let r = match rx.recv_timeout(Duration::from_millis(200)) {
+                Ok(row) => writeln!(w, "{}", row.csv()),
+                Err(std::sync::mpsc::RecvTimeoutError::Timeout) => Ok(()),
+                Err(std::sync::mpsc::RecvTimeoutError::Disconnected) => break,
+            };
+            let r = r.and_then(|()| {
+                if flushed.elapsed() > Duration::from_millis(500) {
+                    flushed = Instant::now();
+                    w.flush()
+                } else {
+                    Ok(())
+                }
+            });
+            if let Err(e) = r {
+                eprintln!("hob-sim: --truth {shown}: {e}; no more truth is written");
+                return;
+            }
+        }
+        let _ = w.flush();
+    });
+    Ok(tx)
 }
 
 /// Sets this thread's SCHED_FIFO priority (the start-up reported whether it may).
