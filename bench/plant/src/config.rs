@@ -108,6 +108,10 @@ pub struct SpindlePlant {
 pub struct TablePlant {
     pub motor_inertia_kg_m2: f64,
     pub table_inertia_kg_m2: f64,
+    /// The table inertia the B drive's gains were tuned for (its autotune's estimate);
+    /// absent: the true `table_inertia_kg_m2`.
+    #[serde(default)]
+    pub tuned_table_inertia_kg_m2: Option<f64>,
     pub work_link_t1_s: f64,
     pub work_link_t2_s: f64,
     pub work_link_stiffness_nm_rad: f64,
@@ -259,6 +263,9 @@ impl PlantConfig {
         );
         p.non_negative("table.friction_motor_nm", t.friction_motor_nm);
         p.non_negative("table.bearing_friction_nm", t.bearing_friction_nm);
+        if let Some(j) = t.tuned_table_inertia_kg_m2 {
+            p.positive("table.tuned_table_inertia_kg_m2", j);
+        }
         let w = &t.worm;
         p.positive("table.worm.wheel_pitch_diameter_mm", w.wheel_pitch_diameter_mm);
         p.require(w.wheel_grade <= 11, "table.worm.wheel_grade", || {

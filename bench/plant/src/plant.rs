@@ -150,6 +150,7 @@ fn linear_servo(
     let weight_n = p.moving_mass_kg * G;
     let params = ServoParams {
         inertia_kg_m2: p.motor_inertia_kg_m2 + p.moving_mass_kg * m_per_rad * m_per_rad,
+        tuned_inertia_kg_m2: p.motor_inertia_kg_m2 + p.moving_mass_kg * m_per_rad * m_per_rad,
         counts_per_rad,
         peak_torque_nm: p.peak_motor_torque_nm,
         velocity_loop_hz: p.velocity_loop_hz,
@@ -214,6 +215,8 @@ impl Plant {
         let ratio = machine.table.worm_ratio;
         let table_params = ServoParams {
             inertia_kg_m2: t.motor_inertia_kg_m2 + t.table_inertia_kg_m2 / (ratio * ratio),
+            tuned_inertia_kg_m2: t.motor_inertia_kg_m2
+                + t.tuned_table_inertia_kg_m2.unwrap_or(t.table_inertia_kg_m2) / (ratio * ratio),
             counts_per_rad: table_counts_per_rad,
             peak_torque_nm: t.peak_motor_torque_nm,
             velocity_loop_hz: t.velocity_loop_hz,

@@ -11,6 +11,9 @@ use std::f64::consts::TAU;
 pub struct ServoParams {
     /// Inertia the motor sees rigidly (rotor, plus a rigidly reflected load).
     pub inertia_kg_m2: f64,
+    /// The inertia the drive's gains are tuned for (its autotune's estimate): the loops'
+    /// bandwidths hold for the true inertia only where the two agree.
+    pub tuned_inertia_kg_m2: f64,
     pub counts_per_rad: f64,
     pub peak_torque_nm: f64,
     pub velocity_loop_hz: f64,
@@ -50,7 +53,7 @@ pub struct Servo {
 
 impl Servo {
     pub fn new(p: ServoParams, position_rad: f64, period_s: f64) -> Self {
-        let j = p.inertia_kg_m2;
+        let j = p.tuned_inertia_kg_m2;
         let wv = TAU * p.velocity_loop_hz;
         let counts = (position_rad * p.counts_per_rad).floor();
         Self {

@@ -513,3 +513,230 @@ pub fn breakdown_text(r: &BreakdownBench) -> String {
     }
     o
 }
+
+/// One change of the machine or the plant from the shipped files, for the sensitivity table
+/// ([`sensitivity`]): what the controller's share and the gear each depend on.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Variation {
+    Nominal,
+    Ripple0p5,
+    Ripple2,
+    JitterNone,
+    Jitter50,
+    MeasuredSync,
+    InertiaHalf,
+    InertiaDouble,
+    Encoder10000Lines,
+    BandwidthHalf,
+    BandwidthDouble,
+    WheelPerfect,
+    WheelGrade6,
+}
+
+impl Variation {
+    pub const ALL: [Variation; 13] = [
+        Variation::Nominal,
+        Variation::Ripple0p5,
+        Variation::Ripple2,
+        Variation::JitterNone,
+        Variation::Jitter50,
+        Variation::MeasuredSync,
+        Variation::InertiaHalf,
+        Variation::InertiaDouble,
+        Variation::Encoder10000Lines,
+        Variation::BandwidthHalf,
+        Variation::BandwidthDouble,
+        Variation::WheelPerfect,
+        Variation::WheelGrade6,
+    ];
+
+    pub fn name(self) -> &'static str {
+        match self {
+            Variation::Nominal => "nominal (shipped files)",
+            Variation::Ripple0p5 => "cutting ripple 0.5 % (5 %)",
+            Variation::Ripple2 => "cutting ripple 2 % (5 %)",
+            Variation::JitterNone => "SYNC jitter none (+-20 us)",
+            Variation::Jitter50 => "SYNC jitter +-50 us (+-20 us)",
+            Variation::MeasuredSync => "SYNC late as measured on the VM",
+            Variation::InertiaHalf => "table inertia x0.5, drive tuned for x1",
+            Variation::InertiaDouble => "table inertia x2, drive tuned for x1",
+            Variation::Encoder10000Lines => "table encoder 10 000 lines (2500)",
+            Variation::BandwidthHalf => "table servo loops x0.5 (60/400 Hz)",
+            Variation::BandwidthDouble => "table servo loops x2",
+            Variation::WheelPerfect => "worm wheel perfect (grade 4)",
+            Variation::WheelGrade6 => "worm wheel grade 6 (grade 4)",
+        }
+    }
+
+    /// The machine and the plant with this change.
+    pub fn apply(self, machine: &MachineConfig, plant: &PlantConfig) -> (MachineConfig, PlantConfig) {
+        let (mut m, mut p) = (machine.clone(), plant.clone());
+        let t = &mut p.table;
+        match self {
+            Variation::Nominal => {}
+            Variation::Ripple0p5 => p.spindle.cutting_ripple = 0.005,
+            Variation::Ripple2 => p.spindle.cutting_ripple = 0.02,
+            Variation::JitterNone => p.simulation.sync_jitter_us = 0.0,
+            Variation::Jitter50 => p.simulation.sync_jitter_us = 50.0,
+            Variation::MeasuredSync => {
+                p.simulation.sync_late_quantiles_us = hob_plant::config::MEASURED_VM_SYNC_LATE_US.to_vec();
+            }
+            Variation::InertiaHalf | Variation::InertiaDouble => {
+                t.tuned_table_inertia_kg_m2 = Some(t.table_inertia_kg_m2);
+                t.table_inertia_kg_m2 *= if self == Variation::InertiaHalf { 0.5 } else { 2.0 };
+            }
+            Variation::Encoder10000Lines => m.table.encoder_counts_per_motor_rev *= 4,
+            Variation::BandwidthHalf | Variation::BandwidthDouble => {
+                let k = if self == Variation::BandwidthHalf {
+                    0.5
+                } else {
+                    2.0
+                };
+                t.velocity_loop_hz *= k;
+                t.position_loop_hz *= k;
+            }
+            Variation::WheelPerfect => t.worm.wheel_grade = 0,
+            Variation::WheelGrade6 => t.worm.wheel_grade = 6,
+        }
+        (m, p)
+    }
+}
+
+/// One gear under one variation: the finished gear's deviations at grade 4.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct SensitivityRow {
+    pub gear: String,
+    pub variation: Variation,
+    pub completed: bool,
+    pub fault: Option<String>,
+    pub max_um: f64,
+    pub bound_um: f64,
+    pub controller_fpt_of_grade4: Option<f64>,
+    pub controller_fp_of_grade4: Option<f64>,
+    pub gear_fpt_of_grade4: Option<f64>,
+    pub gear_fp_of_grade4: Option<f64>,
+}
+
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct SensitivityBench {
+    pub system: SystemInfo,
+    pub rows: Vec<SensitivityRow>,
+}
+
+fn sensitivity_one(
+    machine: &MachineConfig,
+    plant: &PlantConfig,
+    path: &std::path::Path,
+    v: Variation,
+) -> Result<SensitivityRow, String> {
+    let (machine, plant) = v.apply(machine, plant);
+    let mut problems = Problems::new();
+    machine.validate(&mut problems);
+    plant.validate(&mut problems);
+    if !problems.is_empty() {
+        return Err(format!("{}: {problems:?}", v.name()));
+    }
+    let (job, src) = Program::read(path).map_err(|e| e.to_string())?;
+    let mut p = Problems::new();
+    let cycle = CycleProgram::build(&job, &machine, &mut p);
+    let plan = planner::plan(&job, &machine, &mut p);
+    let (Some(cycle), Some(plan)) = (cycle, plan) else {
+        return Err(p
+            .into_result(path, &src)
+            .err()
+            .map_or_else(|| format!("{}: refused", path.display()), |e| e.to_string()));
+    };
+    let options = SimOptions {
+        grade: 4,
+        ..SimOptions::default()
+    };
+    let s = run_program(&machine, &plant, &cycle, &plan, &job, &options, &mut |_| {})?;
+    let last = s.passes.last();
+    let mine = last.and_then(|p| p.controller_share.as_ref()).map(|g| g.shares());
+    let gear_cut = last.and_then(|p| p.predicted.as_ref()).map(|g| g.shares());
+    Ok(SensitivityRow {
+        gear: path
+            .file_stem()
+            .map_or_else(String::new, |n| n.to_string_lossy().to_string()),
+        variation: v,
+        completed: s.completed,
+        fault: s.fault.clone(),
+        max_um: s.max_sync_err_um,
+        bound_um: s.bound_um,
+        controller_fpt_of_grade4: mine.map(|x| x.0),
+        controller_fp_of_grade4: mine.map(|x| x.1),
+        gear_fpt_of_grade4: gear_cut.map(|x| x.0),
+        gear_fp_of_grade4: gear_cut.map(|x| x.1),
+    })
+}
+
+/// What the controller's share and the gear depend on: each program under each
+/// [`Variation`] (CCC and predictor on; `hob-bench accuracy --sensitivity`).
+pub fn sensitivity(a: &Args) -> Result<SensitivityBench, String> {
+    std::fs::create_dir_all(&a.out).map_err(|e| format!("{}: {e}", a.out.display()))?;
+    let machine = MachineConfig::load(&a.machine).map_err(|e| e.to_string())?;
+    let plant = PlantConfig::load(&a.plant).map_err(|e| e.to_string())?;
+    let cases: Vec<(PathBuf, Variation)> = a
+        .programs
+        .iter()
+        .flat_map(|p| Variation::ALL.map(|v| (p.clone(), v)))
+        .collect();
+    let threads = std::thread::available_parallelism().map_or(1, usize::from);
+    let mut rows: Vec<(usize, SensitivityRow)> = Vec::new();
+    std::thread::scope(|scope| -> Result<(), String> {
+        let handles: Vec<_> = (0..threads)
+            .map(|t| {
+                let (machine, plant, cases) = (&machine, &plant, &cases);
+                scope.spawn(move || -> Result<Vec<(usize, SensitivityRow)>, String> {
+                    cases
+                        .iter()
+                        .enumerate()
+                        .filter(|(i, _)| i % threads == t)
+                        .map(|(i, (p, v))| sensitivity_one(machine, plant, p, *v).map(|r| (i, r)))
+                        .collect()
+                })
+            })
+            .collect();
+        for h in handles {
+            rows.extend(
+                h.join()
+                    .map_err(|_| "sensitivity thread panicked".to_string())??,
+            );
+        }
+        Ok(())
+    })?;
+    rows.sort_by_key(|(i, _)| *i);
+    let r = SensitivityBench {
+        system: system::probe(),
+        rows: rows.into_iter().map(|(_, r)| r).collect(),
+    };
+    crate::write_json(&a.out.join("sensitivity.json"), &r)?;
+    Ok(r)
+}
+
+pub fn sensitivity_text(r: &SensitivityBench) -> String {
+    let mut o = String::from(
+        "| gear | variation (shipped) | max um (bound) | controller's f_pt of grade 4 | controller's F_p of grade 4 | gear f_pt of grade 4 | gear F_p of grade 4 | result |\n|---|---|---|---|---|---|---|---|\n",
+    );
+    let pct = |v: Option<f64>| v.map_or_else(|| "-".to_string(), |v| format!("{:.0} %", 100.0 * v));
+    for x in &r.rows {
+        o.push_str(&format!(
+            "| {} | {} | {:.2} ({:.2}) | {} | {} | {} | {} | {} |\n",
+            x.gear,
+            x.variation.name(),
+            x.max_um,
+            x.bound_um,
+            pct(x.controller_fpt_of_grade4),
+            pct(x.controller_fp_of_grade4),
+            pct(x.gear_fpt_of_grade4),
+            pct(x.gear_fp_of_grade4),
+            match &x.fault {
+                Some(f) => format!("fault {f}"),
+                None if x.completed => "done".into(),
+                None => "not finished".into(),
+            }
+        ));
+    }
+    o
+}

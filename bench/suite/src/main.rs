@@ -99,8 +99,13 @@ enum Cmd {
         out: PathBuf,
         /// Instead: where the finished gear's deviations come from, the worm drive's parts
         /// one at a time over an ideal machine (nominal disturbance, CCC and predictor on).
-        #[arg(long)]
+        #[arg(long, conflicts_with = "sensitivity")]
         breakdown: bool,
+        /// Instead: the sensitivity table, each program under each variation of the
+        /// machine and the plant (cutting ripple, SYNC jitter, table inertia, encoder, servo
+        /// bandwidth, worm wheel).
+        #[arg(long)]
+        sensitivity: bool,
     },
     /// The worst-case CAN bus load of the configuration.
     BusLoad {
@@ -235,6 +240,7 @@ fn run(cli: Cli) -> Result<bool, String> {
             disturbances,
             out,
             breakdown,
+            sensitivity,
         } => {
             let args = accuracy::Args {
                 out: out.clone(),
@@ -253,6 +259,8 @@ fn run(cli: Cli) -> Result<bool, String> {
             };
             if *breakdown {
                 say(accuracy::breakdown_text(&accuracy::breakdown(&args)?));
+            } else if *sensitivity {
+                say(accuracy::sensitivity_text(&accuracy::sensitivity(&args)?));
             } else {
                 say(accuracy::text(&accuracy::run(&args)?));
             }

@@ -147,7 +147,7 @@ mod tests {
             sync_ns,
             table_drive_deg: -1234.5678901,
             y_mm: 101.25,
-            drive_err_arcsec: 7_200_000.1234 + e,
+            drive_err_arcsec: 7_200_000.123_4 + e,
             blank_err_arcsec: 7_200_003.5 + e,
         }
     }
