@@ -346,15 +346,46 @@ fn assert_retract_first(r: &Run, x_safe_mm: f64, expected: Fault) {
         (r.rows[stop].x_cmd_mm - x_safe_mm).abs() < 1e-9,
         "X out before the stop"
     );
+    // X really left the work: the slide's true position, not only its command.
+    assert_x_out(r, stop, x_safe_mm);
     let retract: Vec<_> = r.rows.iter().filter(|x| x.state == FaultRetract).collect();
+    // The gearbox engaged while X retracts, by its true error: the table kept following
+    // the spindle within the synchronism window the cut itself needs.
+    let worst = retract
+        .iter()
+        .map(|x| x.sync_err_arcsec.map_or(f64::INFINITY, f64::abs))
+        .fold(0.0, f64::max);
+    let window = common::machine().gearbox.fine_window_arcsec;
+    println!("{expected:?}: worst true sync error while X retracts {worst:.2} arcsec");
     assert!(
-        retract.iter().all(|x| x.sync_err_arcsec.is_some()),
-        "gearbox engaged while X retracts"
+        worst <= window,
+        "gearbox not kept while X retracts: {worst} arcsec (window {window})"
     );
     let y0 = retract[0].y_cmd_mm;
     assert!(
         retract.iter().all(|x| (x.y_cmd_mm - y0).abs() < 0.01),
         "feed stopped"
+    );
+}
+
+/// At row `stop` the slide stands at `x_safe_mm` (true position, within 0.05 mm), after a
+/// retract of the whole way from where it cut.
+fn assert_x_out(r: &Run, stop: usize, x_safe_mm: f64) {
+    let x = r.rows[stop].x_mm;
+    let from = r
+        .rows
+        .iter()
+        .find(|x| x.state == FaultRetract)
+        .map_or(x, |row| row.x_mm);
+    println!("X retracted {from:.3} -> {x:.3} mm (safe {x_safe_mm:.3} mm)");
+    assert!(
+        (x - x_safe_mm).abs() < 0.05,
+        "X stands at {x} mm at the stop, not at the safe {x_safe_mm} mm"
+    );
+    assert!(
+        (x - from).abs() > 1.0,
+        "X moved only {} mm in the retract",
+        (x - from).abs()
     );
 }
 
@@ -434,6 +465,7 @@ fn table_drive_fault_stops_the_spindle_and_retracts() {
     );
     let stop = r.first(FaultStop).unwrap();
     assert!((r.rows[stop].x_cmd_mm - x_safe).abs() < 1e-9);
+    assert_x_out(&r, stop, x_safe);
 }
 
 #[test]

@@ -779,7 +779,12 @@ impl Controller {
     }
 
     fn outputs(&mut self) -> CycleOutputs {
-        let enabled = self.sequencer.drives_should_be_enabled() && self.measured.inputs.safety_chain_closed;
+        // An open chain disables the drives, except in the fault reaction: a stop of
+        // category 1 retracts and stops under control while the drives still have power
+        // (the safety relay takes it after its delay), so X leaves the work with the
+        // gearbox engaged.
+        let enabled = self.sequencer.drives_should_be_enabled()
+            && (self.measured.inputs.safety_chain_closed || self.sequencer.in_fault_reaction());
         let spindle_rpm = self.sequencer.spindle_set_rpm;
         let program_sign = self.program.map_or(1.0, |p| p.spindle_sign);
         let running = spindle_rpm > 0.0;

@@ -17,6 +17,12 @@ use hob_setup::job::CycleKind;
 const FEED_RAMP_S: f64 = 0.2;
 /// Time the stop sequence may take before the drives are disabled anyway.
 const STOP_TIMEOUT_S: f64 = 15.0;
+/// In the fault reaction X is out when its measured position is this close to the safe
+/// position (the command there is not enough: the slide may not have followed).
+const RETRACTED_WITHIN_MM: f64 = 0.02;
+/// Time the slide may take to settle at the safe position after its command got there;
+/// then the stop goes on anyway (a slide that cannot move is not waited for).
+const RETRACT_SETTLE_TIMEOUT_S: f64 = 2.0;
 /// Time the gearbox may take to synchronise before it is a fault.
 const SYNC_TIMEOUT_S: f64 = 20.0;
 /// Below this the spindle counts as stopped.
@@ -205,6 +211,9 @@ pub(super) struct Sequencer {
     pub phase_lost: bool,
     /// Power-up conditions met (chain closed, lubricated, no fault): enable the drives.
     init_ready: bool,
+    /// In the fault reaction's retract: when X's command reached the safe position
+    /// (state time, s); cleared on every change of state.
+    retract_commanded_s: Option<f64>,
 }
 
 impl Sequencer {
@@ -234,6 +243,12 @@ impl Sequencer {
             State::Init => self.init_ready,
             _ => true,
         }
+    }
+
+    /// The fault reaction (retract, stop) runs: a stop of category 1 (IEC 60204-1), the
+    /// drives keep following while they have power, even with the safety chain open.
+    pub fn in_fault_reaction(&self) -> bool {
+        matches!(self.state, State::FaultRetract | State::FaultStop)
     }
 
     pub fn pc_ok(&self, fault: Option<Fault>) -> bool {
@@ -554,6 +569,7 @@ impl Controller {
         if from != to {
             self.sequencer.state = to;
             self.sequencer.state_time_s = 0.0;
+            self.sequencer.retract_commanded_s = None;
             self.event(EventKind::StateChanged { from, to });
         }
     }
@@ -884,12 +900,21 @@ impl Controller {
                 self.y.step_stop(self.params.y_limits.accel_mm_s2, dt);
                 let unclamped = !self.measured.inputs.x_clamp_closed
                     || self.sequencer.state_time_s > self.params.clamp_timeout_s;
+                // Out when the slide is at the safe position, not when its command is: the
+                // gearbox stays engaged until the hob has left the work.
                 if unclamped
                     && self
                         .x
                         .step_towards(program.x_safe_mm, rapid_x, self.params.x_limits.accel_mm_s2, dt)
                 {
-                    self.enter(State::FaultStop);
+                    let out = (self.measured.x_mm - program.x_safe_mm).abs() <= RETRACTED_WITHIN_MM;
+                    let since = *self
+                        .sequencer
+                        .retract_commanded_s
+                        .get_or_insert(self.sequencer.state_time_s);
+                    if out || self.sequencer.state_time_s - since > RETRACT_SETTLE_TIMEOUT_S {
+                        self.enter(State::FaultStop);
+                    }
                 }
             }
         }
