@@ -70,16 +70,49 @@ pub struct Summary {
     pub fault: Option<String>,
 }
 
+/// When each SYNC really happens against its nominal instant: uniform jitter of
+/// `simulation.sync_jitter_us`, or the lateness drawn from `simulation.sync_late_quantiles_us`
+/// (a measured wake-up histogram). Deterministic for `simulation.seed`; shared by the
+/// in-process simulation and the virtual machine on the bus.
+#[derive(Debug, Clone)]
+pub struct SyncTiming {
+    jitter_s: f64,
+    /// `simulation.sync_late_quantiles_us` (empty: uniform `jitter_s`).
+    late_quantiles_us: Vec<[f64; 2]>,
+    rng: u64,
+}
+
+impl SyncTiming {
+    pub fn new(plant_cfg: &PlantConfig) -> Self {
+        Self {
+            jitter_s: plant_cfg.simulation.sync_jitter_us * 1e-6,
+            late_quantiles_us: plant_cfg.simulation.sync_late_quantiles_us.clone(),
+            rng: plant_cfg.simulation.seed.wrapping_mul(0x9E37_79B9_7F4A_7C15) | 1,
+        }
+    }
+
+    /// The next SYNC's offset from its nominal instant, s.
+    pub fn draw(&mut self) -> f64 {
+        // xorshift64*: deterministic for a seed.
+        self.rng ^= self.rng >> 12;
+        self.rng ^= self.rng << 25;
+        self.rng ^= self.rng >> 27;
+        let u = (self.rng.wrapping_mul(0x2545_F491_4F6C_DD1D) >> 11) as f64 / (1u64 << 53) as f64;
+        if self.late_quantiles_us.is_empty() {
+            (2.0 * u - 1.0) * self.jitter_s
+        } else {
+            crate::config::quantile_value(&self.late_quantiles_us, u) * 1e-6
+        }
+    }
+}
+
 /// A closed-loop run: controller, plant, clock.
 #[derive(Debug)]
 pub struct Simulation {
     pub controller: Controller,
     pub plant: Plant,
     period_s: f64,
-    jitter_s: f64,
-    /// `simulation.sync_late_quantiles_us` (empty: uniform `jitter_s`).
-    late_quantiles_us: Vec<[f64; 2]>,
-    rng: u64,
+    timing: SyncTiming,
     cycle: u64,
     outputs: CycleOutputs,
     pub events: Vec<Event>,
@@ -93,9 +126,7 @@ impl Simulation {
             controller: Controller::new(params),
             plant: Plant::new(plant_cfg, machine, start, gashes),
             period_s: params.period_s,
-            jitter_s: plant_cfg.simulation.sync_jitter_us * 1e-6,
-            late_quantiles_us: plant_cfg.simulation.sync_late_quantiles_us.clone(),
-            rng: plant_cfg.simulation.seed.wrapping_mul(0x9E37_79B9_7F4A_7C15) | 1,
+            timing: SyncTiming::new(plant_cfg),
             cycle: 0,
             outputs: CycleOutputs::default(),
             events: Vec::new(),
@@ -126,19 +157,6 @@ impl Simulation {
         sim
     }
 
-    fn jitter(&mut self) -> f64 {
-        // xorshift64*: deterministic for a seed.
-        self.rng ^= self.rng >> 12;
-        self.rng ^= self.rng << 25;
-        self.rng ^= self.rng >> 27;
-        let u = (self.rng.wrapping_mul(0x2545_F491_4F6C_DD1D) >> 11) as f64 / (1u64 << 53) as f64;
-        if self.late_quantiles_us.is_empty() {
-            (2.0 * u - 1.0) * self.jitter_s
-        } else {
-            crate::config::quantile_value(&self.late_quantiles_us, u) * 1e-6
-        }
-    }
-
     /// One cycle; returns the trace row of this SYNC.
     pub fn step(&mut self) -> TraceRow {
         self.step_with(&mut |c, i| c.step(i))
@@ -151,7 +169,7 @@ impl Simulation {
         step: &mut dyn FnMut(&mut Controller, &CycleInputs) -> CycleOutputs,
     ) -> TraceRow {
         let t_sync = self.cycle as f64 * self.period_s;
-        let latch = t_sync + self.jitter();
+        let latch = t_sync + self.timing.draw();
         self.plant.advance_to(latch.max(self.plant.time_s()));
         self.plant.apply(&self.outputs);
         let inputs: CycleInputs = self.plant.latch();

@@ -209,6 +209,10 @@ pub struct VirtualMachine {
     homing_start_seen: [bool; 3],
     controlword_before: [u16; 3],
     time_s: f64,
+    /// The nominal instant of the next SYNC (one period per SYNC).
+    nominal_s: f64,
+    /// The SYNCs' timing disturbance ([`hob_plant::sim::SyncTiming`]).
+    timing: hob_plant::sim::SyncTiming,
     period_s: f64,
     syncs: u64,
     drop: f64,
@@ -270,6 +274,8 @@ impl VirtualMachine {
             homing_start_seen: [false; 3],
             controlword_before: [0; 3],
             time_s: 0.0,
+            nominal_s: 0.0,
+            timing: hob_plant::sim::SyncTiming::new(plant),
             period_s: plan.cycle_s,
             syncs: 0,
             drop: 0.0,
@@ -681,7 +687,11 @@ impl VirtualMachine {
             out.push(f);
         }
 
-        self.time_s += self.period_s;
+        // The next SYNC's instant in the plant's time: nominal, plus its timing
+        // disturbance (the plant file's jitter or measured lateness), as in the in-process
+        // simulation: the drives latch and apply their targets when it comes.
+        self.nominal_s += self.period_s;
+        self.time_s = (self.nominal_s + self.timing.draw()).max(self.time_s);
         self.physics_owed = true;
     }
 

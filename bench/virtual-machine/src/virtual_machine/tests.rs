@@ -53,9 +53,12 @@ fn of_several_syncs_read_at_once_only_the_last_is_answered() {
     assert_eq!(vm.syncs(), 4, "every SYNC latched");
     vm.settle();
     let period_s = vm.period_s;
+    // Three periods, each SYNC at its nominal instant plus the plant's jitter (+-20 us as
+    // shipped): the two ends differ by at most twice it.
+    let computed = vm.time_s() - t0;
     assert!(
-        (vm.time_s() - t0 - 3.0 * period_s).abs() < 1e-12,
-        "three periods computed"
+        (computed - 3.0 * period_s).abs() <= 40e-6 + 1e-12 && computed > 2.9 * period_s,
+        "three periods computed: {computed} s"
     );
 }
 
