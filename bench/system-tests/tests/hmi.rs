@@ -40,6 +40,10 @@ fn stack(b: &mut Bench) -> Vec<(&'static str, String)> {
     let m = b.session_machine();
     let machine = m.write(&b.art.join("machine.toml"));
     let (iface, program) = (b.iface.clone(), session_program());
+    // The logger's directory, where the simulator writes its truth beside the record (the
+    // cut report grades by it).
+    let log_dir = b.art.join("log");
+    std::fs::create_dir_all(&log_dir).unwrap();
     let mut sim = b.command("hob-sim");
     sim.args([
         "--iface",
@@ -51,6 +55,8 @@ fn stack(b: &mut Bench) -> Vec<(&'static str, String)> {
         "--rt-priority",
         "75",
         "--control",
+        "--truth",
+        &path(&log_dir.join("truth.csv")),
     ])
     .stdin(std::process::Stdio::piped());
     let sim = b.spawn_cmd("hob-sim", sim, "sim.txt");
@@ -71,7 +77,6 @@ fn stack(b: &mut Bench) -> Vec<(&'static str, String)> {
         ],
         "rt.txt",
     );
-    let log_dir = b.art.join("log");
     b.spawn("hob-logger", "hob-logger", &[&log_dir], "logger.txt");
     b.spawn(
         "hob-watchdog",

@@ -256,6 +256,14 @@ pub async fn report(State(app): Shared, Query(q): Query<Range>) -> Response {
             "grade5_single_pitch_um": r.grade5_single_pitch_um,
             "bound_um": r.grade5_single_pitch_um / 4.0,
             "passes": r.passes,
+            // The simulated machine's truth beside the record (`hob-sim --truth`): the
+            // cut graded by it, and the gear each pass left; absent on a real machine.
+            "truth": r.truth.as_ref().map(|t| json!({
+                "joined": t.joined,
+                "teeth": t.gear.teeth,
+                "passes": t.passes,
+            })),
+            "truth_refused": r.truth_refused,
         }))
         .into_response(),
         Ok(Err(e)) => (StatusCode::NOT_FOUND, Json(json!({"refused": e}))).into_response(),

@@ -92,6 +92,8 @@ pub struct Report {
     /// The simulated machine's truth, where it wrote one beside the recording
     /// ([`crate::truth`]).
     pub truth: Option<TruthReport>,
+    /// Why a truth file beside the recording was not used (it is of another gear).
+    pub truth_refused: Option<String>,
 }
 
 /// A recording graded by the virtual machine's truth.
@@ -210,19 +212,32 @@ fn report_of(dir: &Path, states: &[StateSample]) -> Result<Report, String> {
     }
     let (passes, tol) = b.passes();
     let truth_path = dir.join(truth::FILE);
-    let truth = if truth_path.exists() {
+    let (mut truth, mut truth_refused) = (None, None);
+    if truth_path.exists() {
         let (g, rows) = truth::read(&truth_path)?;
-        Some(graded_by_truth(
-            states,
-            g,
-            &rows,
-            gear.pitch_radius_mm,
-            gear.normal_module_mm,
-            period_s,
-        ))
-    } else {
-        None
-    };
+        if g.is_of(gear.pitch_radius_mm, gear.normal_module_mm) {
+            match graded_by_truth(
+                states,
+                g,
+                &rows,
+                gear.pitch_radius_mm,
+                gear.normal_module_mm,
+                period_s,
+            ) {
+                Ok(t) => truth = Some(t),
+                Err(why) => truth_refused = Some(why),
+            }
+        } else {
+            truth_refused = Some(format!(
+                "{} is of another gear (pitch radius {:.3} mm, normal module {} mm; the recording's {:.3} mm, {} mm): its gearbox law is not the cut's, not used",
+                truth::FILE,
+                g.pitch_radius_mm,
+                g.normal_module_mm,
+                gear.pitch_radius_mm,
+                gear.normal_module_mm
+            ));
+        }
+    }
     Ok(Report {
         samples: states.len(),
         first_cycle: states.first().map_or(0, |s| s.cycle),
@@ -232,6 +247,7 @@ fn report_of(dir: &Path, states: &[StateSample]) -> Result<Report, String> {
         grade5_single_pitch_um: tol,
         passes,
         truth,
+        truth_refused,
     })
 }
 
@@ -251,7 +267,7 @@ fn graded_by_truth(
     pitch_radius_mm: f64,
     normal_module_mm: f64,
     period_s: f64,
-) -> TruthReport {
+) -> Result<TruthReport, String> {
     let join = |f: &mut dyn FnMut(&StateSample, Option<truth::TruthRow>)| {
         let mut from = 0;
         for (i, s) in states.iter().enumerate() {
@@ -259,22 +275,40 @@ fn graded_by_truth(
             f(s, truth::row_for(rows, &mut from, s.sync_time_ns, next));
         }
     };
-    let mut sums: Vec<(f64, u64)> = Vec::new();
+    // Per pass: the sum, count and range of the truth less the estimate.
+    let mut sums: Vec<(f64, u64, f64, f64)> = Vec::new();
     let mut joined = 0;
     join(&mut |s, t| {
         joined += usize::from(t.is_some());
         if let Some(t) = t.filter(|_| synchronised_cut(s)) {
             let i = s.pass as usize - 1;
             if sums.len() <= i {
-                sums.resize(i + 1, (0.0, 0));
+                sums.resize(i + 1, (0.0, 0, f64::INFINITY, f64::NEG_INFINITY));
             }
-            sums[i].0 += t.drive_err_arcsec - s.sync_error_arcsec;
-            sums[i].1 += 1;
+            let d = t.drive_err_arcsec - s.sync_error_arcsec;
+            let e = &mut sums[i];
+            (e.0, e.1, e.2, e.3) = (e.0 + d, e.1 + 1, e.2.min(d), e.3.max(d));
         }
     });
+    // The truth and the estimate differ by the law's phase and the estimate's own error
+    // (arcsec): a truth whose difference wanders by degrees is of another program (the
+    // simulator's law is its own program's), not of this cut.
+    if let Some((pass, (.., lo, hi))) = sums
+        .iter()
+        .enumerate()
+        .find(|(_, e)| e.1 > 0 && e.3 - e.2 > TRUTH_AGREES_WITHIN_ARCSEC)
+    {
+        return Err(format!(
+            "{} is not of this cut: in pass {} it differs from the controller's estimate by {:.0} to {:.0} arcsec, more than the {TRUTH_AGREES_WITHIN_ARCSEC} arcsec a truth of the same program can; not used",
+            truth::FILE,
+            pass + 1,
+            lo,
+            hi
+        ));
+    }
     let phase_arcsec: Vec<f64> = sums
         .iter()
-        .map(|(sum, n)| if *n > 0 { sum / *n as f64 } else { 0.0 })
+        .map(|(sum, n, ..)| if *n > 0 { sum / *n as f64 } else { 0.0 })
         .collect();
     let mut b = SummaryBuilder::for_gear(pitch_radius_mm, normal_module_mm).predicting(
         g.teeth,
@@ -303,13 +337,18 @@ fn graded_by_truth(
         }
         b.add(&row, period_s);
     });
-    TruthReport {
+    Ok(TruthReport {
         gear: g,
         joined,
         passes: b.passes().0,
         phase_arcsec,
-    }
+    })
 }
+
+/// How far the truth less the controller's estimate may range over a pass before the
+/// truth is taken to be of another program: far above what the estimate's own error can
+/// be (the coarse window is 200 arcsec), far below a wrong law's drift.
+const TRUTH_AGREES_WITHIN_ARCSEC: f64 = 1000.0;
 
 /// An event as the logger recorded it (`events.log`).
 #[derive(Debug, Clone, PartialEq)]
@@ -451,10 +490,20 @@ pub fn report_text(dir: &Path, r: &Report) -> String {
             &t.passes
         }
         None => {
-            let _ = writeln!(
-                o,
-                "no truth recorded beside the log: the error is the controller's own estimate from its encoders"
-            );
+            match &r.truth_refused {
+                Some(why) => {
+                    let _ = writeln!(
+                        o,
+                        "no truth used: {why}; the error is the controller's own estimate from its encoders"
+                    );
+                }
+                None => {
+                    let _ = writeln!(
+                        o,
+                        "no truth recorded beside the log: the error is the controller's own estimate from its encoders"
+                    );
+                }
+            }
             &r.passes
         }
     };
@@ -643,15 +692,14 @@ mod tests {
         // The estimate is 0.5 arcsec x cycle; the truth: a phase of 3600.25 arcsec, the
         // estimate plus 2 arcsec in pass 1 (cycles 2..=4 in the cut), read 30 us after each
         // SYNC; cycle 3's row is missing.
-        let mut text = Vec::new();
-        truth::write_head(
-            &mut text,
-            truth::Gear {
-                teeth: 17,
-                face_width_mm: 40.0,
-            },
-        )
-        .unwrap();
+        let mut truth_text = Vec::new();
+        let gear = truth::Gear {
+            teeth: 17,
+            face_width_mm: 40.0,
+            pitch_radius_mm: 42.5,
+            normal_module_mm: 5.0,
+        };
+        truth::write_head(&mut truth_text, gear).unwrap();
         for cycle in [1u64, 2, 4, 5, 6] {
             let est = 0.5 * cycle as f64;
             let extra = if (2..=4).contains(&cycle) {
@@ -666,9 +714,9 @@ mod tests {
                 drive_err_arcsec: 3600.25 + est + extra,
                 blank_err_arcsec: 3600.25 + est + extra + 1.0,
             };
-            text.extend_from_slice(format!("{}\n", r.csv()).as_bytes());
+            truth_text.extend_from_slice(format!("{}\n", r.csv()).as_bytes());
         }
-        std::fs::write(dir.join(truth::FILE), &text).unwrap();
+        std::fs::write(dir.join(truth::FILE), &truth_text).unwrap();
         let r = report(&dir).unwrap();
         let t = r.truth.as_ref().expect("graded by the truth");
         assert_eq!(t.joined, 5);
@@ -691,6 +739,52 @@ mod tests {
             "{text}"
         );
         assert!(text.contains("the controller's estimate, pass 1: rms"), "{text}");
+        // The truth of another gear is not used, and the report says why.
+        let mut other = Vec::new();
+        truth::write_head(
+            &mut other,
+            truth::Gear {
+                pitch_radius_mm: 49.485,
+                normal_module_mm: 3.0,
+                ..gear
+            },
+        )
+        .unwrap();
+        // The same rows after the other gear's two head lines.
+        let rows_at = truth_text
+            .iter()
+            .enumerate()
+            .filter(|(_, c)| **c == b'\n')
+            .nth(1)
+            .map(|(i, _)| i + 1)
+            .unwrap();
+        other.extend_from_slice(&truth_text[rows_at..]);
+        std::fs::write(dir.join(truth::FILE), &other).unwrap();
+        let r2 = report(&dir).unwrap();
+        assert!(r2.truth.is_none());
+        let t2 = report_text(&dir, &r2);
+        assert!(
+            t2.contains("truth.csv is of another gear (pitch radius 49.485 mm"),
+            "{t2}"
+        );
+        // A truth whose law is another program's drifts against the estimate: not used.
+        let mut drifting = Vec::new();
+        truth::write_head(&mut drifting, gear).unwrap();
+        for cycle in [1u64, 2, 3, 4, 5, 6] {
+            let r = truth::TruthRow {
+                sync_ns: cycle * 1_000_000 + 30_000,
+                table_drive_deg: cycle as f64,
+                y_mm: 0.0,
+                drive_err_arcsec: 5000.0 * cycle as f64,
+                blank_err_arcsec: 5000.0 * cycle as f64,
+            };
+            drifting.extend_from_slice(format!("{}\n", r.csv()).as_bytes());
+        }
+        std::fs::write(dir.join(truth::FILE), &drifting).unwrap();
+        let r3 = report(&dir).unwrap();
+        assert!(r3.truth.is_none());
+        let t3 = report_text(&dir, &r3);
+        assert!(t3.contains("truth.csv is not of this cut: in pass 1"), "{t3}");
         // Without the file: the estimate, said so.
         std::fs::remove_file(dir.join(truth::FILE)).unwrap();
         let r = report(&dir).unwrap();

@@ -4,7 +4,8 @@
 //! that a cut over the bus is graded by the true error, the controller's own estimate
 //! reported beside it.
 //!
-//! The file: a first line `# hob-sim truth: teeth Z face_width_mm B`, the header
+//! The file: a first line `# hob-sim truth: teeth Z face_width_mm B pitch_radius_mm R
+//! normal_module_mm M` (the gear of the simulator's program), the header
 //! [`HEADER`], then the rows. The errors are against the gearbox law without its phase
 //! (which only the controller knows): the report puts each pass's phase back
 //! ([`crate::export`]).
@@ -18,11 +19,22 @@ pub const FILE: &str = "truth.csv";
 /// The columns, in order.
 pub const HEADER: &str = "sync_ns,table_drive_deg,y_mm,drive_err_arcsec,blank_err_arcsec";
 
-/// What the truth is of: the gear on the table.
+/// What the truth is of: the gear on the table (the simulator's `--program`).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Gear {
     pub teeth: u32,
     pub face_width_mm: f64,
+    pub pitch_radius_mm: f64,
+    pub normal_module_mm: f64,
+}
+
+impl Gear {
+    /// Whether a recording of a gear of this pitch radius and normal module is of this
+    /// gear (the truth's gearbox law is its program's: of another gear it means nothing).
+    pub fn is_of(&self, pitch_radius_mm: f64, normal_module_mm: f64) -> bool {
+        (self.pitch_radius_mm - pitch_radius_mm).abs() < 1e-6
+            && (self.normal_module_mm - normal_module_mm).abs() < 1e-9
+    }
 }
 
 /// The machine's truth at one SYNC, as the virtual machine latched it.
@@ -56,8 +68,8 @@ impl TruthRow {
 pub fn write_head(w: &mut dyn Write, gear: Gear) -> std::io::Result<()> {
     writeln!(
         w,
-        "# hob-sim truth: teeth {} face_width_mm {}",
-        gear.teeth, gear.face_width_mm
+        "# hob-sim truth: teeth {} face_width_mm {} pitch_radius_mm {} normal_module_mm {}",
+        gear.teeth, gear.face_width_mm, gear.pitch_radius_mm, gear.normal_module_mm
     )?;
     writeln!(w, "{HEADER}")
 }
@@ -76,11 +88,27 @@ pub fn read(path: &Path) -> Result<(Gear, Vec<TruthRow>), String> {
         .unwrap_or_default();
     let words: Vec<&str> = first.split_whitespace().collect();
     let gear = match words.as_slice() {
-        ["#", "hob-sim", "truth:", "teeth", z, "face_width_mm", b] => z
-            .parse()
-            .ok()
-            .zip(b.parse().ok())
-            .map(|(teeth, face_width_mm)| Gear { teeth, face_width_mm }),
+        [
+            "#",
+            "hob-sim",
+            "truth:",
+            "teeth",
+            z,
+            "face_width_mm",
+            b,
+            "pitch_radius_mm",
+            r,
+            "normal_module_mm",
+            m,
+        ] => match (z.parse(), b.parse(), r.parse(), m.parse()) {
+            (Ok(teeth), Ok(face_width_mm), Ok(pitch_radius_mm), Ok(normal_module_mm)) => Some(Gear {
+                teeth,
+                face_width_mm,
+                pitch_radius_mm,
+                normal_module_mm,
+            }),
+            _ => None,
+        },
         _ => None,
     }
     .ok_or_else(|| at(1, "not a hob-sim truth file (its first line names the gear)"))?;
@@ -142,6 +170,15 @@ pub fn row_for(
 mod tests {
     use super::*;
 
+    fn gear() -> Gear {
+        Gear {
+            teeth: 17,
+            face_width_mm: 40.0,
+            pitch_radius_mm: 42.5,
+            normal_module_mm: 5.0,
+        }
+    }
+
     fn row(sync_ns: u64, e: f64) -> TruthRow {
         TruthRow {
             sync_ns,
@@ -156,14 +193,7 @@ mod tests {
     fn a_written_file_reads_back_and_a_cut_last_line_is_left_out() {
         let path = std::env::temp_dir().join(format!("hob-truth-{}.csv", std::process::id()));
         let mut text = Vec::new();
-        write_head(
-            &mut text,
-            Gear {
-                teeth: 17,
-                face_width_mm: 40.0,
-            },
-        )
-        .unwrap();
+        write_head(&mut text, gear()).unwrap();
         let rows = [row(1000, 0.0), row(2000, 0.5)];
         for r in &rows {
             writeln!(text, "{}", r.csv()).unwrap();
@@ -171,13 +201,8 @@ mod tests {
         text.extend_from_slice(b"3000,-12");
         std::fs::write(&path, &text).unwrap();
         let (gear, back) = read(&path).unwrap();
-        assert_eq!(
-            gear,
-            Gear {
-                teeth: 17,
-                face_width_mm: 40.0
-            }
-        );
+        assert_eq!(gear, self::gear());
+        assert!(gear.is_of(42.5, 5.0) && !gear.is_of(42.5, 4.0) && !gear.is_of(49.5, 5.0));
         assert_eq!(back.len(), 2);
         for (a, b) in rows.iter().zip(&back) {
             assert_eq!(a.sync_ns, b.sync_ns);

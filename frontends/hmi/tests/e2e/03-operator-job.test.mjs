@@ -108,6 +108,12 @@ test("a new program through the sub-menus, a single pass, the span, the automati
   await page.locator('[data-testid="report-pass"]').first().waitFor({ timeout: 20000 });
   assert.match(await page.locator('[data-testid="report-what"]').innerText(), /the last cycle run/);
   assert.equal(await page.locator('[data-testid="report-pass"]').count(), 2, "the automatic program's two passes, not the single pass's");
+  // Graded by the simulated machine's truth (hob-sim writes it beside the logger's record):
+  // the gear each pass left, predicted.
+  const noTruth = await page.locator('[data-testid="report-no-truth"]').count() ? await page.locator('[data-testid="report-no-truth"]').innerText() : "";
+  assert.equal(noTruth, "", "the report is graded by the truth");
+  assert.match(await page.locator('[data-testid="report-truth"]').innerText(), /Graded by the simulated machine's truth/);
+  assert.equal(await page.locator('[data-testid="report-predicted"]').count(), 2, "a predicted gear per pass");
   await shot(page, "report");
   await page.close();
 });

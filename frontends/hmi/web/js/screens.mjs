@@ -180,6 +180,18 @@ export function Automatic({ conn, program }) {
   </section>`;
 }
 
+// The gear each pass left, as ISO 1328-1 would measure it, from the simulated machine's
+// truth (the server's report; `hob log report` prints the same): the gear's deviations and
+// the controller's share of them.
+function PredictedGear(t, samples) {
+  const dev = (g, um, tol) => (g ? html`${fmt(g[um], 2)} um <span class="small">(${fmt((100 * g[um]) / g[tol], 0)} %)</span>` : "-");
+  return html`<h3 data-testid="report-truth">Graded by the simulated machine's truth (${t.joined} of ${samples} samples): predicted gear</h3>
+    <table class="grid"><tr><th>pass</th><th>true max um</th><th>grade</th><th>f<sub>pt</sub></th><th>F<sub>p</sub></th><th>helix</th><th>controller's f<sub>pt</sub></th><th>controller's F<sub>p</sub></th></tr>
+      ${t.passes.map((p) => html`<tr data-testid="report-predicted"><td>${p.pass}</td><td>${fmt(p.sync_err_max_um, 3)}</td><td>${p.predicted ? p.predicted.grade : "-"}</td>
+        <td>${dev(p.predicted, "single_pitch_um", "single_pitch_tolerance_um")}</td><td>${dev(p.predicted, "cumulative_pitch_um", "cumulative_pitch_tolerance_um")}</td><td>${dev(p.predicted, "helix_um", "helix_tolerance_um")}</td>
+        <td>${dev(p.controller_share, "single_pitch_um", "single_pitch_tolerance_um")}</td><td>${dev(p.controller_share, "cumulative_pitch_um", "cumulative_pitch_tolerance_um")}</td></tr>`)}</table>`;
+}
+
 export function Report() {
   const [r, setR] = useState(null);
   const load = () => api("GET", "/api/cut/report").then(setR);
@@ -190,11 +202,13 @@ export function Report() {
   return html`<section class="card report" data-testid="report"><h2>Cut report</h2>
     <p data-testid="report-what"><b>${r.what}</b></p>
     <p>${r.samples} samples recorded, ${r.missing} missing (cycles ${r.first_cycle}..${r.last_cycle}); pitch radius ${fmt(r.pitch_radius_mm, 3)} mm; ISO 1328-1 single pitch tolerance, grade 5: ${fmt(tol, 2)} um; bound (a quarter): ${fmt(r.bound_um, 2)} um.</p>
+    <p class="small">Synchronisation error in the cut as the controller estimates it from its encoders:</p>
     <table class="grid"><tr><th>pass</th><th>time s</th><th>samples</th><th>RMS "</th><th>max "</th><th>RMS um</th><th>max um</th><th>max / tolerance</th><th>feed override %</th><th>spindle override %</th></tr>
       ${r.passes.map((p) => html`<tr data-testid="report-pass"><td>${p.pass}</td><td>${fmt(p.time_s, 1)}</td><td>${p.samples}</td><td>${fmt(p.sync_err_rms_arcsec, 2)}</td><td>${fmt(p.sync_err_max_arcsec, 2)}</td>
         <td>${fmt(p.sync_err_rms_um, 3)}</td><td>${fmt(p.sync_err_max_um, 3)}</td><td class=${p.sync_err_max_um > r.bound_um ? "bad" : "ok"}>${fmt((100 * p.sync_err_max_um) / tol, 1)} %</td>
         <td>${p.feed_override_min_percent === undefined ? "-" : `${fmt(p.feed_override_min_percent, 0)}..${fmt(p.feed_override_max_percent, 0)}`}</td>
         <td>${p.spindle_override_min_percent === undefined ? "-" : `${fmt(p.spindle_override_min_percent, 0)}..${fmt(p.spindle_override_max_percent, 0)}`}</td></tr>`)}</table>
+    ${r.truth ? PredictedGear(r.truth, r.samples) : html`<p class="small" data-testid="report-no-truth">The error above is the controller's own estimate from its encoders (${r.truth_refused ? `no truth used: ${r.truth_refused}` : "no truth of a simulated machine beside the record"}).</p>`}
     <div class="row noprint"><button class="key" onClick=${load}>READ AGAIN</button><button class="key" onClick=${() => window.print()}>PRINT</button></div></section>`;
 }
 
