@@ -13,7 +13,7 @@ use hob_plant::sim::{SimOptions, run_program};
 use hob_setup::config::Problems;
 use hob_setup::config::machine::MachineConfig;
 use hob_setup::job::Program;
-use hob_setup::planner;
+use hob_setup::planner::{self, Plan};
 use serde::{Deserialize, Serialize};
 use std::path::PathBuf;
 
@@ -137,6 +137,69 @@ pub struct Args {
     pub disturbances: Vec<Disturbance>,
 }
 
+/// A program built for a machine: the job, its cycle and its plan, or the refusal.
+fn job_on(machine: &MachineConfig, path: &std::path::Path) -> Result<(Program, CycleProgram, Plan), String> {
+    let (job, src) = Program::read(path).map_err(|e| e.to_string())?;
+    let mut p = Problems::new();
+    let cycle = CycleProgram::build(&job, machine, &mut p);
+    let plan = planner::plan(&job, machine, &mut p);
+    match (cycle, plan) {
+        (Some(cycle), Some(plan)) => Ok((job, cycle, plan)),
+        _ => Err(p
+            .into_result(path, &src)
+            .err()
+            .map_or_else(|| format!("{}: refused", path.display()), |e| e.to_string())),
+    }
+}
+
+/// A program's name in the tables: its file's stem.
+fn gear_name(path: &std::path::Path) -> String {
+    path.file_stem()
+        .map_or_else(String::new, |n| n.to_string_lossy().to_string())
+}
+
+/// The output directory made, the machine and the plant loaded.
+fn prepare(a: &Args) -> Result<(MachineConfig, PlantConfig), String> {
+    std::fs::create_dir_all(&a.out).map_err(|e| format!("{}: {e}", a.out.display()))?;
+    let machine = MachineConfig::load(&a.machine).map_err(|e| e.to_string())?;
+    let plant = PlantConfig::load(&a.plant).map_err(|e| e.to_string())?;
+    Ok((machine, plant))
+}
+
+/// Independent whole-program runs, one thread per core: `f` of every case, in the cases'
+/// order; the first error stops the bench.
+fn on_every_core<C: Sync, R: Send>(
+    cases: &[C],
+    f: impl Fn(&C) -> Result<R, String> + Sync,
+) -> Result<Vec<R>, String> {
+    let threads = std::thread::available_parallelism().map_or(1, usize::from);
+    let mut rows: Vec<(usize, R)> = Vec::new();
+    std::thread::scope(|scope| -> Result<(), String> {
+        let handles: Vec<_> = (0..threads)
+            .map(|t| {
+                let f = &f;
+                scope.spawn(move || -> Result<Vec<(usize, R)>, String> {
+                    cases
+                        .iter()
+                        .enumerate()
+                        .filter(|(i, _)| i % threads == t)
+                        .map(|(i, c)| f(c).map(|r| (i, r)))
+                        .collect()
+                })
+            })
+            .collect();
+        for h in handles {
+            rows.extend(
+                h.join()
+                    .map_err(|_| "an accuracy thread panicked".to_string())??,
+            );
+        }
+        Ok(())
+    })?;
+    rows.sort_by_key(|(i, _)| *i);
+    Ok(rows.into_iter().map(|(_, r)| r).collect())
+}
+
 fn one(
     machine: &MachineConfig,
     plant: &PlantConfig,
@@ -145,16 +208,7 @@ fn one(
     ccc: bool,
     predictor: bool,
 ) -> Result<Row, String> {
-    let (job, src) = Program::read(path).map_err(|e| e.to_string())?;
-    let mut p = Problems::new();
-    let cycle = CycleProgram::build(&job, machine, &mut p);
-    let plan = planner::plan(&job, machine, &mut p);
-    let (Some(cycle), Some(plan)) = (cycle, plan) else {
-        return Err(p
-            .into_result(path, &src)
-            .err()
-            .map_or_else(|| format!("{}: refused", path.display()), |e| e.to_string()));
-    };
+    let (job, cycle, plan) = job_on(machine, path)?;
     let options = SimOptions {
         cross_coupling: ccc,
         angle_source: if predictor {
@@ -177,9 +231,7 @@ fn one(
     )?;
     let worst = |f: fn(&hob_plant::sim::PassSummary) -> f64| s.passes.iter().map(f).fold(0.0, f64::max);
     let fp = s.grade5_single_pitch_um;
-    let gear = path
-        .file_stem()
-        .map_or_else(String::new, |n| n.to_string_lossy().to_string());
+    let gear = gear_name(path);
     let finished = s.passes.last().and_then(|p| p.controller_share.as_ref());
     let gear_cut = s.passes.last().and_then(|p| p.predicted.as_ref());
     Ok(Row {
@@ -213,10 +265,8 @@ fn one(
 }
 
 pub fn run(a: &Args) -> Result<AccuracyBench, String> {
-    std::fs::create_dir_all(&a.out).map_err(|e| format!("{}: {e}", a.out.display()))?;
-    let machine = MachineConfig::load(&a.machine).map_err(|e| e.to_string())?;
-    let plant = PlantConfig::load(&a.plant).map_err(|e| e.to_string())?;
-    let mut cases = Vec::new();
+    let (machine, plant) = prepare(a)?;
+    let mut cases: Vec<Case> = Vec::new();
     for p in &a.programs {
         for &d in &a.disturbances {
             for ccc in [true, false] {
@@ -226,41 +276,9 @@ pub fn run(a: &Args) -> Result<AccuracyBench, String> {
             }
         }
     }
-    // Independent runs: one thread per core.
-    let threads = std::thread::available_parallelism().map_or(1, usize::from);
-    let chunks: Vec<Vec<(usize, Case)>> = (0..threads)
-        .map(|t| {
-            cases
-                .iter()
-                .cloned()
-                .enumerate()
-                .filter(|(i, _)| i % threads == t)
-                .collect()
-        })
-        .collect();
-    let mut rows: Vec<(usize, Row)> = Vec::new();
-    std::thread::scope(|scope| -> Result<(), String> {
-        let handles: Vec<_> = chunks
-            .into_iter()
-            .map(|chunk| {
-                let (machine, plant) = (&machine, &plant);
-                scope.spawn(move || -> Result<Vec<(usize, Row)>, String> {
-                    chunk
-                        .into_iter()
-                        .map(|(i, (p, d, ccc, pr))| one(machine, plant, &p, d, ccc, pr).map(|r| (i, r)))
-                        .collect()
-                })
-            })
-            .collect();
-        for h in handles {
-            rows.extend(h.join().map_err(|_| "accuracy thread panicked".to_string())??);
-        }
-        Ok(())
-    })?;
-    rows.sort_by_key(|(i, _)| *i);
     let r = AccuracyBench {
         system: system::probe(),
-        rows: rows.into_iter().map(|(_, r)| r).collect(),
+        rows: on_every_core(&cases, |(p, d, ccc, pr)| one(&machine, &plant, p, *d, *ccc, *pr))?,
     };
     crate::write_json(&a.out.join("accuracy.json"), &r)?;
     Ok(r)
@@ -405,16 +423,7 @@ fn breakdown_one(
     path: &std::path::Path,
     part: MachinePart,
 ) -> Result<BreakdownRow, String> {
-    let (job, src) = Program::read(path).map_err(|e| e.to_string())?;
-    let mut p = Problems::new();
-    let cycle = CycleProgram::build(&job, machine, &mut p);
-    let plan = planner::plan(&job, machine, &mut p);
-    let (Some(cycle), Some(plan)) = (cycle, plan) else {
-        return Err(p
-            .into_result(path, &src)
-            .err()
-            .map_or_else(|| format!("{}: refused", path.display()), |e| e.to_string()));
-    };
+    let (job, cycle, plan) = job_on(machine, path)?;
     let options = SimOptions {
         grade: 4,
         ..SimOptions::default()
@@ -432,9 +441,7 @@ fn breakdown_one(
     let controller = last.and_then(|p| p.controller_share.as_ref());
     let gear_cut = last.and_then(|p| p.predicted.as_ref());
     Ok(BreakdownRow {
-        gear: path
-            .file_stem()
-            .map_or_else(String::new, |n| n.to_string_lossy().to_string()),
+        gear: gear_name(path),
         part,
         completed: s.completed,
         controller_fpt_um: controller.map(|g| g.single_pitch_um),
@@ -451,39 +458,15 @@ fn breakdown_one(
 /// disturbance, cross-coupling and predictor on, on an ideal machine and with each part of
 /// the worm drive alone, then all of them (`hob-bench accuracy --breakdown`).
 pub fn breakdown(a: &Args) -> Result<BreakdownBench, String> {
-    std::fs::create_dir_all(&a.out).map_err(|e| format!("{}: {e}", a.out.display()))?;
-    let machine = MachineConfig::load(&a.machine).map_err(|e| e.to_string())?;
-    let plant = PlantConfig::load(&a.plant).map_err(|e| e.to_string())?;
+    let (machine, plant) = prepare(a)?;
     let cases: Vec<(PathBuf, MachinePart)> = a
         .programs
         .iter()
         .flat_map(|p| MachinePart::ALL.map(|m| (p.clone(), m)))
         .collect();
-    let threads = std::thread::available_parallelism().map_or(1, usize::from);
-    let mut rows: Vec<(usize, BreakdownRow)> = Vec::new();
-    std::thread::scope(|scope| -> Result<(), String> {
-        let handles: Vec<_> = (0..threads)
-            .map(|t| {
-                let (machine, plant, cases) = (&machine, &plant, &cases);
-                scope.spawn(move || -> Result<Vec<(usize, BreakdownRow)>, String> {
-                    cases
-                        .iter()
-                        .enumerate()
-                        .filter(|(i, _)| i % threads == t)
-                        .map(|(i, (p, m))| breakdown_one(machine, plant, p, *m).map(|r| (i, r)))
-                        .collect()
-                })
-            })
-            .collect();
-        for h in handles {
-            rows.extend(h.join().map_err(|_| "breakdown thread panicked".to_string())??);
-        }
-        Ok(())
-    })?;
-    rows.sort_by_key(|(i, _)| *i);
     let r = BreakdownBench {
         system: system::probe(),
-        rows: rows.into_iter().map(|(_, r)| r).collect(),
+        rows: on_every_core(&cases, |(p, m)| breakdown_one(&machine, &plant, p, *m))?,
     };
     crate::write_json(&a.out.join("breakdown.json"), &r)?;
     Ok(r)
@@ -637,16 +620,7 @@ fn sensitivity_one(
     if !problems.is_empty() {
         return Err(format!("{}: {problems:?}", v.name()));
     }
-    let (job, src) = Program::read(path).map_err(|e| e.to_string())?;
-    let mut p = Problems::new();
-    let cycle = CycleProgram::build(&job, &machine, &mut p);
-    let plan = planner::plan(&job, &machine, &mut p);
-    let (Some(cycle), Some(plan)) = (cycle, plan) else {
-        return Err(p
-            .into_result(path, &src)
-            .err()
-            .map_or_else(|| format!("{}: refused", path.display()), |e| e.to_string()));
-    };
+    let (job, cycle, plan) = job_on(&machine, path)?;
     let options = SimOptions {
         grade: 4,
         ..SimOptions::default()
@@ -656,9 +630,7 @@ fn sensitivity_one(
     let mine = last.and_then(|p| p.controller_share.as_ref()).map(|g| g.shares());
     let gear_cut = last.and_then(|p| p.predicted.as_ref()).map(|g| g.shares());
     Ok(SensitivityRow {
-        gear: path
-            .file_stem()
-            .map_or_else(String::new, |n| n.to_string_lossy().to_string()),
+        gear: gear_name(path),
         variation: v,
         completed: s.completed,
         fault: s.fault.clone(),
@@ -674,42 +646,15 @@ fn sensitivity_one(
 /// What the controller's share and the gear depend on: each program under each
 /// [`Variation`] (CCC and predictor on; `hob-bench accuracy --sensitivity`).
 pub fn sensitivity(a: &Args) -> Result<SensitivityBench, String> {
-    std::fs::create_dir_all(&a.out).map_err(|e| format!("{}: {e}", a.out.display()))?;
-    let machine = MachineConfig::load(&a.machine).map_err(|e| e.to_string())?;
-    let plant = PlantConfig::load(&a.plant).map_err(|e| e.to_string())?;
+    let (machine, plant) = prepare(a)?;
     let cases: Vec<(PathBuf, Variation)> = a
         .programs
         .iter()
         .flat_map(|p| Variation::ALL.map(|v| (p.clone(), v)))
         .collect();
-    let threads = std::thread::available_parallelism().map_or(1, usize::from);
-    let mut rows: Vec<(usize, SensitivityRow)> = Vec::new();
-    std::thread::scope(|scope| -> Result<(), String> {
-        let handles: Vec<_> = (0..threads)
-            .map(|t| {
-                let (machine, plant, cases) = (&machine, &plant, &cases);
-                scope.spawn(move || -> Result<Vec<(usize, SensitivityRow)>, String> {
-                    cases
-                        .iter()
-                        .enumerate()
-                        .filter(|(i, _)| i % threads == t)
-                        .map(|(i, (p, v))| sensitivity_one(machine, plant, p, *v).map(|r| (i, r)))
-                        .collect()
-                })
-            })
-            .collect();
-        for h in handles {
-            rows.extend(
-                h.join()
-                    .map_err(|_| "sensitivity thread panicked".to_string())??,
-            );
-        }
-        Ok(())
-    })?;
-    rows.sort_by_key(|(i, _)| *i);
     let r = SensitivityBench {
         system: system::probe(),
-        rows: rows.into_iter().map(|(_, r)| r).collect(),
+        rows: on_every_core(&cases, |(p, v)| sensitivity_one(&machine, &plant, p, *v))?,
     };
     crate::write_json(&a.out.join("sensitivity.json"), &r)?;
     Ok(r)
