@@ -19,6 +19,7 @@
 pub mod config;
 pub mod drive;
 pub mod plant;
+pub mod rng;
 pub mod servo;
 pub mod sim;
 pub mod spindle;

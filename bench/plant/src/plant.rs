@@ -77,12 +77,7 @@ impl Start {
 
     pub fn random_within_travel(machine: &MachineConfig, seed: u64, table_deg: f64) -> Self {
         let mut rng = seed.wrapping_mul(0x9E37_79B9_7F4A_7C15) | 1;
-        let mut uniform = || {
-            rng ^= rng >> 12;
-            rng ^= rng << 25;
-            rng ^= rng >> 27;
-            (rng.wrapping_mul(0x2545_F491_4F6C_DD1D) >> 11) as f64 / (1u64 << 53) as f64
-        };
+        let mut uniform = || crate::rng::uniform(&mut rng);
         let within = |a: &LinearAxisConfig, u: f64| {
             a.soft_limit_min_mm + u * (a.soft_limit_max_mm - a.soft_limit_min_mm)
         };

@@ -93,11 +93,7 @@ impl SyncTiming {
 
     /// The next SYNC's offset from its nominal instant, s.
     pub fn draw(&mut self) -> f64 {
-        // xorshift64*: deterministic for a seed.
-        self.rng ^= self.rng >> 12;
-        self.rng ^= self.rng << 25;
-        self.rng ^= self.rng >> 27;
-        let u = (self.rng.wrapping_mul(0x2545_F491_4F6C_DD1D) >> 11) as f64 / (1u64 << 53) as f64;
+        let u = crate::rng::uniform(&mut self.rng);
         if self.late_quantiles_us.is_empty() {
             (2.0 * u - 1.0) * self.jitter_s
         } else {

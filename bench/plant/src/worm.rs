@@ -92,12 +92,7 @@ impl WormDrive {
             wheel_tolerances_arcsec(p.wheel_pitch_diameter_mm, teeth, p.wheel_grade)
         };
         let mut rng = seed.wrapping_mul(0xD1B5_4A32_D192_ED03) | 1;
-        let mut uniform = || {
-            rng ^= rng >> 12;
-            rng ^= rng << 25;
-            rng ^= rng >> 27;
-            (rng.wrapping_mul(0x2545_F491_4F6C_DD1D) >> 11) as f64 / (1u64 << 53) as f64
-        };
+        let mut uniform = || crate::rng::uniform(&mut rng);
         // Each tooth within +-f_pt/2 of its place: neighbours differ by at most f_pt.
         let tooth_dev_rad = (0..teeth).map(|_| (uniform() - 0.5) * rad(fpt_arcsec)).collect();
         let tau = std::f64::consts::TAU;
