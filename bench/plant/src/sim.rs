@@ -70,34 +70,63 @@ pub struct Summary {
     pub fault: Option<String>,
 }
 
-/// When each SYNC really happens against its nominal instant: uniform jitter of
-/// `simulation.sync_jitter_us`, or the lateness drawn from `simulation.sync_late_quantiles_us`
-/// (a measured wake-up histogram). Deterministic for `simulation.seed`; shared by the
-/// in-process simulation and the virtual machine on the bus.
+/// When the drives act on each SYNC against its nominal instant. The SYNC itself arrives
+/// with uniform jitter of `simulation.sync_jitter_us`, or late by a draw from
+/// `simulation.sync_late_quantiles_us` (a measured wake-up histogram). Drives without a
+/// SYNC PLL latch their positions and restart their interpolation at each arrival. Drives
+/// with one (`simulation.drive_clock_slew_percent`) run their cycle on their own clock and
+/// steer its phase toward the arrivals by at most the slew per period, as a Kollmorgen AKD
+/// does (its 16 kHz interrupt lengthened or shortened by `FBUS.COMPTIME`, 150 ns of 62.5 us),
+/// so they act at a smoothed instant and the jitter reaches the axes only through that
+/// steering. Deterministic for `simulation.seed`; shared by the in-process simulation and
+/// the virtual machine on the bus.
 #[derive(Debug, Clone)]
 pub struct SyncTiming {
     jitter_s: f64,
     /// `simulation.sync_late_quantiles_us` (empty: uniform `jitter_s`).
     late_quantiles_us: Vec<[f64; 2]>,
     rng: u64,
+    /// The most the drives' clock phase moves per period, s (None: no PLL).
+    pll_step_s: Option<f64>,
+    /// The drives' cycle against the nominal SYNC instant, s.
+    drive_phase_s: f64,
 }
 
 impl SyncTiming {
-    pub fn new(plant_cfg: &PlantConfig) -> Self {
+    pub fn new(plant_cfg: &PlantConfig, period_s: f64) -> Self {
+        let s = &plant_cfg.simulation;
         Self {
-            jitter_s: plant_cfg.simulation.sync_jitter_us * 1e-6,
-            late_quantiles_us: plant_cfg.simulation.sync_late_quantiles_us.clone(),
-            rng: plant_cfg.simulation.seed.wrapping_mul(0x9E37_79B9_7F4A_7C15) | 1,
+            jitter_s: s.sync_jitter_us * 1e-6,
+            late_quantiles_us: s.sync_late_quantiles_us.clone(),
+            rng: s.seed.wrapping_mul(0x9E37_79B9_7F4A_7C15) | 1,
+            pll_step_s: s.drive_clock_slew_percent.map(|pc| pc * 0.01 * period_s),
+            drive_phase_s: 0.0,
         }
     }
 
-    /// The next SYNC's offset from its nominal instant, s.
-    pub fn draw(&mut self) -> f64 {
+    /// The next SYNC's arrival against its nominal instant, s.
+    pub fn arrival(&mut self) -> f64 {
         let u = crate::rng::uniform(&mut self.rng);
         if self.late_quantiles_us.is_empty() {
             (2.0 * u - 1.0) * self.jitter_s
         } else {
             crate::config::quantile_value(&self.late_quantiles_us, u) * 1e-6
+        }
+    }
+
+    /// The next SYNC: the instant the drives latch their positions and take their targets,
+    /// against the nominal instant, s.
+    pub fn draw(&mut self) -> f64 {
+        let arrival = self.arrival();
+        match self.pll_step_s {
+            None => arrival,
+            Some(step) => {
+                // The drive's cycle ends at its own clock's instant; the SYNC it then sees
+                // pulls the next one toward the arrival, by at most the slew.
+                let acted = self.drive_phase_s;
+                self.drive_phase_s += (arrival - acted).clamp(-step, step);
+                acted
+            }
         }
     }
 }
@@ -122,7 +151,7 @@ impl Simulation {
             controller: Controller::new(params),
             plant: Plant::new(plant_cfg, machine, start, gashes),
             period_s: params.period_s,
-            timing: SyncTiming::new(plant_cfg),
+            timing: SyncTiming::new(plant_cfg, params.period_s),
             cycle: 0,
             outputs: CycleOutputs::default(),
             events: Vec::new(),
@@ -414,4 +443,64 @@ pub fn run_program(
         completed,
         fault,
     ))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::path::Path;
+
+    fn plant(jitter_us: f64, measured: bool, slew_percent: Option<f64>) -> PlantConfig {
+        let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../config/plant.toml");
+        let mut p: PlantConfig = toml::from_str(&std::fs::read_to_string(path).unwrap()).unwrap();
+        p.simulation.sync_jitter_us = jitter_us;
+        p.simulation.sync_late_quantiles_us = if measured {
+            crate::config::MEASURED_VM_SYNC_LATE_US.to_vec()
+        } else {
+            Vec::new()
+        };
+        p.simulation.drive_clock_slew_percent = slew_percent;
+        p
+    }
+
+    fn spread_us(draws: &[f64]) -> (f64, f64) {
+        let mean = draws.iter().sum::<f64>() / draws.len() as f64;
+        let var = draws.iter().map(|d| (d - mean).powi(2)).sum::<f64>() / draws.len() as f64;
+        (mean * 1e6, var.sqrt() * 1e6)
+    }
+
+    #[test]
+    fn without_a_pll_the_drives_act_at_each_arrival() {
+        let p = plant(20.0, false, None);
+        let (mut a, mut b) = (SyncTiming::new(&p, 1e-3), SyncTiming::new(&p, 1e-3));
+        for _ in 0..1000 {
+            assert_eq!(a.draw(), b.arrival());
+        }
+        let draws: Vec<f64> = (0..20_000).map(|_| a.draw()).collect();
+        let (mean, sd) = spread_us(&draws);
+        // Uniform +-20 us: mean 0, standard deviation 20 / sqrt(3) = 11.5 us.
+        assert!(mean.abs() < 0.5 && (sd - 11.55).abs() < 0.3, "{mean} {sd}");
+    }
+
+    #[test]
+    fn a_pll_smooths_the_jitter_and_settles_on_the_typical_lateness() {
+        // AKD: 0.24 % of 1 ms = 2.4 us per period at most.
+        let mut t = SyncTiming::new(&plant(20.0, false, Some(0.24)), 1e-3);
+        let draws: Vec<f64> = (0..20_000).map(|_| t.draw()).collect();
+        for w in draws.windows(2) {
+            assert!((w[1] - w[0]).abs() <= 2.4e-6 + 1e-12, "slew exceeded: {w:?}");
+        }
+        let (mean, sd) = spread_us(&draws);
+        // Less than half the arrivals' 11.5 us (a walk of +-2.4 us steps around them).
+        assert!(mean.abs() < 1.0 && sd < 5.8, "uniform: {mean} {sd}");
+        // The VM's measured lateness (p50 15 us, a long tail): the drives settle near the
+        // median, where as many SYNCs come earlier as later, and the tail moves them little.
+        let mut t = SyncTiming::new(&plant(20.0, true, Some(0.24)), 1e-3);
+        let draws: Vec<f64> = (0..20_000).map(|_| t.draw()).skip(100).collect();
+        let (mean, sd) = spread_us(&draws);
+        assert!((mean - 15.0).abs() < 3.0 && sd < 5.8, "measured: {mean} {sd}");
+        let mut raw = SyncTiming::new(&plant(20.0, true, None), 1e-3);
+        let arrivals: Vec<f64> = (0..20_000).map(|_| raw.draw()).collect();
+        assert!(spread_us(&arrivals).1 > 3.0 * sd);
+    }
 }

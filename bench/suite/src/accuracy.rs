@@ -62,6 +62,15 @@ impl Disturbance {
         p
     }
 
+    /// Issue 16's goal for the controller's share of the finished gear's f_pt and F_p: a
+    /// quarter of this ISO 1328-1 grade's tolerances (grade 5 under the heavy disturbance).
+    pub fn goal_grade(self) -> u8 {
+        match self {
+            Disturbance::Heavy => 5,
+            _ => 4,
+        }
+    }
+
     pub fn name(self) -> &'static str {
         match self {
             Disturbance::None => "none",
@@ -508,6 +517,8 @@ pub enum Variation {
     JitterNone,
     Jitter50,
     MeasuredSync,
+    NoPll,
+    NoPllMeasuredSync,
     InertiaHalf,
     InertiaDouble,
     Encoder10000Lines,
@@ -518,13 +529,15 @@ pub enum Variation {
 }
 
 impl Variation {
-    pub const ALL: [Variation; 13] = [
+    pub const ALL: [Variation; 15] = [
         Variation::Nominal,
         Variation::Ripple0p5,
         Variation::Ripple2,
         Variation::JitterNone,
         Variation::Jitter50,
         Variation::MeasuredSync,
+        Variation::NoPll,
+        Variation::NoPllMeasuredSync,
         Variation::InertiaHalf,
         Variation::InertiaDouble,
         Variation::Encoder10000Lines,
@@ -542,6 +555,8 @@ impl Variation {
             Variation::JitterNone => "SYNC jitter none (+-20 us)",
             Variation::Jitter50 => "SYNC jitter +-50 us (+-20 us)",
             Variation::MeasuredSync => "SYNC late as measured on the VM",
+            Variation::NoPll => "drives without a SYNC PLL (AKD's)",
+            Variation::NoPllMeasuredSync => "no SYNC PLL, SYNC late as measured",
             Variation::InertiaHalf => "table inertia x0.5, drive tuned for x1",
             Variation::InertiaDouble => "table inertia x2, drive tuned for x1",
             Variation::Encoder10000Lines => "table encoder 10 000 lines (2500)",
@@ -563,6 +578,11 @@ impl Variation {
             Variation::JitterNone => p.simulation.sync_jitter_us = 0.0,
             Variation::Jitter50 => p.simulation.sync_jitter_us = 50.0,
             Variation::MeasuredSync => {
+                p.simulation.sync_late_quantiles_us = hob_plant::config::MEASURED_VM_SYNC_LATE_US.to_vec();
+            }
+            Variation::NoPll => p.simulation.drive_clock_slew_percent = None,
+            Variation::NoPllMeasuredSync => {
+                p.simulation.drive_clock_slew_percent = None;
                 p.simulation.sync_late_quantiles_us = hob_plant::config::MEASURED_VM_SYNC_LATE_US.to_vec();
             }
             Variation::InertiaHalf | Variation::InertiaDouble => {
@@ -676,6 +696,131 @@ pub fn sensitivity_text(r: &SensitivityBench) -> String {
             pct(x.controller_fp_of_grade4),
             pct(x.gear_fpt_of_grade4),
             pct(x.gear_fp_of_grade4),
+            match &x.fault {
+                Some(f) => format!("fault {f}"),
+                None if x.completed => "done".into(),
+                None => "not finished".into(),
+            }
+        ));
+    }
+    o
+}
+
+/// A share of grade 4 as a share of grade `grade` (ISO 1328-1:2013: each grade sqrt(2)
+/// coarser than the one before, unrounded).
+pub fn of_grade(of_grade4: f64, grade: u8) -> f64 {
+    of_grade4 / std::f64::consts::SQRT_2.powi(i32::from(grade) - 4)
+}
+
+/// One gear under one disturbance over many SYNC-timing and wheel seeds: the worst seed's
+/// controller's share of the finished gear's f_pt and F_p against the goal grade.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct SeedsRow {
+    pub gear: String,
+    pub disturbance: Disturbance,
+    pub seeds: Vec<u64>,
+    pub goal_grade: u8,
+    /// Every seed's run completed (no fault, no timeout).
+    pub completed: bool,
+    pub fault: Option<String>,
+    pub worst_fpt_of_goal: Option<f64>,
+    pub worst_fpt_seed: Option<u64>,
+    pub worst_fp_of_goal: Option<f64>,
+    pub worst_fp_seed: Option<u64>,
+    pub median_fpt_of_goal: Option<f64>,
+    pub worst_max_um: f64,
+    pub bound_um: f64,
+}
+
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct SeedsBench {
+    pub system: SystemInfo,
+    pub rows: Vec<SeedsRow>,
+}
+
+/// Issue 16's goal at every seed (`hob-bench accuracy --seeds N`): each program under each
+/// disturbance, CCC and predictor on, with `simulation.seed` 1..=N (the SYNC timing, the
+/// power-on positions and the worm wheel's tooth errors all follow it).
+pub fn seeds(a: &Args, n: u64) -> Result<SeedsBench, String> {
+    let (machine, plant) = prepare(a)?;
+    let mut cases: Vec<(PathBuf, Disturbance, u64)> = Vec::new();
+    for p in &a.programs {
+        for &d in &a.disturbances {
+            for seed in 1..=n {
+                cases.push((p.clone(), d, seed));
+            }
+        }
+    }
+    let runs = on_every_core(&cases, |(p, d, seed)| {
+        let mut seeded = plant.clone();
+        seeded.simulation.seed = *seed;
+        one(&machine, &seeded, p, *d, true, true)
+    })?;
+    let rows = runs
+        .chunks(n as usize)
+        .zip(cases.chunks(n as usize))
+        .map(|(rs, cs)| {
+            let d = cs[0].1;
+            let goal = d.goal_grade();
+            let worst = |f: fn(&Row) -> Option<f64>| {
+                rs.iter()
+                    .zip(cs)
+                    .filter_map(|(r, c)| f(r).map(|v| (of_grade(v, goal), c.2)))
+                    .max_by(|a, b| a.0.total_cmp(&b.0))
+            };
+            let fpt = worst(|r| r.finished_fpt_of_grade4);
+            let fp = worst(|r| r.finished_fp_of_grade4);
+            let mut fpts: Vec<f64> = rs
+                .iter()
+                .filter_map(|r| r.finished_fpt_of_grade4.map(|v| of_grade(v, goal)))
+                .collect();
+            fpts.sort_by(f64::total_cmp);
+            SeedsRow {
+                gear: rs[0].gear.clone(),
+                disturbance: d,
+                seeds: cs.iter().map(|c| c.2).collect(),
+                goal_grade: goal,
+                completed: rs.iter().all(|r| r.completed),
+                fault: rs.iter().find_map(|r| r.fault.clone()),
+                worst_fpt_of_goal: fpt.map(|x| x.0),
+                worst_fpt_seed: fpt.map(|x| x.1),
+                worst_fp_of_goal: fp.map(|x| x.0),
+                worst_fp_seed: fp.map(|x| x.1),
+                median_fpt_of_goal: fpts.get(fpts.len() / 2).copied(),
+                worst_max_um: rs.iter().map(|r| r.max_um).fold(0.0, f64::max),
+                bound_um: rs[0].bound_um,
+            }
+        })
+        .collect();
+    let r = SeedsBench {
+        system: system::probe(),
+        rows,
+    };
+    crate::write_json(&a.out.join("seeds.json"), &r)?;
+    Ok(r)
+}
+
+pub fn seeds_text(r: &SeedsBench) -> String {
+    let mut o = String::from(
+        "| gear | disturbance | seeds | goal grade | controller's f_pt: worst (seed), median | controller's F_p: worst (seed) | worst max um (bound) | result |\n|---|---|---|---|---|---|---|---|\n",
+    );
+    let pct = |v: Option<f64>, seed: Option<u64>| match (v, seed) {
+        (Some(v), Some(s)) => format!("{:.0} % ({s})", 100.0 * v),
+        _ => "-".into(),
+    };
+    for x in &r.rows {
+        o.push_str(&format!(
+            "| {} | {} | {} | {} | {}, {} | {} | {:.2} ({:.2}) | {} |\n",
+            x.gear,
+            x.disturbance.name(),
+            x.seeds.len(),
+            x.goal_grade,
+            pct(x.worst_fpt_of_goal, x.worst_fpt_seed),
+            x.median_fpt_of_goal
+                .map_or_else(|| "-".into(), |v| format!("{:.0} %", 100.0 * v)),
+            pct(x.worst_fp_of_goal, x.worst_fp_seed),
+            x.worst_max_um,
+            x.bound_um,
             match &x.fault {
                 Some(f) => format!("fault {f}"),
                 None if x.completed => "done".into(),

@@ -78,6 +78,7 @@ fn the_loop_under_a_background_load_is_checked_where_it_was_run() {
         "bus.json",
         "step.json",
         "accuracy.json",
+        "seeds.json",
         "busload.json",
     ] {
         std::fs::copy(fixtures().join(f), dir.join(f)).expect("copy");
@@ -100,7 +101,13 @@ fn the_loop_under_a_background_load_is_checked_where_it_was_run() {
 fn a_missing_result_fails() {
     let dir = std::env::temp_dir().join(format!("hob-gate-missing-{}", std::process::id()));
     std::fs::create_dir_all(&dir).expect("temp dir");
-    for f in ["loop.json", "bus.json", "step.json", "accuracy.json"] {
+    for f in [
+        "loop.json",
+        "bus.json",
+        "step.json",
+        "accuracy.json",
+        "seeds.json",
+    ] {
         std::fs::copy(fixtures().join(f), dir.join(f)).expect("copy");
     }
     let checks = gate::evaluate(&dir, &shipped());

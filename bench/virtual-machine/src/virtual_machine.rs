@@ -275,7 +275,7 @@ impl VirtualMachine {
             controlword_before: [0; 3],
             time_s: 0.0,
             nominal_s: 0.0,
-            timing: hob_plant::sim::SyncTiming::new(plant),
+            timing: hob_plant::sim::SyncTiming::new(plant, plan.cycle_s),
             period_s: plan.cycle_s,
             syncs: 0,
             drop: 0.0,
