@@ -135,6 +135,12 @@ fn helical_gear_is_within_a_quarter_of_grade_5() {
     check("helical-z31-m3.toml");
 }
 
+/// A gear nothing was tuned on: helical left hand, two-start hob, climb from the top.
+#[test]
+fn held_out_two_start_helical_is_within_a_quarter_of_grade_5() {
+    check("helical-z41-m2-2start.toml");
+}
+
 /// The emulated PREEMPT_RT guest cannot hold 1 ms, so `ci/service/run` runs there on a
 /// 2 ms cycle (`HOB_CYCLE_US=2000`: `control.cycle_period_us` and, CSP, the drive delay).
 /// The control core holds its bound on that cycle too (measured with `hob simulate

@@ -90,7 +90,7 @@ enum Cmd {
     /// Synchronisation error: gears x disturbance x cross-coupling x predictor.
     Accuracy {
         /// Programs [default: the hobbed examples: the demo job, spur-z17-m5, helical-z31-m3,
-        /// spline-z12-m2-plunge].
+        /// spline-z12-m2-plunge, the held-out helical-z41-m2-2start].
         #[arg(long = "program")]
         programs: Vec<PathBuf>,
         /// Disturbance levels [default: all].
@@ -165,6 +165,7 @@ fn accuracy_programs(cli: &Cli, quick: bool) -> Vec<PathBuf> {
             "spur-z17-m5.toml",
             "helical-z31-m3.toml",
             "spline-z12-m2-plunge.toml",
+            "helical-z41-m2-2start.toml",
         ]
     };
     names.iter().map(|n| dir.join(n)).collect()

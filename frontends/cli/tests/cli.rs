@@ -74,6 +74,7 @@ fn check_accepts_every_example() {
         "helical-z31-m3",
         "spline-z12-m2-plunge",
         "tooth-by-tooth-z24-m8",
+        "helical-z41-m2-2start",
     ] {
         let out = hob(&["check", &format!("config/programs/{name}.toml")]);
         assert!(out.status.success(), "{name}: {}", text(&out.stderr));

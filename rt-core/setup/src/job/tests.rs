@@ -24,6 +24,7 @@ fn examples_pass_the_machine_independent_checks() {
         "helical-z31-m3.toml",
         "spline-z12-m2-plunge.toml",
         "tooth-by-tooth-z24-m8.toml",
+        "helical-z41-m2-2start.toml",
     ] {
         assert!(check_keys(&example(name)).is_empty(), "{name}");
     }
