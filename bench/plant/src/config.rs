@@ -8,11 +8,34 @@ use std::path::Path;
 #[serde(deny_unknown_fields)]
 pub struct PlantConfig {
     pub simulation: SimulationConfig,
+    pub drives: DrivesPlant,
     pub spindle: SpindlePlant,
     pub table: TablePlant,
     pub x: LinearPlant,
     pub y: LinearPlant,
     pub peripherals: PeripheralPlant,
+}
+
+/// How the servo drives (B, X, Y) close their loops: sampled on their own clock, on the
+/// motor's own feedback, with the speed estimated from it (not the true speed).
+#[derive(Debug, Clone, Copy, PartialEq, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct DrivesPlant {
+    /// The position and velocity loops' sample period, us: a multiple of
+    /// `simulation.inner_step_us` (the torque is held between samples).
+    pub loop_us: u32,
+    /// The motor feedback's resolution, bits per motor turn: what the drive's loops read.
+    /// The position it reports (0x6064) is scaled to machine.toml's encoder counts.
+    pub feedback_bits: u32,
+    /// First-order low-pass on the speed estimate (the feedback's difference over a loop
+    /// sample), Hz.
+    pub velocity_filter_hz: f64,
+}
+
+impl DrivesPlant {
+    pub fn feedback_counts_per_rad(&self) -> f64 {
+        2f64.powi(self.feedback_bits as i32) / std::f64::consts::TAU
+    }
 }
 
 #[derive(Debug, Clone, PartialEq, Deserialize, Serialize)]
@@ -107,6 +130,13 @@ pub struct SpindlePlant {
     pub cutting_torque_nm: f64,
     pub cutting_ripple: f64,
     pub full_depth_mm: f64,
+    /// The spindle encoder's error, amplitude of a once-per-turn sine (the code disc's
+    /// eccentricity), arcsec of the spindle: what the controller reads is off by it.
+    pub encoder_error_arcsec: f64,
+    /// The hob's axial runout on its arbor, amplitude of a once-per-turn sine, um: the
+    /// generating rack moves along the hob axis, nearly the gear's tangent, so the blank
+    /// is cut as if turned by it over the pitch radius. Nothing measures it.
+    pub hob_axial_runout_um: f64,
 }
 
 #[derive(Debug, Clone, PartialEq, Deserialize, Serialize)]
@@ -224,6 +254,32 @@ impl PlantConfig {
         if let Some(mm) = s.power_on_near_home_mm {
             p.positive("simulation.power_on_near_home_mm", mm);
         }
+        let d = &self.drives;
+        p.require(
+            d.loop_us >= s.inner_step_us
+                && s.inner_step_us > 0
+                && d.loop_us % s.inner_step_us == 0
+                && d.loop_us <= 1000,
+            "drives.loop_us",
+            || {
+                format!(
+                    "{}: must be a multiple of simulation.inner_step_us ({}) up to 1000 us",
+                    d.loop_us, s.inner_step_us
+                )
+            },
+        );
+        p.require(
+            (12..=32).contains(&d.feedback_bits),
+            "drives.feedback_bits",
+            || format!("{}: must be 12 to 32 bits per turn", d.feedback_bits),
+        );
+        p.within(
+            "drives.velocity_filter_hz",
+            d.velocity_filter_hz,
+            10.0,
+            20_000.0,
+            "Hz",
+        );
         let q = &s.sync_late_quantiles_us;
         if !q.is_empty() {
             let ends = q.first().map(|x| x[0]) == Some(0.0) && q.last().map(|x| x[0]) == Some(1.0);
@@ -236,6 +292,20 @@ impl PlantConfig {
             });
         }
         let sp = &self.spindle;
+        p.within(
+            "spindle.encoder_error_arcsec",
+            sp.encoder_error_arcsec,
+            0.0,
+            600.0,
+            "arcsec",
+        );
+        p.within(
+            "spindle.hob_axial_runout_um",
+            sp.hob_axial_runout_um,
+            0.0,
+            50.0,
+            "um",
+        );
         p.require(sp.motor_pole_pairs >= 1, "spindle.motor_pole_pairs", || {
             "must be at least 1".into()
         });

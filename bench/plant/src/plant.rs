@@ -107,6 +107,10 @@ pub struct Plant {
     pub worm: WormDrive,
     worm_ratio: f64,
     spindle_counts_per_rad: f64,
+    /// The spindle encoder's once-per-turn error: amplitude (rad) and phase (rad).
+    spindle_encoder_error: (f64, f64),
+    /// The hob's axial runout: amplitude (mm) and phase (rad).
+    hob_axial_runout: (f64, f64),
     table_motor_rad_per_deg: f64,
     x_rad_per_mm: f64,
     y_rad_per_mm: f64,
@@ -135,6 +139,7 @@ pub struct Plant {
 fn linear_servo(
     m: &hob_setup::config::machine::LinearAxisConfig,
     p: &crate::config::LinearPlant,
+    drives: &crate::config::DrivesPlant,
     vertical: bool,
     period_s: f64,
     start_mm: f64,
@@ -154,6 +159,9 @@ fn linear_servo(
         friction_nm: p.friction_coefficient * weight_n * m_per_rad,
         constant_load_nm: if vertical { weight_n * m_per_rad } else { 0.0 },
         brake: vertical,
+        loop_period_s: f64::from(drives.loop_us) * 1e-6,
+        feedback_counts_per_rad: drives.feedback_counts_per_rad(),
+        velocity_filter_hz: drives.velocity_filter_hz,
     };
     (Servo::new(params, start_mm * rad_per_mm, period_s), rad_per_mm)
 }
@@ -204,6 +212,9 @@ fn power_on_counter(physical: i64, counters: DriveCounters) -> i64 {
 impl Plant {
     pub fn new(cfg: &PlantConfig, machine: &MachineConfig, start: Start, gashes: u32) -> Self {
         let params = ControlParams::from_machine(machine);
+        // The phases of the spindle encoder's and the hob's once-per-turn errors.
+        let mut rng = cfg.simulation.seed.wrapping_mul(0xD1B5_4A32_D192_ED03) | 1;
+        let phases = [crate::rng::uniform(&mut rng), crate::rng::uniform(&mut rng)];
         let period_s = params.period_s;
         let t = &cfg.table;
         let table_counts_per_rad = f64::from(machine.table.encoder_counts_per_motor_rev) / TAU;
@@ -220,11 +231,14 @@ impl Plant {
             friction_nm: t.friction_motor_nm,
             constant_load_nm: 0.0,
             brake: false,
+            loop_period_s: f64::from(cfg.drives.loop_us) * 1e-6,
+            feedback_counts_per_rad: cfg.drives.feedback_counts_per_rad(),
+            velocity_filter_hz: cfg.drives.velocity_filter_hz,
         };
         let table_motor_rad_per_deg = ratio * TAU / 360.0;
         let table = Servo::new(table_params, start.table_deg * table_motor_rad_per_deg, period_s);
-        let (x, x_rad_per_mm) = linear_servo(&machine.x, &cfg.x, false, period_s, start.x_mm);
-        let (y, y_rad_per_mm) = linear_servo(&machine.y, &cfg.y, true, period_s, start.y_mm);
+        let (x, x_rad_per_mm) = linear_servo(&machine.x, &cfg.x, &cfg.drives, false, period_s, start.x_mm);
+        let (y, y_rad_per_mm) = linear_servo(&machine.y, &cfg.y, &cfg.drives, true, period_s, start.y_mm);
         let counters = cfg.simulation.drive_counters;
         let table_physical = table.position_counts();
         let drives = [
@@ -257,6 +271,11 @@ impl Plant {
             ),
             worm_ratio: ratio,
             spindle_counts_per_rad: f64::from(s.encoder_counts_per_rev) / TAU,
+            spindle_encoder_error: (
+                (cfg.spindle.encoder_error_arcsec / 3600.0).to_radians(),
+                TAU * phases[0],
+            ),
+            hob_axial_runout: (cfg.spindle.hob_axial_runout_um * 1e-3, TAU * phases[1]),
             table_motor_rad_per_deg,
             x_rad_per_mm,
             y_rad_per_mm,
@@ -347,7 +366,16 @@ impl Plant {
     /// The blank's true angle (deg, continuous): the table plus the work's twist on it. What
     /// the gear gets.
     pub fn blank_deg(&self) -> f64 {
-        self.table_deg() + self.work_twist_arcsec() / 3600.0
+        self.table_deg() + self.work_twist_arcsec() / 3600.0 + self.hob_runout_deg()
+    }
+
+    /// The hob's axial runout as a turn of the blank: the generating rack's shift along the
+    /// hob axis (nearly the gear's tangent) over the pitch radius; 0 without a workpiece.
+    fn hob_runout_deg(&self) -> f64 {
+        let (amplitude_mm, phase) = self.hob_axial_runout;
+        self.workpiece.as_ref().map_or(0.0, |w| {
+            (amplitude_mm * (self.spindle.angle_rad + phase).sin() / w.pitch_radius_mm).to_degrees()
+        })
     }
 
     /// Torsional deflection of the work relative to the table under the cut (seed 003's
@@ -457,7 +485,9 @@ impl Plant {
 
     /// The spindle encoder reading (counts, wrapping; B drive's auxiliary input).
     pub fn spindle_counts(&self) -> i32 {
-        let c = (self.spindle.angle_rad * self.spindle_counts_per_rad).floor() as i64;
+        let (amplitude, phase) = self.spindle_encoder_error;
+        let read_rad = self.spindle.angle_rad + amplitude * (self.spindle.angle_rad + phase).sin();
+        let c = (read_rad * self.spindle_counts_per_rad).floor() as i64;
         (c * self.params.spindle.sign as i64) as i32
     }
 

@@ -25,6 +25,13 @@ pub struct ServoParams {
     pub constant_load_nm: f64,
     /// A holding brake when disabled (vertical axis).
     pub brake: bool,
+    /// The loops' sample period, s (the torque is held between samples).
+    pub loop_period_s: f64,
+    /// The motor feedback the loops read, counts per rad (finer than `counts_per_rad`,
+    /// what the drive reports).
+    pub feedback_counts_per_rad: f64,
+    /// Low-pass on the speed estimate, Hz.
+    pub velocity_filter_hz: f64,
 }
 
 /// One servo axis in motor coordinates (rad).
@@ -41,6 +48,14 @@ pub struct Servo {
     target_counts: f64,
     since_sync_s: f64,
     period_s: f64,
+    /// Time since the loops' last sample, s.
+    since_loop_s: f64,
+    /// The feedback at the last sample, rad (quantised).
+    feedback_prev_rad: f64,
+    /// The filtered speed estimate, rad/s.
+    speed_estimate_rad_s: f64,
+    /// The torque the loops output at their last sample, held until the next.
+    torque_nm: f64,
     pub enabled: bool,
     /// The drive's power stage has power (safety chain).
     pub enabled_power: bool,
@@ -68,6 +83,10 @@ impl Servo {
             target_counts: counts,
             since_sync_s: 0.0,
             period_s,
+            since_loop_s: p.loop_period_s,
+            feedback_prev_rad: (position_rad * p.feedback_counts_per_rad).floor() / p.feedback_counts_per_rad,
+            speed_estimate_rad_s: 0.0,
+            torque_nm: 0.0,
             enabled: false,
             enabled_power: true,
             fault: false,
@@ -99,32 +118,49 @@ impl Servo {
         }
     }
 
-    /// Advances the physics by `dt_s`: the drive samples its reference at the start of the
-    /// step (the time since SYNC before the step) and holds its torque over it, as a drive's
-    /// loop sampled at the physics step does. (Sampling at the end of the step applied each
-    /// target one step early: a delay of `period - dt` instead of the period the controller
-    /// predicts for.)
+    /// Advances the physics by `dt_s`. The drive's loops sample at the start of the step
+    /// once their period has passed since the last sample (the reference at the time
+    /// since SYNC before the step, the feedback quantised, the speed estimated from the
+    /// feedback's difference and filtered) and hold their torque until the next. (Sampling
+    /// at the end of the step applied each target one step early: a delay of `period - dt`
+    /// instead of the period the controller predicts for.)
     pub fn advance(&mut self, dt_s: f64) {
         let share = (self.since_sync_s / self.period_s).min(1.0);
         self.since_sync_s += dt_s;
-        let reference = self.target_prev_counts + (self.target_counts - self.target_prev_counts) * share;
-        let ff_rad_s = (self.target_counts - self.target_prev_counts) / self.period_s / self.p.counts_per_rad;
         let active = self.enabled && !self.fault;
-        let torque = if active {
-            let pos_err = (reference - self.position_counts() as f64) / self.p.counts_per_rad;
-            let w_ref = self.kv * pos_err + self.p.velocity_feed_forward * ff_rad_s;
-            let e = w_ref - self.motor_rad_s;
-            let unclamped = self.kp_v * e + self.integral;
-            let t = unclamped.clamp(-self.p.peak_torque_nm, self.p.peak_torque_nm);
-            // Anti-windup: integrate only while not saturated.
-            if t == unclamped {
-                self.integral += self.ki_v * e * dt_s;
-            }
-            t
-        } else {
+        if self.since_loop_s + 1e-12 >= self.p.loop_period_s {
+            let elapsed = self.since_loop_s;
+            self.since_loop_s = 0.0;
+            let feedback_rad =
+                (self.motor_rad * self.p.feedback_counts_per_rad).floor() / self.p.feedback_counts_per_rad;
+            let raw = (feedback_rad - self.feedback_prev_rad) / elapsed;
+            self.feedback_prev_rad = feedback_rad;
+            let a = 1.0 - (-TAU * self.p.velocity_filter_hz * elapsed).exp();
+            self.speed_estimate_rad_s += (raw - self.speed_estimate_rad_s) * a;
+            let reference = self.target_prev_counts + (self.target_counts - self.target_prev_counts) * share;
+            let ff_rad_s =
+                (self.target_counts - self.target_prev_counts) / self.period_s / self.p.counts_per_rad;
+            self.torque_nm = if active {
+                let pos_err = reference / self.p.counts_per_rad - feedback_rad;
+                let w_ref = self.kv * pos_err + self.p.velocity_feed_forward * ff_rad_s;
+                let e = w_ref - self.speed_estimate_rad_s;
+                let unclamped = self.kp_v * e + self.integral;
+                let t = unclamped.clamp(-self.p.peak_torque_nm, self.p.peak_torque_nm);
+                // Anti-windup: integrate only while not saturated.
+                if t == unclamped {
+                    self.integral += self.ki_v * e * elapsed;
+                }
+                t
+            } else {
+                0.0
+            };
+        }
+        self.since_loop_s += dt_s;
+        // Disabled, the power stage gives no torque at once (not at the next sample).
+        let torque = if active { self.torque_nm } else { 0.0 };
+        if !active {
             self.integral = 0.0;
-            0.0
-        };
+        }
         if self.locked || (!active && self.p.brake) {
             self.motor_rad_s = 0.0;
             return;

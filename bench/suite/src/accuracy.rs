@@ -526,10 +526,14 @@ pub enum Variation {
     BandwidthDouble,
     WheelPerfect,
     WheelGrade6,
+    SpindleEncoderExact,
+    SpindleEncoder10000Lines,
+    HobRunoutNone,
+    HobRunout10,
 }
 
 impl Variation {
-    pub const ALL: [Variation; 15] = [
+    pub const ALL: [Variation; 19] = [
         Variation::Nominal,
         Variation::Ripple0p5,
         Variation::Ripple2,
@@ -545,6 +549,10 @@ impl Variation {
         Variation::BandwidthDouble,
         Variation::WheelPerfect,
         Variation::WheelGrade6,
+        Variation::SpindleEncoderExact,
+        Variation::SpindleEncoder10000Lines,
+        Variation::HobRunoutNone,
+        Variation::HobRunout10,
     ];
 
     pub fn name(self) -> &'static str {
@@ -564,6 +572,10 @@ impl Variation {
             Variation::BandwidthDouble => "table servo loops x2",
             Variation::WheelPerfect => "worm wheel perfect (grade 4)",
             Variation::WheelGrade6 => "worm wheel grade 6 (grade 4)",
+            Variation::SpindleEncoderExact => "spindle encoder exact (2500 lines, +-26 arcsec)",
+            Variation::SpindleEncoder10000Lines => "spindle encoder 10 000 lines, +-6.5 arcsec",
+            Variation::HobRunoutNone => "hob axial runout none (3 um)",
+            Variation::HobRunout10 => "hob axial runout 10 um (3 um)",
         }
     }
 
@@ -601,6 +613,15 @@ impl Variation {
             }
             Variation::WheelPerfect => t.worm.wheel_grade = 0,
             Variation::WheelGrade6 => t.worm.wheel_grade = 6,
+            Variation::SpindleEncoderExact => p.spindle.encoder_error_arcsec = 0.0,
+            Variation::SpindleEncoder10000Lines => {
+                // The same class of encoder, four times the lines: +-1/20 of its grating
+                // period. The controller knows the lines (machine file).
+                m.spindle.encoder_counts_per_rev *= 4;
+                p.spindle.encoder_error_arcsec /= 4.0;
+            }
+            Variation::HobRunoutNone => p.spindle.hob_axial_runout_um = 0.0,
+            Variation::HobRunout10 => p.spindle.hob_axial_runout_um = 10.0,
         }
         (m, p)
     }
