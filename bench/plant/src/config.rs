@@ -258,7 +258,7 @@ impl PlantConfig {
         p.require(
             d.loop_us >= s.inner_step_us
                 && s.inner_step_us > 0
-                && d.loop_us % s.inner_step_us == 0
+                && d.loop_us.is_multiple_of(s.inner_step_us)
                 && d.loop_us <= 1000,
             "drives.loop_us",
             || {
