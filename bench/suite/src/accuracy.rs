@@ -527,13 +527,14 @@ pub enum Variation {
     WheelPerfect,
     WheelGrade6,
     SpindleEncoderExact,
+    SpindleEncoderUnidentified,
     SpindleEncoder10000Lines,
     HobRunoutNone,
     HobRunout10,
 }
 
 impl Variation {
-    pub const ALL: [Variation; 19] = [
+    pub const ALL: [Variation; 20] = [
         Variation::Nominal,
         Variation::Ripple0p5,
         Variation::Ripple2,
@@ -550,6 +551,7 @@ impl Variation {
         Variation::WheelPerfect,
         Variation::WheelGrade6,
         Variation::SpindleEncoderExact,
+        Variation::SpindleEncoderUnidentified,
         Variation::SpindleEncoder10000Lines,
         Variation::HobRunoutNone,
         Variation::HobRunout10,
@@ -573,6 +575,7 @@ impl Variation {
             Variation::WheelPerfect => "worm wheel perfect (grade 4)",
             Variation::WheelGrade6 => "worm wheel grade 6 (grade 4)",
             Variation::SpindleEncoderExact => "spindle encoder exact (2500 lines, +-26 arcsec)",
+            Variation::SpindleEncoderUnidentified => "spindle encoder's error not identified (5 s)",
             Variation::SpindleEncoder10000Lines => "spindle encoder 10 000 lines, +-6.5 arcsec",
             Variation::HobRunoutNone => "hob axial runout none (3 um)",
             Variation::HobRunout10 => "hob axial runout 10 um (3 um)",
@@ -614,6 +617,7 @@ impl Variation {
             Variation::WheelPerfect => t.worm.wheel_grade = 0,
             Variation::WheelGrade6 => t.worm.wheel_grade = 6,
             Variation::SpindleEncoderExact => p.spindle.encoder_error_arcsec = 0.0,
+            Variation::SpindleEncoderUnidentified => m.control.spindle_encoder_identification_s = 0.0,
             Variation::SpindleEncoder10000Lines => {
                 // The same class of encoder, four times the lines: +-1/20 of its grating
                 // period. The controller knows the lines (machine file).

@@ -63,7 +63,8 @@ pub struct AccuracyLimits {
     /// max error over the control core's bound (a quarter of grade-5 f_p).
     pub disturbances: Vec<Disturbance>,
     pub max_of_bound: f64,
-    /// And each part must help: with it off the error must be larger.
+    /// And each part must help (the predictor: with it off the worst pass's RMS is larger)
+    /// or do no harm (cross-coupling: with it on within 5 % of off).
     pub each_part_helps: bool,
     /// The finished gear's single and cumulative pitch deviations, the controller's share,
     /// over their ISO 1328-1 tolerances of the goal grade ([`Disturbance::goal_grade`]:
@@ -350,14 +351,26 @@ pub fn accuracy_checks(r: &AccuracyBench, l: &AccuracyLimits) -> Vec<Check> {
                 ] {
                     if let Some(o) = other {
                         // On the worst pass's RMS: the peak is an engagement transient that
-                        // neither part addresses (with the SYNC PLL in the drives, CCC's peak
-                        // on the demo gear at nominal is 1.14 um against 1.08 without, while
-                        // its RMS is 0.22 against 0.28 um).
+                        // neither part addresses. The predictor must help. Cross-coupling
+                        // takes out the table drive's following error: with the shipped
+                        // drives' 20-bit motor feedback there is little left (0.21 um RMS
+                        // with and without on the demo gear), with 13 bits it buys 0.33
+                        // against 1.18 um (bench/plant/tests/accuracy.rs); here it must do
+                        // no harm (within 5 %).
+                        let (name, pass, limit) = if what == "CCC" {
+                            (
+                                "does no harm",
+                                full.rms_um <= 1.05 * o.rms_um,
+                                "with <= 1.05 x without",
+                            )
+                        } else {
+                            ("helps", full.rms_um < o.rms_um, "with < without")
+                        };
                         v.push(Check {
-                            name: format!("accuracy {gear}, {}: {what} helps (RMS)", d.name()),
+                            name: format!("accuracy {gear}, {}: {what} {name} (RMS)", d.name()),
                             measured: format!("{:.3} um without, {:.3} um with", o.rms_um, full.rms_um),
-                            limit: "with < without".into(),
-                            pass: Some(full.rms_um < o.rms_um),
+                            limit: limit.into(),
+                            pass: Some(pass),
                         });
                     }
                 }

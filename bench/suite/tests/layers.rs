@@ -140,7 +140,7 @@ const ALLOWED: &[(&str, &[&str])] = &[
 const PURE: &[(&str, &[&str])] = &[
     ("hob-gearing", &["serde"]),
     ("hob-setup", &["serde", "toml"]),
-    ("hob-control", &["serde"]),
+    ("hob-control", &["serde", "nalgebra"]),
     ("hob-canopen", &[]),
     ("hob-process-image", &[]),
 ];

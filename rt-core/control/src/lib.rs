@@ -12,6 +12,7 @@
 //! panic. Errors are `Copy` enums ([`fault::Fault`], [`fault::Refusal`]); events go into
 //! a fixed ring ([`events::EventRing`]) that the caller drains.
 
+pub mod eccentricity;
 pub mod egb;
 pub mod events;
 pub mod fault;
@@ -30,6 +31,7 @@ pub use referencing::HomeAxes;
 pub use sequencer::{Command, State};
 pub use setup_math::Offsets;
 
+use eccentricity::EccentricityIdentifier;
 use egb::{Coupling, Gearbox, GearboxParams};
 use events::{Event, EventKind, EventRing};
 use fault::{Axis, Fault};
@@ -197,6 +199,8 @@ pub struct ControlParams {
     pub spindle_start_timeout_s: f64,
     pub clamp_timeout_s: f64,
     pub observer_bandwidth_hz: f64,
+    /// Time constant of the spindle encoder's once-per-turn error identification (0: off).
+    pub encoder_identification_s: f64,
     /// Consecutive cycles without fresh feedback from a drive before it is a fault.
     pub feedback_misses_to_fault: u32,
     pub gearbox: GearboxParams,
@@ -254,6 +258,7 @@ impl ControlParams {
             spindle_start_timeout_s: m.control.spindle_start_timeout_s,
             clamp_timeout_s: m.control.x_clamp_timeout_s,
             observer_bandwidth_hz: m.control.spindle_observer_bandwidth_hz,
+            encoder_identification_s: m.control.spindle_encoder_identification_s,
             feedback_misses_to_fault: m.can.tpdo_misses_to_fault,
             gearbox: GearboxParams {
                 ratio_signed: 0.0,
@@ -373,6 +378,8 @@ pub struct Controller {
     program: Option<CycleProgram>,
     unwrap: [Unwrapper; 4],
     observer: SpindleObserver,
+    /// The spindle encoder's once-per-turn error, identified while it turns.
+    eccentricity: EccentricityIdentifier,
     gearbox: Gearbox,
     x: Profile,
     y: Profile,
@@ -411,6 +418,11 @@ impl Controller {
             program: None,
             unwrap: [Unwrapper::default(); 4],
             observer: SpindleObserver::new(p.period_s, p.observer_bandwidth_hz),
+            eccentricity: EccentricityIdentifier::new(
+                p.period_s,
+                p.encoder_identification_s,
+                1.0 / p.spindle.counts_per_unit,
+            ),
             gearbox: Gearbox::new(p.gearbox, 0.0),
             x: Profile::default(),
             y: Profile::default(),
@@ -558,13 +570,19 @@ impl Controller {
 
     fn measure(&mut self, input: &CycleInputs) {
         let prev = self.measured;
-        let spindle = self
+        let reading = self
             .params
             .spindle
             .to_units(self.unwrap[0].update(input.spindle_counts));
         // The spindle encoder rides on the B drive's TPDO: without it this cycle the
         // observer coasts instead of taking the held value as a measurement.
-        let est = if input.table.fresh || !self.started {
+        let fresh = input.table.fresh || !self.started;
+        // The reading without the encoder's once-per-turn error identified so far.
+        let spindle = self
+            .eccentricity
+            .update(fresh.then_some(reading))
+            .unwrap_or_else(|| reading - self.eccentricity.correction_deg(reading));
+        let est = if fresh {
             self.observer.update(spindle)
         } else {
             self.observer.coast()
@@ -862,6 +880,11 @@ impl Controller {
     /// The gearbox (for its recorded phase and parameters).
     pub fn gearbox(&self) -> &Gearbox {
         &self.gearbox
+    }
+
+    /// The spindle encoder's once-per-turn error identified so far (diagnostics).
+    pub fn encoder_eccentricity(&self) -> &EccentricityIdentifier {
+        &self.eccentricity
     }
 
     /// Whether every drive reports "operation enabled".

@@ -215,6 +215,10 @@ pub struct ControlConfig {
     pub drive_delay_us: u32,
     /// Bandwidth of the spindle angle/speed/acceleration observer.
     pub spindle_observer_bandwidth_hz: f64,
+    /// Time constant of the identification of the spindle encoder's once-per-turn error
+    /// (its code disc's eccentricity), taken out of the reading while the spindle turns
+    /// above 60 rpm; 0: off.
+    pub spindle_encoder_identification_s: f64,
     /// Spindle speed within this share of the set speed counts as reached.
     pub spindle_speed_tolerance: f64,
     /// Time the spindle may take to reach its speed before it is a fault.
@@ -625,6 +629,15 @@ impl MachineConfig {
             nyquist_hz / 2.0,
             "Hz",
         );
+        if c.spindle_encoder_identification_s != 0.0 {
+            p.within(
+                "control.spindle_encoder_identification_s",
+                c.spindle_encoder_identification_s,
+                0.2,
+                30.0,
+                "s (or 0: off)",
+            );
+        }
         p.within(
             "control.spindle_speed_tolerance",
             c.spindle_speed_tolerance,

@@ -1,0 +1,326 @@
+//! The spindle encoder's once-per-turn error, identified while the spindle turns and taken
+//! out of its reading.
+//!
+//! An encoder's code disc is never exactly centred: its reading is off by a sine of the
+//! angle, once per turn (a 2500-line encoder of the Heidenhain ERN/ROD 400 kind is
+//! specified at +-1/20 of its grating period, 26 arcsec). The table follows the spindle
+//! through the gearbox, so the table carries that sine divided by the ratio; with a
+//! multi-start hob the teeth are generated at different phases of the hob's turn and the
+//! sine becomes a pitch error between them (docs/accuracy.md, "The spindle encoder").
+//!
+//! The error is fixed to the disc, so it is fixed to the encoder's counts for as long as the
+//! controller runs (the counter is incremental: after a power cycle the phase is new, so it
+//! is identified anew at each start-up, not stored). Over each whole turn of the spindle the
+//! readings are fitted by least squares with a quadratic in time (the motion: speed and a
+//! steady acceleration) plus a sine and a cosine of the reading (the error): five
+//! parameters, normal equations accumulated sample by sample in a fixed 5x5 matrix and
+//! solved (Cholesky) once per turn. A turn whose fit leaves more than a count of RMS
+//! residual was not a quadratic motion (a speed change) and is dropped; the accepted turns'
+//! sine and cosine are averaged with a forgetting time constant. The fit reads the raw
+//! counts, so the correction it applies never feeds back into what it learns. Quantisation
+//! (130 arcsec a count on 2500 lines) is noise the fit over hundreds of samples a turn and
+//! the averaging over turns remove.
+//!
+//! Allocation-free (fixed-size matrices), bounded work per cycle; the correction is
+//! limited to [`MAX_CORRECTION_DEG`].
+
+use nalgebra::{Matrix5, Vector5};
+
+/// The largest correction the identifier applies (a tenth of a degree: four times the
+/// specified error of the 2500-line encoder; larger is a broken encoder, not eccentricity).
+pub const MAX_CORRECTION_DEG: f64 = 0.1;
+
+/// Each fit spans this many turns, its samples weighted by a Hann window over them: the
+/// cut's torque ripple is a whole harmonic of the turn (the gash frequency), and without
+/// the taper it leaks into the once-per-turn sine through the quadratic (a 0.2 % ripple
+/// at 6 per turn made 7 arcsec of a 26 arcsec error).
+const TURNS_PER_FIT: f64 = 4.0;
+
+/// A fit must hold at least this many samples (600 rpm at 1 kHz) ...
+const MIN_SAMPLES_PER_FIT: u32 = 400;
+
+/// ... and take at most this long (60 rpm): slower, the quadratic no longer holds the
+/// motion over the fit and the VFD's slip dominates.
+const MAX_FIT_S: f64 = 4.0;
+
+/// A turn whose fit leaves more RMS residual than this many counts is dropped.
+const MAX_RESIDUAL_COUNTS: f64 = 1.0;
+
+/// One turn's normal equations.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct Turn {
+    start_deg: f64,
+    samples: u32,
+    elapsed_s: f64,
+    ata: Matrix5<f64>,
+    atb: Vector5<f64>,
+    btb: f64,
+    /// Sum of the samples' weights.
+    weight: f64,
+}
+
+impl Turn {
+    fn new(start_deg: f64) -> Self {
+        Self {
+            start_deg,
+            samples: 0,
+            elapsed_s: 0.0,
+            ata: Matrix5::zeros(),
+            atb: Vector5::zeros(),
+            btb: 0.0,
+            weight: 0.0,
+        }
+    }
+
+    fn add(&mut self, reading_deg: f64) {
+        let (s, c) = reading_deg.to_radians().sin_cos();
+        let t = self.elapsed_s;
+        let row = Vector5::new(1.0, t, t * t, s, c);
+        let y = reading_deg - self.start_deg;
+        let progress = (y.abs() / (360.0 * TURNS_PER_FIT)).min(1.0);
+        let w = (std::f64::consts::PI * progress).sin().powi(2);
+        self.ata += w * row * row.transpose();
+        self.atb += w * row * y;
+        self.btb += w * y * y;
+        self.weight += w;
+        self.samples += 1;
+    }
+
+    /// The fitted sine and cosine (deg) and the fit's RMS residual (deg).
+    fn solve(&self) -> Option<(f64, f64, f64)> {
+        let beta = self.ata.cholesky()?.solve(&self.atb);
+        let rss = (self.btb - beta.dot(&self.atb)).max(0.0);
+        Some((beta[3], beta[4], (rss / self.weight).sqrt()))
+    }
+}
+
+/// The once-per-turn correction of the spindle encoder, identified online.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct EccentricityIdentifier {
+    period_s: f64,
+    /// Forgetting time constant, s (0: identification off, the reading passes unchanged).
+    time_constant_s: f64,
+    count_deg: f64,
+    turn: Option<Turn>,
+    /// The correction's sine and cosine components, deg of spindle.
+    sin_deg: f64,
+    cos_deg: f64,
+    /// Turns accepted, and dropped (a speed change, too slow, too fast).
+    turns: u32,
+    dropped: u32,
+}
+
+impl EccentricityIdentifier {
+    /// Sampled every `period_s`, readings quantised to `count_deg`, forgetting with time
+    /// constant `time_constant_s` (0: off).
+    pub fn new(period_s: f64, time_constant_s: f64, count_deg: f64) -> Self {
+        Self {
+            period_s,
+            time_constant_s,
+            count_deg,
+            turn: None,
+            sin_deg: 0.0,
+            cos_deg: 0.0,
+            turns: 0,
+            dropped: 0,
+        }
+    }
+
+    /// The correction for a reading (deg of spindle): what to subtract from it.
+    pub fn correction_deg(&self, reading_deg: f64) -> f64 {
+        let (s, c) = reading_deg.to_radians().sin_cos();
+        self.sin_deg * s + self.cos_deg * c
+    }
+
+    /// Amplitude of the correction identified so far, arcsec of spindle.
+    pub fn amplitude_arcsec(&self) -> f64 {
+        self.sin_deg.hypot(self.cos_deg) * 3600.0
+    }
+
+    /// The correction's sine and cosine components, arcsec of spindle: the correction is
+    /// `sin * sin(reading) + cos * cos(reading)`.
+    pub fn components_arcsec(&self) -> (f64, f64) {
+        (self.sin_deg * 3600.0, self.cos_deg * 3600.0)
+    }
+
+    /// Turns accepted into the identification so far, and turns dropped.
+    pub fn turns(&self) -> (u32, u32) {
+        (self.turns, self.dropped)
+    }
+
+    /// Takes this cycle's raw reading (deg, continuous), or `None` where no fresh reading
+    /// came (the turn's clock still runs); returns the corrected reading.
+    pub fn update(&mut self, reading_deg: Option<f64>) -> Option<f64> {
+        if self.time_constant_s <= 0.0 {
+            return reading_deg;
+        }
+        if let Some(turn) = &mut self.turn {
+            turn.elapsed_s += self.period_s;
+        }
+        let reading = reading_deg?;
+        let turn = self.turn.get_or_insert_with(|| Turn::new(reading));
+        turn.add(reading);
+        let done = (reading - turn.start_deg).abs() >= 360.0 * TURNS_PER_FIT;
+        let too_slow = turn.elapsed_s > MAX_FIT_S;
+        if done || too_slow {
+            let fit = if done && turn.samples >= MIN_SAMPLES_PER_FIT {
+                turn.solve()
+            } else {
+                None
+            };
+            let elapsed = turn.elapsed_s;
+            match fit {
+                // Too slow or too fast is not a turn that failed: nothing to count.
+                None if !done || turn.samples < MIN_SAMPLES_PER_FIT => {}
+                Some((s, c, rms)) if rms <= MAX_RESIDUAL_COUNTS * self.count_deg => {
+                    self.turns += 1;
+                    // The first turns are averaged evenly, then each weighs by its time.
+                    let w = (1.0 / f64::from(self.turns)).max(1.0 - (-elapsed / self.time_constant_s).exp());
+                    self.sin_deg = (self.sin_deg + w * (s - self.sin_deg))
+                        .clamp(-MAX_CORRECTION_DEG, MAX_CORRECTION_DEG);
+                    self.cos_deg = (self.cos_deg + w * (c - self.cos_deg))
+                        .clamp(-MAX_CORRECTION_DEG, MAX_CORRECTION_DEG);
+                }
+                _ => self.dropped += 1,
+            }
+            *turn = Turn::new(reading);
+            turn.add(reading);
+        }
+        Some(reading - self.correction_deg(reading))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::observer::SpindleObserver;
+    use proptest::prelude::*;
+
+    const COUNT_DEG: f64 = 0.036; // 10 000 counts a turn
+
+    /// The reading of an encoder with a once-per-turn error (`amp_arcsec`, `phase_rad`)
+    /// on a spindle at `rpm` with a speed ripple at the gash frequency.
+    fn reading(t: f64, rpm: f64, amp_arcsec: f64, phase_rad: f64) -> (f64, f64) {
+        let w = rpm * 6.0;
+        let truth =
+            w * t + 0.002 * w / (std::f64::consts::TAU * 35.0) * (std::f64::consts::TAU * 35.0 * t).sin();
+        let read = truth + amp_arcsec / 3600.0 * (truth.to_radians() + phase_rad).sin();
+        ((read / COUNT_DEG).floor() * COUNT_DEG, truth)
+    }
+
+    /// Runs `seconds` at `rpm` through the identifier and the main observer as the loop
+    /// runs them; returns the once-per-turn part of the main estimate's error against the
+    /// truth over the last two seconds, arcsec (with the identifier, and without), and the
+    /// identifier.
+    fn run(
+        rpm: f64,
+        amp_arcsec: f64,
+        phase_rad: f64,
+        seconds: f64,
+        time_constant_s: f64,
+    ) -> (f64, f64, EccentricityIdentifier) {
+        let mut id = EccentricityIdentifier::new(0.001, time_constant_s, COUNT_DEG);
+        let (mut main, mut plain) = (
+            SpindleObserver::new(0.001, 10.0),
+            SpindleObserver::new(0.001, 10.0),
+        );
+        let n = (seconds * 1000.0) as u32;
+        let (mut with, mut without) = ([0.0f64; 2], [0.0f64; 2]);
+        let mut samples = 0.0;
+        for k in 0..n {
+            let t = f64::from(k) * 0.001;
+            let (read, truth) = reading(t, rpm, amp_arcsec, phase_rad);
+            let est = main.update(id.update(Some(read)).unwrap());
+            let p = plain.update(read);
+            if k + 2000 > n {
+                let (s, c) = truth.to_radians().sin_cos();
+                let (a, b) = (est.angle_deg - truth, p.angle_deg - truth);
+                with = [with[0] + a * s, with[1] + a * c];
+                without = [without[0] + b * s, without[1] + b * c];
+                samples += 1.0;
+            }
+        }
+        let amplitude = |x: [f64; 2]| 2.0 * x[0].hypot(x[1]) / samples * 3600.0;
+        (amplitude(with), amplitude(without), id)
+    }
+
+    #[test]
+    fn the_specified_error_is_identified_and_taken_out() {
+        for (rpm, phase) in [(200.0, 1.0), (140.0, 4.0), (350.0, 2.5)] {
+            let (with, without, id) = run(rpm, 26.0, phase, 15.0, 5.0);
+            // The true error 26 sin(angle + phase) = 26 cos(phase) sin + 26 sin(phase) cos.
+            let (s, c) = id.components_arcsec();
+            let miss = (s - 26.0 * f64::cos(phase)).hypot(c - 26.0 * f64::sin(phase));
+            println!(
+                "{rpm} rpm: identified {:.1} arcsec, {miss:.1} from the truth; once-per-turn part of the estimate's error {with:.1} arcsec with, {without:.1} without",
+                id.amplitude_arcsec()
+            );
+            assert!(miss < 4.0, "{rpm} rpm: {miss} arcsec from the true error");
+            assert!(with < 0.5 * without, "{with} against {without}");
+        }
+    }
+
+    #[test]
+    fn off_passes_the_reading_unchanged() {
+        let mut id = EccentricityIdentifier::new(0.001, 0.0, COUNT_DEG);
+        for k in 0..5000 {
+            let r = f64::from(k) * 1.2;
+            assert_eq!(id.update(Some(r)), Some(r));
+        }
+        assert_eq!(id.amplitude_arcsec(), 0.0);
+    }
+
+    #[test]
+    fn below_the_identification_speed_nothing_is_learnt() {
+        // 20 rpm: a turn takes 3 s, longer than a quadratic holds the motion.
+        let (_, _, id) = run(20.0, 26.0, 0.3, 10.0, 1.0);
+        assert_eq!(id.turns(), (0, 0));
+        assert_eq!(id.amplitude_arcsec(), 0.0);
+    }
+
+    #[test]
+    fn a_speed_change_within_a_turn_is_dropped_not_learnt() {
+        // The VFD ramps 0 -> 200 rpm in 1 s, then holds: the ramp's start and end fall
+        // inside turns that no quadratic fits.
+        let mut id = EccentricityIdentifier::new(0.001, 1.0, COUNT_DEG);
+        let mut angle = 0.0f64;
+        let mut speed = 0.0f64;
+        for k in 0..6000 {
+            let accel = if k < 1000 { 1200.0 } else { 0.0 };
+            speed += accel * 0.001;
+            angle += speed * 0.001;
+            id.update(Some((angle / COUNT_DEG).floor() * COUNT_DEG));
+        }
+        let (accepted, dropped) = id.turns();
+        assert!(
+            accepted >= 3 && dropped >= 1,
+            "{accepted} accepted, {dropped} dropped"
+        );
+        assert!(id.amplitude_arcsec() < 5.0, "{}", id.amplitude_arcsec());
+    }
+
+    #[test]
+    fn a_perfect_encoder_gets_no_correction_to_speak_of() {
+        let (with, _, id) = run(200.0, 0.0, 0.0, 15.0, 5.0);
+        println!(
+            "perfect encoder: identified {:.1} arcsec, once-per-turn error {with:.1}",
+            id.amplitude_arcsec()
+        );
+        assert!(id.amplitude_arcsec() < 5.0, "{}", id.amplitude_arcsec());
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(12))]
+        #[test]
+        fn the_correction_is_bounded_and_finite(
+            rpm in 130.0f64..400.0,
+            amp in 0.0f64..2000.0,
+            phase in 0.0f64..6.3,
+        ) {
+            let (_, _, id) = run(rpm, amp, phase, 3.0, 0.5);
+            prop_assert!(id.turns().0 > 0);
+            prop_assert!(id.amplitude_arcsec().is_finite());
+            prop_assert!(id.amplitude_arcsec() <= MAX_CORRECTION_DEG * 3600.0 * std::f64::consts::SQRT_2 + 1e-9);
+        }
+    }
+}
