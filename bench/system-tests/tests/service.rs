@@ -145,8 +145,25 @@ fn demo_cuts_end_to_end() {
             );
             assert_eq!(r.missing, 0, "cycles missing from the log");
             assert_eq!(logger.samples_lost, 0, "samples lost by the logger");
+            // The table drive's delay identified from the recording is the one the
+            // machine file assumes (the virtual machine's drives interpolate over a period
+            // with full feed-forward).
+            let machine = path(&demo_dir.join("machine.toml"));
+            let delay = b.hob_ok(&["log", "delay", &dir, "--machine", &machine]);
+            std::fs::write(b.art.join("delay.txt"), &delay.stdout).unwrap();
+            let number_before = |text: &str, marker: &str| -> f64 {
+                let head = &text[..text.find(marker).unwrap_or_else(|| panic!("no '{marker}' in: {text}"))];
+                head.split_whitespace().last().and_then(|w| w.parse().ok()).unwrap_or_else(|| panic!("no number before '{marker}' in: {text}"))
+            };
+            let identified_us = number_before(&delay.stdout, "us after the SYNC");
+            let assumed_us = number_before(&delay.stdout, "us assumed");
+            assert!(
+                (identified_us - assumed_us).abs() <= 100f64.max(0.1 * assumed_us),
+                "hob log delay: {}",
+                delay.stdout
+            );
             format!(
-                "worst {worst:.3} um of {:.2} um (the truth), {} samples, 0 lost",
+                "worst {worst:.3} um of {:.2} um (the truth), {} samples, 0 lost; drive delay {identified_us:.0} us identified, {assumed_us:.0} us assumed",
                 r.bound_um, logger.samples
             )
         },

@@ -305,6 +305,15 @@ enum LogCommand {
     /// Per-pass synchronisation error statistics of a recorded cut, and the feed and
     /// spindle override ranges in each pass's cut.
     Report { dir: PathBuf },
+    /// The table drive's delay identified from a recorded cut (the shift that best lines
+    /// its measured angle up with its command), against the machine file's
+    /// `control.drive_delay_us`.
+    Delay {
+        dir: PathBuf,
+        /// Machine configuration [default: config/machine.toml].
+        #[arg(long)]
+        machine: Option<PathBuf>,
+    },
 }
 
 #[derive(Debug, Subcommand)]
@@ -441,6 +450,18 @@ fn run(command: Command) -> Result<(), Failure> {
             LogCommand::Report { dir } => {
                 let r = hob_logger::export::report(&dir).map_err(Failure::Other)?;
                 emit(&hob_logger::export::report_text(&dir, &r))
+            }
+            LogCommand::Delay { dir, machine } => {
+                let machine = load_machine(machine.as_deref())?;
+                let assumed_s = f64::from(machine.control.drive_delay_us) * 1e-6;
+                let (samples, period_s) = hob_logger::delay::from_log(&dir).map_err(Failure::Other)?;
+                let d = hob_logger::delay::identify(&samples, period_s, assumed_s).ok_or_else(|| {
+                    Failure::Other(format!(
+                        "{}: less than a second of synchronised cut recorded: no delay to identify",
+                        dir.display()
+                    ))
+                })?;
+                emit(&hob_logger::delay::text(&d, assumed_s))
             }
         },
         Command::Plan {

@@ -117,7 +117,7 @@ pub const REPORT_GRADE: u8 = 5;
 
 /// The loop's cycle period as recorded: SYNC time over cycles from the first sample to the
 /// last (a log holds no configuration; 1 ms when it holds a single sample).
-fn cycle_period_s(states: &[StateSample]) -> f64 {
+pub(crate) fn cycle_period_s(states: &[StateSample]) -> f64 {
     match (states.first(), states.last()) {
         (Some(a), Some(b)) if b.cycle > a.cycle && b.sync_time_ns > a.sync_time_ns => {
             (b.sync_time_ns - a.sync_time_ns) as f64 * 1e-9 / (b.cycle - a.cycle) as f64
@@ -253,7 +253,7 @@ fn report_of(dir: &Path, states: &[StateSample]) -> Result<Report, String> {
 
 /// Whether a recorded sample is in the cut with the gearbox synchronised (where the
 /// controller's estimate of its error is recorded).
-fn synchronised_cut(s: &StateSample) -> bool {
+pub(crate) fn synchronised_cut(s: &StateSample) -> bool {
     s.pass > 0 && s.state == State::Cut.code() && s.coupling == Coupling::Synchronised.code()
 }
 

@@ -15,6 +15,7 @@
 //! - `logger.json`: written at exit and every second: samples recorded, samples lost,
 //!   events recorded, events lost, files.
 
+pub mod delay;
 pub mod export;
 pub mod format;
 pub mod predicted;
