@@ -190,7 +190,12 @@ pub struct WormPlant {
 pub struct LinearPlant {
     pub motor_inertia_kg_m2: f64,
     pub moving_mass_kg: f64,
+    /// Sliding (Coulomb) friction coefficient of the ways.
     pub friction_coefficient: f64,
+    /// Breakaway over sliding friction at rest (stick-slip on the ways: Stribeck).
+    pub static_friction_ratio: f64,
+    /// The speed over which the friction falls from breakaway to sliding, mm/s.
+    pub stribeck_speed_mm_s: f64,
     pub peak_motor_torque_nm: f64,
     pub velocity_loop_hz: f64,
     pub position_loop_hz: f64,
@@ -290,6 +295,22 @@ impl PlantConfig {
             p.require(ends && rising && in_range, "simulation.sync_late_quantiles_us", || {
                 "must be [quantile, late_us] pairs from quantile 0 to 1, quantiles rising, lateness not falling, within 0 .. 500 us".into()
             });
+        }
+        for (axis, l) in [("x", &self.x), ("y", &self.y)] {
+            p.within(
+                &format!("{axis}.static_friction_ratio"),
+                l.static_friction_ratio,
+                1.0,
+                3.0,
+                "",
+            );
+            p.within(
+                &format!("{axis}.stribeck_speed_mm_s"),
+                l.stribeck_speed_mm_s,
+                0.001,
+                100.0,
+                "mm/s",
+            );
         }
         let sp = &self.spindle;
         p.within(

@@ -19,8 +19,12 @@ pub struct ServoParams {
     pub velocity_loop_hz: f64,
     pub position_loop_hz: f64,
     pub velocity_feed_forward: f64,
-    /// Coulomb friction at the motor.
+    /// Coulomb (sliding) friction at the motor.
     pub friction_nm: f64,
+    /// Friction at rest (breakaway), at the motor: at least `friction_nm`; it falls to it
+    /// over `stribeck_rad_s` (Stribeck).
+    pub static_friction_nm: f64,
+    pub stribeck_rad_s: f64,
     /// Constant load at the motor (gravity on a vertical axis).
     pub constant_load_nm: f64,
     /// A holding brake when disabled (vertical axis).
@@ -165,7 +169,10 @@ impl Servo {
             self.motor_rad_s = 0.0;
             return;
         }
-        let friction = self.p.friction_nm * (self.motor_rad_s / 0.01).tanh();
+        let v = self.motor_rad_s;
+        let stribeck = (-(v / self.p.stribeck_rad_s).powi(2)).exp();
+        let level = self.p.friction_nm + (self.p.static_friction_nm - self.p.friction_nm) * stribeck;
+        let friction = level * (v / 0.01).tanh();
         let acc = (torque - friction - self.p.constant_load_nm - self.disturbance_nm) / self.p.inertia_kg_m2;
         self.motor_rad_s += acc * dt_s;
         self.motor_rad += self.motor_rad_s * dt_s;
