@@ -697,8 +697,11 @@ fn operator_path_from_power_on_to_a_continued_cut() {
             let y = b.hob_ok(&["touch-off", "y", "--height", &format!("{gauge_height_mm:.6}")]);
             assert!(y.text.contains("saved in"), "hob touch-off y: {}", y.text);
             let t = b.status();
+            // Within 1 um: X and Y at rest may move by a count (0.33 um) between the status
+            // read above and the touch-off (the servo holding against the ways' static
+            // friction, config/plant.toml), and the loop computes from its own reading.
             assert!(
-                (t.x_offset_mm - 0.1).abs() < 1e-5 && (t.y_offset_mm + 0.2).abs() < 1e-5,
+                (t.x_offset_mm - 0.1).abs() < 1e-3 && (t.y_offset_mm + 0.2).abs() < 1e-3,
                 "offsets {} {}",
                 t.x_offset_mm,
                 t.y_offset_mm
