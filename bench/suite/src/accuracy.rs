@@ -338,8 +338,8 @@ pub fn text(r: &AccuracyBench) -> String {
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "kebab-case")]
 pub enum MachinePart {
-    /// A perfect wheel, no runout, no play, a stiff mesh (the table rings at 400 Hz): the
-    /// controller's share and the work's twist only.
+    /// A perfect wheel, no runout, no play, a stiff mesh (the table rings at 400 Hz), a hob
+    /// without runout: the controller's share and the work's twist only.
     Ideal,
     /// The shipped wheel's pitch errors (its grade) alone.
     WheelPitch,
@@ -349,17 +349,20 @@ pub enum MachinePart {
     Backlash,
     /// The shipped mesh stiffness (the table on it) alone.
     Compliance,
+    /// The hob's shipped axial runout alone.
+    HobRunout,
     /// Everything as shipped (`config/plant.toml`).
     Shipped,
 }
 
 impl MachinePart {
-    pub const ALL: [MachinePart; 6] = [
+    pub const ALL: [MachinePart; 7] = [
         MachinePart::Ideal,
         MachinePart::WheelPitch,
         MachinePart::WormRunout,
         MachinePart::Backlash,
         MachinePart::Compliance,
+        MachinePart::HobRunout,
         MachinePart::Shipped,
     ];
 
@@ -370,11 +373,13 @@ impl MachinePart {
             MachinePart::WormRunout => "+ worm runout",
             MachinePart::Backlash => "+ backlash",
             MachinePart::Compliance => "+ mesh compliance",
+            MachinePart::HobRunout => "+ hob axial runout",
             MachinePart::Shipped => "all (shipped plant)",
         }
     }
 
-    /// The plant with only this part of the worm drive as shipped.
+    /// The plant with only this part of the machine (the worm drive's, or the hob's
+    /// runout) as shipped.
     pub fn apply(self, shipped: &PlantConfig) -> PlantConfig {
         if self == MachinePart::Shipped {
             return shipped.clone();
@@ -399,7 +404,10 @@ impl MachinePart {
             MachinePart::WormRunout => w.worm_axial_runout_um = runout,
             MachinePart::Backlash => w.backlash_arcsec = backlash,
             MachinePart::Compliance => w.stiffness_nm_rad = stiffness,
-            MachinePart::Ideal | MachinePart::Shipped => {}
+            MachinePart::Ideal | MachinePart::HobRunout | MachinePart::Shipped => {}
+        }
+        if self != MachinePart::HobRunout {
+            p.spindle.hob_axial_runout_um = 0.0;
         }
         p
     }
@@ -478,7 +486,47 @@ pub fn breakdown(a: &Args) -> Result<BreakdownBench, String> {
         rows: on_every_core(&cases, |(p, m)| breakdown_one(&machine, &plant, p, *m))?,
     };
     crate::write_json(&a.out.join("breakdown.json"), &r)?;
+    std::fs::write(a.out.join("breakdown.svg"), breakdown_svg(&r)).map_err(|e| e.to_string())?;
     Ok(r)
+}
+
+/// The breakdown as a picture: per gear, the controller's share of f_pt (on the ideal
+/// machine) and the gear's f_pt with each part of the machine alone and all together, in
+/// percent of grade 4, against the goal (25 %) and the tolerance (100 %).
+pub fn breakdown_svg(r: &BreakdownBench) -> String {
+    let mut gears: Vec<&str> = r.rows.iter().map(|x| x.gear.as_str()).collect();
+    gears.dedup();
+    let pct = |v: Option<f64>, t: Option<f64>| match (v, t) {
+        (Some(v), Some(t)) if t > 0.0 => Some(100.0 * v / t),
+        _ => None,
+    };
+    let groups: Vec<crate::plot::BarGroup> = gears
+        .iter()
+        .map(|g| {
+            let rows: Vec<&BreakdownRow> = r.rows.iter().filter(|x| x.gear == *g).collect();
+            let mut bars = Vec::new();
+            if let Some(ideal) = rows.iter().find(|x| x.part == MachinePart::Ideal)
+                && let Some(v) = pct(ideal.controller_fpt_um, ideal.fpt_tolerance_grade4_um)
+            {
+                bars.push(("controller's share".to_string(), v));
+            }
+            for x in &rows {
+                if let Some(v) = pct(x.gear_fpt_um, x.fpt_tolerance_grade4_um) {
+                    bars.push((format!("gear, {}", x.part.name()), v));
+                }
+            }
+            crate::plot::BarGroup {
+                label: (*g).to_string(),
+                bars,
+            }
+        })
+        .filter(|g| !g.bars.is_empty())
+        .collect();
+    crate::plot::bars_svg(
+        "Finished gear's f_pt, % of ISO 1328-1 grade 4 (nominal disturbance; hob-bench accuracy --breakdown)",
+        &groups,
+        &[(25.0, "goal for the controller's share"), (100.0, "grade 4")],
+    )
 }
 
 pub fn breakdown_text(r: &BreakdownBench) -> String {
