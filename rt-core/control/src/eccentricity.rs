@@ -10,16 +10,16 @@
 //!
 //! The error is fixed to the disc, so it is fixed to the encoder's counts for as long as the
 //! controller runs (the counter is incremental: after a power cycle the phase is new, so it
-//! is identified anew at each start-up, not stored). Over each whole turn of the spindle the
-//! readings are fitted by least squares with a quadratic in time (the motion: speed and a
-//! steady acceleration) plus a sine and a cosine of the reading (the error): five
-//! parameters, normal equations accumulated sample by sample in a fixed 5x5 matrix and
-//! solved (Cholesky) once per turn. A turn whose fit leaves more than a count of RMS
-//! residual was not a quadratic motion (a speed change) and is dropped; the accepted turns'
-//! sine and cosine are averaged with a forgetting time constant. The fit reads the raw
-//! counts, so the correction it applies never feeds back into what it learns. Quantisation
-//! (130 arcsec a count on 2500 lines) is noise the fit over hundreds of samples a turn and
-//! the averaging over turns remove.
+//! is identified anew at each start-up, not stored). Over every four turns of the spindle
+//! the readings are fitted by least squares, each sample weighted by a Hann window over
+//! the four turns, with a quadratic in time (the motion: speed and a steady acceleration)
+//! plus a sine and a cosine of the reading (the error): five parameters, normal equations
+//! accumulated sample by sample in a fixed 5x5 matrix and solved (Cholesky) once per fit.
+//! A fit that leaves more than a count of RMS residual was not a quadratic motion (a speed
+//! change) and is dropped; the accepted fits' sine and cosine are averaged with a
+//! forgetting time constant. The fit reads the raw counts, so the correction it applies
+//! never feeds back into what it learns. Quantisation (130 arcsec a count on 2500 lines)
+//! is noise that the fit over hundreds of samples and the averaging over fits remove.
 //!
 //! Allocation-free (fixed-size matrices), bounded work per cycle; the correction is
 //! limited to [`MAX_CORRECTION_DEG`].
@@ -43,12 +43,12 @@ const MIN_SAMPLES_PER_FIT: u32 = 400;
 /// motion over the fit and the VFD's slip dominates.
 const MAX_FIT_S: f64 = 4.0;
 
-/// A turn whose fit leaves more RMS residual than this many counts is dropped.
+/// A fit that leaves more RMS residual than this many counts is dropped.
 const MAX_RESIDUAL_COUNTS: f64 = 1.0;
 
-/// One turn's normal equations.
+/// One fit's normal equations (over `TURNS_PER_FIT` turns).
 #[derive(Debug, Clone, Copy, PartialEq)]
-struct Turn {
+struct Fit {
     start_deg: f64,
     samples: u32,
     elapsed_s: f64,
@@ -59,7 +59,7 @@ struct Turn {
     weight: f64,
 }
 
-impl Turn {
+impl Fit {
     fn new(start_deg: f64) -> Self {
         Self {
             start_deg,
@@ -101,12 +101,13 @@ pub struct EccentricityIdentifier {
     /// Forgetting time constant, s (0: identification off, the reading passes unchanged).
     time_constant_s: f64,
     count_deg: f64,
-    turn: Option<Turn>,
+    fit: Option<Fit>,
     /// The correction's sine and cosine components, deg of spindle.
     sin_deg: f64,
     cos_deg: f64,
-    /// Turns accepted, and dropped (a speed change, too slow, too fast).
-    turns: u32,
+    /// Fits accepted, and dropped (their residual: not a quadratic motion). A fit that
+    /// took too long or held too few samples is restarted without counting.
+    accepted: u32,
     dropped: u32,
 }
 
@@ -118,10 +119,10 @@ impl EccentricityIdentifier {
             period_s,
             time_constant_s,
             count_deg,
-            turn: None,
+            fit: None,
             sin_deg: 0.0,
             cos_deg: 0.0,
-            turns: 0,
+            accepted: 0,
             dropped: 0,
         }
     }
@@ -143,39 +144,43 @@ impl EccentricityIdentifier {
         (self.sin_deg * 3600.0, self.cos_deg * 3600.0)
     }
 
-    /// Turns accepted into the identification so far, and turns dropped.
-    pub fn turns(&self) -> (u32, u32) {
-        (self.turns, self.dropped)
+    /// Fits accepted into the identification so far, and fits dropped.
+    pub fn fits(&self) -> (u32, u32) {
+        (self.accepted, self.dropped)
     }
 
-    /// Takes this cycle's raw reading (deg, continuous), or `None` where no fresh reading
-    /// came (the turn's clock still runs); returns the corrected reading.
-    pub fn update(&mut self, reading_deg: Option<f64>) -> Option<f64> {
-        if self.time_constant_s <= 0.0 {
-            return reading_deg;
+    /// Takes this cycle's raw reading (deg, continuous), learning from it where it is
+    /// `fresh` (a held reading is not a measurement; the fit's clock still runs); returns
+    /// the reading less the correction identified so far.
+    pub fn update(&mut self, reading_deg: f64, fresh: bool) -> f64 {
+        if self.time_constant_s > 0.0 {
+            self.learn(reading_deg, fresh);
         }
-        if let Some(turn) = &mut self.turn {
-            turn.elapsed_s += self.period_s;
+        reading_deg - self.correction_deg(reading_deg)
+    }
+
+    fn learn(&mut self, reading: f64, fresh: bool) {
+        if let Some(fit) = &mut self.fit {
+            fit.elapsed_s += self.period_s;
         }
-        let reading = reading_deg?;
-        let turn = self.turn.get_or_insert_with(|| Turn::new(reading));
-        turn.add(reading);
-        let done = (reading - turn.start_deg).abs() >= 360.0 * TURNS_PER_FIT;
-        let too_slow = turn.elapsed_s > MAX_FIT_S;
-        if done || too_slow {
-            let fit = if done && turn.samples >= MIN_SAMPLES_PER_FIT {
-                turn.solve()
-            } else {
-                None
-            };
-            let elapsed = turn.elapsed_s;
-            match fit {
-                // Too slow or too fast is not a turn that failed: nothing to count.
-                None if !done || turn.samples < MIN_SAMPLES_PER_FIT => {}
+        if !fresh {
+            return;
+        }
+        let fit = self.fit.get_or_insert_with(|| Fit::new(reading));
+        fit.add(reading);
+        let done = (reading - fit.start_deg).abs() >= 360.0 * TURNS_PER_FIT;
+        if !done && fit.elapsed_s <= MAX_FIT_S {
+            return;
+        }
+        // Too slow (not done in time) or too fast (too few samples) is not a fit that
+        // failed: it restarts without counting.
+        if done && fit.samples >= MIN_SAMPLES_PER_FIT {
+            match fit.solve() {
                 Some((s, c, rms)) if rms <= MAX_RESIDUAL_COUNTS * self.count_deg => {
-                    self.turns += 1;
-                    // The first turns are averaged evenly, then each weighs by its time.
-                    let w = (1.0 / f64::from(self.turns)).max(1.0 - (-elapsed / self.time_constant_s).exp());
+                    self.accepted += 1;
+                    // The first fits are averaged evenly, then each weighs by its time.
+                    let w = (1.0 / f64::from(self.accepted))
+                        .max(1.0 - (-fit.elapsed_s / self.time_constant_s).exp());
                     self.sin_deg = (self.sin_deg + w * (s - self.sin_deg))
                         .clamp(-MAX_CORRECTION_DEG, MAX_CORRECTION_DEG);
                     self.cos_deg = (self.cos_deg + w * (c - self.cos_deg))
@@ -183,10 +188,9 @@ impl EccentricityIdentifier {
                 }
                 _ => self.dropped += 1,
             }
-            *turn = Turn::new(reading);
-            turn.add(reading);
         }
-        Some(reading - self.correction_deg(reading))
+        *fit = Fit::new(reading);
+        fit.add(reading);
     }
 }
 
@@ -230,7 +234,7 @@ mod tests {
         for k in 0..n {
             let t = f64::from(k) * 0.001;
             let (read, truth) = reading(t, rpm, amp_arcsec, phase_rad);
-            let est = main.update(id.update(Some(read)).unwrap());
+            let est = main.update(id.update(read, true));
             let p = plain.update(read);
             if k + 2000 > n {
                 let (s, c) = truth.to_radians().sin_cos();
@@ -265,7 +269,7 @@ mod tests {
         let mut id = EccentricityIdentifier::new(0.001, 0.0, COUNT_DEG);
         for k in 0..5000 {
             let r = f64::from(k) * 1.2;
-            assert_eq!(id.update(Some(r)), Some(r));
+            assert_eq!(id.update(r, true), r);
         }
         assert_eq!(id.amplitude_arcsec(), 0.0);
     }
@@ -274,7 +278,7 @@ mod tests {
     fn below_the_identification_speed_nothing_is_learnt() {
         // 20 rpm: a turn takes 3 s, longer than a quadratic holds the motion.
         let (_, _, id) = run(20.0, 26.0, 0.3, 10.0, 1.0);
-        assert_eq!(id.turns(), (0, 0));
+        assert_eq!(id.fits(), (0, 0));
         assert_eq!(id.amplitude_arcsec(), 0.0);
     }
 
@@ -289,9 +293,9 @@ mod tests {
             let accel = if k < 1000 { 1200.0 } else { 0.0 };
             speed += accel * 0.001;
             angle += speed * 0.001;
-            id.update(Some((angle / COUNT_DEG).floor() * COUNT_DEG));
+            id.update((angle / COUNT_DEG).floor() * COUNT_DEG, true);
         }
-        let (accepted, dropped) = id.turns();
+        let (accepted, dropped) = id.fits();
         assert!(
             accepted >= 3 && dropped >= 1,
             "{accepted} accepted, {dropped} dropped"
@@ -318,7 +322,7 @@ mod tests {
             phase in 0.0f64..6.3,
         ) {
             let (_, _, id) = run(rpm, amp, phase, 3.0, 0.5);
-            prop_assert!(id.turns().0 > 0);
+            prop_assert!(id.fits().0 > 0);
             prop_assert!(id.amplitude_arcsec().is_finite());
             prop_assert!(id.amplitude_arcsec() <= MAX_CORRECTION_DEG * 3600.0 * std::f64::consts::SQRT_2 + 1e-9);
         }

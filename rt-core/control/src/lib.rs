@@ -578,10 +578,7 @@ impl Controller {
         // observer coasts instead of taking the held value as a measurement.
         let fresh = input.table.fresh || !self.started;
         // The reading without the encoder's once-per-turn error identified so far.
-        let spindle = self
-            .eccentricity
-            .update(fresh.then_some(reading))
-            .unwrap_or_else(|| reading - self.eccentricity.correction_deg(reading));
+        let spindle = self.eccentricity.update(reading, fresh);
         let est = if fresh {
             self.observer.update(spindle)
         } else {
@@ -880,11 +877,6 @@ impl Controller {
     /// The gearbox (for its recorded phase and parameters).
     pub fn gearbox(&self) -> &Gearbox {
         &self.gearbox
-    }
-
-    /// The spindle encoder's once-per-turn error identified so far (diagnostics).
-    pub fn encoder_eccentricity(&self) -> &EccentricityIdentifier {
-        &self.eccentricity
     }
 
     /// Whether every drive reports "operation enabled".

@@ -112,20 +112,6 @@ impl SpindleObserver {
     pub fn estimate(&self) -> SpindleEstimate {
         self.state.unwrap_or_default()
     }
-
-    /// Starts it from another estimate (its angle, speed and acceleration).
-    pub fn set(&mut self, estimate: SpindleEstimate) {
-        self.state = Some(estimate);
-    }
-
-    /// Whether a measurement has started it.
-    pub fn is_started(&self) -> bool {
-        self.state.is_some()
-    }
-
-    pub fn period_s(&self) -> f64 {
-        self.period_s
-    }
 }
 
 #[cfg(test)]
