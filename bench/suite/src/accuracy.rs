@@ -293,6 +293,15 @@ pub fn run(a: &Args) -> Result<AccuracyBench, String> {
     Ok(r)
 }
 
+/// A run's last column: "done", "not finished" or "fault F".
+fn result(fault: Option<&str>, completed: bool) -> String {
+    match fault {
+        Some(f) => format!("fault {f}"),
+        None if completed => "done".into(),
+        None => "not finished".into(),
+    }
+}
+
 /// "0.71 (40 %)", or "-" where the last pass completed no face section.
 fn share(um: Option<f64>, of: Option<f64>) -> String {
     match (um, of) {
@@ -323,11 +332,7 @@ pub fn text(r: &AccuracyBench) -> String {
             share(x.finished_fp_um, x.finished_fp_of_grade4),
             share(x.gear_fpt_um, x.gear_fpt_of_grade4),
             share(x.gear_fp_um, x.gear_fp_of_grade4),
-            match &x.fault {
-                Some(f) => format!("fault {f}"),
-                None if x.completed => "done".into(),
-                None => "not finished".into(),
-            }
+            result(x.fault.as_deref(), x.completed)
         ));
     }
     o
@@ -769,20 +774,16 @@ pub fn sensitivity_text(r: &SensitivityBench) -> String {
             pct(x.controller_fp_of_grade4),
             pct(x.gear_fpt_of_grade4),
             pct(x.gear_fp_of_grade4),
-            match &x.fault {
-                Some(f) => format!("fault {f}"),
-                None if x.completed => "done".into(),
-                None => "not finished".into(),
-            }
+            result(x.fault.as_deref(), x.completed)
         ));
     }
     o
 }
 
-/// A share of grade 4 as a share of grade `grade` (ISO 1328-1:2013: each grade sqrt(2)
-/// coarser than the one before, unrounded).
+/// A share of grade 4 as a share of grade `grade` (ISO 1328-1:2013's grade factor).
 pub fn of_grade(of_grade4: f64, grade: u8) -> f64 {
-    of_grade4 / std::f64::consts::SQRT_2.powi(i32::from(grade) - 4)
+    use hob_gearing::iso1328::grade_factor;
+    of_grade4 * grade_factor(4) / grade_factor(grade)
 }
 
 /// One gear under one disturbance over many SYNC-timing and wheel seeds: the worst seed's
@@ -894,11 +895,7 @@ pub fn seeds_text(r: &SeedsBench) -> String {
             pct(x.worst_fp_of_goal, x.worst_fp_seed),
             x.worst_max_um,
             x.bound_um,
-            match &x.fault {
-                Some(f) => format!("fault {f}"),
-                None if x.completed => "done".into(),
-                None => "not finished".into(),
-            }
+            result(x.fault.as_deref(), x.completed)
         ));
     }
     o

@@ -392,18 +392,23 @@ pub fn accuracy_checks(r: &AccuracyBench, l: &AccuracyLimits) -> Vec<Check> {
             v.push(match (um, of) {
                 (Some(um), Some(of)) => {
                     let of = crate::accuracy::of_grade(of, goal);
-                    Check {
-                        name,
-                        measured: format!("{of:.2} ({um:.2} um)"),
-                        limit: format!("<= {:.2}", l.controller_of_goal),
-                        pass: Some(of <= l.controller_of_goal),
-                    }
+                    within_goal(name, of, format!("{of:.2} ({um:.2} um)"), l)
                 }
                 _ => missing(&name, "no face section completed in the last pass".into()),
             });
         }
     }
     v
+}
+
+/// The controller's share `of` the goal grade's tolerance against the goal.
+fn within_goal(name: String, of: f64, measured: String, l: &AccuracyLimits) -> Check {
+    Check {
+        name,
+        measured,
+        limit: format!("<= {:.2}", l.controller_of_goal),
+        pass: Some(of <= l.controller_of_goal),
+    }
 }
 
 /// Issue 16's goal at every seed: the worst seed's controller's share of f_pt and F_p of
@@ -433,12 +438,7 @@ pub fn seeds_checks(r: &SeedsBench, l: &AccuracyLimits) -> Vec<Check> {
         ] {
             let name = format!("{head}: controller's worst {what} of grade {}", x.goal_grade);
             v.push(match (of, seed) {
-                (Some(of), Some(seed)) => Check {
-                    name,
-                    measured: format!("{of:.2} (seed {seed})"),
-                    limit: format!("<= {:.2}", l.controller_of_goal),
-                    pass: Some(of <= l.controller_of_goal),
-                },
+                (Some(of), Some(seed)) => within_goal(name, of, format!("{of:.2} (seed {seed})"), l),
                 _ => missing(&name, "no face section completed".into()),
             });
         }

@@ -123,6 +123,7 @@ const ALLOWED: &[(&str, &[&str])] = &[
         &[
             "hob-can-transport",
             "hob-control",
+            "hob-gearing",
             "hob-ipc",
             "hob-plant",
             "hob-process-image",

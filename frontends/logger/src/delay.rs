@@ -101,14 +101,16 @@ fn misfit(samples: &[TableSample], shift: f64) -> (f64, usize) {
 pub fn identify(samples: &[TableSample], period_s: f64, assumed_drive_delay_s: f64) -> Option<DriveDelay> {
     let step = 10e-6 / period_s;
     let steps = (MAX_CYCLES / step) as usize;
-    let costs: Vec<(f64, f64)> = (0..=steps)
+    // (shift, mean square, samples) for each shift scanned.
+    let costs: Vec<(f64, f64, usize)> = (0..=steps)
         .map(|k| {
             let shift = k as f64 * step;
-            (shift, misfit(samples, shift).0)
+            let (cost, n) = misfit(samples, shift);
+            (shift, cost, n)
         })
         .collect();
     let best = (0..costs.len()).min_by(|&a, &b| costs[a].1.total_cmp(&costs[b].1))?;
-    let (_, n) = misfit(samples, costs[best].0);
+    let n = costs[best].2;
     if n < (1.0 / period_s) as usize || !costs[best].1.is_finite() {
         return None;
     }

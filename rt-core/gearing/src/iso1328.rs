@@ -5,12 +5,12 @@
 /// `f_p = (0.001 d + 0.4 m_n + 5) * sqrt(2)^(grade - 5)`, unrounded.
 pub fn single_pitch_tolerance_um(reference_diameter_mm: f64, normal_module_mm: f64, grade: u8) -> f64 {
     let base = 0.001 * reference_diameter_mm + 0.4 * normal_module_mm + 5.0;
-    base * std::f64::consts::SQRT_2.powi(i32::from(grade) - 5)
+    base * grade_factor(grade)
 }
 
 /// The grade factor of ISO 1328-1:2013: each grade is sqrt(2) coarser than the one
-/// before, grade 5 the base.
-fn grade_factor(grade: u8) -> f64 {
+/// before, grade 5 the base (a tolerance of grade g is grade 5's times this).
+pub fn grade_factor(grade: u8) -> f64 {
     std::f64::consts::SQRT_2.powi(i32::from(grade) - 5)
 }
 
