@@ -76,8 +76,12 @@ pub fn run(machine: &MachineConfig, a: &Args<'_>) -> Result<String, (bool, Strin
             hob_logger::predicted::pass_line(p.pass, p.predicted.as_ref(), p.controller_share.as_ref()) + "\n"
         })
         .collect();
+    let late = match summary.late_frames {
+        [0, 0] => String::new(),
+        [t, r] => format!("late frames (plant file): {t} position TPDOs, {r} target RPDOs\n"),
+    };
     Ok(format!(
-        "{}: {} in {:.1} s simulated; sync error {} (bound {:.2} um = 1/4 of grade-5 f_p); ccc {}, predictor {}; trace {}\n{predicted}",
+        "{}: {} in {:.1} s simulated; sync error {} (bound {:.2} um = 1/4 of grade-5 f_p); ccc {}, predictor {}; trace {}\n{late}{predicted}",
         a.program.display(),
         match &summary.fault {
             Some(f) => format!("FAULT {f}"),

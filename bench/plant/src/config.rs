@@ -65,6 +65,18 @@ pub struct SimulationConfig {
     /// when the SYNC arrives (see [`crate::sim::SyncTiming`]).
     #[serde(default)]
     pub drive_clock_slew_percent: Option<f64>,
+    /// The share of each drive's position TPDOs (B's carries the spindle encoder) that
+    /// miss their SYNC's exchange: the master has nothing new from that drive this cycle
+    /// and the controller coasts on its last value. 0: none (the lockstep virtual machine
+    /// on vcan: 0 of 72 077 cycles, `hob can check-capture`).
+    #[serde(default)]
+    pub tpdo_late_rate: f64,
+    /// The share of the target RPDOs that reach their drive after the SYNC: the drive then
+    /// keeps the target it has for that period (the object 0x607A still holds the last
+    /// one; CiA 402 cyclic synchronous position defines no extrapolation) and takes the
+    /// new one at the next SYNC.
+    #[serde(default)]
+    pub rpdo_late_rate: f64,
 }
 
 /// The loop's wake-up latency measured with `target/release/hob-bench loop --load hmi
@@ -196,6 +208,13 @@ pub struct LinearPlant {
     pub static_friction_ratio: f64,
     /// The speed over which the friction falls from breakaway to sliding, mm/s.
     pub stribeck_speed_mm_s: f64,
+    /// The share of the cut's force F_c that pushes the slide along its axis (Y: the
+    /// hob's teeth move nearly along the gear's axis at the cut, so most of F_c does; X is
+    /// clamped in the cut: 0). Its sense is the teeth's motion's opposite (the work is
+    /// pushed along it, the hob back): against the feed in the project's climb hobbing,
+    /// with it in conventional (`hob_gearing::signs`).
+    #[serde(default)]
+    pub cut_force_share: f64,
     pub peak_motor_torque_nm: f64,
     pub velocity_loop_hz: f64,
     pub position_loop_hz: f64,
@@ -251,6 +270,14 @@ impl PlantConfig {
         );
         p.within("simulation.sync_jitter_us", s.sync_jitter_us, 0.0, 200.0, "us");
         p.non_negative("simulation.safety_stop_delay_s", s.safety_stop_delay_s);
+        for (key, rate) in [
+            ("simulation.tpdo_late_rate", s.tpdo_late_rate),
+            ("simulation.rpdo_late_rate", s.rpdo_late_rate),
+        ] {
+            p.require((0.0..=0.1).contains(&rate), key, || {
+                format!("must be a share of the frames from 0 to 0.1, more is a broken bus (is {rate})")
+            });
+        }
         if let Some(pc) = s.drive_clock_slew_percent {
             p.require(pc.is_finite() && pc > 0.0 && pc <= 5.0, "simulation.drive_clock_slew_percent", || {
                 format!("{pc}: must be above 0 and at most 5 % of a period (leave it out for drives without a SYNC PLL)")
@@ -310,6 +337,13 @@ impl PlantConfig {
                 0.001,
                 100.0,
                 "mm/s",
+            );
+            p.within(
+                &format!("{axis}.cut_force_share"),
+                l.cut_force_share,
+                0.0,
+                1.0,
+                "",
             );
         }
         let sp = &self.spindle;

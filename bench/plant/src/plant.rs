@@ -627,8 +627,13 @@ impl Plant {
         self.spindle.advance(set_hz, dt);
         // The cut's tangential force on the gear, resisting the table's motion.
         let mut resisting = 0.0;
+        self.y.process_load_nm = 0.0;
         if let Some(w) = self.workpiece {
             let force_n = self.spindle.cutting_torque_nm / (w.tool_diameter_mm / 2000.0);
+            // Along the gear's axis: a positive spindle moves the teeth up at the cut
+            // (hob_gearing::signs), pushing the work up and the hob, on the Y slide, down.
+            let on_hob_up_n = -self.cfg.y.cut_force_share * force_n;
+            self.y.process_load_nm = -on_hob_up_n * 0.001 / self.y_rad_per_mm;
             let torque = self.cfg.table.cut_force_share * force_n * w.pitch_radius_mm / 1000.0;
             // Resists the table's turning: on the drive through the worm, and on the work
             // link, which deflects back against the turning.

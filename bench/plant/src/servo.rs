@@ -68,6 +68,9 @@ pub struct Servo {
     pub locked: bool,
     /// External torque at the motor, Nm.
     pub disturbance_nm: f64,
+    /// The process's load at the motor (the cut's force on a slide), Nm, against the
+    /// positive direction.
+    pub process_load_nm: f64,
 }
 
 impl Servo {
@@ -96,6 +99,7 @@ impl Servo {
             fault: false,
             locked: false,
             disturbance_nm: 0.0,
+            process_load_nm: 0.0,
         }
     }
 
@@ -173,7 +177,8 @@ impl Servo {
         let stribeck = (-(v / self.p.stribeck_rad_s).powi(2)).exp();
         let level = self.p.friction_nm + (self.p.static_friction_nm - self.p.friction_nm) * stribeck;
         let friction = level * (v / 0.01).tanh();
-        let acc = (torque - friction - self.p.constant_load_nm - self.disturbance_nm) / self.p.inertia_kg_m2;
+        let acc = (torque - friction - self.p.constant_load_nm - self.disturbance_nm - self.process_load_nm)
+            / self.p.inertia_kg_m2;
         self.motor_rad_s += acc * dt_s;
         self.motor_rad += self.motor_rad_s * dt_s;
     }

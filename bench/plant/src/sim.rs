@@ -10,7 +10,8 @@ use hob_control::egb::Coupling;
 use hob_control::events::Event;
 use hob_control::program::CycleProgram;
 use hob_control::{
-    Command, ControlParams, Controller, CycleInputs, CycleOutputs, HomeAxes, SpindleAngleSource, Status,
+    AxisFeedback, Command, ControlParams, Controller, CycleInputs, CycleOutputs, HomeAxes,
+    SpindleAngleSource, Status,
 };
 use hob_gearing::units::arcsec_to_um_at_radius;
 use hob_setup::config::machine::MachineConfig;
@@ -68,6 +69,9 @@ pub struct Summary {
     pub total_time_s: f64,
     pub completed: bool,
     pub fault: Option<String>,
+    /// Frames that missed their SYNC: position TPDOs, target RPDOs
+    /// (`simulation.tpdo_late_rate`, `rpdo_late_rate`).
+    pub late_frames: [u64; 2],
 }
 
 /// When the drives act on each SYNC against its nominal instant. The SYNC itself arrives
@@ -131,6 +135,89 @@ impl SyncTiming {
     }
 }
 
+/// Frames that miss their SYNC (`simulation.tpdo_late_rate`, `rpdo_late_rate`), drawn
+/// per drive and cycle: a late position TPDO leaves the master's image of that drive as it
+/// was, not fresh (the master holds a frame that comes a SYNC late, `hob_process_image`); a
+/// late target RPDO leaves the drive with the target it already had. Deterministic for
+/// `simulation.seed`, independent of the SYNC timing's draws.
+#[derive(Debug, Clone)]
+pub struct FrameTiming {
+    tpdo_late_rate: f64,
+    rpdo_late_rate: f64,
+    rng: u64,
+    /// The targets each drive (B, X, Y) has taken.
+    held_targets: Option<[i32; 3]>,
+    /// What the master last received.
+    last_inputs: Option<CycleInputs>,
+    /// Late TPDOs and RPDOs so far.
+    pub late: [u64; 2],
+}
+
+impl FrameTiming {
+    pub fn new(plant_cfg: &PlantConfig) -> Self {
+        let s = &plant_cfg.simulation;
+        Self {
+            tpdo_late_rate: s.tpdo_late_rate,
+            rpdo_late_rate: s.rpdo_late_rate,
+            rng: s.seed.wrapping_mul(0xD1B5_4A32_D192_ED03) | 1,
+            held_targets: None,
+            last_inputs: None,
+            late: [0; 2],
+        }
+    }
+
+    fn late(&mut self, rate: f64) -> bool {
+        rate > 0.0 && crate::rng::uniform(&mut self.rng) < rate
+    }
+
+    /// The outputs as the drives take them at this SYNC.
+    pub fn at_drives(&mut self, mut o: CycleOutputs) -> CycleOutputs {
+        let mut targets = [o.table_target_counts, o.x_target_counts, o.y_target_counts];
+        if let Some(held) = self.held_targets {
+            for (t, h) in targets.iter_mut().zip(held) {
+                if self.late(self.rpdo_late_rate) {
+                    *t = h;
+                    self.late[1] += 1;
+                }
+            }
+        }
+        self.held_targets = Some(targets);
+        [o.table_target_counts, o.x_target_counts, o.y_target_counts] = targets;
+        o
+    }
+
+    /// The drives' answers to this SYNC as the master has them.
+    pub fn at_master(&mut self, mut i: CycleInputs) -> CycleInputs {
+        if let Some(last) = self.last_inputs {
+            if self.late(self.tpdo_late_rate) {
+                // B's TPDO carries the spindle encoder.
+                i.spindle_counts = last.spindle_counts;
+                i.table = AxisFeedback {
+                    fresh: false,
+                    ..last.table
+                };
+                self.late[0] += 1;
+            }
+            if self.late(self.tpdo_late_rate) {
+                i.x = AxisFeedback {
+                    fresh: false,
+                    ..last.x
+                };
+                self.late[0] += 1;
+            }
+            if self.late(self.tpdo_late_rate) {
+                i.y = AxisFeedback {
+                    fresh: false,
+                    ..last.y
+                };
+                self.late[0] += 1;
+            }
+        }
+        self.last_inputs = Some(i);
+        i
+    }
+}
+
 /// A closed-loop run: controller, plant, clock.
 #[derive(Debug)]
 pub struct Simulation {
@@ -138,6 +225,7 @@ pub struct Simulation {
     pub plant: Plant,
     period_s: f64,
     timing: SyncTiming,
+    frames: FrameTiming,
     cycle: u64,
     outputs: CycleOutputs,
     pub events: Vec<Event>,
@@ -152,10 +240,16 @@ impl Simulation {
             plant: Plant::new(plant_cfg, machine, start, gashes),
             period_s: params.period_s,
             timing: SyncTiming::new(plant_cfg, params.period_s),
+            frames: FrameTiming::new(plant_cfg),
             cycle: 0,
             outputs: CycleOutputs::default(),
             events: Vec::new(),
         }
+    }
+
+    /// Frames late so far: position TPDOs, target RPDOs (`simulation.*_late_rate`).
+    pub fn late_frames(&self) -> [u64; 2] {
+        self.frames.late
     }
 
     /// A machine at rest with the program's blank on the table (start position, gashes,
@@ -196,8 +290,8 @@ impl Simulation {
         let t_sync = self.cycle as f64 * self.period_s;
         let latch = t_sync + self.timing.draw();
         self.plant.advance_to(latch.max(self.plant.time_s()));
-        self.plant.apply(&self.outputs);
-        let inputs: CycleInputs = self.plant.latch();
+        self.plant.apply(&self.frames.at_drives(self.outputs));
+        let inputs: CycleInputs = self.frames.at_master(self.plant.latch());
         let row = self.row(t_sync);
         self.outputs = step(&mut self.controller, &inputs);
         while let Some(e) = self.controller.events().pop() {
@@ -383,6 +477,7 @@ pub fn finish_summary(
         total_time_s,
         completed,
         fault,
+        late_frames: [0; 2],
     }
 }
 
@@ -435,14 +530,17 @@ pub fn run_program(
     let fault = sim.controller.status().fault.map(|f| format!("{f:?}"));
     let completed = completed && fault.is_none();
     let total = sim.time_s();
-    Ok(finish_summary(
-        builder,
-        plan.pitch_diameter_mm / 2.0,
-        options,
-        total,
-        completed,
-        fault,
-    ))
+    Ok(Summary {
+        late_frames: sim.late_frames(),
+        ..finish_summary(
+            builder,
+            plan.pitch_diameter_mm / 2.0,
+            options,
+            total,
+            completed,
+            fault,
+        )
+    })
 }
 
 #[cfg(test)]
@@ -502,5 +600,64 @@ mod tests {
         let mut raw = SyncTiming::new(&plant(20.0, true, None), 1e-3);
         let arrivals: Vec<f64> = (0..20_000).map(|_| raw.draw()).collect();
         assert!(spread_us(&arrivals).1 > 3.0 * sd);
+    }
+
+    #[test]
+    fn late_frames_hold_what_was_there_at_their_rate() {
+        let mut p = plant(20.0, false, Some(0.24));
+        p.simulation.tpdo_late_rate = 0.01;
+        p.simulation.rpdo_late_rate = 0.02;
+        let mut f = FrameTiming::new(&p);
+        let (mut held_targets, mut stale) = (0, 0);
+        let mut received = (0, 0);
+        for k in 0..20_000i32 {
+            let o = CycleOutputs {
+                table_target_counts: k,
+                x_target_counts: 2 * k,
+                y_target_counts: -k,
+                ..CycleOutputs::default()
+            };
+            let a = f.at_drives(o);
+            // A late target leaves the drive with the one it took a cycle before.
+            for (got, sent) in [
+                (a.table_target_counts, k),
+                (a.x_target_counts, 2 * k),
+                (a.y_target_counts, -k),
+            ] {
+                if got != sent {
+                    held_targets += 1;
+                    assert!(got < sent.max(-sent) && k > 0, "{got} {sent}");
+                }
+            }
+            let mut i = CycleInputs {
+                spindle_counts: 3 * k,
+                ..CycleInputs::default()
+            };
+            i.table.position_counts = k;
+            i.table.fresh = true;
+            i.x.fresh = true;
+            i.y.fresh = true;
+            let m = f.at_master(i);
+            if !m.table.fresh {
+                stale += 1;
+                // B's TPDO carries the spindle: both are the last received.
+                assert_eq!((m.table.position_counts, m.spindle_counts), received);
+            } else {
+                received = (k, 3 * k);
+                assert_eq!((m.table.position_counts, m.spindle_counts), received);
+            }
+            stale += u64::from(!m.x.fresh) + u64::from(!m.y.fresh);
+        }
+        assert_eq!(f.late, [stale, held_targets]);
+        // 3 drives x 20 000 cycles at 1 % and 2 %: 600 and 1200, binomial sd 24 and 34.
+        assert!((500..700).contains(&stale), "{stale}");
+        assert!((1050..1350).contains(&held_targets), "{held_targets}");
+        // None at the shipped rates.
+        let mut f = FrameTiming::new(&plant(20.0, false, Some(0.24)));
+        for _ in 0..1000 {
+            f.at_drives(CycleOutputs::default());
+            f.at_master(CycleInputs::default());
+        }
+        assert_eq!(f.late, [0, 0]);
     }
 }

@@ -584,10 +584,13 @@ pub enum Variation {
     SpindleEncoder10000Lines,
     HobRunoutNone,
     HobRunout10,
+    TpdoLate,
+    RpdoLate,
+    NoAxialCutForce,
 }
 
 impl Variation {
-    pub const ALL: [Variation; 20] = [
+    pub const ALL: [Variation; 23] = [
         Variation::Nominal,
         Variation::Ripple0p5,
         Variation::Ripple2,
@@ -608,6 +611,9 @@ impl Variation {
         Variation::SpindleEncoder10000Lines,
         Variation::HobRunoutNone,
         Variation::HobRunout10,
+        Variation::TpdoLate,
+        Variation::RpdoLate,
+        Variation::NoAxialCutForce,
     ];
 
     pub fn name(self) -> &'static str {
@@ -632,6 +638,9 @@ impl Variation {
             Variation::SpindleEncoder10000Lines => "spindle encoder 10 000 lines, +-6.5 arcsec",
             Variation::HobRunoutNone => "hob axial runout none (3 um)",
             Variation::HobRunout10 => "hob axial runout 10 um (3 um)",
+            Variation::TpdoLate => "position TPDOs 1 in 1000 late (none)",
+            Variation::RpdoLate => "target RPDOs 1 in 1000 late (none)",
+            Variation::NoAxialCutForce => "no cut force on the hob slide (0.99 of F_c)",
         }
     }
 
@@ -679,6 +688,9 @@ impl Variation {
             }
             Variation::HobRunoutNone => p.spindle.hob_axial_runout_um = 0.0,
             Variation::HobRunout10 => p.spindle.hob_axial_runout_um = 10.0,
+            Variation::TpdoLate => p.simulation.tpdo_late_rate = 1e-3,
+            Variation::RpdoLate => p.simulation.rpdo_late_rate = 1e-3,
+            Variation::NoAxialCutForce => p.y.cut_force_share = 0.0,
         }
         (m, p)
     }

@@ -231,6 +231,14 @@ pub struct VirtualMachine {
     superseded: bool,
     /// SYNCs whose PDOs were not sent because a later SYNC was already waiting.
     superseded_syncs: u64,
+    /// The plant file's late frames (`simulation.tpdo_late_rate`, `rpdo_late_rate`), as
+    /// in the in-process simulation ([`hob_plant::sim::FrameTiming`]): a drive's position
+    /// TPDO not sent at its SYNC (the master then has nothing new from it, as when the
+    /// frame comes after the next SYNC), a target RPDO taken a SYNC late (the drive keeps
+    /// the target it applied last).
+    late_rates: [f64; 2],
+    late_rng: u64,
+    applied_targets: Option<[i32; 3]>,
 }
 
 impl VirtualMachine {
@@ -289,7 +297,15 @@ impl VirtualMachine {
             node_clock_s: 0.0,
             superseded: false,
             superseded_syncs: 0,
+            late_rates: [plant.simulation.tpdo_late_rate, plant.simulation.rpdo_late_rate],
+            late_rng: plant.simulation.seed.wrapping_mul(0xD1B5_4A32_D192_ED03) | 1,
+            applied_targets: None,
         }
+    }
+
+    /// Whether this frame is late, at the plant file's rate `k` (0 TPDO, 1 RPDO).
+    fn late(&mut self, k: usize) -> bool {
+        self.late_rates[k] > 0.0 && hob_plant::rng::uniform(&mut self.late_rng) < self.late_rates[k]
     }
 
     /// Every node sends its boot-up message (power-on).
@@ -578,6 +594,15 @@ impl VirtualMachine {
                 self.plant.drives[i].homing_start_rose();
             }
         }
+        if let Some(applied) = self.applied_targets {
+            for i in 0..3 {
+                if self.late(1) {
+                    targets[i] = applied[i];
+                    commands[i].target_counts = applied[i];
+                }
+            }
+        }
+        self.applied_targets = Some(targets);
         let io = &self.io.od;
         let dout = io.u32(DIGITAL_OUTPUTS, 1) | io.u32(DIGITAL_OUTPUTS, 2) << 8;
         let ch = 1 + self.plan.spindle_analog_channel;
@@ -655,6 +680,9 @@ impl VirtualMachine {
                 continue;
             }
             if is_pdo && self.drop > 0.0 && (self.random() >> 11) as f64 / (1u64 << 53) as f64 <= self.drop {
+                continue;
+            }
+            if self.drives.iter().any(|n| n.is_sync_tpdo(f.id)) && self.late(0) {
                 continue;
             }
             if is_pdo && self.delay > 0 {
