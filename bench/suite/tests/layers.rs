@@ -14,6 +14,8 @@ const ALLOWED: &[(&str, &[&str])] = &[
     ("hob-ipc", &["hob-canopen"]),
     // Pure: units and gearing, set-up, control core, CANopen, this machine's process image.
     ("hob-gearing", &[]),
+    // Profile disk cutters: their profile, the tooth space they cut, their design.
+    ("hob-cutters", &["hob-gearing"]),
     ("hob-setup", &["hob-gearing"]),
     ("hob-control", &["hob-gearing", "hob-setup"]),
     ("hob-canopen", &[]),
@@ -53,6 +55,7 @@ const ALLOWED: &[(&str, &[&str])] = &[
         "hob-cli",
         &[
             "hob-gearing",
+            "hob-cutters",
             "hob-setup",
             "hob-control",
             "hob-canopen",
@@ -140,6 +143,7 @@ const ALLOWED: &[(&str, &[&str])] = &[
 /// Crates without I/O: the only outside crates they may use (normal dependencies).
 const PURE: &[(&str, &[&str])] = &[
     ("hob-gearing", &["serde"]),
+    ("hob-cutters", &["serde"]),
     ("hob-setup", &["serde", "toml"]),
     ("hob-control", &["serde", "nalgebra"]),
     ("hob-canopen", &[]),

@@ -6,7 +6,7 @@
 use clap::{Parser, Subcommand};
 use hob_cli::library::{Action, Place};
 use hob_cli::util::{Failure, emit, load_machine, machine_path, service_result};
-use hob_cli::{can, doctor, lab, library, render, service};
+use hob_cli::{can, cutter, doctor, lab, library, render, service};
 use hob_setup::config::machine::MachineConfig;
 use hob_store::library::Kind;
 use std::path::PathBuf;
@@ -156,6 +156,11 @@ enum Command {
         #[arg(long, value_name = "DIR")]
         library: Option<PathBuf>,
     },
+    /// Profile disk cutters for the tooth-by-tooth cycle.
+    Cutter {
+        #[command(subcommand)]
+        command: CutterCommand,
+    },
     /// Worst-case CAN bus load per cycle of the configured PDO set; refused above the limit.
     BusLoad {
         /// Machine configuration [default: config/machine.toml, then /etc/hob/machine.toml].
@@ -186,6 +191,44 @@ enum Command {
         /// Program library, for a program that names a library tool [default: $HOB_LIBRARY, then [library] dir of the machine file].
         #[arg(long, value_name = "DIR")]
         library: Option<PathBuf>,
+    },
+}
+
+#[derive(Debug, Subcommand)]
+enum CutterCommand {
+    /// Design a disk cutter's profile for a gear's tooth space: each involute flank as
+    /// circular arcs through three of its points (the fewest within the grade's ISO 1328-1
+    /// profile form tolerance f_falpha, or --arcs), a tangent line and ISO 53's root fillet
+    /// below the form circle, a flat tip; the deviation from the involute against f_falpha.
+    Design {
+        #[arg(long)]
+        teeth: u32,
+        /// Normal module.
+        #[arg(long)]
+        module_mm: f64,
+        #[arg(long, default_value_t = 20.0)]
+        pressure_angle_deg: f64,
+        /// Profile shift coefficient x.
+        #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
+        shift: f64,
+        /// Helix angle: the space is taken in the normal plane (z / cos^3 beta teeth).
+        #[arg(long, default_value_t = 0.0)]
+        helix_deg: f64,
+        /// The cutter's outside diameter.
+        #[arg(long)]
+        outside_diameter_mm: f64,
+        /// The ISO 1328-1 grade the gear is to hold (1-11).
+        #[arg(long, default_value_t = 7)]
+        grade: u8,
+        /// Arcs per flank (1-8) instead of the fewest within the grade.
+        #[arg(long)]
+        arcs: Option<u32>,
+        /// Write the profile's primitives as TOML (`[[profile]]`, the tool library's form).
+        #[arg(long, value_name = "FILE")]
+        toml: Option<PathBuf>,
+        /// Write a plot: the profile with its node points, and the arcs' deviation.
+        #[arg(long, value_name = "FILE")]
+        svg: Option<PathBuf>,
     },
 }
 
@@ -482,6 +525,54 @@ fn run(command: Command) -> Result<(), Failure> {
             } else {
                 emit(&render::plan_text(&program, &plan))
             }
+        }
+        Command::Cutter {
+            command:
+                CutterCommand::Design {
+                    teeth,
+                    module_mm,
+                    pressure_angle_deg,
+                    shift,
+                    helix_deg,
+                    outside_diameter_mm,
+                    grade,
+                    arcs,
+                    toml,
+                    svg,
+                },
+        } => {
+            let args = cutter::DesignArgs {
+                gear: hob_cutters::space::Gear {
+                    teeth,
+                    normal_module_mm: module_mm,
+                    pressure_angle_deg,
+                    profile_shift: shift,
+                    helix_deg,
+                },
+                outside_diameter_mm,
+                grade,
+                arcs,
+            };
+            let (mut text, design) = match cutter::design_cutter(&args) {
+                Ok(r) => r,
+                Err(e) => {
+                    eprintln!("hob: refused: {e}");
+                    return Err(Failure::Exit(2));
+                }
+            };
+            if let Some(path) = toml {
+                cutter::write(
+                    &path,
+                    &cutter::profile_toml(&design.profile).map_err(Failure::Other)?,
+                )
+                .map_err(Failure::Other)?;
+                text.push_str(&format!("profile written to {}\n", path.display()));
+            }
+            if let Some(path) = svg {
+                cutter::write(&path, &cutter::svg(&design)).map_err(Failure::Other)?;
+                text.push_str(&format!("plot written to {}\n", path.display()));
+            }
+            emit(&text)
         }
         Command::BusLoad { machine } => {
             let machine = load_machine(machine.as_deref())?;

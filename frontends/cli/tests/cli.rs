@@ -285,3 +285,100 @@ fn bus_load_above_the_limit_exits_2_naming_the_key() {
         &["bus load 69.8 % is above can.bus_load_limit = 60 %"],
     );
 }
+
+/// `hob cutter design`: the fewest arcs within the grade, the figures an operator checks,
+/// the profile as the tool library's TOML (it reads back and validates), a plot; bad
+/// arguments refused with what is wrong.
+#[test]
+fn cutter_design_reports_the_fit_and_writes_the_profile() {
+    let dir = std::env::temp_dir().join(format!("hob-cutter-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let (toml_path, svg_path) = (dir.join("c.toml"), dir.join("c.svg"));
+    let out = hob(&[
+        "cutter",
+        "design",
+        "--teeth",
+        "24",
+        "--module-mm",
+        "8",
+        "--outside-diameter-mm",
+        "80",
+        "--toml",
+        toml_path.to_str().unwrap(),
+        "--svg",
+        svg_path.to_str().unwrap(),
+    ]);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    let o = text(&out.stdout);
+    // z24 m8 at grade 7 (f_falpha 18.8 um): one arc leaves 87 um, two 10.8 um.
+    assert!(o.contains("flank: 2 arc(s)"), "{o}");
+    assert!(
+        o.contains("of ISO 1328-1 f_falpha 18.80 um at grade 7, within"),
+        "{o}"
+    );
+    assert!(o.contains("radii (mm): tip 104.000, pitch 96.000"), "{o}");
+    #[derive(serde::Deserialize)]
+    struct File {
+        profile: Vec<hob_cutters::profile::Primitive>,
+    }
+    let f: File = toml::from_str(&std::fs::read_to_string(&toml_path).unwrap()).unwrap();
+    assert_eq!(f.profile.len(), 9);
+    assert_eq!(hob_cutters::profile::validate(&f.profile, 40.0), Ok(()));
+    let svg = std::fs::read_to_string(&svg_path).unwrap();
+    assert!(svg.starts_with("<svg") && svg.contains("polyline"));
+    // One arc asked for: reported beyond the grade, not refused (the operator sees why).
+    let out = hob(&[
+        "cutter",
+        "design",
+        "--teeth",
+        "24",
+        "--module-mm",
+        "8",
+        "--outside-diameter-mm",
+        "80",
+        "--arcs",
+        "1",
+    ]);
+    assert!(text(&out.stdout).contains("BEYOND"), "{}", text(&out.stdout));
+    assert_refused(
+        &[
+            "cutter",
+            "design",
+            "--teeth",
+            "24",
+            "--module-mm",
+            "8",
+            "--outside-diameter-mm",
+            "30",
+        ],
+        &["18.00 mm deep", "outside radius 15.00 mm"],
+    );
+    assert_refused(
+        &[
+            "cutter",
+            "design",
+            "--teeth",
+            "24",
+            "--module-mm",
+            "8",
+            "--outside-diameter-mm",
+            "80",
+            "--grade",
+            "12",
+        ],
+        &["--grade", "1 to 11"],
+    );
+    assert_refused(
+        &[
+            "cutter",
+            "design",
+            "--teeth",
+            "3",
+            "--module-mm",
+            "8",
+            "--outside-diameter-mm",
+            "80",
+        ],
+        &["at least 5 teeth"],
+    );
+}

@@ -27,9 +27,23 @@ pub fn helix_slope_tolerance_um(reference_diameter_mm: f64, face_width_mm: f64, 
     (0.07 * reference_diameter_mm.sqrt() + 0.45 * face_width_mm.sqrt() + 3.0) * grade_factor(grade)
 }
 
+/// Profile form tolerance `f_falpha` in micrometres: `(0.55 m_n + 5) * sqrt(2)^(grade - 5)`
+/// (ISO 1328-1:2013, as the other tolerances here, unrounded). It bounds how far a profile
+/// may depart from its mean line, which is what a cutter's arcs instead of an involute do.
+pub fn profile_form_tolerance_um(normal_module_mm: f64, grade: u8) -> f64 {
+    (0.55 * normal_module_mm + 5.0) * grade_factor(grade)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn the_profile_form_tolerance_doubles_every_two_grades() {
+        // m 5, grade 5: 0.55 x 5 + 5 = 7.75 um; m 8, grade 7: (4.4 + 5) x 2 = 18.8 um.
+        assert!((profile_form_tolerance_um(5.0, 5) - 7.75).abs() < 1e-12);
+        assert!((profile_form_tolerance_um(8.0, 7) - 18.8).abs() < 1e-12);
+    }
 
     #[test]
     fn cumulative_and_helix_tolerances_match_the_1995_tables_they_replaced() {

@@ -1,0 +1,198 @@
+//! `hob cutter design`: a profile disk cutter designed for a gear's tooth space
+//! ([`hob_cutters::design`]), its deviation against the grade, its primitives as TOML and a
+//! plot to look at.
+
+use hob_cutters::design::{CutterDesign, design, design_within};
+use hob_cutters::profile::{Primitive, discretise, validate};
+use hob_cutters::space::Gear;
+use std::fmt::Write as _;
+use std::path::Path;
+
+/// What `hob cutter design` was asked.
+#[derive(Debug, Clone, Copy)]
+pub struct DesignArgs {
+    pub gear: Gear,
+    pub outside_diameter_mm: f64,
+    pub grade: u8,
+    /// None: the fewest arcs within the grade's profile form tolerance.
+    pub arcs: Option<u32>,
+}
+
+/// Designs the cutter; the report, the design. Refusals (exit 2) name the argument.
+pub fn design_cutter(a: &DesignArgs) -> Result<(String, CutterDesign), String> {
+    if !(1..=11).contains(&a.grade) {
+        return Err(format!(
+            "--grade: an ISO 1328-1 grade is 1 to 11 (is {})",
+            a.grade
+        ));
+    }
+    let radius = 0.5 * a.outside_diameter_mm;
+    let tol = hob_gearing::iso1328::profile_form_tolerance_um(a.gear.normal_module_mm, a.grade);
+    let d = match a.arcs {
+        Some(n) => design(a.gear, n, radius),
+        None => design_within(a.gear, tol, radius),
+    }
+    .map_err(|e| e.to_string())?;
+    validate(&d.profile, radius).map_err(|e| format!("the designed profile is invalid (a bug): {e}"))?;
+    let s = &d.space;
+    let mut o = String::new();
+    let _ = writeln!(
+        o,
+        "gear: z {} m_n {} mm, pressure angle {} deg, shift {}, helix {} deg ({:.2} teeth as the cutter sees them)",
+        a.gear.teeth,
+        a.gear.normal_module_mm,
+        a.gear.pressure_angle_deg,
+        a.gear.profile_shift,
+        a.gear.helix_deg,
+        s.virtual_teeth
+    );
+    let _ = writeln!(
+        o,
+        "radii (mm): tip {:.3}, pitch {:.3}, form {:.3} (active involute from here), base {:.3}, root {:.3}; depth {:.3}",
+        s.tip_radius_mm, s.pitch_radius_mm, s.form_radius_mm, s.base_radius_mm, s.root_radius_mm, d.depth_mm
+    );
+    let _ = writeln!(
+        o,
+        "flank: {} arc(s), each through three points of the involute; root fillet {:.3} mm",
+        d.arcs.len(),
+        d.root_fillet_radius_mm
+    );
+    for (k, arc) in d.arcs.iter().enumerate() {
+        let _ = writeln!(
+            o,
+            "  arc {}: gear radius {:.3} to {:.3} mm, radius {:.3} mm, deviation {:.2} um",
+            k + 1,
+            arc.from_gear_radius_mm,
+            arc.to_gear_radius_mm,
+            arc.radius_mm,
+            arc.deviation_um
+        );
+    }
+    let verdict = if d.deviation_um <= tol { "within" } else { "BEYOND" };
+    let _ = writeln!(
+        o,
+        "deviation from the involute {:.2} um: {:.0} % of ISO 1328-1 f_falpha {:.2} um at grade {}, {verdict}",
+        d.deviation_um,
+        100.0 * d.deviation_um / tol,
+        tol,
+        a.grade
+    );
+    let _ = writeln!(
+        o,
+        "profile: {} primitives across {:.3} mm of the cutter's width, outside diameter {} mm",
+        d.profile.len(),
+        d.profile[d.profile.len() - 1].end().x - d.profile[0].start().x,
+        a.outside_diameter_mm
+    );
+    Ok((o, d))
+}
+
+/// The profile's primitives as the tool library's TOML (`[[profile]]` tables).
+pub fn profile_toml(profile: &[Primitive]) -> Result<String, String> {
+    #[derive(serde::Serialize)]
+    struct File<'a> {
+        profile: &'a [Primitive],
+    }
+    toml::to_string(&File { profile }).map_err(|e| e.to_string())
+}
+
+/// A plot of the design: the profile in the cutter's axial plane (left), and each flank
+/// arc's deviation from the involute along the flank (right, um).
+pub fn svg(d: &CutterDesign) -> String {
+    let (w, h) = (1000.0, 480.0);
+    let mut o = String::new();
+    let _ = writeln!(
+        o,
+        r#"<svg xmlns="http://www.w3.org/2000/svg" width="{w}" height="{h}" viewBox="0 0 {w} {h}" font-family="sans-serif" font-size="13">"#
+    );
+    let _ = writeln!(o, r#"<rect width="{w}" height="{h}" fill="white"/>"#);
+    // Left: the profile, equal scales.
+    let pts = discretise(&d.profile, 0.05, 0.0005);
+    let (u0, u1) = (pts[0].u_mm, pts[pts.len() - 1].u_mm);
+    let r0 = pts.iter().map(|q| q.r_mm).fold(f64::INFINITY, f64::min);
+    let r1 = d.outside_radius_mm;
+    let (bx, by, bw, bh) = (50.0, 50.0, 420.0, 380.0);
+    let k = (bw / (u1 - u0)).min(bh / (r1 - r0));
+    let x = |u: f64| bx + (u - u0) * k + 0.5 * (bw - (u1 - u0) * k);
+    let y = |r: f64| by + bh - (r - r0) * k - 0.5 * (bh - (r1 - r0) * k);
+    let _ = writeln!(
+        o,
+        r#"<text x="{bx}" y="30">cutter profile, axial plane (equal scales), {} primitives; dots: node points</text>"#,
+        d.profile.len()
+    );
+    let path: Vec<String> = pts
+        .iter()
+        .map(|q| format!("{:.2},{:.2}", x(q.u_mm), y(q.r_mm)))
+        .collect();
+    let _ = writeln!(
+        o,
+        r#"<polyline points="{}" fill="none" stroke="black" stroke-width="1.5"/>"#,
+        path.join(" ")
+    );
+    for q in pts.iter().filter(|q| q.node) {
+        let _ = writeln!(
+            o,
+            r#"<circle cx="{:.2}" cy="{:.2}" r="3" fill="crimson"/>"#,
+            x(q.u_mm),
+            y(q.r_mm)
+        );
+    }
+    let _ = writeln!(
+        o,
+        r#"<text x="{bx}" y="{}">u across the width {:.2} mm; radius {:.2} to {:.2} mm</text>"#,
+        by + bh + 30.0,
+        u1 - u0,
+        r0,
+        r1
+    );
+    // Right: deviation along the flank.
+    let (cx, cy, cw, ch) = (560.0, 50.0, 400.0, 380.0);
+    let s = &d.space;
+    let samples: Vec<(f64, f64)> = (0..=600)
+        .map(|j| {
+            let t = f64::from(j) / 600.0;
+            let q = s.active_point(t);
+            let n = d.arcs.len() as f64;
+            let arc = &d.arcs[((t * n) as usize).min(d.arcs.len() - 1)];
+            (s.active_radius(t), (q.dist(arc.centre) - arc.radius_mm) * 1000.0)
+        })
+        .collect();
+    let dmax = samples.iter().map(|p| p.1.abs()).fold(1e-9, f64::max);
+    let (g0, g1) = (s.form_radius_mm, s.tip_radius_mm);
+    let px = |r: f64| cx + (r - g0) / (g1 - g0) * cw;
+    let py = |dv: f64| cy + ch / 2.0 - dv / dmax * (ch / 2.0 - 10.0);
+    let _ = writeln!(
+        o,
+        r#"<text x="{cx}" y="30">involute minus arc along the arc radius, um; max {:.2} um</text>"#,
+        d.deviation_um
+    );
+    let _ = writeln!(
+        o,
+        r#"<line x1="{cx}" y1="{0:.2}" x2="{1}" y2="{0:.2}" stroke="gray"/>"#,
+        py(0.0),
+        cx + cw
+    );
+    let curve: Vec<String> = samples
+        .iter()
+        .map(|&(r, dv)| format!("{:.2},{:.2}", px(r), py(dv)))
+        .collect();
+    let _ = writeln!(
+        o,
+        r#"<polyline points="{}" fill="none" stroke="steelblue" stroke-width="1.5"/>"#,
+        curve.join(" ")
+    );
+    let _ = writeln!(
+        o,
+        r#"<text x="{cx}" y="{}">gear radius {:.2} (form) to {:.2} mm (tip)</text>"#,
+        cy + ch + 30.0,
+        g0,
+        g1
+    );
+    o.push_str("</svg>\n");
+    o
+}
+
+/// Writes `text` to `path`, naming it in the error.
+pub fn write(path: &Path, text: &str) -> Result<(), String> {
+    std::fs::write(path, text).map_err(|e| format!("{}: {e}", path.display()))
+}

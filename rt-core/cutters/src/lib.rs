@@ -1,0 +1,17 @@
+//! Profile disk cutters for the tooth-by-tooth cycle (docs/domain.md section 5, issue 17).
+//!
+//! - [`profile`]: a cutter's profile in its axial plane as a chain of line and arc
+//!   primitives (seed 001: Milutinovic et al., Tehnika 2022), validated, and discretised
+//!   with the node points kept;
+//! - [`space`]: the tooth space of a gear that the profile must cut (the involute flanks,
+//!   the form circle, the root);
+//! - [`design`]: a cutter profile designed for a gear, each flank's involute approximated by
+//!   circular arcs, with the approximation's deviation against ISO 1328-1's profile form
+//!   tolerance.
+//!
+//! Pure geometry: no I/O, no allocation but the results' vectors.
+
+pub mod design;
+pub mod geometry;
+pub mod profile;
+pub mod space;
