@@ -192,6 +192,83 @@ pub fn svg(d: &CutterDesign) -> String {
     o
 }
 
+/// Near resonance: the tooth-passing frequency within this factor of the natural one.
+const NEAR_RESONANCE: (f64, f64) = (0.8, 1.25);
+
+/// `hob cutter dynamics`: the link, the deflection at the speed asked, and with a limit the
+/// speeds that keep within it (5 to 200 m/min in 0.5 m/min steps).
+pub fn dynamics(
+    body: &hob_cutters::dynamics::CutterBody,
+    material: &hob_cutters::dynamics::Material,
+    cut: &hob_cutters::dynamics::SideCut,
+    limit_um: Option<f64>,
+) -> Result<String, String> {
+    use hob_cutters::dynamics::{deflection, speed_ranges};
+    let link = body
+        .link()
+        .map_err(|e| format!("--{}", e.to_string().replace('_', "-")))?;
+    let d = deflection(body, material, cut).map_err(|e| format!("--{}", e.to_string().replace('_', "-")))?;
+    let mut o = String::new();
+    let _ = writeln!(
+        o,
+        "cutter link (seed 003, eqs. 6-9): stiffness {:.0} N/mm, T1 {:.3} ms, T2 {:.4} ms, natural frequency {:.1} Hz, damping ratio {:.4}",
+        link.stiffness_n_mm,
+        link.t1_s * 1e3,
+        link.t2_s * 1e3,
+        link.natural_frequency_hz,
+        link.damping_ratio
+    );
+    let _ = writeln!(
+        o,
+        "at {} m/min: {:.1} rpm, teeth pass at {:.1} Hz ({:.2} of the natural frequency); side force {:.0} N lagging {:.2e} s; amplification {:.2}",
+        cut.cutting_speed_m_min,
+        d.cutter_rpm,
+        d.tooth_passing_hz,
+        d.frequency_ratio,
+        d.side_force_n,
+        d.force_lag_s,
+        d.amplification
+    );
+    let _ = writeln!(
+        o,
+        "predicted profile error (the largest side deflection): {:.1} um",
+        d.profile_error_um
+    );
+    if (NEAR_RESONANCE.0..=NEAR_RESONANCE.1).contains(&d.frequency_ratio) {
+        let _ = writeln!(
+            o,
+            "WARNING: near resonance (tooth-passing within {}-{} x the natural frequency)",
+            NEAR_RESONANCE.0, NEAR_RESONANCE.1
+        );
+    }
+    if let Some(limit) = limit_um {
+        if !(limit.is_finite() && limit > 0.0) {
+            return Err(format!(
+                "--limit-um: must be a positive number of um (is {limit})"
+            ));
+        }
+        let ranges =
+            speed_ranges(body, material, cut, (5.0, 200.0, 0.5), limit).map_err(|e| e.to_string())?;
+        let text: Vec<String> = ranges.iter().map(|(a, b)| format!("{a:.1}-{b:.1}")).collect();
+        let verdict = if d.profile_error_um <= limit {
+            "within"
+        } else {
+            "BEYOND"
+        };
+        let _ = writeln!(
+            o,
+            "{:.1} um is {verdict} the limit {limit} um; speeds within it (5-200 m/min): {}",
+            d.profile_error_um,
+            if text.is_empty() {
+                "none".to_string()
+            } else {
+                text.join(", ") + " m/min"
+            }
+        );
+    }
+    Ok(o)
+}
+
 /// Writes `text` to `path`, naming it in the error.
 pub fn write(path: &Path, text: &str) -> Result<(), String> {
     std::fs::write(path, text).map_err(|e| format!("{}: {e}", path.display()))

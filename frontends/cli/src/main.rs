@@ -230,6 +230,46 @@ enum CutterCommand {
         #[arg(long, value_name = "FILE")]
         svg: Option<PathBuf>,
     },
+    /// The cutter's dynamics and its side deflection in a cut (seed 003's model): stiffness,
+    /// natural frequency and damping from its width, diameter, mass and material; the side
+    /// force from the chip (Kienzle), its lag, the amplification at the tooth-passing
+    /// frequency, the predicted profile error; a warning near resonance and the cutting
+    /// speeds that keep the error within --limit-um.
+    Dynamics {
+        #[arg(long)]
+        width_mm: f64,
+        #[arg(long)]
+        outside_diameter_mm: f64,
+        /// The cutter unit's vibrating mass.
+        #[arg(long)]
+        mass_kg: f64,
+        /// The cutter's teeth.
+        #[arg(long)]
+        teeth: u32,
+        /// Young's modulus of the cutter (alloy steel, seed 003).
+        #[arg(long, default_value_t = 2.1e5)]
+        youngs_modulus_mpa: f64,
+        /// Logarithmic decrement of its free vibration (seed 003; a tap test measures it).
+        #[arg(long, default_value_t = 0.3)]
+        log_decrement: f64,
+        /// The workpiece material's specific cutting force (domain.md section 8: 2600).
+        #[arg(long)]
+        kc11_n_mm2: f64,
+        /// Its exponent (0.26).
+        #[arg(long)]
+        mc: f64,
+        /// Chip thickness on the side edge.
+        #[arg(long)]
+        chip_thickness_mm: f64,
+        /// The side edge's engaged length.
+        #[arg(long)]
+        chip_width_mm: f64,
+        #[arg(long)]
+        cutting_speed_m_min: f64,
+        /// The profile error allowed (for example the grade's f_falpha), for the speed ranges.
+        #[arg(long)]
+        limit_um: Option<f64>,
+    },
 }
 
 #[derive(Debug, Subcommand)]
@@ -573,6 +613,46 @@ fn run(command: Command) -> Result<(), Failure> {
                 text.push_str(&format!("plot written to {}\n", path.display()));
             }
             emit(&text)
+        }
+        Command::Cutter {
+            command:
+                CutterCommand::Dynamics {
+                    width_mm,
+                    outside_diameter_mm,
+                    mass_kg,
+                    teeth,
+                    youngs_modulus_mpa,
+                    log_decrement,
+                    kc11_n_mm2,
+                    mc,
+                    chip_thickness_mm,
+                    chip_width_mm,
+                    cutting_speed_m_min,
+                    limit_um,
+                },
+        } => {
+            use hob_cutters::dynamics::{CutterBody, Material, SideCut};
+            let body = CutterBody {
+                width_mm,
+                outside_diameter_mm,
+                mass_kg,
+                youngs_modulus_mpa,
+                log_decrement,
+                teeth,
+            };
+            let material = Material { kc11_n_mm2, mc };
+            let cut = SideCut {
+                chip_thickness_mm,
+                chip_width_mm,
+                cutting_speed_m_min,
+            };
+            match cutter::dynamics(&body, &material, &cut, limit_um) {
+                Ok(text) => emit(&text),
+                Err(e) => {
+                    eprintln!("hob: refused: {e}");
+                    Err(Failure::Exit(2))
+                }
+            }
         }
         Command::BusLoad { machine } => {
             let machine = load_machine(machine.as_deref())?;

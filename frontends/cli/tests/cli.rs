@@ -382,3 +382,64 @@ fn cutter_design_reports_the_fit_and_writes_the_profile() {
         &["at least 5 teeth"],
     );
 }
+
+/// `hob cutter dynamics`: seed 003's first cutter by its own equations (984 N/mm, 49.9 Hz,
+/// not the 3 kN/mm and 12.6 Hz it states), the warning near resonance, the speed ranges; a
+/// bad value refused with its name.
+#[test]
+fn cutter_dynamics_reports_the_link_and_warns_near_resonance() {
+    let base = [
+        "cutter",
+        "dynamics",
+        "--width-mm",
+        "2.5",
+        "--outside-diameter-mm",
+        "200",
+        "--mass-kg",
+        "10",
+        "--teeth",
+        "45",
+        "--kc11-n-mm2",
+        "2600",
+        "--mc",
+        "0.26",
+        "--chip-thickness-mm",
+        "0.01",
+        "--chip-width-mm",
+        "2",
+    ];
+    let run = |speed: &str, limit: &str| {
+        let mut a = base.to_vec();
+        a.extend(["--cutting-speed-m-min", speed, "--limit-um", limit]);
+        let out = hob(&a);
+        assert!(out.status.success(), "{}", text(&out.stderr));
+        text(&out.stdout)
+    };
+    let o = run("40", "500");
+    assert!(
+        o.contains("stiffness 984 N/mm") && o.contains("natural frequency 49.9 Hz"),
+        "{o}"
+    );
+    assert!(
+        o.contains("0.96 of the natural frequency") && o.contains("WARNING: near resonance"),
+        "{o}"
+    );
+    // Far from it: no warning, and the speeds within the limit exclude the resonance at 41.8.
+    let o = run("10", "500");
+    assert!(!o.contains("WARNING"), "{o}");
+    let ranges = o.lines().last().unwrap().to_string();
+    assert!(
+        ranges.contains("speeds within it (5-200 m/min): 5.0-"),
+        "{ranges}"
+    );
+    // 171 N: 174 um static; at resonance ten times that: the speeds around 41.8 m/min
+    // (tooth-passing 0.89-1.1 of 49.9 Hz) are left out.
+    assert!(
+        ranges.contains(", ") && !ranges.contains("-200.0 m/min, "),
+        "{ranges}"
+    );
+    let mut a = base.to_vec();
+    a.extend(["--cutting-speed-m-min", "40"]);
+    a[7] = "0";
+    assert_refused(&a, &["--mass-kg"]);
+}

@@ -7,11 +7,14 @@
 //!   the form circle, the root);
 //! - [`design`]: a cutter profile designed for a gear, each flank's involute approximated by
 //!   circular arcs, with the approximation's deviation against ISO 1328-1's profile form
-//!   tolerance.
+//!   tolerance;
+//! - [`dynamics`]: the cutter as seed 003's second-order link, its side deflection in the cut
+//!   (the flank's profile error) and the cutting speeds that keep it within a limit.
 //!
 //! Pure geometry: no I/O, no allocation but the results' vectors.
 
 pub mod design;
+pub mod dynamics;
 pub mod geometry;
 pub mod profile;
 pub mod space;
