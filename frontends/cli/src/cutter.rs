@@ -269,6 +269,116 @@ pub fn dynamics(
     Ok(o)
 }
 
+/// Reads a profile file (`[[profile]]` primitives) and validates it for a cutter of
+/// `outside_radius_mm`; errors name the file and the primitive.
+pub fn read_profile(path: &Path, outside_radius_mm: f64) -> Result<Vec<Primitive>, String> {
+    #[derive(serde::Deserialize)]
+    #[serde(deny_unknown_fields)]
+    struct File {
+        profile: Vec<Primitive>,
+    }
+    let src = std::fs::read_to_string(path).map_err(|e| format!("{}: {e}", path.display()))?;
+    let f: File = toml::from_str(&src).map_err(|e| format!("{}: {e}", path.display()))?;
+    validate(&f.profile, outside_radius_mm).map_err(|e| format!("{}: {e}", path.display()))?;
+    Ok(f.profile)
+}
+
+/// `hob cutter grind`: the program to `out`, the plot to `svg`; what was written.
+pub fn grind(
+    profile_path: &Path,
+    g: &hob_cutters::grind::Grinding,
+    feed_mm_min: f64,
+    out: &Path,
+    svg_path: Option<&Path>,
+) -> Result<String, String> {
+    use hob_cutters::grind::{gcode, path};
+    if !(feed_mm_min.is_finite() && feed_mm_min > 0.0) {
+        return Err(format!("--feed-mm-min: must be positive (is {feed_mm_min})"));
+    }
+    let profile = read_profile(profile_path, g.outside_radius_mm)?;
+    let p = path(&profile, g).map_err(|e| format!("--{}", e.to_string().replace('_', "-")))?;
+    let name = profile_path
+        .file_stem()
+        .map_or_else(String::new, |s| s.to_string_lossy().into_owned());
+    write(out, &gcode(&name, &p, g, feed_mm_min))?;
+    let mut o = format!(
+        "{}: {} points per tooth ({} at nodes and corners), {} teeth, {} linear moves; written to {}\n",
+        profile_path.display(),
+        p.len(),
+        p.iter().filter(|q| q.node).count(),
+        g.cutter_teeth,
+        p.len() * g.cutter_teeth as usize,
+        out.display()
+    );
+    let a_max = p.iter().map(|q| q.a_deg.abs()).fold(0.0, f64::max);
+    let _ = writeln!(
+        o,
+        "edge on the rake face ({} deg): turned up to {:.3} deg off the axial plane; the wheel lowered {:.3} mm for the {} deg clearance",
+        g.rake_deg,
+        a_max,
+        g.outside_radius_mm * g.clearance_deg.to_radians().sin(),
+        g.clearance_deg
+    );
+    if let Some(sp) = svg_path {
+        write(sp, &grind_svg(&p))?;
+        let _ = writeln!(o, "plot written to {}", sp.display());
+    }
+    Ok(o)
+}
+
+/// The profile, the edge (its `X`) and the wheel's path in the axial plane (`Z` across,
+/// `X` up), equal scales.
+fn grind_svg(p: &[hob_cutters::grind::PathPoint]) -> String {
+    let (w, h) = (900.0, 560.0);
+    let zs = p.iter().flat_map(|q| [q.profile[0], q.wheel[2]]);
+    let xs = p.iter().flat_map(|q| [q.profile[1], q.edge[0], q.wheel[0]]);
+    let (z0, z1) = zs.fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), v| {
+        (a.min(v), b.max(v))
+    });
+    let (x0, x1) = xs.fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), v| {
+        (a.min(v), b.max(v))
+    });
+    let (bx, by, bw, bh) = (60.0, 60.0, 780.0, 440.0);
+    let k = (bw / (z1 - z0)).min(bh / (x1 - x0));
+    let px = |z: f64| bx + (z - z0) * k + 0.5 * (bw - (z1 - z0) * k);
+    let py = |x: f64| by + bh - (x - x0) * k - 0.5 * (bh - (x1 - x0) * k);
+    let line = |pts: Vec<(f64, f64)>, colour: &str, dash: &str| {
+        let s: Vec<String> = pts
+            .iter()
+            .map(|&(z, x)| format!("{:.2},{:.2}", px(z), py(x)))
+            .collect();
+        format!(
+            "<polyline points=\"{}\" fill=\"none\" stroke=\"{colour}\" stroke-width=\"1.5\"{dash}/>\n",
+            s.join(" ")
+        )
+    };
+    let mut o = format!(
+        "<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"{w}\" height=\"{h}\" viewBox=\"0 0 {w} {h}\" font-family=\"sans-serif\" font-size=\"13\">\n<rect width=\"{w}\" height=\"{h}\" fill=\"white\"/>\n"
+    );
+    let _ = writeln!(
+        o,
+        "<text x=\"{bx}\" y=\"24\">axial plane, Z across the width ({:.2} mm), X radial, equal scales:</text>\n<text x=\"{bx}\" y=\"42\">profile (black), edge on the rake face (red, dashed), the wheel's rounding centre (blue)</text>",
+        z1 - z0
+    );
+    o.push_str(&line(
+        p.iter().map(|q| (q.profile[0], q.profile[1])).collect(),
+        "black",
+        "",
+    ));
+    o.push_str(&line(
+        p.iter().map(|q| (q.edge[2], q.edge[0])).collect(),
+        "crimson",
+        " stroke-dasharray=\"6 4\"",
+    ));
+    o.push_str(&line(
+        p.iter().map(|q| (q.wheel[2], q.wheel[0])).collect(),
+        "steelblue",
+        "",
+    ));
+    o.push_str("</svg>\n");
+    o
+}
+
 /// Writes `text` to `path`, naming it in the error.
 pub fn write(path: &Path, text: &str) -> Result<(), String> {
     std::fs::write(path, text).map_err(|e| format!("{}: {e}", path.display()))

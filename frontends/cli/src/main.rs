@@ -230,6 +230,41 @@ enum CutterCommand {
         #[arg(long, value_name = "FILE")]
         svg: Option<PathBuf>,
     },
+    /// G-code to grind a cutter's teeth to a profile by 3+2-axis linear interpolation on a
+    /// machining centre (seed 001): the edge on the rake face, the wheel's edge-rounding
+    /// centre along the profile, the dividing head indexed per tooth; and a plot.
+    Grind {
+        /// The profile (`[[profile]]` primitives, as `hob cutter design --toml` writes them).
+        profile: PathBuf,
+        #[arg(long)]
+        outside_diameter_mm: f64,
+        /// The cutter's teeth (the dividing head's positions).
+        #[arg(long)]
+        teeth: u32,
+        #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
+        rake_deg: f64,
+        #[arg(long, default_value_t = 6.0)]
+        clearance_deg: f64,
+        #[arg(long)]
+        wheel_radius_mm: f64,
+        /// The wheel's edge rounding.
+        #[arg(long)]
+        wheel_edge_radius_mm: f64,
+        /// Points along the cutter's axis at most this far apart.
+        #[arg(long, default_value_t = 0.2)]
+        spacing_mm: f64,
+        /// On arcs, points closer still so that no chord leaves the arc by more.
+        #[arg(long, default_value_t = 0.002)]
+        chord_tolerance_mm: f64,
+        #[arg(long, default_value_t = 200.0)]
+        feed_mm_min: f64,
+        /// The G-code program.
+        #[arg(long, value_name = "FILE")]
+        out: PathBuf,
+        /// A plot: the profile, the edge and the wheel's path.
+        #[arg(long, value_name = "FILE")]
+        svg: Option<PathBuf>,
+    },
     /// The cutter's dynamics and its side deflection in a cut (seed 003's model): stiffness,
     /// natural frequency and damping from its width, diameter, mass and material; the side
     /// force from the chip (Kienzle), its lag, the amplification at the tooth-passing
@@ -647,6 +682,41 @@ fn run(command: Command) -> Result<(), Failure> {
                 cutting_speed_m_min,
             };
             match cutter::dynamics(&body, &material, &cut, limit_um) {
+                Ok(text) => emit(&text),
+                Err(e) => {
+                    eprintln!("hob: refused: {e}");
+                    Err(Failure::Exit(2))
+                }
+            }
+        }
+        Command::Cutter {
+            command:
+                CutterCommand::Grind {
+                    profile,
+                    outside_diameter_mm,
+                    teeth,
+                    rake_deg,
+                    clearance_deg,
+                    wheel_radius_mm,
+                    wheel_edge_radius_mm,
+                    spacing_mm,
+                    chord_tolerance_mm,
+                    feed_mm_min,
+                    out,
+                    svg,
+                },
+        } => {
+            let g = hob_cutters::grind::Grinding {
+                outside_radius_mm: 0.5 * outside_diameter_mm,
+                rake_deg,
+                clearance_deg,
+                wheel_radius_mm,
+                wheel_edge_radius_mm,
+                cutter_teeth: teeth,
+                spacing_mm,
+                chord_tolerance_mm,
+            };
+            match cutter::grind(&profile, &g, feed_mm_min, &out, svg.as_deref()) {
                 Ok(text) => emit(&text),
                 Err(e) => {
                     eprintln!("hob: refused: {e}");

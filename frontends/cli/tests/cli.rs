@@ -443,3 +443,74 @@ fn cutter_dynamics_reports_the_link_and_warns_near_resonance() {
     a[7] = "0";
     assert_refused(&a, &["--mass-kg"]);
 }
+
+/// `hob cutter grind` on a profile `hob cutter design` wrote: a program of linear moves for
+/// every tooth, indexed by the dividing head; a broken profile refused naming its primitive.
+#[test]
+fn cutter_grind_writes_a_program_of_linear_moves_per_tooth() {
+    let dir = std::env::temp_dir().join(format!("hob-grind-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let profile = dir.join("z24.toml");
+    let out = hob(&[
+        "cutter",
+        "design",
+        "--teeth",
+        "24",
+        "--module-mm",
+        "8",
+        "--outside-diameter-mm",
+        "80",
+        "--toml",
+        profile.to_str().unwrap(),
+    ]);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    let nc = dir.join("z24.nc");
+    let grind = |profile: &Path| {
+        hob(&[
+            "cutter",
+            "grind",
+            profile.to_str().unwrap(),
+            "--outside-diameter-mm",
+            "80",
+            "--teeth",
+            "12",
+            "--rake-deg",
+            "5",
+            "--wheel-radius-mm",
+            "50",
+            "--wheel-edge-radius-mm",
+            "1",
+            "--out",
+            nc.to_str().unwrap(),
+        ])
+    };
+    let out = grind(&profile);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    let o = text(&out.stdout);
+    assert!(
+        o.contains("12 teeth") && o.contains("lowered 4.181 mm for the 6 deg clearance"),
+        "{o}"
+    );
+    let code = std::fs::read_to_string(&nc).unwrap();
+    assert_eq!(code.matches("\nG0 A").count(), 12);
+    assert!(code.contains("G0 A330.0000"));
+    assert!(!code.lines().any(|l| l.starts_with("G2 ") || l.starts_with("G3 ")));
+    // A gap in the profile: refused, the file and the primitive named, nothing written.
+    let mut t: toml::Table = std::fs::read_to_string(&profile).unwrap().parse().unwrap();
+    let start = &mut t["profile"].as_array_mut().unwrap()[1]["start_mm"]
+        .as_array_mut()
+        .unwrap()[0];
+    *start = toml::Value::Float(start.as_float().unwrap() + 0.1);
+    let broken = dir.join("broken.toml");
+    let bad = toml::to_string(&t).unwrap();
+    std::fs::write(&broken, bad).unwrap();
+    std::fs::remove_file(&nc).unwrap();
+    let out = grind(&broken);
+    assert_eq!(out.status.code(), Some(2), "{}", text(&out.stdout));
+    let err = text(&out.stderr);
+    assert!(
+        err.contains("broken.toml") && err.contains("primitive 2: starts 0.1000 mm"),
+        "{err}"
+    );
+    assert!(!nc.exists());
+}

@@ -9,12 +9,15 @@
 //!   circular arcs, with the approximation's deviation against ISO 1328-1's profile form
 //!   tolerance;
 //! - [`dynamics`]: the cutter as seed 003's second-order link, its side deflection in the cut
-//!   (the flank's profile error) and the cutting speeds that keep it within a limit.
+//!   (the flank's profile error) and the cutting speeds that keep it within a limit;
+//! - [`grind`]: the edge on the rake face, the grinding wheel's path and its 3+2-axis G-code
+//!   (seed 001).
 //!
 //! Pure geometry: no I/O, no allocation but the results' vectors.
 
 pub mod design;
 pub mod dynamics;
 pub mod geometry;
+pub mod grind;
 pub mod profile;
 pub mod space;

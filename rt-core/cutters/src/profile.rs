@@ -323,6 +323,10 @@ pub struct ProfilePoint {
     pub r_mm: f64,
     /// Where one primitive meets the next (or the chain's ends): kept exactly.
     pub node: bool,
+    /// The primitive it lies on (a node: the one it ends, or for the first point, starts)
+    /// and its share along it.
+    pub primitive: usize,
+    pub share: f64,
 }
 
 /// The profile as points along the cutter's axis (a validated chain): on each primitive,
@@ -338,6 +342,8 @@ pub fn discretise(chain: &[Primitive], spacing_mm: f64, chord_tolerance_mm: f64)
                 u_mm: s.x,
                 r_mm: s.y,
                 node: true,
+                primitive: 0,
+                share: 0.0,
             });
         }
         let width = prim.end().x - prim.start().x;
@@ -374,6 +380,8 @@ pub fn discretise(chain: &[Primitive], spacing_mm: f64, chord_tolerance_mm: f64)
                 u_mm: q.x,
                 r_mm: q.y,
                 node,
+                primitive: i,
+                share: t,
             });
         }
     }
