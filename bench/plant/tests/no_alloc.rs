@@ -227,6 +227,8 @@ fn the_control_step_never_allocates() {
             "tooth-by-tooth-z24-m8.toml",
             vec![
                 ("teeth = 24", "teeth = 4"),
+                // A smaller gear than the cutter's profile was made for: not judged.
+                ("grade = 7 ", "# grade = 7 "),
                 ("face_width_mm = 60.0", "face_width_mm = 2.0"),
                 ("outside_diameter_mm = 208.0", "outside_diameter_mm = 48.0"),
                 ("total_depth_mm = 18.0", "total_depth_mm = 1.0"),

@@ -131,6 +131,8 @@ fn tooth_by_tooth_indexes_every_tooth() {
         "tooth-by-tooth-z24-m8.toml",
         &[
             ("teeth = 24", "teeth = 6"),
+            // A smaller gear than the cutter's profile was made for: not judged.
+            ("grade = 7 ", "# grade = 7 "),
             ("face_width_mm = 60.0", "face_width_mm = 3.0"),
             ("outside_diameter_mm = 208.0", "outside_diameter_mm = 64.0"),
             ("total_depth_mm = 18.0", "total_depth_mm = 1.0"),

@@ -16,7 +16,7 @@ const ALLOWED: &[(&str, &[&str])] = &[
     ("hob-gearing", &[]),
     // Profile disk cutters: their profile, the tooth space they cut, their design.
     ("hob-cutters", &["hob-gearing"]),
-    ("hob-setup", &["hob-gearing"]),
+    ("hob-setup", &["hob-gearing", "hob-cutters"]),
     ("hob-control", &["hob-gearing", "hob-setup"]),
     ("hob-canopen", &[]),
     ("hob-process-image", &["hob-canopen", "hob-control", "hob-setup"]),

@@ -186,6 +186,36 @@ fn write_plan(o: &mut String, program: &Path, p: &Plan) -> std::fmt::Result {
         p.total_time_s,
         minutes(p.total_time_s)
     )?;
+    if let Some(c) = &p.cutter {
+        write!(
+            o,
+            "disk cutter's profile: {:.2} um from the gear's involute at most (radius {:.3} mm)",
+            c.profile_deviation_um, c.at_gear_radius_mm
+        )?;
+        match (c.grade, c.profile_form_tolerance_um) {
+            (Some(g), Some(tol)) => writeln!(
+                o,
+                ", {:.0} % of f_falpha {tol:.2} um at grade {g}",
+                100.0 * c.profile_deviation_um / tol
+            )?,
+            _ => writeln!(o, " (workpiece.grade not given: not judged)")?,
+        }
+        match (c.natural_frequency_hz, c.damping_ratio) {
+            (Some(f), Some(z)) => {
+                let passes: Vec<String> = c
+                    .tooth_passing_hz
+                    .iter()
+                    .map(|fz| format!("{fz:.1} Hz ({:.2})", fz / f))
+                    .collect();
+                writeln!(
+                    o,
+                    "disk cutter's natural frequency {f:.1} Hz, damping ratio {z:.4} (seed 003); teeth pass at {}",
+                    passes.join(", ")
+                )?;
+            }
+            _ => writeln!(o, "disk cutter's dynamics: tool.disk.mass_kg not given")?,
+        }
+    }
     for w in &p.warnings {
         writeln!(o, "note: {w}")?;
     }

@@ -248,6 +248,23 @@ mod tests {
         }
     }
 
+    /// A disk cutter's profile (`[tool.disk]`, an array of tables) goes through the form's
+    /// fields and back unchanged: the editor loses nothing it has no place for.
+    #[test]
+    fn a_disk_cutters_profile_survives_the_form() {
+        let path = concat!(
+            env!("CARGO_MANIFEST_DIR"),
+            "/../../config/programs/tooth-by-tooth-z24-m8.toml"
+        );
+        let src = std::fs::read_to_string(path).expect("example");
+        let fs = fields(&src).expect("fields");
+        assert!(fs.iter().any(|f| f.key == "tool.disk.profile[8].end_mm[1]"));
+        let back = to_toml(&fs).expect("toml");
+        let before: hob_setup::job::Program = toml::from_str(&src).expect("example parses");
+        let after: hob_setup::job::Program = toml::from_str(&back).expect("round trip parses");
+        assert_eq!(after, before);
+    }
+
     #[test]
     fn typed_text_becomes_toml_and_a_typo_stays_text_for_the_parser() {
         let t = to_toml(&[

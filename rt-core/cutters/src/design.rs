@@ -53,16 +53,7 @@ pub enum DesignError {
 impl std::fmt::Display for DesignError {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         match self {
-            DesignError::Space(SpaceError::OutOfRange) => write!(
-                f,
-                "the gear is out of range (at least 5 teeth, module > 0, pressure angle 10-35 deg, helix under 45 deg, shift within +-1)"
-            ),
-            DesignError::Space(SpaceError::NoActiveFlank) => {
-                write!(
-                    f,
-                    "the gear has no active involute (its form circle reaches its tip circle)"
-                )
-            }
+            DesignError::Space(e) => write!(f, "{e}"),
             DesignError::Arcs => write!(f, "arcs per flank must be 1 to {MAX_ARCS}"),
             DesignError::SpaceTooNarrow => write!(
                 f,

@@ -10,6 +10,7 @@
 //!   tolerance;
 //! - [`dynamics`]: the cutter as seed 003's second-order link, its side deflection in the cut
 //!   (the flank's profile error) and the cutting speeds that keep it within a limit;
+//! - [`fit`]: how far a profile is from a gear's involute (a library cutter on a program's gear);
 //! - [`grind`]: the edge on the rake face, the grinding wheel's path and its 3+2-axis G-code
 //!   (seed 001).
 //!
@@ -17,6 +18,7 @@
 
 pub mod design;
 pub mod dynamics;
+pub mod fit;
 pub mod geometry;
 pub mod grind;
 pub mod profile;

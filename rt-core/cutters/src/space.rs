@@ -31,6 +31,23 @@ pub enum SpaceError {
     NoActiveFlank,
 }
 
+impl std::fmt::Display for SpaceError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            SpaceError::OutOfRange => write!(
+                f,
+                "the gear is out of range (at least 5 teeth, module > 0, pressure angle 10-35 deg, helix under 45 deg, shift within +-1)"
+            ),
+            SpaceError::NoActiveFlank => {
+                write!(
+                    f,
+                    "the gear has no active involute (its form circle reaches its tip circle)"
+                )
+            }
+        }
+    }
+}
+
 /// The tooth space's radii and its flank.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Space {

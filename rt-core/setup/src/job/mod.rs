@@ -47,6 +47,10 @@ pub struct Workpiece {
     /// `[face_mm, x_offset_mm]` points, face_mm from the bottom face.
     #[serde(default)]
     pub contour: Option<Vec<[f64; 2]>>,
+    /// The ISO 1328-1 grade the gear is to hold (1-11). A disk cutter's profile must then
+    /// stay within the grade's profile form tolerance of the gear's involute.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub grade: Option<i64>,
 }
 
 /// Crowning given by its arc height or its radius (exactly one).
@@ -92,6 +96,66 @@ pub struct Tool {
     /// Hob length, or disk width.
     pub length_mm: f64,
     pub gashes: i64,
+    /// A disk cutter's profile and geometry (`[tool.disk]`); a hob has none.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub disk: Option<DiskTool>,
+}
+
+/// A profile disk cutter's own geometry (issue 17): its profile as line and arc primitives
+/// in its axial plane (`hob_cutters::profile`; `hob cutter design --toml` writes one), its
+/// rake and clearance, and for its dynamics (seed 003) its mass, decrement and modulus.
+#[derive(Debug, Clone, PartialEq, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct DiskTool {
+    pub profile: Vec<hob_cutters::profile::Primitive>,
+    #[serde(default)]
+    pub rake_deg: f64,
+    pub clearance_deg: f64,
+    /// The cutter unit's vibrating mass; without it no dynamics are predicted.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub mass_kg: Option<f64>,
+    /// Logarithmic decrement of its free vibration (seed 003: 0.3; a tap test measures it).
+    #[serde(default = "DiskTool::default_log_decrement")]
+    pub log_decrement: f64,
+    /// Young's modulus of its material (alloy steel 2.1e5 MPa, seed 003).
+    #[serde(default = "DiskTool::default_modulus")]
+    pub youngs_modulus_mpa: f64,
+}
+
+impl DiskTool {
+    fn default_log_decrement() -> f64 {
+        0.3
+    }
+
+    fn default_modulus() -> f64 {
+        2.1e5
+    }
+
+    /// Problems named `tool.disk.<field>`.
+    fn check(&self, outside_diameter_mm: f64, width_mm: f64, p: &mut Problems) {
+        match hob_cutters::profile::validate(&self.profile, 0.5 * outside_diameter_mm) {
+            Err(e) => p.push("tool.disk.profile", e.to_string()),
+            Ok(()) => {
+                let span = self.profile[self.profile.len() - 1].end().x - self.profile[0].start().x;
+                p.require(span <= width_mm + 1e-6, "tool.disk.profile", || {
+                    format!("spans {span:.3} mm across the cutter, wider than tool.length_mm = {width_mm} mm")
+                });
+            }
+        }
+        p.within("tool.disk.rake_deg", self.rake_deg, -20.0, 30.0, "deg");
+        p.within("tool.disk.clearance_deg", self.clearance_deg, 0.0, 30.0, "deg");
+        if let Some(m) = self.mass_kg {
+            p.positive("tool.disk.mass_kg", m);
+        }
+        p.within("tool.disk.log_decrement", self.log_decrement, 0.001, 2.0, "");
+        p.within(
+            "tool.disk.youngs_modulus_mpa",
+            self.youngs_modulus_mpa,
+            1e4,
+            1e6,
+            "MPa",
+        );
+    }
 }
 
 impl Tool {
@@ -121,6 +185,13 @@ impl Tool {
         p.positive("tool.length_mm", t.length_mm);
         let gashes = count(p, "tool.gashes", t.gashes, 1, 100);
         let (starts, lead, hand) = self.check_kind(p);
+        match (&t.disk, t.kind) {
+            (Some(d), ToolKind::Disk) => d.check(t.outside_diameter_mm, t.length_mm, p),
+            (Some(_), ToolKind::Hob) => {
+                p.push("tool.disk", "a hob has no disk profile: leave [tool.disk] out")
+            }
+            (None, _) => {}
+        }
         (gashes, starts, lead, hand)
     }
 
@@ -365,6 +436,9 @@ impl Program {
         p.positive("workpiece.outside_diameter_mm", w.outside_diameter_mm);
         p.non_negative("workpiece.height_above_table_mm", w.height_above_table_mm);
         p.non_negative("workpiece.allowance_mm", w.allowance_mm);
+        if let Some(g) = w.grade {
+            count(p, "workpiece.grade", g, 1, 11);
+        }
         let x_shape = self.check_shape(p);
 
         p.positive("tool.module_mm", t.module_mm);

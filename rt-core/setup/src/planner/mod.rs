@@ -12,6 +12,7 @@
 //! assert!((plan.passes[0].spindle_rpm - 119.366).abs() < 1e-3);
 //! ```
 
+pub mod cutter;
 pub mod motion;
 pub mod progress;
 
@@ -121,6 +122,8 @@ pub struct Plan {
     pub total_time_s: f64,
     /// Plausibility notes that do not stop the program.
     pub warnings: Vec<String>,
+    /// A tooth-by-tooth program's disk cutter with a profile: its fit and dynamics.
+    pub cutter: Option<cutter::CutterPlan>,
 }
 
 /// Reads, checks and plans the program in `file` on `machine`.
@@ -212,6 +215,8 @@ impl<'a> Planner<'a> {
         let total_time_s = self.total_time_s(&passes);
         let pitch_diameter = pitch_diameter_mm(w.module_mm, self.c.teeth, w.helix_deg);
         let helical = prog.is_helical();
+        let mut warnings = self.warnings(pitch_diameter, t.kind);
+        let cutter = cutter::plan(prog, self.c.gashes, &passes, p, &mut warnings);
         Plan {
             machine: self.m.machine.name.clone(),
             cycle: prog.cycle.kind,
@@ -254,7 +259,8 @@ impl<'a> Planner<'a> {
             single_pitch_tolerance_grade5_um: single_pitch_tolerance_um(pitch_diameter, w.module_mm, 5),
             passes,
             total_time_s,
-            warnings: self.warnings(pitch_diameter, t.kind),
+            warnings,
+            cutter,
         }
     }
 

@@ -479,3 +479,65 @@ proptest! {
         }
     }
 }
+
+/// The example tooth-by-tooth program's cutter (`[tool.disk]`, designed by `hob cutter
+/// design`): its profile 10.79 um from the involute, 57 % of grade 7's f_falpha; refused at
+/// grade 4 (6.65 um) with the figure; a cutter for another gear refused; without a mass no
+/// dynamics; near resonance a warning.
+#[test]
+fn a_disk_cutters_profile_is_judged_against_the_gear_and_the_grade() {
+    let src = program_src("tooth-by-tooth-z24-m8.toml");
+    let p = plan_src(&src).expect("plan");
+    let c = p.cutter.as_ref().expect("a disk cutter with a profile");
+    assert!(close(c.profile_deviation_um, 10.79, 0.05), "{c:?}");
+    assert_eq!(c.grade, Some(7));
+    assert!(close(c.profile_form_tolerance_um.unwrap(), 18.8, 1e-9));
+    // Seed 003's link for 24 mm, 80 mm, 10 kg: C = 3 x 2.1e5 x 24^3 / 40^2 = 5.443e6 N/mm,
+    // f = 1 / (2 pi sqrt(10 / 5.443e9)) = 3713 Hz; the teeth pass at 12 x rpm / 60.
+    assert!(close(c.natural_frequency_hz.unwrap(), 3713.2, 0.1), "{c:?}");
+    assert_eq!(c.tooth_passing_hz.len(), p.passes.len());
+    assert!(close(
+        c.tooth_passing_hz[0],
+        12.0 * p.passes[0].spindle_rpm / 60.0,
+        1e-9
+    ));
+    assert!(!p.warnings.iter().any(|w| w.contains("resonance")));
+
+    let err = plan_src(&src.replace("grade = 7 ", "grade = 4 "))
+        .expect_err("grade 4")
+        .to_string();
+    assert!(
+        err.contains("tool.disk.profile")
+            && err.contains("10.8 um")
+            && err.contains("f_falpha 6.65 um of grade 4"),
+        "{err}"
+    );
+    // The same cutter on a z 40 gear of the same module.
+    let keys = refused_keys(
+        &src.replace("teeth = 24", "teeth = 40")
+            .replace("outside_diameter_mm = 208.0", "outside_diameter_mm = 336.0"),
+    );
+    assert_eq!(keys, ["tool.disk.profile"]);
+    // No mass: no dynamics.
+    let p = plan_src(&src.replace("mass_kg = 10.0 ", "# mass_kg ")).expect("plan");
+    assert_eq!(p.cutter.as_ref().unwrap().natural_frequency_hz, None);
+    // A soft, heavy cutter (E 1e4 MPa, 10 t: C = 259 200 N/mm, 25.6 Hz): the finishing
+    // pass's 23.9 Hz is near it (0.93), the roughing passes' 19.9 Hz not (0.78).
+    let soft = src.replace("mass_kg = 10.0 ", "mass_kg = 10000.0\nyoungs_modulus_mpa = 1e4 ");
+    let p = plan_src(&soft).expect("plan");
+    let near: Vec<&String> = p
+        .warnings
+        .iter()
+        .filter(|w| w.contains("near resonance"))
+        .collect();
+    assert_eq!(near.len(), 1, "{:?}", p.warnings);
+    assert!(near[0].starts_with("pass 3:"), "{near:?}");
+    // A profile wider than the cutter: refused with both widths.
+    let err = plan_src(&src.replace("length_mm = 24.0", "length_mm = 20.0"))
+        .expect_err("narrow")
+        .to_string();
+    assert!(
+        err.contains("spans 21.464 mm across the cutter, wider than tool.length_mm = 20"),
+        "{err}"
+    );
+}

@@ -1,0 +1,116 @@
+//! A tooth-by-tooth program's disk cutter against its gear (issue 17): how far the cutter's
+//! profile (`[tool.disk]`) is from the gear's involute, refused beyond the profile form
+//! tolerance of the grade the program asks for (`workpiece.grade`); with the cutter's mass,
+//! its natural frequency (seed 003) against each pass's tooth-passing frequency, warned near
+//! resonance.
+
+use crate::config::Problems;
+use crate::job::{Program, ToolKind};
+use crate::planner::Pass;
+use hob_cutters::dynamics::CutterBody;
+use hob_cutters::fit::fit;
+use hob_cutters::space::{Gear, Space};
+use hob_gearing::iso1328::profile_form_tolerance_um;
+use serde::Serialize;
+
+/// The tooth-passing frequency within this factor of the natural frequency is near
+/// resonance.
+pub const NEAR_RESONANCE: (f64, f64) = (0.8, 1.25);
+
+/// The cutter's part of a plan.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct CutterPlan {
+    /// The profile's largest distance from the gear's active involute, um, and where.
+    pub profile_deviation_um: f64,
+    pub at_gear_radius_mm: f64,
+    /// `workpiece.grade` and its profile form tolerance `f_falpha`, um.
+    pub grade: Option<u8>,
+    pub profile_form_tolerance_um: Option<f64>,
+    /// Seed 003's link, with `tool.disk.mass_kg`.
+    pub natural_frequency_hz: Option<f64>,
+    pub damping_ratio: Option<f64>,
+    /// Each pass's tooth-passing frequency, Hz.
+    pub tooth_passing_hz: Vec<f64>,
+}
+
+/// The cutter's plan, problems and warnings; None without a disk profile.
+pub fn plan(
+    prog: &Program,
+    gashes: u32,
+    passes: &[Pass],
+    p: &mut Problems,
+    warnings: &mut Vec<String>,
+) -> Option<CutterPlan> {
+    let t = &prog.tool;
+    let disk = t.disk.as_ref().filter(|_| t.kind == ToolKind::Disk)?;
+    let w = &prog.workpiece;
+    let gear = Gear {
+        teeth: u32::try_from(w.teeth).ok()?,
+        normal_module_mm: w.module_mm,
+        pressure_angle_deg: t.pressure_angle_deg,
+        profile_shift: 0.0,
+        helix_deg: w.helix_deg,
+    };
+    let grade = w.grade.and_then(|g| u8::try_from(g).ok());
+    let space = match Space::new(gear) {
+        Ok(s) => s,
+        Err(e) => {
+            match grade {
+                Some(_) => p.push(
+                    "tool.disk.profile",
+                    format!("cannot be judged against this gear: {e}"),
+                ),
+                None => warnings.push(format!("the disk cutter's profile is not judged: {e}")),
+            }
+            return None;
+        }
+    };
+    let outside_radius_mm = 0.5 * t.outside_diameter_mm;
+    let f = fit(&space, &disk.profile, outside_radius_mm);
+    let tolerance = grade.map(|g| profile_form_tolerance_um(w.module_mm, g));
+    if let (Some(g), Some(tol)) = (grade, tolerance) {
+        p.require(f.deviation_um <= tol, "tool.disk.profile", || {
+            format!(
+                "departs from the gear's involute by {:.1} um (at radius {:.3} mm): beyond f_falpha {tol:.2} um of grade {g} (workpiece.grade)",
+                f.deviation_um, f.at_gear_radius_mm
+            )
+        });
+    }
+    let link = disk.mass_kg.and_then(|m| {
+        CutterBody {
+            width_mm: t.length_mm,
+            outside_diameter_mm: t.outside_diameter_mm,
+            mass_kg: m,
+            youngs_modulus_mpa: disk.youngs_modulus_mpa,
+            log_decrement: disk.log_decrement,
+            teeth: gashes,
+        }
+        .link()
+        .ok()
+    });
+    let tooth_passing_hz: Vec<f64> = passes
+        .iter()
+        .map(|pass| f64::from(gashes) * pass.spindle_rpm / 60.0)
+        .collect();
+    if let Some(l) = link {
+        for (k, fz) in tooth_passing_hz.iter().enumerate() {
+            let r = fz / l.natural_frequency_hz;
+            if (NEAR_RESONANCE.0..=NEAR_RESONANCE.1).contains(&r) {
+                warnings.push(format!(
+                    "pass {}: the cutter's teeth pass at {fz:.1} Hz, {r:.2} of its natural frequency {:.1} Hz (seed 003): near resonance, choose another cutting speed",
+                    k + 1,
+                    l.natural_frequency_hz
+                ));
+            }
+        }
+    }
+    Some(CutterPlan {
+        profile_deviation_um: f.deviation_um,
+        at_gear_radius_mm: f.at_gear_radius_mm,
+        grade,
+        profile_form_tolerance_um: tolerance,
+        natural_frequency_hz: link.map(|l| l.natural_frequency_hz),
+        damping_ratio: link.map(|l| l.damping_ratio),
+        tooth_passing_hz,
+    })
+}
