@@ -291,19 +291,30 @@ pub fn grind(
     out: &Path,
     svg_path: Option<&Path>,
 ) -> Result<String, String> {
+    let profile = read_profile(profile_path, g.outside_radius_mm)?;
+    let name = profile_path
+        .file_stem()
+        .map_or_else(String::new, |s| s.to_string_lossy().into_owned());
+    grind_profile(&name, &profile, g, feed_mm_min, out, svg_path)
+}
+
+/// The grinding program of a validated profile named `name` to `out`, the plot to `svg`.
+pub fn grind_profile(
+    name: &str,
+    profile: &[Primitive],
+    g: &hob_cutters::grind::Grinding,
+    feed_mm_min: f64,
+    out: &Path,
+    svg_path: Option<&Path>,
+) -> Result<String, String> {
     use hob_cutters::grind::{gcode, path};
     if !(feed_mm_min.is_finite() && feed_mm_min > 0.0) {
         return Err(format!("--feed-mm-min: must be positive (is {feed_mm_min})"));
     }
-    let profile = read_profile(profile_path, g.outside_radius_mm)?;
-    let p = path(&profile, g).map_err(|e| format!("--{}", e.to_string().replace('_', "-")))?;
-    let name = profile_path
-        .file_stem()
-        .map_or_else(String::new, |s| s.to_string_lossy().into_owned());
-    write(out, &gcode(&name, &p, g, feed_mm_min))?;
+    let p = path(profile, g).map_err(|e| format!("--{}", e.to_string().replace('_', "-")))?;
+    write(out, &gcode(name, &p, g, feed_mm_min))?;
     let mut o = format!(
-        "{}: {} points per tooth ({} at nodes and corners), {} teeth, {} linear moves; written to {}\n",
-        profile_path.display(),
+        "{name}: {} points per tooth ({} at nodes and corners), {} teeth, {} linear moves; written to {}\n",
         p.len(),
         p.iter().filter(|q| q.node).count(),
         g.cutter_teeth,

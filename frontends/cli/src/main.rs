@@ -364,6 +364,26 @@ enum ToolAction {
         #[arg(long, value_name = "UTC")]
         when: Option<String>,
     },
+    /// G-code to grind a library disk cutter's teeth to its profile (its `[tool.disk]`:
+    /// profile, rake, clearance; its outside diameter and gashes), as `hob cutter grind`.
+    Grind {
+        name: String,
+        #[arg(long)]
+        wheel_radius_mm: f64,
+        /// The wheel's edge rounding.
+        #[arg(long)]
+        wheel_edge_radius_mm: f64,
+        #[arg(long, default_value_t = 0.2)]
+        spacing_mm: f64,
+        #[arg(long, default_value_t = 0.002)]
+        chord_tolerance_mm: f64,
+        #[arg(long, default_value_t = 200.0)]
+        feed_mm_min: f64,
+        #[arg(long, value_name = "FILE")]
+        out: PathBuf,
+        #[arg(long, value_name = "FILE")]
+        svg: Option<PathBuf>,
+    },
 }
 
 impl EntryAction {
@@ -512,17 +532,61 @@ fn run(command: Command) -> Result<(), Failure> {
             };
             match command {
                 LibCommand::Programs { action } => library::run(Kind::Program, action.action(), &place),
-                LibCommand::Tools { action } => {
-                    let action = match action {
-                        ToolAction::Entry(a) => a.action(),
-                        ToolAction::RecordUsage { name, log, when } => Action::RecordUsage {
+                LibCommand::Tools { action } => match action {
+                    ToolAction::Entry(a) => library::run(Kind::Tool, a.action(), &place),
+                    ToolAction::RecordUsage { name, log, when } => library::run(
+                        Kind::Tool,
+                        Action::RecordUsage {
                             name,
                             log,
                             when_utc: when,
                         },
-                    };
-                    library::run(Kind::Tool, action, &place)
-                }
+                        &place,
+                    ),
+                    ToolAction::Grind {
+                        name,
+                        wheel_radius_mm,
+                        wheel_edge_radius_mm,
+                        spacing_mm,
+                        chord_tolerance_mm,
+                        feed_mm_min,
+                        out,
+                        svg,
+                    } => {
+                        let record = place.open(None)?.tool(&name).map_err(library::refused)?;
+                        let t = &record.tool;
+                        let Some(disk) = &t.disk else {
+                            eprintln!(
+                                "hob: refused: tool {name:?} has no disk cutter's profile ([tool.disk])"
+                            );
+                            return Err(Failure::Exit(2));
+                        };
+                        let g = hob_cutters::grind::Grinding {
+                            outside_radius_mm: 0.5 * t.outside_diameter_mm,
+                            rake_deg: disk.rake_deg,
+                            clearance_deg: disk.clearance_deg,
+                            wheel_radius_mm,
+                            wheel_edge_radius_mm,
+                            cutter_teeth: u32::try_from(t.gashes).unwrap_or(0),
+                            spacing_mm,
+                            chord_tolerance_mm,
+                        };
+                        match cutter::grind_profile(
+                            &name,
+                            &disk.profile,
+                            &g,
+                            feed_mm_min,
+                            &out,
+                            svg.as_deref(),
+                        ) {
+                            Ok(text) => emit(&text),
+                            Err(e) => {
+                                eprintln!("hob: refused: {e}");
+                                Err(Failure::Exit(2))
+                            }
+                        }
+                    }
+                },
             }
         }
         Command::Start { single } => service_result(service::request(&service::start(single))),

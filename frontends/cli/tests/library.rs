@@ -435,3 +435,40 @@ fn usage_of_a_recorded_cut_is_added_to_the_tool() {
         &["no tool \"hob-m5-b\""],
     );
 }
+
+/// `hob lib tools grind NAME`: a library disk cutter with its profile (the tooth-by-tooth
+/// example's `[tool]`) ground per gash; a hob (no `[tool.disk]`) refused.
+#[test]
+fn a_library_disk_cutter_is_ground_from_its_profile() {
+    let dir = library_dir("grind");
+    let src =
+        std::fs::read_to_string(support::root().join("config/programs/tooth-by-tooth-z24-m8.toml")).unwrap();
+    let (a, b) = section(&src, "[tool]\n", "[cycle]\n");
+    let file = support::temp_file("cutter-m8.toml", &format!("format_version = 1\n\n{}", &src[a..b]));
+    ok(
+        &dir,
+        &["lib", "tools", "create", "cutter-m8", file.to_str().unwrap()],
+    );
+    let nc = dir.join("cutter-m8.nc");
+    let args = [
+        "lib",
+        "tools",
+        "grind",
+        "cutter-m8",
+        "--wheel-radius-mm",
+        "50",
+        "--wheel-edge-radius-mm",
+        "1",
+        "--out",
+        nc.to_str().unwrap(),
+    ];
+    let o = ok(&dir, &args);
+    assert!(o.starts_with("cutter-m8: ") && o.contains("12 teeth"), "{o}");
+    let code = std::fs::read_to_string(&nc).unwrap();
+    assert_eq!(code.matches("\nG0 A").count(), 12);
+    let hob = tool_file("hob-for-grind.toml");
+    ok(&dir, &["lib", "tools", "create", "hob-m5", hob.to_str().unwrap()]);
+    let mut args = args;
+    args[3] = "hob-m5";
+    refused(&dir, &args, &["hob-m5", "no disk cutter's profile"]);
+}
