@@ -76,12 +76,28 @@ pub fn run(machine: &MachineConfig, a: &Args<'_>) -> Result<String, (bool, Strin
             hob_logger::predicted::pass_line(p.pass, p.predicted.as_ref(), p.controller_share.as_ref()) + "\n"
         })
         .collect();
+    let predicted_cutter: Vec<f64> = plan
+        .cutter
+        .as_ref()
+        .map(|c| c.passes.iter().map(|p| p.profile_error_um).collect())
+        .unwrap_or_default();
+    let cutter: String = summary
+        .cutter_profile_error_um
+        .iter()
+        .map(|&[pass, um]| {
+            let k = pass as usize;
+            let predicted = predicted_cutter
+                .get(k.wrapping_sub(1))
+                .map_or_else(String::new, |p| format!(" (the plan predicts {p:.2} um)"));
+            format!("  pass {k}: the disk cutter's simulated profile error {um:.2} um{predicted}\n")
+        })
+        .collect();
     let late = match summary.late_frames {
         [0, 0] => String::new(),
         [t, r] => format!("late frames (plant file): {t} position TPDOs, {r} target RPDOs\n"),
     };
     Ok(format!(
-        "{}: {} in {:.1} s simulated; sync error {} (bound {:.2} um = 1/4 of grade-5 f_p); ccc {}, predictor {}; trace {}\n{late}{predicted}",
+        "{}: {} in {:.1} s simulated; sync error {} (bound {:.2} um = 1/4 of grade-5 f_p); ccc {}, predictor {}; trace {}\n{late}{predicted}{cutter}",
         a.program.display(),
         match &summary.fault {
             Some(f) => format!("FAULT {f}"),

@@ -17,6 +17,7 @@
 //!   the accuracy summary of `hob simulate`.
 
 pub mod config;
+pub mod cutter;
 pub mod drive;
 pub mod plant;
 pub mod rng;

@@ -130,6 +130,8 @@ pub struct Plant {
     chain_changed_at: f64,
     chain_cause_gone_at: Option<f64>,
     workpiece: Option<Workpiece>,
+    /// A disk cutter's side deflection (tooth-by-tooth cycle with `[tool.disk]`).
+    cutter: Option<crate::cutter::CutterLink>,
     estop: bool,
     chain_open_injected: bool,
     limit: Option<(Axis, End)>,
@@ -297,6 +299,7 @@ impl Plant {
             chain_changed_at: 0.0,
             chain_cause_gone_at: None,
             workpiece: None,
+            cutter: None,
             estop: false,
             chain_open_injected: false,
             limit: None,
@@ -306,6 +309,17 @@ impl Plant {
 
     pub fn set_workpiece(&mut self, w: Workpiece) {
         self.workpiece = Some(w);
+    }
+
+    /// The tool is this disk cutter: its side deflection is integrated while it cuts.
+    pub fn set_disk_cutter(&mut self, c: crate::cutter::DiskCutter) {
+        self.cutter = Some(crate::cutter::CutterLink::new(c));
+    }
+
+    /// The disk cutter's largest side deflection since the last call, um (None: no disk
+    /// cutter).
+    pub fn take_cutter_peak_um(&mut self) -> Option<f64> {
+        self.cutter.as_mut().map(crate::cutter::CutterLink::take_peak_um)
     }
 
     pub fn time_s(&self) -> f64 {
@@ -642,6 +656,18 @@ impl Plant {
         }
         // The table's bearings resist its turning too; the worm carries both to the motor
         // (rigidly reflected there), and the table body hangs on the mesh.
+        if self.cutter.is_some() {
+            // The flank engaged: the depth, as much of it as has entered the face.
+            let depth = match self.workpiece {
+                Some(w) => (w.x_surface_mm - self.x_mm()).max(0.0) * self.entered_share(),
+                None => 0.0,
+            };
+            let feed_mm_s = self.y.motor_rad_s / self.y_rad_per_mm;
+            let rev_s = self.spindle.speed_rad_s / std::f64::consts::TAU;
+            if let Some(c) = self.cutter.as_mut() {
+                c.advance(dt, depth, feed_mm_s, rev_s);
+            }
+        }
         let drag = self.cfg.table.bearing_friction_nm * (self.worm.table_rad_s / 0.01).tanh();
         let load_at_table_nm = resisting + drag;
         self.table.disturbance_nm = load_at_table_nm / self.worm_ratio;
@@ -666,6 +692,14 @@ impl Plant {
     fn cut_share(&self) -> f64 {
         let Some(w) = self.workpiece else { return 0.0 };
         let depth = w.x_surface_mm - self.x_mm();
+        (depth / self.cfg.spindle.full_depth_mm).min(1.0) * self.entered_share()
+    }
+
+    /// How far the tool has entered the face: from zero at the reach of its tip circle to
+    /// one with its centre at the face (0 out of the blank).
+    fn entered_share(&self) -> f64 {
+        let Some(w) = self.workpiece else { return 0.0 };
+        let depth = w.x_surface_mm - self.x_mm();
         if depth <= 0.0 {
             return 0.0;
         }
@@ -674,12 +708,11 @@ impl Plant {
         let reach = (h * (d - h)).sqrt();
         let y = self.y_mm();
         let outside = (w.face_bottom_mm - y).max(y - w.face_top_mm).max(0.0);
-        let entered = if reach > 0.0 {
+        if reach > 0.0 {
             (1.0 - outside / reach).clamp(0.0, 1.0)
         } else {
             0.0
-        };
-        (depth / self.cfg.spindle.full_depth_mm).min(1.0) * entered
+        }
     }
 
     /// Whether the tool is in the work (cutting load on the spindle).

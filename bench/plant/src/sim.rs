@@ -72,6 +72,9 @@ pub struct Summary {
     /// Frames that missed their SYNC: position TPDOs, target RPDOs
     /// (`simulation.tpdo_late_rate`, `rpdo_late_rate`).
     pub late_frames: [u64; 2],
+    /// A disk cutter's simulated profile error: its largest side deflection in each pass,
+    /// `[pass, um]` (tooth-by-tooth with `[tool.disk]` and `workpiece.material`).
+    pub cutter_profile_error_um: Vec<[f64; 2]>,
 }
 
 /// When the drives act on each SYNC against its nominal instant. The SYNC itself arrives
@@ -229,6 +232,8 @@ pub struct Simulation {
     cycle: u64,
     outputs: CycleOutputs,
     pub events: Vec<Event>,
+    /// The disk cutter's largest side deflection in each pass, `[pass, um]`.
+    pub cutter_peaks_um: Vec<[f64; 2]>,
 }
 
 impl Simulation {
@@ -244,6 +249,7 @@ impl Simulation {
             cycle: 0,
             outputs: CycleOutputs::default(),
             events: Vec::new(),
+            cutter_peaks_um: Vec::new(),
         }
     }
 
@@ -273,6 +279,9 @@ impl Simulation {
             job.workpiece.face_width_mm,
             job.tool.outside_diameter_mm,
         ));
+        if let Some(c) = disk_cutter_of(job) {
+            sim.plant.set_disk_cutter(c);
+        }
         sim
     }
 
@@ -293,6 +302,15 @@ impl Simulation {
         self.plant.apply(&self.frames.at_drives(self.outputs));
         let inputs: CycleInputs = self.frames.at_master(self.plant.latch());
         let row = self.row(t_sync);
+        if let Some(peak) = self.plant.take_cutter_peak_um()
+            && row.pass > 0
+        {
+            let pass = f64::from(row.pass);
+            match self.cutter_peaks_um.last_mut() {
+                Some(last) if last[0] == pass => last[1] = last[1].max(peak),
+                _ => self.cutter_peaks_um.push([pass, peak]),
+            }
+        }
         self.outputs = step(&mut self.controller, &inputs);
         while let Some(e) = self.controller.events().pop() {
             self.events.push(e);
@@ -443,6 +461,38 @@ pub fn workpiece_for(
     }
 }
 
+/// A tooth-by-tooth program's disk cutter with what its dynamics need (`[tool.disk]` with
+/// `mass_kg`, `workpiece.material`); None otherwise.
+pub fn disk_cutter_of(job: &hob_setup::job::Program) -> Option<crate::cutter::DiskCutter> {
+    let t = &job.tool;
+    let disk = t
+        .disk
+        .as_ref()
+        .filter(|_| t.kind == hob_setup::job::ToolKind::Disk)?;
+    let m = job.workpiece.material.as_ref()?;
+    let teeth = u32::try_from(t.gashes).ok()?;
+    let link = hob_cutters::dynamics::CutterBody {
+        width_mm: t.length_mm,
+        outside_diameter_mm: t.outside_diameter_mm,
+        mass_kg: disk.mass_kg?,
+        youngs_modulus_mpa: disk.youngs_modulus_mpa,
+        log_decrement: disk.log_decrement,
+        teeth,
+    }
+    .link()
+    .ok()?;
+    Some(crate::cutter::DiskCutter {
+        link,
+        material: hob_cutters::dynamics::Material {
+            kc11_n_mm2: m.kc11_n_mm2,
+            mc: m.mc,
+        },
+        pressure_angle_deg: t.pressure_angle_deg,
+        teeth,
+        outside_diameter_mm: t.outside_diameter_mm,
+    })
+}
+
 /// Per-pass statistics of a plan's gear, with the gear each pass leaves predicted at the
 /// ISO 1328-1 grade `grade`.
 pub fn summary_builder(plan: &Plan, grade: u8) -> SummaryBuilder {
@@ -478,6 +528,7 @@ pub fn finish_summary(
         completed,
         fault,
         late_frames: [0; 2],
+        cutter_profile_error_um: Vec::new(),
     }
 }
 
@@ -532,6 +583,7 @@ pub fn run_program(
     let total = sim.time_s();
     Ok(Summary {
         late_frames: sim.late_frames(),
+        cutter_profile_error_um: sim.cutter_peaks_um.clone(),
         ..finish_summary(
             builder,
             plan.pitch_diameter_mm / 2.0,

@@ -84,6 +84,7 @@ const ALLOWED: &[(&str, &[&str])] = &[
     (
         "hob-plant",
         &[
+            "hob-cutters",
             "hob-gearing",
             "hob-setup",
             "hob-control",

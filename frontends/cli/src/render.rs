@@ -215,6 +215,34 @@ fn write_plan(o: &mut String, program: &Path, p: &Plan) -> std::fmt::Result {
             }
             _ => writeln!(o, "disk cutter's dynamics: tool.disk.mass_kg not given")?,
         }
+        for (k, cp) in c.passes.iter().enumerate() {
+            let ranges: Vec<String> = cp
+                .speed_ranges_m_min
+                .iter()
+                .map(|(a, b)| format!("{a:.1}-{b:.1}"))
+                .collect();
+            writeln!(
+                o,
+                "  pass {}: one flank's side force {:.0} N (chip {:.3} x {:.2} mm), amplification {:.2}, predicted profile error {:.2} um{}",
+                k + 1,
+                cp.side_force_n,
+                cp.side_chip_thickness_mm,
+                cp.side_chip_width_mm,
+                cp.amplification,
+                cp.profile_error_um,
+                if ranges.is_empty() {
+                    String::new()
+                } else {
+                    format!("; within f_falpha at {} m/min", ranges.join(", "))
+                }
+            )?;
+        }
+        if c.passes.is_empty() && c.natural_frequency_hz.is_some() {
+            writeln!(
+                o,
+                "  (workpiece.material not given: no side force or profile error predicted)"
+            )?;
+        }
     }
     for w in &p.warnings {
         writeln!(o, "note: {w}")?;

@@ -51,6 +51,21 @@ pub struct Workpiece {
     /// stay within the grade's profile form tolerance of the gear's involute.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub grade: Option<i64>,
+    /// The workpiece material's cutting coefficients (Kienzle), for a disk cutter's side
+    /// force (`hob plan` of a tooth-by-tooth program).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub material: Option<MaterialSpec>,
+}
+
+/// A workpiece material: Kienzle's specific cutting force `k_c1.1` and exponent `m_c`
+/// (docs/domain.md section 8: 42CrMo4, 2600 N/mm2 and 0.26).
+#[derive(Debug, Clone, PartialEq, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct MaterialSpec {
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub name: Option<String>,
+    pub kc11_n_mm2: f64,
+    pub mc: f64,
 }
 
 /// Crowning given by its arc height or its radius (exactly one).
@@ -438,6 +453,16 @@ impl Program {
         p.non_negative("workpiece.allowance_mm", w.allowance_mm);
         if let Some(g) = w.grade {
             count(p, "workpiece.grade", g, 1, 11);
+        }
+        if let Some(m) = &w.material {
+            p.within(
+                "workpiece.material.kc11_n_mm2",
+                m.kc11_n_mm2,
+                100.0,
+                10_000.0,
+                "N/mm2",
+            );
+            p.within("workpiece.material.mc", m.mc, 0.0, 0.6, "");
         }
         let x_shape = self.check_shape(p);
 

@@ -7,7 +7,7 @@
 use crate::config::Problems;
 use crate::job::{Program, ToolKind};
 use crate::planner::Pass;
-use hob_cutters::dynamics::CutterBody;
+use hob_cutters::dynamics::{CutterBody, Material, SideCut, deflection, speed_ranges};
 use hob_cutters::fit::fit;
 use hob_cutters::space::{Gear, Space};
 use hob_gearing::iso1328::profile_form_tolerance_um;
@@ -31,6 +31,39 @@ pub struct CutterPlan {
     pub damping_ratio: Option<f64>,
     /// Each pass's tooth-passing frequency, Hz.
     pub tooth_passing_hz: Vec<f64>,
+    /// With `workpiece.material` too: each pass's side force and predicted profile error
+    /// (one flank's force, unbalanced: the worst case), and the cutting speeds that keep the
+    /// error within the grade's `f_falpha`.
+    pub passes: Vec<CutterPass>,
+}
+
+/// One pass of the cutter (seed 003's model, closed form).
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct CutterPass {
+    pub side_chip_thickness_mm: f64,
+    pub side_chip_width_mm: f64,
+    pub side_force_n: f64,
+    pub frequency_ratio: f64,
+    pub amplification: f64,
+    pub profile_error_um: f64,
+    /// Cutting speeds (m/min, 5-200) with the error within `f_falpha`, when a grade is given.
+    pub speed_ranges_m_min: Vec<(f64, f64)>,
+}
+
+/// The side edge's cut of a pass, one flank's (the worst case): the chip thickness is the
+/// feed per tooth, the width the flank engaged to the pass's depth (`depth / cos(alpha)`).
+pub fn side_cut(
+    feed_mm_per_rev: f64,
+    gashes: u32,
+    depth_mm: f64,
+    pressure_angle_deg: f64,
+    speed_m_min: f64,
+) -> SideCut {
+    SideCut {
+        chip_thickness_mm: feed_mm_per_rev / f64::from(gashes.max(1)),
+        chip_width_mm: depth_mm / pressure_angle_deg.to_radians().cos(),
+        cutting_speed_m_min: speed_m_min,
+    }
 }
 
 /// The cutter's plan, problems and warnings; None without a disk profile.
@@ -76,18 +109,56 @@ pub fn plan(
             )
         });
     }
-    let link = disk.mass_kg.and_then(|m| {
-        CutterBody {
-            width_mm: t.length_mm,
-            outside_diameter_mm: t.outside_diameter_mm,
-            mass_kg: m,
-            youngs_modulus_mpa: disk.youngs_modulus_mpa,
-            log_decrement: disk.log_decrement,
-            teeth: gashes,
-        }
-        .link()
-        .ok()
+    let body = disk.mass_kg.map(|m| CutterBody {
+        width_mm: t.length_mm,
+        outside_diameter_mm: t.outside_diameter_mm,
+        mass_kg: m,
+        youngs_modulus_mpa: disk.youngs_modulus_mpa,
+        log_decrement: disk.log_decrement,
+        teeth: gashes,
     });
+    let link = body.and_then(|b| b.link().ok());
+    let mut cutter_passes = Vec::new();
+    if let (Some(b), Some(m)) = (body, w.material.as_ref()) {
+        let material = Material {
+            kc11_n_mm2: m.kc11_n_mm2,
+            mc: m.mc,
+        };
+        for (k, pass) in passes.iter().enumerate() {
+            let cut = side_cut(
+                pass.feed_mm_per_rev,
+                gashes,
+                pass.depth_mm,
+                t.pressure_angle_deg,
+                pass.cutting_speed_m_min,
+            );
+            let Ok(d) = deflection(&b, &material, &cut) else {
+                continue;
+            };
+            let speed_ranges_m_min = tolerance
+                .and_then(|tol| speed_ranges(&b, &material, &cut, (5.0, 200.0, 0.5), tol).ok())
+                .unwrap_or_default();
+            if let (Some(g), Some(tol)) = (grade, tolerance)
+                && d.profile_error_um > tol
+            {
+                warnings.push(format!(
+                    "pass {}: the disk cutter's predicted profile error {:.1} um (one flank's side force {:.0} N, seed 003) is beyond f_falpha {tol:.2} um of grade {g}",
+                    k + 1,
+                    d.profile_error_um,
+                    d.side_force_n
+                ));
+            }
+            cutter_passes.push(CutterPass {
+                side_chip_thickness_mm: cut.chip_thickness_mm,
+                side_chip_width_mm: cut.chip_width_mm,
+                side_force_n: d.side_force_n,
+                frequency_ratio: d.frequency_ratio,
+                amplification: d.amplification,
+                profile_error_um: d.profile_error_um,
+                speed_ranges_m_min,
+            });
+        }
+    }
     let tooth_passing_hz: Vec<f64> = passes
         .iter()
         .map(|pass| f64::from(gashes) * pass.spindle_rpm / 60.0)
@@ -112,5 +183,6 @@ pub fn plan(
         natural_frequency_hz: link.map(|l| l.natural_frequency_hz),
         damping_ratio: link.map(|l| l.damping_ratio),
         tooth_passing_hz,
+        passes: cutter_passes,
     })
 }
