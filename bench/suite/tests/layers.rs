@@ -139,6 +139,8 @@ const ALLOWED: &[(&str, &[&str])] = &[
     ),
     // The multi-process tests talk to the binaries as a user does: no project crate.
     ("hob-system-tests", &[]),
+    // The fuzz targets' properties: the decoders of outside data they drive.
+    ("hob-fuzz-harness", &["hob-canopen", "hob-process-image", "hob-setup"]),
 ];
 
 /// Crates without I/O: the only outside crates they may use (normal dependencies).
