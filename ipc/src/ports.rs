@@ -12,6 +12,7 @@ use iceoryx2::port::subscriber::Subscriber;
 use iceoryx2::port::update_connections::UpdateConnections;
 use iceoryx2::port::{LoanError, ReceiveError, SendError};
 use iceoryx2::prelude::{NodeBuilder, NodeName, ServiceName, SignalHandlingMode};
+use iceoryx2::service::port_factory::PortFactory as _;
 use std::time::{Duration, Instant};
 
 /// State samples a subscriber may buffer: 2 s of cycles, so a logger that is descheduled
@@ -23,6 +24,10 @@ pub const EVENT_BUFFER: usize = 1024;
 /// Frames an endpoint of the virtual CAN bus may buffer (about 0.5 s of traffic).
 pub const CAN_BUFFER: usize = 2048;
 const MAX_PORTS: usize = 8;
+/// Publishers of `state`, `events` and `stats`, and servers of `command`: the loop's alone.
+/// A second process could otherwise feed the watchdog and the HMI a live-looking stream or
+/// answer commands in the loop's place (issue 18); it is refused when it opens its port.
+pub const LOOP_ONLY: usize = 1;
 
 /// A failure to set up a port: start-up only, with iceoryx2's reason.
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -95,35 +100,57 @@ where
     Ok(p)
 }
 
-fn pub_sub<T>(node: &Node<Svc>, what: &str, buffer: usize, history: usize) -> Result<PubSub<T>, IpcError>
+fn pub_sub<T>(
+    node: &Node<Svc>,
+    what: &str,
+    buffer: usize,
+    history: usize,
+    publishers: usize,
+) -> Result<PubSub<T>, IpcError>
 where
     T: std::fmt::Debug + iceoryx2::prelude::ZeroCopySend + 'static,
 {
-    node.service_builder(&service_name(what)?)
+    let service = node
+        .service_builder(&service_name(what)?)
         .publish_subscribe::<T>()
         .subscriber_max_buffer_size(buffer)
         .history_size(history)
         .max_subscribers(MAX_PORTS)
-        .max_publishers(MAX_PORTS)
+        .max_publishers(publishers)
         .max_nodes(MAX_PORTS * 2)
         .open_or_create()
-        .map_err(err(what))
+        .map_err(err(what))?;
+    // iceoryx2 opens a service that allows more ports than asked for: one made by another
+    // program with room for a second publisher is refused here, in every process.
+    let allowed = service.static_config().max_publishers();
+    if allowed != publishers {
+        return Err(ports_mismatch(what, "publishers", allowed, publishers));
+    }
+    Ok(service)
+}
+
+fn ports_mismatch(what: &str, ports: &str, allowed: usize, wanted: usize) -> IpcError {
+    IpcError(format!(
+        "service hob/{}/{what} allows {allowed} {ports}, not {wanted}: it was made by another program; \
+         stop every process of this instance and remove it (iceoryx2's files in /dev/shm and /tmp/iceoryx2)",
+        instance()
+    ))
 }
 
 pub fn open_state(node: &Node<Svc>) -> Result<PubSub<StateSample>, IpcError> {
-    pub_sub(node, "state", STATE_BUFFER, 0)
+    pub_sub(node, "state", STATE_BUFFER, 0, LOOP_ONLY)
 }
 
 pub fn open_events(node: &Node<Svc>) -> Result<PubSub<EventSample>, IpcError> {
-    pub_sub(node, "events", EVENT_BUFFER, EVENT_HISTORY)
+    pub_sub(node, "events", EVENT_BUFFER, EVENT_HISTORY, LOOP_ONLY)
 }
 
 pub fn open_stats(node: &Node<Svc>) -> Result<PubSub<StatsSample>, IpcError> {
-    pub_sub(node, "stats", 16, 1)
+    pub_sub(node, "stats", 16, 1, LOOP_ONLY)
 }
 
 pub fn open_can(node: &Node<Svc>) -> Result<PubSub<CanFrameSample>, IpcError> {
-    pub_sub(node, "can", CAN_BUFFER, 0)
+    pub_sub(node, "can", CAN_BUFFER, 0, MAX_PORTS)
 }
 
 type ReqRes = iceoryx2::service::port_factory::request_response::PortFactory<
@@ -135,15 +162,21 @@ type ReqRes = iceoryx2::service::port_factory::request_response::PortFactory<
 >;
 
 pub fn open_command(node: &Node<Svc>) -> Result<ReqRes, IpcError> {
-    node.service_builder(&service_name("command")?)
+    let service = node
+        .service_builder(&service_name("command")?)
         .request_response::<CommandRequest, CommandResponse>()
         .max_clients(MAX_PORTS)
-        .max_servers(2)
+        .max_servers(LOOP_ONLY)
         .max_active_requests_per_client(2)
         .max_response_buffer_size(2)
         .max_nodes(MAX_PORTS * 2)
         .open_or_create()
-        .map_err(err("command"))
+        .map_err(err("command"))?;
+    let allowed = service.static_config().max_servers();
+    if allowed != LOOP_ONLY {
+        return Err(ports_mismatch("command", "servers", allowed, LOOP_ONLY));
+    }
+    Ok(service)
 }
 
 /// The ports of a process that follows the loop (HMI, CLI, logger, watchdog): subscribers
@@ -385,5 +418,54 @@ impl CanPort {
     pub fn update_connections(&self) {
         let _ = self.publisher.update_connections();
         let _ = self.subscriber.update_connections();
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// One test: the instance name is set once per process.
+    #[test]
+    fn only_the_loop_may_publish_the_state_and_serve_commands() {
+        use_instance(&format!("ipc-test-{}", std::process::id()));
+        let loop_node = node("loop").unwrap();
+        let _state = publisher(&open_state(&loop_node).unwrap(), "state publisher").unwrap();
+        let _events = publisher(&open_events(&loop_node).unwrap(), "events publisher").unwrap();
+        let _server = command_server(&loop_node).unwrap();
+
+        // A second process's publisher or server is refused...
+        let other = node("impostor").unwrap();
+        let e = publisher(&open_state(&other).unwrap(), "state publisher").unwrap_err();
+        assert!(e.0.contains("state publisher"), "{e}");
+        assert!(publisher(&open_events(&other).unwrap(), "events publisher").is_err());
+        let e = command_server(&other).unwrap_err();
+        assert!(e.0.contains("command server"), "{e}");
+        // ... while followers still subscribe and send commands.
+        let _follower = open_state(&other)
+            .unwrap()
+            .subscriber_builder()
+            .buffer_size(STATE_BUFFER)
+            .create()
+            .unwrap();
+        let _client = Client::connect("client").unwrap();
+
+        // A service made by another program with room for more publishers: refused by
+        // everyone who opens it, the loop and its followers alike.
+        let maker = node("maker").unwrap();
+        let _roomy = maker
+            .service_builder(&service_name("stats").unwrap())
+            .publish_subscribe::<StatsSample>()
+            .subscriber_max_buffer_size(16)
+            .history_size(1)
+            .max_subscribers(MAX_PORTS)
+            .max_publishers(MAX_PORTS)
+            .max_nodes(MAX_PORTS * 2)
+            .create()
+            .unwrap();
+        let e = open_stats(&loop_node).unwrap_err();
+        assert!(e.0.contains("stats allows 8 publishers, not 1"), "{e}");
+        let e = Ports::subscribe("follower").unwrap_err();
+        assert!(e.0.contains("stats allows 8 publishers"), "{e}");
     }
 }

@@ -53,8 +53,12 @@ pub fn candump(data: &[u8]) {
 /// and planned on the shipped machine. A refusal names at least one problem; an accepted
 /// program has passes and finite figures.
 pub fn program(data: &[u8]) {
-    let Ok(text) = std::str::from_utf8(data) else { return };
-    let Ok(job) = Program::parse(Path::new("fuzz.toml"), text) else { return };
+    let Ok(text) = std::str::from_utf8(data) else {
+        return;
+    };
+    let Ok(job) = Program::parse(Path::new("fuzz.toml"), text) else {
+        return;
+    };
     let mut p = Problems::new();
     match planner::plan(&job, shipped(), &mut p) {
         None => assert!(!p.is_empty(), "refused without a reason"),
@@ -72,10 +76,16 @@ pub fn program(data: &[u8]) {
 /// A machine file (`hob check --machine`, every service at start-up): parsed and validated;
 /// an accepted one yields a bus plan.
 pub fn machine(data: &[u8]) {
-    let Ok(text) = std::str::from_utf8(data) else { return };
+    let Ok(text) = std::str::from_utf8(data) else {
+        return;
+    };
     if let Ok(m) = MachineConfig::parse(Path::new("fuzz-machine.toml"), text) {
         let plan = BusPlan::from_machine(&m);
-        assert!(plan.nodes().iter().all(|n| (1..=127).contains(n)), "{:?}", plan.nodes());
+        assert!(
+            plan.nodes().iter().all(|n| (1..=127).contains(n)),
+            "{:?}",
+            plan.nodes()
+        );
     }
 }
 
@@ -102,7 +112,10 @@ pub fn cyclic(data: &[u8]) {
                     "drive {k} reports {} that no TPDO carried",
                     fb.position_counts
                 );
-                assert!(!fb.fresh || arrived[k], "drive {k} fresh without a TPDO this cycle");
+                assert!(
+                    !fb.fresh || arrived[k],
+                    "drive {k} fresh without a TPDO this cycle"
+                );
             }
             arrived = [false; 3];
             continue;

@@ -11,7 +11,9 @@ fn every_corpus_input_and_past_crash_keeps_its_properties() {
         let mut seen = 0;
         for kind in ["corpus", "regressions"] {
             let dir = root.join(kind).join(name);
-            let Ok(entries) = std::fs::read_dir(&dir) else { continue };
+            let Ok(entries) = std::fs::read_dir(&dir) else {
+                continue;
+            };
             for e in entries.flatten() {
                 let data = std::fs::read(e.path()).unwrap_or_default();
                 let path = e.path();

@@ -210,6 +210,11 @@ impl LoggerStats {
 #[derive(Debug, Clone, Deserialize)]
 pub struct WatchdogTrip {
     pub tripped: bool,
+    /// What went silent or failed: `state` (the loop's stream), `sync` (its SYNC frames on
+    /// the bus) or `loop` (the loop reported that it lost the machine).
+    pub channel: String,
+    /// For `state` and `sync`: the silence when the watchdog noticed it, on its own clock.
+    pub silence_ms: Option<f64>,
     pub reason: String,
     pub frames_sent: u64,
     pub answers: u64,
@@ -219,6 +224,25 @@ pub struct WatchdogTrip {
 impl WatchdogTrip {
     /// The first trip reported in the watchdog's log (its stdout and stderr).
     pub fn find(log: &str) -> Option<WatchdogTrip> {
+        log.lines()
+            .filter(|l| l.starts_with('{'))
+            .find_map(|l| serde_json::from_str(l).ok())
+    }
+}
+
+/// `hob-loop-double`'s report of the watchdog's reaction (one JSON line on stdout).
+#[derive(Debug, Clone, Deserialize)]
+pub struct DoubleSawReaction {
+    pub pc_ok_dropped: bool,
+    /// `sync` or `state`.
+    pub muted: Option<String>,
+    /// From the double's last sign of life on the muted channel to the watchdog's frame
+    /// switching the coupler's outputs off, on the double's clock.
+    pub ms_after_last_sign: Option<f64>,
+}
+
+impl DoubleSawReaction {
+    pub fn find(log: &str) -> Option<DoubleSawReaction> {
         log.lines()
             .filter(|l| l.starts_with('{'))
             .find_map(|l| serde_json::from_str(l).ok())
@@ -268,7 +292,14 @@ impl Bench {
     pub fn new(test: &str) -> Bench {
         let root = root();
         let bin = root.join(env_var("HOB_BIN").unwrap_or_else(|| "target/release".into()));
-        for exe in ["hob", "hob-rt", "hob-sim", "hob-logger", "hob-watchdog"] {
+        for exe in [
+            "hob",
+            "hob-rt",
+            "hob-sim",
+            "hob-logger",
+            "hob-watchdog",
+            "hob-loop-double",
+        ] {
             assert!(
                 bin.join(exe).is_file(),
                 "{}: not there; build the binaries first: cargo build --release --workspace --bins (or set HOB_BIN)",

@@ -15,8 +15,8 @@
 #![allow(clippy::unwrap_used)]
 
 use hob_system_tests::{
-    Bench, CSV_COLUMNS, LoggerStats, ProcId, Report, TomlDoc, WatchdogTrip, parse_candump, session_program,
-    tolerance_ms, watchdog_reaction,
+    Bench, CSV_COLUMNS, DoubleSawReaction, LoggerStats, ProcId, Report, TomlDoc, WatchdogTrip, parse_candump,
+    session_program, tolerance_ms, watchdog_reaction,
 };
 use std::path::Path;
 use std::time::Duration;
@@ -429,11 +429,20 @@ fn service_session() {
             // Give the capture time.
             std::thread::sleep(Duration::from_secs(1));
             let text = std::fs::read_to_string(&log).unwrap();
-            assert!(trip.tripped && trip.reason.starts_with("loop silent"), "{trip:?}");
+            // Both signs of life stop together: either may be noticed first.
+            assert!(
+                trip.tripped && ["state", "sync"].contains(&trip.channel.as_str()),
+                "{trip:?}"
+            );
+            let silence_ms = trip.silence_ms.unwrap_or(f64::NAN);
+            assert!(
+                silence_ms > deadline_ms && silence_ms <= 1.2 * deadline_ms,
+                "the watchdog noticed after {silence_ms} ms of silence, deadline {deadline_ms} ms: {trip:?}"
+            );
             assert_eq!(trip.errors, 0, "{trip:?}");
             let line = text.lines().find(|l| l.contains("TRIPPED")).unwrap_or("");
             format!(
-                "{}; {} frames sent, {} answered ({})",
+                "{} (deadline {deadline_ms:.0} ms); {} frames sent, {} answered ({})",
                 trip.reason,
                 trip.frames_sent,
                 trip.answers,
@@ -452,6 +461,165 @@ fn service_session() {
         );
     } else {
         eprintln!("(no candump capture: bus {}, or candump not installed)", b.iface);
+    }
+}
+
+/// The safety channel does not depend on the process it guards: the watchdog follows the
+/// loop's state stream and, on a CAN socket of its own, the loop's SYNC frames, and trips
+/// when either goes silent past its deadline. A stand-in for the loop (`hob-loop-double`)
+/// goes silent on one channel while the other stays live; the watchdog's reaction is
+/// timed on its own clock and, from the frame that switches the coupler's outputs off
+/// (PC-OK), on the stand-in's. The loop's ports are its alone: while the stand-in holds
+/// them, a second publisher (another stand-in, a hob-rt) or command server is refused, and
+/// hob-rt is refused before it touches the bus.
+#[test]
+#[ignore = "needs the release binaries and a bus; ci/test runs it (--ignored --test-threads=1)"]
+fn watchdog_watches_the_sync_and_the_state_and_only_the_loop_publishes() {
+    let mut b = Bench::new("watchdog_channels");
+    let m = b.session_machine();
+    let machine = m.write(&b.art.join("machine.toml"));
+    let cycle_us = m.int("control.cycle_period_us").to_string();
+    let deadline_ms = m.int("service.watchdog_deadline_ms") as f64;
+    let iface = b.iface.clone();
+    for (mute, other) in [
+        ("sync", "the state stream still live"),
+        ("state", "its SYNC still on"),
+    ] {
+        let wd = b.spawn(
+            "hob-watchdog",
+            "hob-watchdog",
+            &["--iface", &iface, "--machine", &path(&machine)],
+            &format!("watchdog-{mute}.txt"),
+        );
+        std::thread::sleep(Duration::from_millis(500));
+        let double = b.spawn(
+            "hob-loop-double",
+            "hob-loop-double",
+            &[
+                "--iface",
+                &iface,
+                "--machine",
+                &path(&machine),
+                "--period-us",
+                &cycle_us,
+                "--mute",
+                mute,
+                "--after-ms",
+                "4000",
+                "--serve-commands",
+            ],
+            &format!("double-{mute}.txt"),
+        );
+        if mute == "sync" {
+            b.step(
+                "a second publisher of the state or server of commands is refused",
+                |b| {
+                    std::thread::sleep(Duration::from_millis(1000));
+                    let second = b.spawn(
+                        "second hob-loop-double",
+                        "hob-loop-double",
+                        &[
+                            "--iface",
+                            &iface,
+                            "--machine",
+                            &path(&machine),
+                            "--run-ms",
+                            "2000",
+                        ],
+                        "double-second.txt",
+                    );
+                    let code = b.wait_exit(second, Duration::from_secs(60)).code();
+                    let text = std::fs::read_to_string(b.log_of(second)).unwrap();
+                    assert_eq!(code, Some(2), "a second publisher of state: {text}");
+                    assert!(
+                        text.contains("state publisher: ExceedsMaxSupportedPublishers"),
+                        "{text}"
+                    );
+                    let server = b.spawn(
+                        "hob-loop-double --commands-only",
+                        "hob-loop-double",
+                        &["--iface", &iface, "--machine", &path(&machine), "--commands-only"],
+                        "double-server.txt",
+                    );
+                    let code = b.wait_exit(server, Duration::from_secs(60)).code();
+                    let text2 = std::fs::read_to_string(b.log_of(server)).unwrap();
+                    assert_eq!(code, Some(2), "a second command server: {text2}");
+                    assert!(
+                        text2.contains("command server: ExceedsMaxSupportedServers"),
+                        "{text2}"
+                    );
+                    let state = path(&b.art.join("machine-state.toml"));
+                    let rt = b.spawn(
+                        "second hob-rt",
+                        "hob-rt",
+                        &[
+                            "--iface",
+                            &iface,
+                            "--machine",
+                            &path(&machine),
+                            "--state-file",
+                            &state,
+                        ],
+                        "rt-second.txt",
+                    );
+                    let code = b.wait_exit(rt, Duration::from_secs(120)).code();
+                    let text3 = std::fs::read_to_string(b.log_of(rt)).unwrap();
+                    assert_eq!(code, Some(1), "a second hob-rt: {text3}");
+                    assert!(
+                        text3.contains(
+                            "state publisher: ExceedsMaxSupportedPublishers (is another hob-rt running"
+                        ),
+                        "{text3}"
+                    );
+                    // Refused before the bus: no boot attempted.
+                    assert!(
+                        !text3.contains("bus boot") && !text3.contains("operational"),
+                        "{text3}"
+                    );
+                    format!(
+                        "{}; {}; {}",
+                        text.lines().last().unwrap_or(""),
+                        text2.lines().last().unwrap_or(""),
+                        text3.lines().last().unwrap_or("")
+                    )
+                },
+            );
+        }
+        b.step(
+            &format!("the loop's {mute} goes silent, the other channel live: the watchdog trips"),
+            |b| {
+                let log = b.log_of(wd);
+                let trip = b.wait_for("the watchdog's trip report", Duration::from_secs(120), |_| {
+                    let text = std::fs::read_to_string(&log).map_err(|e| e.to_string())?;
+                    WatchdogTrip::find(&text).ok_or_else(|| "no trip reported yet".to_string())
+                });
+                let dlog = b.log_of(double);
+                let seen = b.wait_for("the stand-in hears PC-OK dropped", Duration::from_secs(30), |_| {
+                    let text = std::fs::read_to_string(&dlog).map_err(|e| e.to_string())?;
+                    DoubleSawReaction::find(&text).ok_or_else(|| "no reaction heard yet".to_string())
+                });
+                assert!(trip.tripped && trip.errors == 0, "{trip:?}");
+                assert_eq!(trip.channel, mute, "{trip:?}");
+                assert!(trip.reason.contains(other), "{trip:?}");
+                let silence_ms = trip.silence_ms.unwrap_or(f64::NAN);
+                assert!(
+                    silence_ms > deadline_ms && silence_ms <= 1.2 * deadline_ms,
+                    "noticed after {silence_ms} ms, deadline {deadline_ms} ms"
+                );
+                assert!(seen.pc_ok_dropped && seen.muted.as_deref() == Some(mute), "{seen:?}");
+                let after = seen.ms_after_last_sign.unwrap_or(f64::NAN);
+                assert!(
+                    after > deadline_ms && after <= 1.2 * deadline_ms,
+                    "PC-OK dropped {after} ms after the stand-in's last {mute}, deadline {deadline_ms} ms"
+                );
+                format!(
+                    "{}; on the watchdog's clock {silence_ms:.1} ms of silence, on the stand-in's PC-OK off {after:.1} ms after its last {mute} (deadline {deadline_ms:.0} ms)",
+                    trip.reason
+                )
+            },
+        );
+        b.terminate(double, Duration::from_secs(10));
+        b.terminate(wd, Duration::from_secs(10));
     }
 }
 

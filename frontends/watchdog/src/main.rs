@@ -1,8 +1,10 @@
-//! `hob-watchdog`: the independent safety channel. It follows the loop's `state` stream
-//! (one sample per millisecond: the loop's liveness) and has its own CAN socket. When the
-//! stream is missing for longer than its deadline (`service.watchdog_deadline_ms`, 10 ms),
-//! or the loop reports that it lost the machine (faulted with a drive or the I/O coupler
-//! gone from the bus), it
+//! `hob-watchdog`: the independent safety channel. It follows two signs of the loop's
+//! life (module `liveness`): the `state` stream on shared memory (one sample per cycle)
+//! and the SYNC frames on the CAN bus, heard on a socket of its own (the loop's real
+//! output: a loop that keeps publishing but no longer drives the bus is caught too). When
+//! either is missing for longer than its deadline (`service.watchdog_deadline_ms`,
+//! 10 ms), or the loop reports that it lost the machine (faulted with a drive or the I/O
+//! coupler gone from the bus), it
 //! 1. switches every digital output of the I/O coupler off by SDO, PC-OK among them: the
 //!    safety relay chain opens (docs/domain.md section 6), the drives lose power (STO), the VFD
 //!    stops; the spindle reference goes to 0 V;
@@ -12,6 +14,8 @@
 //! loop starts publishing.
 //!
 //! usage: hob-watchdog [--machine FILE] [--iface IFACE|shm] [--deadline-ms N]
+
+mod liveness;
 
 use hob_can_transport::shm::open_bus;
 use hob_canopen::bus::CanBus;
@@ -24,6 +28,7 @@ use hob_process_image::plan::{ANALOG_OUTPUTS, BusPlan, DIGITAL_OUTPUTS};
 use hob_rt_os as rt;
 use hob_rt_os::{RtReport, now_ns, sleep_until_ns};
 use hob_setup::config::machine::MachineConfig;
+use liveness::{Channel, Liveness, Silence};
 use std::path::PathBuf;
 use std::process::ExitCode;
 use std::sync::atomic::Ordering;
@@ -65,7 +70,7 @@ fn parse_args() -> Result<Args, String> {
 /// Why the watchdog acted.
 #[derive(Debug, Clone, Copy, PartialEq)]
 enum Trip {
-    Silent { silence_ms: f64 },
+    Silent(Silence),
     LoopLostMachine(AlarmCode),
 }
 
@@ -162,7 +167,7 @@ fn run(args: &Args, machine: &MachineConfig) -> Result<(), String> {
     eprintln!("hob-watchdog: watching the loop on {iface}, deadline {deadline_ms} ms");
 
     let mut last_cycle: Option<u64> = None;
-    let mut last_seen_ns = 0u64;
+    let mut alive = Liveness::new(deadline_ns);
     let mut tripped = false;
     let mut next = now_ns();
     while !stop.load(Ordering::Relaxed) {
@@ -172,8 +177,15 @@ fn run(args: &Args, machine: &MachineConfig) -> Result<(), String> {
         if now > next + POLL_NS {
             next = now;
         }
-        // Our own socket: keep its queue drained (we only read SDO answers).
-        while let Ok(Some(_)) = bus.try_recv() {}
+        // Our own socket: the loop's SYNCs (its other sign of life); the rest is drained.
+        while let Ok(Some(f)) = bus.try_recv() {
+            if matches!(Cob::of(f.id), Cob::Sync) {
+                if !alive.armed(Channel::Sync) && !tripped {
+                    eprintln!("hob-watchdog: SYNC heard on {iface}: watching it too");
+                }
+                alive.sync_seen(now);
+            }
+        }
         let mut newest = None;
         while let Some(s) = ports.next_state() {
             newest = Some(s);
@@ -182,6 +194,7 @@ fn run(args: &Args, machine: &MachineConfig) -> Result<(), String> {
             let restarted = last_cycle.is_some_and(|c| s.cycle < c);
             if tripped && restarted {
                 tripped = false;
+                alive.rearm();
                 eprintln!(
                     "hob-watchdog: a new loop is publishing (cycle {}): re-armed",
                     s.cycle
@@ -191,18 +204,19 @@ fn run(args: &Args, machine: &MachineConfig) -> Result<(), String> {
                 eprintln!("hob-watchdog: armed at cycle {}", s.cycle);
             }
             last_cycle = Some(s.cycle);
-            last_seen_ns = now;
+            alive.state_seen(now);
             if !tripped && let Some(a) = lost_machine(&s) {
-                act(&mut bus, &frames, Trip::LoopLostMachine(a), s.cycle);
+                act(&mut bus, &frames, Trip::LoopLostMachine(a), s.cycle, &iface);
                 tripped = true;
             }
-        } else if !tripped && last_cycle.is_some() && now - last_seen_ns > deadline_ns {
-            let silence_ms = (now - last_seen_ns) as f64 / 1e6;
+        }
+        if !tripped && let Some(silence) = alive.check(now) {
             act(
                 &mut bus,
                 &frames,
-                Trip::Silent { silence_ms },
+                Trip::Silent(silence),
                 last_cycle.unwrap_or(0),
+                &iface,
             );
             tripped = true;
         }
@@ -211,7 +225,7 @@ fn run(args: &Args, machine: &MachineConfig) -> Result<(), String> {
 }
 
 /// Sends the reaction and reports it.
-fn act(bus: &mut Box<dyn CanBus>, frames: &[Frame], why: Trip, cycle: u64) {
+fn act(bus: &mut Box<dyn CanBus>, frames: &[Frame], why: Trip, cycle: u64, iface: &str) {
     let t0 = now_ns();
     let mut sent = 0;
     let mut errors = Vec::new();
@@ -235,8 +249,35 @@ fn act(bus: &mut Box<dyn CanBus>, frames: &[Frame], why: Trip, cycle: u64) {
         }
     }
     let reason = match why {
-        Trip::Silent { silence_ms } => format!("loop silent for {silence_ms:.1} ms after cycle {cycle}"),
+        Trip::Silent(Silence {
+            channel: Channel::State,
+            silence_ms,
+            other_alive,
+        }) => format!(
+            "loop's state stream silent for {silence_ms:.1} ms after cycle {cycle}{}",
+            if other_alive {
+                format!(" (its SYNC still on {iface})")
+            } else {
+                String::new()
+            }
+        ),
+        Trip::Silent(Silence {
+            channel: Channel::Sync,
+            silence_ms,
+            other_alive,
+        }) => format!(
+            "no SYNC on {iface} for {silence_ms:.1} ms (last state cycle {cycle}{})",
+            if other_alive {
+                ", the state stream still live"
+            } else {
+                ""
+            }
+        ),
         Trip::LoopLostMachine(a) => format!("loop reports it lost the machine: {}", codec::alarm_text(&a)),
+    };
+    let (channel, silence_ms) = match why {
+        Trip::Silent(s) => (s.channel.name(), Some(s.silence_ms)),
+        Trip::LoopLostMachine(_) => ("loop", None),
     };
     eprintln!(
         "hob-watchdog: TRIPPED: {reason}: I/O coupler outputs off (PC-OK dropped, safety chain opens), \
@@ -254,6 +295,9 @@ fn act(bus: &mut Box<dyn CanBus>, frames: &[Frame], why: Trip, cycle: u64) {
         "{}",
         serde_json::json!({
             "tripped": true,
+            "channel": channel,
+            "silence_ms": silence_ms,
+            "send_us": send_us,
             "reason": reason,
             "last_cycle": cycle,
             "frames_sent": sent,

@@ -1,8 +1,10 @@
 //! The life of `hob-rt`, in the order the types allow and no other:
 //!
-//! 1. [`configure`] -> [`Configured`]: the machine file (validated), the CAN bus opened and
-//!    booted (may block and fail; nothing real-time yet);
-//! 2. [`Configured::activate`] -> [`Active`]: the shared-memory ports, then the helper
+//! 1. [`configure`] -> [`Configured`]: the machine file (validated), the loop's
+//!    shared-memory publishers (the loop's alone: a second hob-rt is refused before it
+//!    touches the bus), the CAN bus opened and booted (may block and fail; nothing
+//!    real-time yet);
+//! 2. [`Configured::activate`] -> [`Active`]: the helper
 //!    threads (commands, stats) with their own ports, then the real-time set-up of this
 //!    thread ([`RealTime::enter`] takes the ports and the started helpers as proof: memory
 //!    is locked only after every mapping exists, and the helpers never inherit the loop's
@@ -48,6 +50,7 @@ pub struct Settings {
 pub struct Configured {
     machine: MachineConfig,
     iface: String,
+    ports: LoopPorts,
     bus: Box<dyn CanBus>,
     booted: Booted,
     require_rt: bool,
@@ -85,6 +88,10 @@ pub fn configure(machine: MachineConfig, settings: &Settings) -> Result<Configur
             }
         }
     };
+    // The loop's publishers first, before the bus is touched: they are the loop's alone
+    // (`hob_ipc::LOOP_ONLY`), so a second hob-rt on this instance is refused here, before
+    // it could reset the nodes of the loop that runs.
+    let ports = LoopPorts::open()?;
     let iface = settings
         .iface
         .clone()
@@ -104,6 +111,7 @@ pub fn configure(machine: MachineConfig, settings: &Settings) -> Result<Configur
     Ok(Configured {
         machine,
         iface,
+        ports,
         bus,
         booted,
         require_rt: settings.require_rt,
@@ -122,13 +130,22 @@ pub struct LoopPorts {
 
 impl LoopPorts {
     fn open() -> Result<Self, Failure> {
+        let refused = |e: hob_ipc::IpcError| {
+            (
+                1,
+                format!(
+                    "{e} (is another hob-rt running on instance {}?)",
+                    hob_ipc::instance()
+                ),
+            )
+        };
         let node = hob_ipc::node("hob-rt").map_err(|e| (1, e.to_string()))?;
         let state = hob_ipc::open_state(&node)
             .and_then(|s| hob_ipc::publisher(&s, "state publisher"))
-            .map_err(|e| (1, e.to_string()))?;
+            .map_err(refused)?;
         let events = hob_ipc::open_events(&node)
             .and_then(|s| hob_ipc::publisher(&s, "events publisher"))
-            .map_err(|e| (1, e.to_string()))?;
+            .map_err(refused)?;
         Ok(Self {
             _node: node,
             state,
@@ -303,13 +320,13 @@ impl Configured {
         let Configured {
             machine,
             iface,
+            ports,
             mut bus,
             booted,
             require_rt,
             state_file,
             offsets,
         } = self;
-        let ports = LoopPorts::open()?;
         let (thread_box, loop_box) = commands::mailboxes();
         let (loop_timing, stats_timing): (LoopTiming, StatsTiming) = stats::circulation();
         let counters = Arc::new(LoopCounters::default());
