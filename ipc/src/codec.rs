@@ -732,6 +732,69 @@ impl Fault {
     }
 }
 
+/// The recorder (`hob-logger`) as the operator is told of it: `hob status` and the HMI.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct RecorderView {
+    /// Something recorded is being lost, or the recorder stopped reporting: shown as an
+    /// alarm (the loop goes on: a record is not worth a part).
+    pub alarm: bool,
+    pub text: String,
+}
+
+/// A recorder report older than this is a recorder that stopped (it reports every 200 ms).
+pub const RECORDER_SILENT_NS: u64 = 2_000_000_000;
+
+/// What to tell of the recorder, given its newest report (if any) and the reader's
+/// CLOCK_MONOTONIC.
+pub fn recorder_view(r: Option<&crate::RecorderSample>, now_ns: u64) -> RecorderView {
+    let Some(r) = r else {
+        return RecorderView {
+            alarm: false,
+            text: "no recorder on the bus (hob-logger not running): nothing is recorded".into(),
+        };
+    };
+    let age_ns = now_ns.saturating_sub(r.time_ns);
+    if age_ns > RECORDER_SILENT_NS {
+        return RecorderView {
+            alarm: true,
+            text: format!(
+                "the recorder stopped reporting {:.1} s ago (hob-logger ended or hangs)",
+                age_ns as f64 / 1e9
+            ),
+        };
+    }
+    if r.writing == 0 {
+        let since = if r.failing_since_ns > 0 {
+            format!(
+                " for {:.1} s",
+                now_ns.saturating_sub(r.failing_since_ns) as f64 / 1e9
+            )
+        } else {
+            String::new()
+        };
+        return RecorderView {
+            alarm: true,
+            text: format!(
+                "RECORDER ALARM: cannot write{since}: {}: {} samples and {} events not written (it resumes when space returns)",
+                std::io::Error::from_raw_os_error(r.last_errno),
+                r.samples_unwritten,
+                r.events_unwritten
+            ),
+        };
+    }
+    let mut text = format!("writing: {} samples recorded", r.samples_written);
+    if r.samples_unwritten > 0 || r.events_unwritten > 0 {
+        text += &format!(
+            ", {} samples and {} events not written earlier (gaps.log)",
+            r.samples_unwritten, r.events_unwritten
+        );
+    }
+    if r.samples_lost > 0 {
+        text += &format!(", {} samples missed on the bus", r.samples_lost);
+    }
+    RecorderView { alarm: false, text }
+}
+
 /// The text of an alarm ("" for none, `alarm code <c>` for one this build cannot word).
 pub fn alarm_text(a: &AlarmCode) -> String {
     if a.code == 0 {
@@ -980,6 +1043,46 @@ pub fn bus_kind_name(k: u8) -> &'static str {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn the_recorder_is_an_alarm_when_it_cannot_write_or_stops_reporting() {
+        let ok = crate::RecorderSample {
+            time_ns: 10_000_000_000,
+            samples_written: 5000,
+            writing: 1,
+            ..Default::default()
+        };
+        let v = recorder_view(Some(&ok), 10_100_000_000);
+        assert!(!v.alarm && v.text == "writing: 5000 samples recorded", "{v:?}");
+        let full = crate::RecorderSample {
+            writing: 0,
+            failing_since_ns: 7_000_000_000,
+            last_errno: 28,
+            samples_unwritten: 3000,
+            events_unwritten: 2,
+            ..ok
+        };
+        let v = recorder_view(Some(&full), 10_100_000_000);
+        assert!(v.alarm, "{v:?}");
+        assert!(
+            v.text.contains("for 3.1 s")
+                && v.text.contains("No space left on device")
+                && v.text.contains("3000 samples and 2 events not written"),
+            "{v:?}"
+        );
+        let v = recorder_view(Some(&ok), 13_000_000_000);
+        assert!(v.alarm && v.text.contains("stopped reporting 3.0 s ago"), "{v:?}");
+        let resumed = crate::RecorderSample {
+            samples_unwritten: 3000,
+            ..ok
+        };
+        let v = recorder_view(Some(&resumed), 10_000_000_000);
+        assert!(
+            !v.alarm && v.text.contains("3000 samples and 0 events not written earlier"),
+            "{v:?}"
+        );
+        assert!(!recorder_view(None, 0).alarm);
+    }
     use std::collections::BTreeSet;
 
     fn distinct<'a>(names: impl IntoIterator<Item = &'a str>) -> bool {

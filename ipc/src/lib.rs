@@ -29,8 +29,8 @@ mod types;
 
 pub use ports::{
     CAN_BUFFER, CanError, CanPort, Client, IpcError, Ports, PubSub, STATE_BUFFER, command_server, instance,
-    node, open_can, open_can_port, open_command, open_events, open_state, open_stats, publisher,
-    service_name, use_instance,
+    node, open_can, open_can_port, open_command, open_events, open_recorder, open_state, open_stats,
+    publisher, service_name, use_instance,
 };
 pub use types::*;
 

@@ -3,7 +3,9 @@
 //! be as large as the service allows).
 
 use crate::Svc;
-use crate::types::{CanFrameSample, CommandRequest, CommandResponse, EventSample, StateSample, StatsSample};
+use crate::types::{
+    CanFrameSample, CommandRequest, CommandResponse, EventSample, RecorderSample, StateSample, StatsSample,
+};
 use iceoryx2::node::Node;
 use iceoryx2::port::client::Client as IoxClient;
 use iceoryx2::port::publisher::Publisher;
@@ -149,6 +151,12 @@ pub fn open_stats(node: &Node<Svc>) -> Result<PubSub<StatsSample>, IpcError> {
     pub_sub(node, "stats", 16, 1, LOOP_ONLY)
 }
 
+/// The recorder's health: `hob-logger` alone publishes it (a second logger records
+/// without reporting).
+pub fn open_recorder(node: &Node<Svc>) -> Result<PubSub<RecorderSample>, IpcError> {
+    pub_sub(node, "recorder", 4, 1, LOOP_ONLY)
+}
+
 pub fn open_can(node: &Node<Svc>) -> Result<PubSub<CanFrameSample>, IpcError> {
     pub_sub(node, "can", CAN_BUFFER, 0, MAX_PORTS)
 }
@@ -187,6 +195,7 @@ pub struct Ports {
     pub state: Subscriber<Svc, StateSample, ()>,
     pub events: Subscriber<Svc, EventSample, ()>,
     pub stats: Subscriber<Svc, StatsSample, ()>,
+    pub recorder: Subscriber<Svc, RecorderSample, ()>,
 }
 
 impl Ports {
@@ -206,14 +215,20 @@ impl Ports {
             .subscriber_builder()
             .create()
             .map_err(err("stats subscriber"))?;
+        let recorder = open_recorder(&node)?
+            .subscriber_builder()
+            .create()
+            .map_err(err("recorder subscriber"))?;
         let _ = state.update_connections();
         let _ = events.update_connections();
         let _ = stats.update_connections();
+        let _ = recorder.update_connections();
         Ok(Self {
             node,
             state,
             events,
             stats,
+            recorder,
         })
     }
 
@@ -230,6 +245,15 @@ impl Ports {
     pub fn latest_stats(&self) -> Option<StatsSample> {
         let mut last = None;
         while let Ok(Some(s)) = self.stats.receive() {
+            last = Some(*s);
+        }
+        last
+    }
+
+    /// The newest report of the recorder's health waiting, if any.
+    pub fn latest_recorder(&self) -> Option<RecorderSample> {
+        let mut last = None;
+        while let Ok(Some(s)) = self.recorder.receive() {
             last = Some(*s);
         }
         last

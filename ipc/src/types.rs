@@ -274,6 +274,32 @@ impl Log2Histogram {
     }
 }
 
+/// The recorder's health, published by `hob-logger` (its service's only publisher) every
+/// 200 ms: whether it can write, and what it received but could not write (disk full, a
+/// write failed). `hob status` and the HMI show it; the loop never waits for it.
+#[derive(Debug, Clone, Copy, Default, PartialEq, ZeroCopySend)]
+#[repr(C)]
+pub struct RecorderSample {
+    pub seq: u64,
+    /// The logger's CLOCK_MONOTONIC when published, ns (a reader's own clock tells how old
+    /// the report is: a silent logger is shown as such).
+    pub time_ns: u64,
+    pub samples_written: u64,
+    /// Samples received but not written since the logger started (they are missing from
+    /// the log; `gaps.log` says which).
+    pub samples_unwritten: u64,
+    pub events_unwritten: u64,
+    /// Samples the logger missed on the bus (the target is 0).
+    pub samples_lost: u64,
+    /// CLOCK_MONOTONIC when writing began to fail, ns (0: writing).
+    pub failing_since_ns: u64,
+    /// The operating system's error number of the last failed write (0: none).
+    pub last_errno: i32,
+    /// 1: everything received is being written.
+    pub writing: u8,
+    pub _pad: [u8; 3],
+}
+
 /// The loop's own timing since it started, published by `hob-rt` twice a second.
 #[derive(Debug, Clone, Copy, Default, PartialEq, ZeroCopySend)]
 #[repr(C)]

@@ -15,8 +15,11 @@ use hob_setup::planner;
 use std::path::Path;
 use std::sync::OnceLock;
 
+/// A target: its properties asserted on one input.
+pub type Target = fn(&[u8]);
+
 /// The targets, by name (`fuzz/fuzz_targets/NAME.rs`, `fuzz/corpus/NAME/`).
-pub const TARGETS: [(&str, fn(&[u8])); 4] = [
+pub const TARGETS: [(&str, Target); 4] = [
     ("candump", candump),
     ("program", program),
     ("machine", machine),

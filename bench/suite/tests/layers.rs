@@ -23,7 +23,7 @@ const ALLOWED: &[(&str, &[&str])] = &[
     // I/O edges: the CAN transports, the OS real-time helpers, files on disk.
     ("hob-can-transport", &["hob-canopen", "hob-ipc"]),
     ("hob-rt-os", &[]),
-    ("hob-store", &["hob-gearing", "hob-setup"]),
+    ("hob-store", &["hob-gearing", "hob-setup", "hob-rt-os"]),
     // Processes (the product).
     (
         "hob-service",
@@ -39,7 +39,10 @@ const ALLOWED: &[(&str, &[&str])] = &[
             "hob-ipc",
         ],
     ),
-    ("hob-logger", &["hob-gearing", "hob-ipc", "hob-rt-os"]),
+    (
+        "hob-logger",
+        &["hob-gearing", "hob-ipc", "hob-rt-os", "hob-store"],
+    ),
     (
         "hob-watchdog",
         &[

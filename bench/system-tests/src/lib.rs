@@ -180,6 +180,29 @@ pub struct Status {
     pub spindle_override_percent: f64,
     /// The pass `hob continue` would continue from.
     pub continue_pass: Option<u32>,
+    pub recorder: RecorderStatus,
+}
+
+impl Status {
+    /// Cycles run per period elapsed on hob-rt's CLOCK_MONOTONIC from `earlier` to this
+    /// (the test's clock means nothing in the emulated guest).
+    pub fn pace_since(&self, earlier: &Status, cycle_us: f64) -> f64 {
+        if self.sync_time_ns > earlier.sync_time_ns {
+            (self.cycle - earlier.cycle) as f64 * cycle_us * 1e3
+                / (self.sync_time_ns - earlier.sync_time_ns) as f64
+        } else {
+            0.0
+        }
+    }
+}
+
+/// `recorder` of `hob status --json`: the logger's health.
+#[derive(Debug, Clone, Deserialize)]
+pub struct RecorderStatus {
+    pub alarm: bool,
+    pub text: String,
+    pub writing: Option<bool>,
+    pub samples_unwritten: Option<u64>,
 }
 
 /// `stats` of `hob status --json`.
@@ -196,6 +219,9 @@ pub struct LoggerStats {
     pub samples: u64,
     pub samples_lost: u64,
     pub samples_not_running: u64,
+    pub samples_unwritten: u64,
+    pub events_unwritten: u64,
+    pub writing: bool,
 }
 
 impl LoggerStats {

@@ -321,12 +321,7 @@ fn service_session() {
         b.kill9(cli);
         std::thread::sleep(Duration::from_secs(3));
         let s1 = b.status();
-        // Cycles run per period elapsed on hob-rt's CLOCK_MONOTONIC between the samples.
-        let pace = if s1.sync_time_ns > s0.sync_time_ns {
-            (s1.cycle - s0.cycle) as f64 * cycle_us * 1e3 / (s1.sync_time_ns - s0.sync_time_ns) as f64
-        } else {
-            0.0
-        };
+        let pace = s1.pace_since(&s0, cycle_us);
         let overruns = |s: &hob_system_tests::Status| s.stats.as_ref().map_or(0, |x| x.overruns);
         // HOB_MIN_PACE: the least pace that counts as kept (the emulated guest, where the
         // loop overruns a few per cent of its cycles anyway, takes less).
@@ -621,6 +616,159 @@ fn watchdog_watches_the_sync_and_the_state_and_only_the_loop_publishes() {
         b.terminate(double, Duration::from_secs(10));
         b.terminate(wd, Duration::from_secs(10));
     }
+}
+
+/// A tmpfs of this size under the test's artifacts, unmounted when dropped (root: the
+/// CI machine and the guest run as root).
+struct SmallDisk(std::path::PathBuf);
+
+impl SmallDisk {
+    fn mount(dir: &Path, size: &str) -> SmallDisk {
+        std::fs::create_dir_all(dir).unwrap();
+        let o = std::process::Command::new("mount")
+            .args(["-t", "tmpfs", "-o", &format!("size={size}"), "hob-test-disk"])
+            .arg(dir)
+            .output()
+            .unwrap();
+        assert!(
+            o.status.success(),
+            "mount a {size} tmpfs on {} (the test needs root): {}",
+            dir.display(),
+            String::from_utf8_lossy(&o.stderr)
+        );
+        SmallDisk(dir.to_path_buf())
+    }
+
+    fn resize(&self, size: &str) {
+        let o = std::process::Command::new("mount")
+            .args(["-o", &format!("remount,size={size}")])
+            .arg(&self.0)
+            .output()
+            .unwrap();
+        assert!(
+            o.status.success(),
+            "remount: {}",
+            String::from_utf8_lossy(&o.stderr)
+        );
+    }
+}
+
+impl Drop for SmallDisk {
+    fn drop(&mut self) {
+        let _ = std::process::Command::new("umount")
+            .arg("-l")
+            .arg(&self.0)
+            .status();
+    }
+}
+
+/// The recorder on a full disk: the logger writes its log onto a 1 MB tmpfs while the loop
+/// runs; when it fills, the recorder alarm shows in `hob status`, the logger keeps counting
+/// what it cannot write and the loop keeps its pace; when space returns (the tmpfs grown)
+/// the alarm goes, the recording resumes, and every sample received is either in the log
+/// or counted as not written, its run of cycles in `gaps.log`.
+#[test]
+#[ignore = "needs the release binaries, a bus and root (a tmpfs); ci/test runs it (--ignored --test-threads=1)"]
+fn logger_on_a_full_disk_raises_the_recorder_alarm_and_resumes() {
+    let mut b = Bench::new("logger_full_disk");
+    let m = b.session_machine();
+    let machine = m.write(&b.art.join("machine.toml"));
+    let cycle_us = m.int("control.cycle_period_us") as f64;
+    let disk = SmallDisk::mount(&b.art.join("disk"), "1m");
+    let log = disk.0.join("log");
+    let (_sim, _rt) = start_service(&mut b, &machine, 1);
+    b.step("power-up to idle", |b| {
+        b.wait_state("idle", STATE_TIMEOUT);
+        String::new()
+    });
+    let logger = b.spawn("hob-logger", "hob-logger", &[&log], "logger.txt");
+    let mut full_at = None;
+    b.step("the disk fills: the recorder alarm in hob status", |b| {
+        let s = b.wait_for("the recorder alarm", STATE_TIMEOUT, |b| {
+            let s = b.try_status()?;
+            if s.recorder.alarm {
+                Ok(s)
+            } else {
+                Err(s.recorder.text)
+            }
+        });
+        assert!(
+            s.recorder.text.contains("No space left on device"),
+            "{}",
+            s.recorder.text
+        );
+        assert_eq!(s.recorder.writing, Some(false));
+        full_at = Some(s.clone());
+        s.recorder.text
+    });
+    b.step("the loop keeps its pace while the logger cannot write", |b| {
+        std::thread::sleep(Duration::from_secs(3));
+        let s1 = b.status();
+        let s0 = full_at.as_ref().unwrap();
+        let pace = s1.pace_since(s0, cycle_us);
+        let min = hob_system_tests::min_pace();
+        assert!(pace >= min, "pace {pace:.3} (least {min})");
+        assert!(s1.alarm.is_empty(), "the loop's alarm: {}", s1.alarm);
+        let more = s1.recorder.samples_unwritten.unwrap_or(0);
+        assert!(
+            more > s0.recorder.samples_unwritten.unwrap_or(0),
+            "the samples not written are counted: {} then {more}",
+            s0.recorder.samples_unwritten.unwrap_or(0)
+        );
+        format!("{pace:.3} cycles per period; {}", s1.recorder.text)
+    });
+    b.step("space returns: the alarm goes and the recording resumes", |b| {
+        disk.resize("64m");
+        let s = b.wait_for("the recorder writing again", STATE_TIMEOUT, |b| {
+            let s = b.try_status()?;
+            if !s.recorder.alarm && s.recorder.writing == Some(true) {
+                Ok(s)
+            } else {
+                Err(s.recorder.text)
+            }
+        });
+        s.recorder.text
+    });
+    b.step(
+        "every sample received is in the log or counted, its gap in gaps.log",
+        |b| {
+            std::thread::sleep(Duration::from_secs(1));
+            b.terminate(logger, Duration::from_secs(10));
+            let stats = LoggerStats::read(&log).unwrap();
+            assert!(stats.writing, "{stats:?}");
+            assert_eq!(stats.samples_lost, 0, "samples missed on the bus: {stats:?}");
+            assert!(stats.samples_unwritten > 0, "{stats:?}");
+            let gaps = std::fs::read_to_string(log.join("gaps.log")).unwrap();
+            let counted: u64 = gaps
+                .lines()
+                .filter_map(|l| l.strip_prefix("unwritten "))
+                .map(|l| l.rsplit(' ').next().unwrap().parse::<u64>().unwrap())
+                .sum();
+            assert_eq!(counted, stats.samples_unwritten, "gaps.log:\n{gaps}\n{stats:?}");
+            // The log as the operator reads it: hob log export counts the records written.
+            let csv = b.art.join("export.csv");
+            let o = b.hob(&["log", "export", &path(&log), "--csv", "--out", &path(&csv)]);
+            assert_eq!(o.code, Some(0), "hob log export: {}", o.text);
+            let rows = std::fs::read_to_string(&csv).unwrap().lines().count() as u64 - 1;
+            assert_eq!(
+                rows + stats.samples_unwritten,
+                stats.samples,
+                "rows exported {rows} + not written {} = received {}",
+                stats.samples_unwritten,
+                stats.samples
+            );
+            format!(
+                "{} samples received, {} not written ({} in gaps.log), {rows} exported; {}",
+                stats.samples,
+                stats.samples_unwritten,
+                counted,
+                gaps.lines()
+                    .filter(|l| l.starts_with("unwritten"))
+                    .collect::<Vec<_>>()
+                    .join("; ")
+            )
+        },
+    );
 }
 
 /// The virtual machine going silent mid-cut (`kill -STOP hob-sim`) makes hob-rt fault and

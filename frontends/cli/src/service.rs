@@ -127,6 +127,16 @@ pub struct Snapshot {
     pub state: StateSample,
     pub stats: Option<StatsSample>,
     pub events: Vec<EventSample>,
+    /// The recorder as the operator is told of it (`hob-logger`'s newest report).
+    pub recorder: codec::RecorderView,
+    pub recorder_report: Option<hob_ipc::RecorderSample>,
+}
+
+/// CLOCK_MONOTONIC, ns: the clock of the recorder's reports.
+fn monotonic_ns() -> u64 {
+    nix::time::clock_gettime(nix::time::ClockId::CLOCK_MONOTONIC).map_or(0, |t| {
+        (t.tv_sec() as u64).saturating_mul(1_000_000_000) + t.tv_nsec() as u64
+    })
 }
 
 /// Reads the newest state, the loop's stats and the recent events.
@@ -144,11 +154,24 @@ pub fn snapshot(ports: &Ports) -> Result<Snapshot, String> {
         std::thread::sleep(Duration::from_millis(20));
         stats = ports.latest_stats();
     }
+    // The recorder reports every 200 ms (its newest is kept for late subscribers).
+    let end = Instant::now() + Duration::from_millis(300);
+    let mut recorder_report = ports.latest_recorder();
+    while recorder_report.is_none() && Instant::now() < end {
+        std::thread::sleep(Duration::from_millis(20));
+        recorder_report = ports.latest_recorder();
+    }
     let mut events = Vec::new();
     while let Some(e) = ports.next_event() {
         events.push(e);
     }
-    Ok(Snapshot { state, stats, events })
+    Ok(Snapshot {
+        state,
+        stats,
+        events,
+        recorder: codec::recorder_view(recorder_report.as_ref(), monotonic_ns()),
+        recorder_report,
+    })
 }
 
 fn us(ns: u64) -> f64 {
@@ -306,6 +329,7 @@ pub fn status_text(s: &Snapshot) -> String {
             let _ = writeln!(o, "loop     no stats from hob-rt yet");
         }
     }
+    let _ = writeln!(o, "recorder {}", s.recorder.text);
     if !s.events.is_empty() {
         let _ = writeln!(o, "events   (newest last)");
         for e in s.events.iter().rev().take(10).rev() {
@@ -388,6 +412,15 @@ pub fn status_json(s: &Snapshot) -> String {
         "spindle_override_percent": st.spindle_override_percent,
         "continue_pass": (st.continue_pass > 0).then_some(st.continue_pass),
         "stats": stats,
+        "recorder": {
+            "alarm": s.recorder.alarm,
+            "text": s.recorder.text,
+            "writing": s.recorder_report.map(|r| r.writing != 0),
+            "samples_written": s.recorder_report.map(|r| r.samples_written),
+            "samples_unwritten": s.recorder_report.map(|r| r.samples_unwritten),
+            "events_unwritten": s.recorder_report.map(|r| r.events_unwritten),
+            "samples_lost": s.recorder_report.map(|r| r.samples_lost),
+        },
         "events": events,
     });
     format!("{j:#}\n")
@@ -406,8 +439,17 @@ pub fn status(watch: bool, json: bool) -> Result<String, (u8, String)> {
         });
     }
     print!("{}", status_text(&snap));
+    let mut recorder = snap.recorder_report;
+    let mut recorder_alarm = snap.recorder.alarm;
     loop {
         std::thread::sleep(Duration::from_millis(500));
+        // The recorder's alarm when it comes and when it goes.
+        recorder = ports.latest_recorder().or(recorder);
+        let view = codec::recorder_view(recorder.as_ref(), monotonic_ns());
+        if view.alarm != recorder_alarm {
+            recorder_alarm = view.alarm;
+            println!("recorder {}", view.text);
+        }
         while let Some(e) = ports.next_event() {
             println!("  #{:<6} cycle {:<9} {}", e.seq, e.cycle, codec::event_text(&e));
         }
@@ -445,6 +487,8 @@ mod tests {
             },
             stats: None,
             events: Vec::new(),
+            recorder: codec::recorder_view(None, 0),
+            recorder_report: None,
         }
     }
 

@@ -6,7 +6,7 @@
 
 use crate::protocol::{CycleClock, EventView, Frame, StateView, StatsView};
 use crate::reduce::{EventLog, GapCounter, Interval, Since};
-use hob_ipc::{EventSample, StateSample, StatsSample};
+use hob_ipc::{EventSample, RecorderSample, StateSample, StatsSample};
 use hob_setup::config::machine::IoMap;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, Mutex, MutexGuard};
@@ -72,6 +72,7 @@ pub struct Bridge {
     events_head: watch::Sender<u64>,
     events: Arc<Mutex<EventBook>>,
     stats: watch::Sender<Option<Arc<StatsView>>>,
+    recorder: Option<RecorderSample>,
 }
 
 impl Bridge {
@@ -88,6 +89,7 @@ impl Bridge {
             state: None,
             plot: None,
             events_head: 0,
+            recorder: hob_ipc::codec::recorder_view(None, 0).into(),
         };
         let (frames, frames_rx) = watch::channel(Arc::new(empty));
         let (events_head, events_head_rx) = watch::channel(0);
@@ -114,6 +116,7 @@ impl Bridge {
             events_head,
             events,
             stats,
+            recorder: None,
         };
         (bridge, hub)
     }
@@ -157,6 +160,11 @@ impl Bridge {
 
     /// Closes the interval and publishes a frame; `mono_ns`: CLOCK_MONOTONIC now (the
     /// samples' SYNC times are on it), `utc_ms`: the wall clock now.
+    /// The recorder's newest report.
+    pub fn recorder(&mut self, r: RecorderSample) {
+        self.recorder = Some(r);
+    }
+
     pub fn frame(&mut self, now: Instant, mono_ns: u64, utc_ms: u64) -> Arc<Frame> {
         self.frame_seq += 1;
         let silent_for = self
@@ -193,6 +201,7 @@ impl Bridge {
                 .map(|(s, _)| StateView::of(s, &self.io, self.period_ns)),
             plot: self.interval.take(),
             events_head: *self.events_head.borrow(),
+            recorder: hob_ipc::codec::recorder_view(self.recorder.as_ref(), mono_ns).into(),
         });
         self.frames.send_replace(frame.clone());
         frame
@@ -222,6 +231,9 @@ pub fn run(mut bridge: Bridge, stop: &AtomicBool) -> Result<(), String> {
         }
         if let Some(s) = ports.latest_stats() {
             bridge.stats(&s);
+        }
+        if let Some(r) = ports.latest_recorder() {
+            bridge.recorder(r);
         }
         if now >= next_frame {
             bridge.frame(now, hob_rt_os::now_ns(), utc_ms());

@@ -380,6 +380,25 @@ pub struct Frame {
     pub state: Option<StateView>,
     pub plot: Option<PlotPoint>,
     pub events_head: u64,
+    /// The recorder (`hob-logger`) as the operator is told of it: an alarm when it cannot
+    /// write or stopped reporting (`hob_ipc::codec::recorder_view`, as `hob status`).
+    pub recorder: RecorderView,
+}
+
+/// [`hob_ipc::codec::RecorderView`] for the page.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize)]
+pub struct RecorderView {
+    pub alarm: bool,
+    pub text: String,
+}
+
+impl From<hob_ipc::codec::RecorderView> for RecorderView {
+    fn from(v: hob_ipc::codec::RecorderView) -> Self {
+        Self {
+            alarm: v.alarm,
+            text: v.text,
+        }
+    }
 }
 
 /// The operation of a command from the page.

@@ -10,8 +10,13 @@
 //! `mlockall`. `deploy/systemd/hob-rt.service` grants both. Write access to
 //! `/dev/cpu_dma_latency` for the idle-state request (`deploy/udev/` grants it to the
 //! group `hob`).
+//!
+//! And [`durable`]: files replaced whole or not at all (temporary file, `fsync`, rename,
+//! `fsync` of the directory), for every file the project writes for the operator (the
+//! library and the machine state through `hob_store::atomic`, the logger's index).
 
 pub mod alloc_guard;
+pub mod durable;
 
 use nix::sys::mman::{MlockAllFlags, mlockall};
 use nix::sys::resource::{Resource, getrlimit};

@@ -5,15 +5,15 @@
 //! loop itself.
 //!
 //! - [`atomic`]: [`atomic::write_atomic`], a file replaced whole or not at all (temporary
-//!   file, `fsync`, rename, `fsync` of the directory); every write of this crate goes
-//!   through it.
+//!   file, `fsync`, rename, `fsync` of the directory; `hob_rt_os::durable`, where the
+//!   logger finds it too); every write of this crate goes through it.
 //! - [`machine_state`]: `hob-rt`'s machine state file (work offsets from touch-off).
 //! - [`library`]: the operator's program and tool library (`programs/`, `tools/`), the
 //!   names it accepts, and [`library::Library::resolve`], which fills a program's library
 //!   tool in.
 //! - [`utc`]: UTC timestamps as text (`2025-01-31T12:00:00Z`), without a clock crate.
 
-pub mod atomic;
+pub use hob_rt_os::durable as atomic;
 pub mod library;
 pub mod machine_state;
 pub mod utc;

@@ -58,6 +58,7 @@ function Status({ conn }) {
       <div><span class="label">the machine</span> ${s.alarm.reaction}</div>
       <div><span class="label">remedy</span> ${s.alarm.remedy}</div>
       <div><span class="label">to continue</span> ${s.alarm.how_to_continue}</div></div>` : ""}
+    ${f && f.recorder && f.recorder.alarm ? html`<div class="alarm" data-testid="recorder-alarm"><b>RECORDER</b> ${f.recorder.text}</div>` : ""}
   </header>`;
 }
 

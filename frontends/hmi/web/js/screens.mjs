@@ -262,7 +262,8 @@ export function Diagnostics({ conn }) {
         <tr><td>heap allocations in cycles</td><td data-testid="allocations">${st.system_allocations_in_cycle} (pool ${st.pool_allocations_in_cycle})</td></tr>
         <tr><td>scheduling</td><td>${st.fifo_priority > 0 ? `SCHED_FIFO ${st.fifo_priority}` : "NOT SCHED_FIFO"}, ${st.core >= 0 ? `core ${st.core}` : "not pinned"}, memory ${st.memory_locked ? "locked" : "NOT locked"}</td></tr>
         <tr><td>bus</td><td>${st.bus}, ${st.tx_errors} frames not sent</td></tr>
-        <tr><td>samples the HMI missed</td><td>${conn.frame ? conn.frame.samples_missed : "-"}</td></tr></table>` : html`<p>no stats from the loop yet</p>`}</div>
+        <tr><td>samples the HMI missed</td><td>${conn.frame ? conn.frame.samples_missed : "-"}</td></tr>
+        <tr><td>recorder</td><td class=${conn.frame && conn.frame.recorder.alarm ? "warn" : ""} data-testid="recorder">${conn.frame ? conn.frame.recorder.text : "-"}</td></tr></table>` : html`<p>no stats from the loop yet</p>`}</div>
     <div class="card"><h2>Drives and CAN nodes</h2>
       <table class="grid" data-testid="nodes"><tr><th>node</th><th>NMT</th><th>heartbeat</th><th>CiA 402 (statusword)</th><th>feedback</th></tr>
         ${s ? s.nodes.map((n) => html`<tr data-node=${n.name}><td>${n.name === "I/O" ? "I/O coupler" : `drive ${n.name}`}</td>

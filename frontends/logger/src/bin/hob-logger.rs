@@ -2,6 +2,11 @@
 //! (format: `hob_logger` crate docs). An unprivileged process; killing it never disturbs
 //! the loop, and a restarted logger continues in the same directory.
 //!
+//! When the disk fills or a write fails it keeps running: it raises the recorder alarm on
+//! the bus (the `recorder` service: `hob status` and the HMI show it), counts what it
+//! could not write, and resumes in a new state file when a write succeeds again (module
+//! `writer`). The loop never waits for it.
+//!
 //! usage: hob-logger DIR
 
 use hob_logger::LogWriter;
@@ -33,23 +38,67 @@ fn main() -> ExitCode {
             return ExitCode::from(1);
         }
     };
+    let recorder = hob_ipc::node("hob-logger-recorder")
+        .and_then(|n| {
+            let p = hob_ipc::publisher(&hob_ipc::open_recorder(&n)?, "recorder publisher")?;
+            Ok((n, p))
+        })
+        .map_err(|e| eprintln!("hob-logger: note: records without reporting its health on the bus: {e}"))
+        .ok();
     eprintln!("hob-logger: recording into {dir}");
     let mut last_flush = Instant::now();
+    let mut failing_since_ns = 0u64;
+    let mut seq = 0u64;
     while !stop.load(Ordering::Relaxed) {
-        let mut io = Ok(());
         while let Some(s) = ports.next_state() {
-            io = io.and(w.push_state(&s));
+            let _ = w.push_state(&s);
         }
         while let Some(e) = ports.next_event() {
-            io = io.and(w.push_event(&e));
+            let _ = w.push_event(&e);
         }
         if last_flush.elapsed() >= FLUSH {
-            io = io.and(w.flush());
+            let result = w.flush();
             last_flush = Instant::now();
-        }
-        if let Err(e) = io {
-            eprintln!("hob-logger: {dir}: {e}");
-            return ExitCode::from(1);
+            match (w.failing(), failing_since_ns) {
+                (Some(f), 0) => {
+                    failing_since_ns = hob_rt_os::now_ns();
+                    eprintln!(
+                        "hob-logger: ALARM: {dir}: cannot write: {}: recording what arrives as not written until a write succeeds",
+                        f.error
+                    );
+                }
+                (None, since) if since != 0 => {
+                    failing_since_ns = 0;
+                    eprintln!(
+                        "hob-logger: {dir}: writing again after {:.1} s; {} samples and {} events not written in all (gaps.log)",
+                        (hob_rt_os::now_ns() - since) as f64 / 1e9,
+                        w.stats.samples_unwritten,
+                        w.stats.events_unwritten
+                    );
+                }
+                (None, _) => {
+                    if let Err(e) = result {
+                        eprintln!("hob-logger: {dir}/logger.json: {e}");
+                    }
+                }
+                _ => {}
+            }
+            if let Some((_, p)) = &recorder {
+                seq += 1;
+                let st = &w.stats;
+                let _ = p.send_copy(hob_ipc::RecorderSample {
+                    seq,
+                    time_ns: hob_rt_os::now_ns(),
+                    samples_written: st.samples - st.samples_unwritten,
+                    samples_unwritten: st.samples_unwritten,
+                    events_unwritten: st.events_unwritten,
+                    samples_lost: st.samples_lost,
+                    failing_since_ns,
+                    last_errno: w.failing().map_or(0, |f| f.errno),
+                    writing: u8::from(w.failing().is_none()),
+                    _pad: [0; 3],
+                });
+            }
         }
         std::thread::sleep(POLL);
     }
@@ -63,8 +112,8 @@ fn main() -> ExitCode {
     let _ = w.flush();
     let s = &w.stats;
     eprintln!(
-        "hob-logger: {} samples ({} lost), {} events ({} lost) in {}",
-        s.samples, s.samples_lost, s.events, s.events_lost, dir
+        "hob-logger: {} samples ({} lost, {} not written), {} events ({} lost, {} not written) in {}",
+        s.samples, s.samples_lost, s.samples_unwritten, s.events, s.events_lost, s.events_unwritten, dir
     );
     ExitCode::SUCCESS
 }
