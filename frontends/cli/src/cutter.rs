@@ -390,7 +390,8 @@ fn grind_svg(p: &[hob_cutters::grind::PathPoint]) -> String {
     o
 }
 
-/// Writes `text` to `path`, naming it in the error.
+/// Writes `text` to `path` whole or not at all (a grinding program cut off by a crash
+/// must not reach the machining centre), naming it in the error.
 pub fn write(path: &Path, text: &str) -> Result<(), String> {
-    std::fs::write(path, text).map_err(|e| format!("{}: {e}", path.display()))
+    hob_store::atomic::write_atomic(path, text.as_bytes()).map_err(|e| format!("{}: {e}", path.display()))
 }

@@ -624,7 +624,7 @@ fn run(command: Command) -> Result<(), Failure> {
                 let text = hob_logger::export::export_csv(&dir).map_err(Failure::Other)?;
                 match out {
                     Some(f) => {
-                        std::fs::write(&f, text).map_err(|e| Failure::Other(format!("{}: {e}", f.display())))
+                        cutter::write(&f, &text).map_err(Failure::Other)
                     }
                     None => emit(&text),
                 }
