@@ -239,6 +239,14 @@ pub struct VirtualMachine {
     late_rates: [f64; 2],
     late_rng: u64,
     applied_targets: Option<[i32; 3]>,
+    /// The gearbox law the truth is graded against (ratio, differential deg/mm), and the
+    /// least and greatest true error of the table drive against it while cutting, arcsec
+    /// (the controller's share: the worm wheel's own errors are the machine's).
+    law: Option<(f64, f64)>,
+    cut_error_arcsec: Option<(f64, f64)>,
+    /// Frames the injected faults took away or added: PDOs dropped, garbage frames sent.
+    pdos_dropped: u64,
+    garbage_sent: u64,
 }
 
 impl VirtualMachine {
@@ -293,6 +301,10 @@ impl VirtualMachine {
             rng: plant.simulation.seed.wrapping_mul(0x9E37_79B9_7F4A_7C15) | 1,
             powered_before: false,
             cutting_syncs: 0,
+            law: None,
+            cut_error_arcsec: None,
+            pdos_dropped: 0,
+            garbage_sent: 0,
             physics_owed: false,
             node_clock_s: 0.0,
             superseded: false,
@@ -392,8 +404,38 @@ impl VirtualMachine {
         if self.physics_owed {
             self.physics_owed = false;
             self.plant.advance_to(self.time_s);
-            self.cutting_syncs += u64::from(self.plant.cutting());
+            let cutting = self.plant.cutting();
+            self.cutting_syncs += u64::from(cutting);
+            if let (true, Some((ratio, differential))) = (cutting, self.law) {
+                let p = &self.plant;
+                let e = (p.table_drive_deg() - ratio * p.spindle_deg() - differential * p.y_mm()) * 3600.0;
+                let (lo, hi) = self.cut_error_arcsec.unwrap_or((e, e));
+                self.cut_error_arcsec = Some((lo.min(e), hi.max(e)));
+            }
         }
+    }
+
+    /// Grades the truth against this gearbox law (the program's `ratio_signed` and
+    /// `differential_signed_deg_per_mm`; its phase is whatever the engagement made).
+    pub fn set_law(&mut self, ratio: f64, differential_deg_per_mm: f64) {
+        self.law = Some((ratio, differential_deg_per_mm));
+    }
+
+    /// The spread (greatest minus least) of the table drive's true error against the law over
+    /// every SYNC in the cut, arcsec: twice the deviation from its centre (one engagement,
+    /// one phase). None before a cut.
+    pub fn cut_error_spread_arcsec(&self) -> Option<f64> {
+        self.cut_error_arcsec.map(|(lo, hi)| hi - lo)
+    }
+
+    /// PDOs the injected `drop` took away.
+    pub fn pdos_dropped(&self) -> u64 {
+        self.pdos_dropped
+    }
+
+    /// Garbage frames the injected `garbage` sent.
+    pub fn garbage_sent(&self) -> u64 {
+        self.garbage_sent
     }
 
     /// Handles one frame from the bus; frames to send are appended to `out`.
@@ -680,6 +722,7 @@ impl VirtualMachine {
                 continue;
             }
             if is_pdo && self.drop > 0.0 && (self.random() >> 11) as f64 / (1u64 << 53) as f64 <= self.drop {
+                self.pdos_dropped += 1;
                 continue;
             }
             if self.drives.iter().any(|n| n.is_sync_tpdo(f.id)) && self.late(0) {
@@ -712,6 +755,7 @@ impl VirtualMachine {
                     &(r >> 16).to_le_bytes()[..if r & 2 == 0 { 5 } else { 7 }],
                 )
             };
+            self.garbage_sent += 1;
             out.push(f);
         }
 

@@ -623,9 +623,7 @@ fn run(command: Command) -> Result<(), Failure> {
                 }
                 let text = hob_logger::export::export_csv(&dir).map_err(Failure::Other)?;
                 match out {
-                    Some(f) => {
-                        cutter::write(&f, &text).map_err(Failure::Other)
-                    }
+                    Some(f) => cutter::write(&f, &text).map_err(Failure::Other),
                     None => emit(&text),
                 }
             }
