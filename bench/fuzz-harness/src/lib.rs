@@ -4,10 +4,17 @@
 //! replays `fuzz/corpus/TARGET/` and `fuzz/regressions/TARGET/` through them on stable
 //! (`tests/replay.rs`), so a past crash stays fixed.
 
-use hob_canopen::frame::Frame;
+use hob_canopen::frame::{Frame, sdo_rx_id, sdo_tx_id};
+use hob_canopen::sdo::{AbortCode, ObjectDictionary, Progress, SDO_MAX, SdoClient, SdoServer};
+use hob_control::{ControlParams, Controller};
+use hob_hmi::protocol::ClientMsg;
+use hob_ipc::CommandRequest;
+use hob_logger::format::{decode as decode_state, encode as encode_state, parse_event_line, states_in_file};
 use hob_process_image::capture::{check_schedule, parse_candump};
 use hob_process_image::master::Cyclic;
 use hob_process_image::plan::BusPlan;
+use hob_service::commands::{Mail, to_mail};
+use hob_service::encode;
 use hob_setup::config::Problems;
 use hob_setup::config::machine::MachineConfig;
 use hob_setup::job::Program;
@@ -19,11 +26,15 @@ use std::sync::OnceLock;
 pub type Target = fn(&[u8]);
 
 /// The targets, by name (`fuzz/fuzz_targets/NAME.rs`, `fuzz/corpus/NAME/`).
-pub const TARGETS: [(&str, Target); 4] = [
+pub const TARGETS: [(&str, Target); 8] = [
     ("candump", candump),
     ("program", program),
     ("machine", machine),
     ("cyclic", cyclic),
+    ("sdo", sdo),
+    ("command", command),
+    ("log", log),
+    ("hmi", hmi),
 ];
 
 /// The shipped machine file, the machine the programs are planned on.
@@ -138,5 +149,216 @@ pub fn cyclic(data: &[u8]) {
             }
         }
         c.receive(&f);
+    }
+}
+
+/// A small object dictionary for the SDO target: a read-only entry, writable entries of
+/// any length up to the SDO buffer.
+#[derive(Debug, Clone, Default, PartialEq)]
+struct Od(std::collections::BTreeMap<(u16, u8), Vec<u8>>);
+
+impl ObjectDictionary for Od {
+    fn read(&mut self, index: u16, sub: u8) -> Result<Vec<u8>, AbortCode> {
+        self.0.get(&(index, sub)).cloned().ok_or(AbortCode::NO_OBJECT)
+    }
+    fn write(&mut self, index: u16, sub: u8, data: &[u8]) -> Result<(), AbortCode> {
+        match (index, sub) {
+            (0x1000, _) => Err(AbortCode::READ_ONLY),
+            (0x2000..=0x20FF, _) if data.len() <= SDO_MAX => {
+                self.0.insert((index, sub), data.to_vec());
+                Ok(())
+            }
+            _ => Err(AbortCode::NO_OBJECT),
+        }
+    }
+}
+
+/// The SDO client and server (CiA 301), both directions. The first byte chooses:
+/// - even: the client against a hostile server: an upload or a download is started, then
+///   every 8 bytes are a response frame. Every frame the client sends is an 8-byte request
+///   to its node; a finished upload holds at most the buffer; a finished or failed
+///   transfer leaves the client idle.
+/// - odd: the server against a hostile client: every 8 bytes are a request frame. Every
+///   answer is an 8-byte response from the node; an abort changes nothing in the object
+///   dictionary (a refused input changes nothing).
+///
+/// Then, in both cases, a real client downloads the rest of the input (up to the buffer)
+/// through the real server and uploads it again: the same bytes (decode of encode).
+pub fn sdo(data: &[u8]) {
+    const NODE: u8 = 3;
+    let Some((&mode, rest)) = data.split_first() else {
+        return;
+    };
+    let mut od = Od::default();
+    od.0.insert((0x1000, 0), vec![0x92, 0x01, 0x02, 0x00]);
+    od.0.insert((0x2000, 1), b"a segmented value, longer than four bytes".to_vec());
+    if mode % 2 == 0 {
+        let mut c = SdoClient::new(NODE);
+        let first = if mode % 4 == 0 {
+            Ok(c.upload(0x2000, 1))
+        } else {
+            c.download(0x2001, 0, &rest[..rest.len().min(SDO_MAX)])
+        };
+        if let Ok(f) = first {
+            assert!(f.id == sdo_rx_id(NODE) && f.len == 8, "{f:?}");
+        }
+        for chunk in rest.chunks(8) {
+            if !c.busy() {
+                break;
+            }
+            match c.on_frame(&Frame::new(sdo_tx_id(NODE), chunk)) {
+                Progress::Send(f) | Progress::Failed(_, Some(f)) => {
+                    assert!(f.id == sdo_rx_id(NODE) && f.len == 8, "{f:?}")
+                }
+                Progress::Uploaded => assert!(c.data().len() <= SDO_MAX && !c.busy()),
+                Progress::Downloaded => assert!(!c.busy()),
+                Progress::Failed(_, None) | Progress::Ignored => {}
+            }
+            if let Progress::Failed(..) = c.on_frame(&Frame::new(0x123, &[])) {
+                panic!("a frame of another id failed the transfer");
+            }
+        }
+    } else {
+        let mut server = SdoServer::new(NODE);
+        for chunk in rest.chunks(8) {
+            let before = od.clone();
+            if let Some(answer) = server.on_request(&Frame::new(sdo_rx_id(NODE), chunk), &mut od) {
+                assert!(answer.id == sdo_tx_id(NODE) && answer.len == 8, "{answer:?}");
+                if answer.data[0] == 0x80 {
+                    assert_eq!(od, before, "an aborted request changed the object dictionary");
+                }
+            }
+        }
+    }
+    // The round trip through the real pair.
+    let value = &rest[..rest.len().min(SDO_MAX)];
+    let mut server = SdoServer::new(NODE);
+    let mut client = SdoClient::new(NODE);
+    let exchange = |client: &mut SdoClient, server: &mut SdoServer, od: &mut Od, first: Frame| {
+        let mut req = first;
+        for _ in 0..200 {
+            let Some(answer) = server.on_request(&req, od) else {
+                panic!("the server did not answer {req:?}");
+            };
+            match client.on_frame(&answer) {
+                Progress::Send(f) => req = f,
+                Progress::Uploaded | Progress::Downloaded => return,
+                other => panic!("the round trip failed: {other:?}"),
+            }
+        }
+        panic!("the round trip did not end in 200 frames");
+    };
+    if let Ok(first) = client.download(0x20FF, 7, value) {
+        exchange(&mut client, &mut server, &mut od, first);
+        let first = client.upload(0x20FF, 7);
+        exchange(&mut client, &mut server, &mut od, first);
+        assert_eq!(client.data(), value, "upload of a download is not the same bytes");
+    } else {
+        assert!(value.is_empty(), "a download of {} bytes refused", value.len());
+    }
+}
+
+/// The command decoding of `hob-rt` (`hob_service::commands::to_mail`): arbitrary bytes as
+/// a `CommandRequest`, its length fields included. A decoded command encodes to the
+/// arguments it was decoded from and decodes again to itself (decode of encode is the
+/// identity); a refusal says why; and a command the control core refuses changes nothing
+/// in it (its status before and after are equal).
+pub fn command(data: &[u8]) {
+    let mut b = [0u8; 32];
+    b[..data.len().min(32)].copy_from_slice(&data[..data.len().min(32)]);
+    let mut req = CommandRequest::new(u32::from_le_bytes([b[0], b[1], b[2], b[3]]) % 32);
+    req.single = b[4];
+    req.axis = b[5] % 6;
+    req.direction = b[6] % 4;
+    req.value = f64::from_le_bytes([b[8], b[9], b[10], b[11], b[12], b[13], b[14], b[15]]);
+    req.name_len = u32::from_le_bytes([b[16], b[17], b[18], b[19]]);
+    req.text_len = u32::from_le_bytes([b[20], b[21], b[22], b[23]]);
+    let text = data.get(32..).unwrap_or_default();
+    let n = text.len().min(req.text.len());
+    req.text[..n].copy_from_slice(&text[..n]);
+    let _ = (req.name(), req.text());
+    match to_mail(&req, shipped()) {
+        Err(why) => assert!(!why.is_empty()),
+        Ok(Mail::Load(p, _)) => assert!(!p.passes().is_empty()),
+        Ok(Mail::Command(c)) => {
+            let args = encode::command_code(c);
+            let again =
+                encode::command_from_code(&args).expect("a decoded command encodes to a decodable one");
+            assert_eq!(
+                format!("{again:?}"),
+                format!("{c:?}"),
+                "decode of encode is not the identity"
+            );
+            let mut controller = Controller::new(ControlParams::from_machine(shipped()));
+            let before = controller.status();
+            if controller.command(c).is_err() {
+                let after = controller.status();
+                assert_eq!(
+                    format!("{after:?}"),
+                    format!("{before:?}"),
+                    "a refused {c:?} changed the control core"
+                );
+            }
+        }
+    }
+}
+
+/// The logger's file reader (`hob log export|report`, the HMI's report): arbitrary bytes as
+/// a state file and as `events.log` lines. A file is read or refused with a reason; every
+/// record read encodes to bytes that read back to the same record; every event line
+/// parsed keeps its numbers when written back in the same form.
+pub fn log(data: &[u8]) {
+    let mut records = Vec::new();
+    match states_in_file(data, "fuzz.hoblog", &mut |s| records.push(s)) {
+        Err(why) => assert!(why.starts_with("fuzz.hoblog: "), "{why}"),
+        Ok(()) => {
+            for s in &records {
+                let mut once = Vec::new();
+                encode_state(s, &mut once);
+                let back = decode_state(&once).expect("an encoded record decodes");
+                let mut twice = Vec::new();
+                encode_state(&back, &mut twice);
+                assert_eq!(once, twice, "decode of encode is not the identity");
+            }
+        }
+    }
+    for line in String::from_utf8_lossy(data).lines() {
+        if let Some(e) = parse_event_line(line) {
+            let kind = match e.alarm {
+                Some(a) => format!(
+                    "{}@{}/{}/{}/{}/{}",
+                    e.kind, a.code, a.axis, a.end, a.value_a, a.value_b
+                ),
+                None => e.kind.to_string(),
+            };
+            let again =
+                parse_event_line(&format!("{} {} {kind} {}", e.seq, e.cycle, e.text)).expect("written back");
+            assert_eq!(
+                (again.seq, again.cycle, again.kind, again.alarm),
+                (e.seq, e.cycle, e.kind, e.alarm)
+            );
+        }
+    }
+}
+
+/// The HMI's request decoding: a WebSocket message from the page (`ClientMsg`, JSON) and
+/// its command (`Op::request`, the CLI's builders). A command the HMI builds is one the
+/// loop decodes (`to_mail` accepts it): the HMI cannot send what the loop cannot read.
+pub fn hmi(data: &[u8]) {
+    let Ok(text) = std::str::from_utf8(data) else {
+        return;
+    };
+    let Ok(msg) = serde_json::from_str::<ClientMsg>(text) else {
+        return;
+    };
+    if let ClientMsg::Cmd { op, .. } = msg {
+        match op.request() {
+            Err(why) => assert!(!why.is_empty()),
+            Ok(req) => {
+                if let Err(why) = to_mail(&req, shipped()) {
+                    panic!("the HMI built {op:?} that the loop refuses to decode: {why}");
+                }
+            }
+        }
     }
 }

@@ -147,7 +147,16 @@ const ALLOWED: &[(&str, &[&str])] = &[
     // The fuzz targets' properties: the decoders of outside data they drive.
     (
         "hob-fuzz-harness",
-        &["hob-canopen", "hob-process-image", "hob-setup"],
+        &[
+            "hob-canopen",
+            "hob-control",
+            "hob-hmi",
+            "hob-ipc",
+            "hob-logger",
+            "hob-process-image",
+            "hob-service",
+            "hob-setup",
+        ],
     ),
 ];
 

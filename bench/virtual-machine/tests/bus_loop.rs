@@ -392,7 +392,7 @@ fn emergency_stop_in_the_cut_retracts_within_the_stop_delay() {
 #[test]
 fn garbage_and_a_few_lost_frames_do_not_disturb_the_cut() {
     let mut bed = bed();
-    let cycle = bed.cycle.clone();
+    let cycle = bed.cycle;
     bed.vm.inject(VmFault::Garbage(3));
     bed.vm.inject(VmFault::Drop(0.0005));
     bed.master.controller.load(bed.cycle).unwrap();

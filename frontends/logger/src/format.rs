@@ -273,38 +273,45 @@ pub fn for_each_state(dir: &Path, mut f: impl FnMut(StateSample)) -> Result<(), 
     }
     for path in files {
         let bytes = std::fs::read(&path).map_err(|e| format!("{}: {e}", path.display()))?;
-        let nl = bytes
-            .iter()
-            .position(|&b| b == b'\n')
-            .ok_or_else(|| format!("{}: no header line", path.display()))?;
-        let h: serde_json::Value = serde_json::from_slice(&bytes[..nl])
-            .map_err(|e| format!("{}: header is not JSON: {e}", path.display()))?;
-        if h["format"] != "hob-state-log" || h["version"] != 1 || h["record_bytes"] != record_bytes() {
-            return Err(format!(
-                "{}: header says {} version {} with {} bytes per record; this reader knows hob-state-log version 1 with {}",
-                path.display(),
-                h["format"],
-                h["version"],
-                h["record_bytes"],
-                record_bytes()
-            ));
-        }
-        let recorded = overrides_recorded(&h["fields"]).ok_or_else(|| {
-            format!(
-                "{}: header's fields are not those of hob-state-log version 1 this reader knows: {}",
-                path.display(),
-                h["fields"]
-            )
-        })?;
-        // A file cut short by a killed logger ends in a partial record: dropped.
-        for rec in bytes[nl + 1..].chunks_exact(record_bytes()) {
-            if let Some(mut s) = decode(rec) {
-                if !recorded {
-                    s.feed_override_percent = f64::NAN;
-                    s.spindle_override_percent = f64::NAN;
-                }
-                f(s);
+        states_in_file(&bytes, &path.display().to_string(), &mut f)?;
+    }
+    Ok(())
+}
+
+/// The state samples of one state file's bytes (`name` for the messages), handed to `f`:
+/// refused when its header does not describe this reader's records; a partial last record
+/// (a file cut short) is dropped.
+pub fn states_in_file(bytes: &[u8], name: &str, f: &mut impl FnMut(StateSample)) -> Result<(), String> {
+    let nl = bytes
+        .iter()
+        .position(|&b| b == b'\n')
+        .ok_or_else(|| format!("{}: no header line", name))?;
+    let h: serde_json::Value =
+        serde_json::from_slice(&bytes[..nl]).map_err(|e| format!("{}: header is not JSON: {e}", name))?;
+    if h["format"] != "hob-state-log" || h["version"] != 1 || h["record_bytes"] != record_bytes() {
+        return Err(format!(
+            "{}: header says {} version {} with {} bytes per record; this reader knows hob-state-log version 1 with {}",
+            name,
+            h["format"],
+            h["version"],
+            h["record_bytes"],
+            record_bytes()
+        ));
+    }
+    let recorded = overrides_recorded(&h["fields"]).ok_or_else(|| {
+        format!(
+            "{}: header's fields are not those of hob-state-log version 1 this reader knows: {}",
+            name, h["fields"]
+        )
+    })?;
+    // A file cut short by a killed logger ends in a partial record: dropped.
+    for rec in bytes[nl + 1..].chunks_exact(record_bytes()) {
+        if let Some(mut s) = decode(rec) {
+            if !recorded {
+                s.feed_override_percent = f64::NAN;
+                s.spindle_override_percent = f64::NAN;
             }
+            f(s);
         }
     }
     Ok(())
