@@ -135,6 +135,16 @@ fn the_control_step_never_allocates() {
     d.command(Command::Start { single: false });
     d.until(300.0, |s| s == State::Cut);
     d.until(1.0, |_| false);
+    // A copy of the whole control core in the cut (a flight recorder's snapshot, the
+    // start of a replay) allocates nothing either: it is plain data, the program included.
+    let before = COUNT.with(Cell::get);
+    let snapshot = counted(|| d.sim.controller.clone());
+    assert_eq!(
+        COUNT.with(Cell::get),
+        before,
+        "a copy of the controller allocated"
+    );
+    assert_eq!(snapshot.status(), d.sim.controller.status());
     d.command(Command::FeedHold);
     d.until(1.0, |_| false);
     d.command(Command::Resume);
