@@ -8,6 +8,7 @@
 pub mod accuracy;
 pub mod bus;
 pub mod busload;
+pub mod flood;
 pub mod gate;
 pub mod hist;
 pub mod hmi_load;

@@ -4,7 +4,7 @@ use clap::{Parser, Subcommand};
 use hob_bench::accuracy::Disturbance;
 use hob_bench::bus::{Pace, Transport};
 use hob_bench::latency::Load;
-use hob_bench::{accuracy, bus, busload, gate, latency, step};
+use hob_bench::{accuracy, bus, busload, flood, gate, latency, step};
 use std::path::PathBuf;
 use std::process::ExitCode;
 
@@ -132,6 +132,16 @@ enum Cmd {
         iface: Option<String>,
     },
     /// Checks a results directory against the limits; exits 1 with the table if one fails.
+    /// One process of a command flood against a running hob-rt (HOB_INSTANCE): N requests
+    /// as fast as the answers come, half to the loop, half refused before it; prints what
+    /// came back as JSON.
+    Flood {
+        #[arg(long, default_value_t = 1000)]
+        requests: u64,
+        /// How long each request may wait for its answer, ms.
+        #[arg(long, default_value_t = 2000)]
+        timeout_ms: u64,
+    },
     Gate {
         #[arg(long)]
         results: PathBuf,
@@ -275,6 +285,11 @@ fn run(cli: Cli) -> Result<bool, String> {
             } else {
                 say(accuracy::text(&accuracy::run(&args)?));
             }
+        }
+        Cmd::Flood { requests, timeout_ms } => {
+            let f = flood::run(*requests, std::time::Duration::from_millis(*timeout_ms))?;
+            println!("{}", f.json());
+            return Ok(f.unanswered == 0);
         }
         Cmd::BusLoad { out } => say(busload::text(&busload::run(&cli.machine, out)?)),
         Cmd::All {

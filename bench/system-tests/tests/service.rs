@@ -618,6 +618,162 @@ fn watchdog_watches_the_sync_and_the_state_and_only_the_loop_publishes() {
     }
 }
 
+/// The shared-memory files of iceoryx2 on this machine (`/dev/shm/iox2*` and everything
+/// under `/tmp/iceoryx2`): what a process killed with `kill -9` could leave behind.
+fn shm_files() -> usize {
+    fn count(dir: &Path, filter: &dyn Fn(&str) -> bool) -> usize {
+        std::fs::read_dir(dir).map_or(0, |rd| {
+            rd.flatten()
+                .map(|e| {
+                    let p = e.path();
+                    if p.is_dir() {
+                        count(&p, &|_| true)
+                    } else {
+                        usize::from(filter(&e.file_name().to_string_lossy()))
+                    }
+                })
+                .sum()
+        })
+    }
+    count(Path::new("/dev/shm"), &|n| n.starts_with("iox2")) + count(Path::new("/tmp/iceoryx2"), &|_| true)
+}
+
+/// Load: a command flood from four processes at once (half the requests to the loop, half
+/// refused before it) leaves the loop at its pace and every request answered; frontends
+/// stopped with SIGSTOP (the logger, a `hob status --watch`) cost the loop nothing; the
+/// logger, the watchdog and a `hob status --watch` killed with `kill -9` and started again,
+/// over and over, leave no shared-memory files behind.
+#[test]
+#[ignore = "needs the release binaries and a bus; ci/test runs it (--ignored --test-threads=1)"]
+fn load_a_command_flood_stopped_subscribers_and_restarted_frontends() {
+    let mut b = Bench::new("load");
+    let m = b.session_machine();
+    let machine = m.write(&b.art.join("machine.toml"));
+    let cycle_us = m.int("control.cycle_period_us") as f64;
+    let iface = b.iface.clone();
+    let (_sim, _rt) = start_service(&mut b, &machine, 1);
+    b.step("power-up to idle", |b| {
+        b.wait_state("idle", STATE_TIMEOUT);
+        String::new()
+    });
+    let pace_kept = |b: &Bench, s0: &hob_system_tests::Status, what: &str| {
+        let s1 = b.status();
+        let pace = s1.pace_since(s0, cycle_us);
+        let min = hob_system_tests::min_pace();
+        assert!(pace >= min, "{what}: pace {pace:.3} (least {min})");
+        assert!(s1.alarm.is_empty(), "{what}: the loop's alarm {}", s1.alarm);
+        let overruns = |s: &hob_system_tests::Status| s.stats.as_ref().map_or(0, |x| x.overruns);
+        format!("pace {pace:.3}, overruns {} -> {}", overruns(s0), overruns(&s1))
+    };
+    b.step(
+        "a command flood from four processes: every request answered, the loop at pace",
+        |b| {
+            let s0 = b.status();
+            // Started here, not as the bench's processes: they end by themselves.
+            let floods: Vec<(std::process::Child, std::path::PathBuf)> = (0..4)
+                .map(|i| {
+                    let log = b.art.join(format!("flood{i}.txt"));
+                    let mut c = b.command("hob-bench");
+                    c.args(["flood", "--requests", "1000"])
+                        .stdout(std::fs::File::create(&log).unwrap())
+                        .stderr(std::process::Stdio::inherit());
+                    (c.spawn().unwrap(), log)
+                })
+                .collect();
+            let mut total = (0u64, 0u64, 0.0f64);
+            for (mut child, log) in floods {
+                let status = child.wait().unwrap();
+                let text = std::fs::read_to_string(&log).unwrap();
+                assert!(
+                    status.success(),
+                    "a flood left requests unanswered ({status}): {text}"
+                );
+                let j: serde_json::Value = serde_json::from_str(text.lines().last().unwrap_or("")).unwrap();
+                assert_eq!(j["sent"], 1000, "{text}");
+                assert_eq!(j["answered"], 1000, "{text}");
+                assert_eq!(j["accepted"], 500, "the loop's answers: {text}");
+                total.0 += j["answered"].as_u64().unwrap();
+                total.1 += j["accepted"].as_u64().unwrap();
+                total.2 = total.2.max(j["seconds"].as_f64().unwrap());
+            }
+            let pace = pace_kept(b, &s0, "the flood");
+            format!(
+                "{} requests answered ({} by the loop) in {:.1} s, {:.0} requests/s; {pace}",
+                total.0,
+                total.1,
+                total.2,
+                total.0 as f64 / total.2
+            )
+        },
+    );
+    b.step(
+        "a logger and a hob status --watch stopped with SIGSTOP cost the loop nothing",
+        |b| {
+            let log_dir = b.art.join("log");
+            let logger = b.spawn("hob-logger", "hob-logger", &[&log_dir], "logger-stopped.txt");
+            let watch = b.spawn(
+                "hob status --watch",
+                "hob",
+                &["status", "--watch"],
+                "watch-stopped.txt",
+            );
+            std::thread::sleep(Duration::from_secs(2));
+            let s0 = b.status();
+            b.signal(logger, "STOP");
+            b.signal(watch, "STOP");
+            std::thread::sleep(Duration::from_secs(5));
+            let pace = pace_kept(b, &s0, "two subscribers stopped");
+            b.signal(logger, "CONT");
+            b.signal(watch, "CONT");
+            std::thread::sleep(Duration::from_secs(1));
+            b.terminate(logger, Duration::from_secs(10));
+            b.kill9(watch);
+            // The logger lost what overflowed its buffer while stopped, and says how much.
+            let st = LoggerStats::read(&log_dir).unwrap();
+            format!(
+                "{pace}; the stopped logger counted {} samples lost of {}",
+                st.samples_lost, st.samples
+            )
+        },
+    );
+    b.step("frontends killed and restarted over and over leave no shared-memory files", |b| {
+        let s0 = b.status();
+        let rounds = hob_system_tests::env_num("HOB_RESTART_ROUNDS", Some(40)).unwrap_or(40);
+        let log_dir = b.art.join("log-restarts");
+        // The first round's processes make the services they use (the recorder's, the
+        // CAN endpoints'): what stays from the second round on is what leaks.
+        let mut before = 0;
+        for r in 0..=rounds {
+            if r == 1 {
+                before = shm_files();
+            }
+            let logger = b.spawn("hob-logger", "hob-logger", &[&log_dir], "logger-restarts.txt");
+            let watch = b.spawn("hob status --watch", "hob", &["status", "--watch"], "watch-restarts.txt");
+            let wd = b.spawn(
+                "hob-watchdog",
+                "hob-watchdog",
+                &["--iface", &iface, "--machine", &path(&machine)],
+                "watchdog-restarts.txt",
+            );
+            std::thread::sleep(Duration::from_millis(400));
+            for p in [logger, watch, wd] {
+                b.kill9(p);
+            }
+        }
+        // One more frontend starts (it removes what dead nodes left, as every one does)
+        // and ends cleanly.
+        let o = b.hob(&["status"]);
+        assert_eq!(o.code, Some(0), "hob status after the restarts: {}", o.text);
+        let after = shm_files();
+        let pace = pace_kept(b, &s0, "the restarts");
+        assert!(
+            after <= before + 2,
+            "{rounds} rounds of kill -9 and restart: {before} shared-memory files before, {after} after"
+        );
+        format!("{rounds} rounds of three frontends killed and restarted: {before} shared-memory files before, {after} after; {pace}")
+    });
+}
+
 /// A tmpfs of this size under the test's artifacts, unmounted when dropped (root: the
 /// CI machine and the guest run as root).
 struct SmallDisk(std::path::PathBuf);
