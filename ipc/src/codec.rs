@@ -851,7 +851,7 @@ pub fn coupling_name(c: u32) -> &'static str {
 }
 
 /// Every [`command`] code, in code order.
-pub const COMMANDS: [u32; 18] = [
+pub const COMMANDS: [u32; 19] = [
     command::LOAD_PROGRAM,
     command::START,
     command::FEED_HOLD,
@@ -870,6 +870,7 @@ pub const COMMANDS: [u32; 18] = [
     command::TOUCH_OFF,
     command::CONTINUE,
     command::SPINDLE_HOLD,
+    command::FLIGHT_RECORD,
 ];
 
 /// The command's name as the CLI spells it (`?` for a code this build does not know).
@@ -893,6 +894,7 @@ pub fn command_name(code: u32) -> &'static str {
         command::TOUCH_OFF => "touch-off",
         command::CONTINUE => "continue",
         command::SPINDLE_HOLD => "spindle hold",
+        command::FLIGHT_RECORD => "record",
         _ => "?",
     }
 }

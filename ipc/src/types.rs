@@ -359,6 +359,8 @@ pub mod command {
     /// `value`: rpm. The hob spindle turns while this is renewed (a press-and-hold with a
     /// dead-man, as `JOG_CONTINUOUS`); `SPINDLE_OFF` stops it at once.
     pub const SPINDLE_HOLD: u32 = 18;
+    /// Write the flight recorder's last seconds to disk (`hob record`).
+    pub const FLIGHT_RECORD: u32 = 19;
 }
 
 /// Directions of a continuous jog ([`CommandRequest::direction`]).

@@ -280,6 +280,7 @@ pub fn command(data: &[u8]) {
     match to_mail(&req, shipped()) {
         Err(why) => assert!(!why.is_empty()),
         Ok(Mail::Load(p, _)) => assert!(!p.passes().is_empty()),
+        Ok(Mail::Record) => assert_eq!(req.command, hob_ipc::command::FLIGHT_RECORD),
         Ok(Mail::Command(c)) => {
             let args = encode::command_code(c);
             let again =

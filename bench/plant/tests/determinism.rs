@@ -102,6 +102,12 @@ fn a_copy_of_the_controller_replays_the_recorded_cycles_bit_for_bit() {
         parted.is_some_and(|k| k >= 1000),
         "one count more changed nothing, or changed the past: {parted:?}"
     );
+    // The spindle observer at half its bandwidth (a replay's "what if"): the table's
+    // targets part.
+    let mut slower = snapshot.clone();
+    slower.set_observer_bandwidth_hz(slower.params().observer_bandwidth_hz / 2.0);
+    let parted = replay(slower, &records, |_, _| {});
+    assert!(parted.is_some(), "the observer's bandwidth changes nothing");
     // A command left out (the feed hold): the outputs part at once.
     let mut without_hold = records.clone();
     without_hold[1500].command = None;

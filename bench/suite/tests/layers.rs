@@ -165,7 +165,7 @@ const PURE: &[(&str, &[&str])] = &[
     ("hob-gearing", &["serde"]),
     ("hob-cutters", &["serde"]),
     ("hob-setup", &["serde", "toml"]),
-    ("hob-control", &["serde", "nalgebra"]),
+    ("hob-control", &["serde", "nalgebra", "postcard"]),
     ("hob-canopen", &[]),
     ("hob-process-image", &[]),
 ];

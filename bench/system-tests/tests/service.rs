@@ -993,6 +993,48 @@ fn silent_machine_mid_cut() {
         );
         trip.reason
     });
+    b.step(
+        "the fault's flight record replays bit for bit (hob replay)",
+        |b| {
+            let dir = b.art.join("flight");
+            let file = b.wait_for("the fault's flight record", STATE_TIMEOUT, |_| {
+                std::fs::read_dir(&dir)
+                    .map_err(|e| format!("{}: {e}", dir.display()))?
+                    .flatten()
+                    .map(|e| e.path())
+                    .find(|p| p.to_string_lossy().ends_with("-fault.hobfr"))
+                    .ok_or_else(|| format!("no *-fault.hobfr in {} yet", dir.display()))
+            });
+            let o = b.hob(&["replay", &path(&file)]);
+            assert_eq!(o.code, Some(0), "hob replay: {}", o.text);
+            assert!(o.text.contains("fault: feedback of drive "), "{}", o.text);
+            assert!(
+                o.text
+                    .contains("every output identical to the recorded one, bit for bit"),
+                "{}",
+                o.text
+            );
+            let what_if = b.hob(&["replay", &path(&file), "--observer-bandwidth-hz", "5"]);
+            assert_eq!(
+                what_if.code,
+                Some(0),
+                "hob replay --observer-bandwidth-hz 5: {}",
+                what_if.text
+            );
+            assert!(
+                what_if
+                    .text
+                    .contains("what if the spindle observer's bandwidth were 5 Hz"),
+                "{}",
+                what_if.text
+            );
+            format!(
+                "{}\n    {}",
+                o.stdout.trim_end().replace('\n', "\n    "),
+                what_if.stdout.lines().skip(2).collect::<Vec<_>>().join("\n    ")
+            )
+        },
+    );
     b.step("reset through the service clears the fault", |b| {
         b.hob_ok(&["reset"]);
         let s = b.wait_for("the state after the reset", STATE_TIMEOUT, |b| {

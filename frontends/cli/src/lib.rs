@@ -12,5 +12,6 @@ pub mod doctor;
 pub mod lab;
 pub mod library;
 pub mod render;
+pub mod replay;
 pub mod service;
 pub mod util;

@@ -137,6 +137,18 @@ enum Command {
     Continue,
     /// A new blank is on the table: forget the recorded tooth phase.
     NewBlank,
+    /// Write the loop's flight record now: its last seconds of inputs, commands and outputs
+    /// (hob-rt writes one by itself on a fault and at its stop).
+    Record,
+    /// Replay a flight record through this build's control core: every output compared
+    /// with the recorded one, bit for bit (exit 1 when they part).
+    Replay {
+        /// The flight record (`flight-*.hobfr`, in hob-rt's --flight-dir).
+        file: PathBuf,
+        /// Replay a second time with the spindle observer's bandwidth changed, and compare.
+        #[arg(long, value_name = "HZ")]
+        observer_bandwidth_hz: Option<f64>,
+    },
     /// Read recorded logs of hob-logger.
     Log {
         #[command(subcommand)]
@@ -614,6 +626,17 @@ fn run(command: Command) -> Result<(), Failure> {
             height,
         } => service_result(service::touch_off(&axis, diameter, height).and_then(|r| service::request(&r))),
         Command::Continue => service_result(service::request(&service::simple(code::CONTINUE))),
+        Command::Record => service_result(service::request(&service::simple(code::FLIGHT_RECORD))),
+        Command::Replay {
+            file,
+            observer_bandwidth_hz,
+        } => match hob_cli::replay::replay(&file, observer_bandwidth_hz) {
+            Ok(text) => emit(&text),
+            Err(text) => {
+                eprint!("{text}");
+                Err(Failure::Exit(1))
+            }
+        },
         Command::NewBlank => service_result(service::request(&service::simple(code::NEW_BLANK))),
         Command::Log { command } => match command {
             LogCommand::Export { dir, csv, out } => {

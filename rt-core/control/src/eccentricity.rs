@@ -47,7 +47,7 @@ const MAX_FIT_S: f64 = 4.0;
 const MAX_RESIDUAL_COUNTS: f64 = 1.0;
 
 /// One fit's normal equations (over `TURNS_PER_FIT` turns).
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
 struct Fit {
     start_deg: f64,
     samples: u32,
@@ -95,7 +95,7 @@ impl Fit {
 }
 
 /// The once-per-turn correction of the spindle encoder, identified online.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct EccentricityIdentifier {
     period_s: f64,
     /// Forgetting time constant, s (0: identification off, the reading passes unchanged).

@@ -21,7 +21,7 @@
 use super::profile::Profile;
 
 /// The gearbox's fixed parameters (from the machine configuration and the job).
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct GearboxParams {
     /// `s_i z0 / z`: table deg per spindle deg, signed; 0 for tooth-by-tooth.
     pub ratio_signed: f64,
@@ -48,7 +48,7 @@ impl GearboxParams {
 }
 
 /// Where the gearbox is.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 pub enum Coupling {
     Disengaged,
     Engaging,
@@ -60,7 +60,7 @@ pub enum Coupling {
 }
 
 /// What the gearbox measured this cycle.
-#[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default, serde::Serialize, serde::Deserialize)]
 pub struct SyncStatus {
     /// `table - coupled(spindle, Y) - phase target`, deg; 0 unless synchronised.
     pub error_deg: f64,
@@ -71,7 +71,7 @@ pub struct SyncStatus {
 }
 
 /// The electronic gearbox.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct Gearbox {
     params: GearboxParams,
     coupling: Coupling,

@@ -8,7 +8,7 @@ use super::sequencer::{Command, State};
 pub const EVENT_CAPACITY: usize = 256;
 
 /// What happened.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
 pub enum EventKind {
     StateChanged {
         from: State,
@@ -48,15 +48,16 @@ pub enum EventKind {
 }
 
 /// An event and the cycle it happened in.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct Event {
     pub cycle: u64,
     pub kind: EventKind,
 }
 
 /// Fixed-capacity event ring.
-#[derive(Debug, Clone)]
+#[derive(Debug, Clone, serde::Serialize, serde::Deserialize)]
 pub struct EventRing {
+    #[serde(with = "hob_gearing::serde_arrays")]
     buf: [Option<Event>; EVENT_CAPACITY],
     head: usize,
     len: usize,

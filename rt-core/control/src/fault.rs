@@ -1,9 +1,7 @@
 //! Faults and refusals on the real-time path: `Copy` enums with fields, no strings.
 
-use serde::Serialize;
-
 /// A machine axis.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 #[serde(rename_all = "kebab-case")]
 pub enum Axis {
     B,
@@ -32,7 +30,7 @@ impl Axis {
 }
 
 /// Which end of an axis.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 #[serde(rename_all = "kebab-case")]
 pub enum End {
     Min,
@@ -40,8 +38,8 @@ pub enum End {
 }
 
 /// Something that stops the machine.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
-#[serde(tag = "fault", rename_all = "kebab-case")]
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "kebab-case")]
 pub enum Fault {
     /// The safety relay opened the chain (e-stop, hardware limit, VFD fault relay).
     SafetyChainOpen,
@@ -79,7 +77,7 @@ pub enum Fault {
 }
 
 /// Why referencing an axis failed.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 #[serde(rename_all = "kebab-case")]
 pub enum HomingFailure {
     /// The drive's mode display did not confirm the mode asked for.
@@ -126,7 +124,7 @@ impl Fault {
 }
 
 /// Why a command was refused. Nothing changed.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 #[serde(rename_all = "kebab-case")]
 pub enum Refusal {
     NoProgram,

@@ -13,7 +13,7 @@ fn write(raw: &mut u32, b: DigitalBinding, on: bool) {
 }
 
 /// Digital inputs, active = true.
-#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 pub struct Inputs {
     pub safety_chain_closed: bool,
     pub estop_pressed: bool,
@@ -33,7 +33,7 @@ pub struct Inputs {
 }
 
 /// Digital outputs, on = true.
-#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 pub struct Outputs {
     pub pc_ok_relay: bool,
     pub pc_reset_relay: bool,
@@ -46,7 +46,7 @@ pub struct Outputs {
 }
 
 /// The bit map, copied out of the configuration at start-up.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 pub struct IoBits {
     inputs: [DigitalBinding; 15],
     outputs: [DigitalBinding; 8],

@@ -11,7 +11,7 @@ use super::events::EventKind;
 use super::fault::{Axis, Refusal};
 
 /// Which way a continuous jog runs, in the axis' own frame (docs/domain.md section 2).
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 pub enum Direction {
     Positive,
     Negative,
@@ -27,7 +27,7 @@ impl Direction {
 }
 
 /// The jog under way.
-#[derive(Debug, Clone, Copy, Default, PartialEq)]
+#[derive(Debug, Clone, Copy, Default, PartialEq, serde::Serialize, serde::Deserialize)]
 pub(super) enum JogMotion {
     #[default]
     None,

@@ -16,6 +16,7 @@ pub mod eccentricity;
 pub mod egb;
 pub mod events;
 pub mod fault;
+pub mod flight;
 pub mod io;
 pub mod jog;
 pub mod lube;
@@ -53,7 +54,7 @@ pub const DRIVE_ENABLE_TIMEOUT_S: f64 = 2.0;
 pub const SPINDLE_SETTLE_S: f64 = 0.5;
 
 /// One drive's feedback, latched at SYNC.
-#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 pub struct AxisFeedback {
     /// Actual position (0x6064), counts, wrapping.
     pub position_counts: i32,
@@ -72,7 +73,7 @@ pub struct AxisFeedback {
 }
 
 /// Homing progress reported by a drive in homing mode (statusword bits 13, 12, 10).
-#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 pub struct HomingBits {
     /// Bit 12: homing attained.
     pub attained: bool,
@@ -83,7 +84,7 @@ pub struct HomingBits {
 }
 
 /// A drive's mode of operation as the loop asks for it (0x6060).
-#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 pub enum DriveMode {
     /// Cyclic synchronous position: the loop's targets every cycle (normal).
     #[default]
@@ -103,7 +104,7 @@ impl DriveMode {
 }
 
 /// Everything latched at this cycle's SYNC.
-#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 pub struct CycleInputs {
     /// Spindle encoder (B drive's auxiliary encoder), counts, wrapping.
     pub spindle_counts: i32,
@@ -118,7 +119,7 @@ pub struct CycleInputs {
 }
 
 /// Everything to send for the next SYNC.
-#[derive(Debug, Clone, Copy, Default, PartialEq)]
+#[derive(Debug, Clone, Copy, Default, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct CycleOutputs {
     /// Target positions (0x607A), counts, wrapping.
     pub table_target_counts: i32,
@@ -146,7 +147,7 @@ fn input_mode(input: &CycleInputs, k: usize) -> i8 {
 }
 
 /// Scaling of one axis between counts and units.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct AxisScale {
     pub counts_per_unit: f64,
     pub sign: f64,
@@ -169,7 +170,7 @@ impl AxisScale {
 }
 
 /// Limits and timing of one linear axis.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct LinearLimits {
     pub soft_min_mm: f64,
     pub soft_max_mm: f64,
@@ -179,7 +180,7 @@ pub struct LinearLimits {
 }
 
 /// Everything the loop needs from the machine configuration, copied at start-up.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct ControlParams {
     pub period_s: f64,
     /// Prediction horizon: one period plus the drive delay.
@@ -295,7 +296,7 @@ impl ControlParams {
 }
 
 /// How the spindle angle is taken for the gearbox.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 pub enum SpindleAngleSource {
     /// Observer estimate predicted to the instant the command takes effect (normal).
     Predicted,
@@ -304,7 +305,7 @@ pub enum SpindleAngleSource {
 }
 
 /// What the loop publishes about itself each cycle.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct Status {
     pub cycle: u64,
     pub state: State,
@@ -349,7 +350,7 @@ pub struct Status {
 }
 
 /// Measured values of one cycle, in units.
-#[derive(Debug, Clone, Copy, Default, PartialEq)]
+#[derive(Debug, Clone, Copy, Default, PartialEq, serde::Serialize, serde::Deserialize)]
 struct Measured {
     spindle_deg: f64,
     spindle_speed_deg_s: f64,
@@ -371,7 +372,7 @@ struct Measured {
 pub const POSITION_JUMP: [f64; 3] = [10.0, 5.0, 5.0];
 
 /// The control core.
-#[derive(Debug, Clone)]
+#[derive(Debug, Clone, serde::Serialize, serde::Deserialize)]
 pub struct Controller {
     params: ControlParams,
     angle_source: SpindleAngleSource,
@@ -452,6 +453,13 @@ impl Controller {
     /// loop's positions shift with them, so a change never moves an axis.
     pub fn set_offsets(&mut self, offsets: Offsets) {
         self.apply_offsets(offsets);
+    }
+
+    /// The spindle observer's bandwidth changed, its state kept: a replay's "what if"
+    /// (`hob replay --observer-bandwidth-hz`), never the loop's.
+    pub fn set_observer_bandwidth_hz(&mut self, hz: f64) {
+        self.params.observer_bandwidth_hz = hz;
+        self.observer = self.observer.with_bandwidth(hz);
     }
 
     pub fn offsets(&self) -> Offsets {

@@ -4,7 +4,7 @@
 use super::fault::Fault;
 
 /// Lube pump timing.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct LubeParams {
     pub interval_mm: f64,
     pub pressure_timeout_s: f64,
@@ -12,7 +12,7 @@ pub struct LubeParams {
 }
 
 /// The lubrication cycle.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct Lube {
     params: LubeParams,
     running: bool,

@@ -7,7 +7,7 @@
 //! counts; quantisation (1 count = 0.036 deg) is noise it filters, not an error it keeps.
 
 /// Extends a wrapping 32-bit counter to a continuous 64-bit one.
-#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 pub struct Unwrapper {
     last: Option<i32>,
     total: i64,
@@ -27,7 +27,7 @@ impl Unwrapper {
 }
 
 /// Spindle state estimated by [`SpindleObserver`].
-#[derive(Debug, Clone, Copy, Default, PartialEq)]
+#[derive(Debug, Clone, Copy, Default, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct SpindleEstimate {
     pub angle_deg: f64,
     pub speed_deg_s: f64,
@@ -42,7 +42,7 @@ impl SpindleEstimate {
 }
 
 /// Critically damped third-order tracking observer (fading-memory g-h-k filter).
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct SpindleObserver {
     period_s: f64,
     g: f64,
@@ -62,6 +62,15 @@ impl SpindleObserver {
             h: 1.5 * one * one * (1.0 + theta),
             k: 0.5 * one * one * one,
             state: None,
+        }
+    }
+
+    /// The same observer with the gains of another bandwidth, its state kept (a replay's
+    /// "what if": `hob replay --observer-bandwidth-hz`).
+    pub fn with_bandwidth(&self, bandwidth_hz: f64) -> Self {
+        Self {
+            state: self.state,
+            ..Self::new(self.period_s, bandwidth_hz)
         }
     }
 

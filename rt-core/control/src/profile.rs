@@ -3,7 +3,7 @@
 //! allocation, constant work per call.
 
 /// One axis' commanded position and speed.
-#[derive(Debug, Clone, Copy, Default, PartialEq)]
+#[derive(Debug, Clone, Copy, Default, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct Profile {
     pub position: f64,
     pub velocity: f64,

@@ -11,7 +11,7 @@ use hob_setup::planner::{self, Pass, PassKind, Plan};
 pub const MAX_PASSES: usize = 51;
 
 /// One pass as the loop needs it.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct PassSetpoint {
     pub kind: PassKind,
     pub depth_mm: f64,
@@ -38,7 +38,7 @@ impl PassSetpoint {
 }
 
 /// A program ready for the loop.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct CycleProgram {
     pub cycle: CycleKind,
     pub teeth: u32,
@@ -61,6 +61,7 @@ pub struct CycleProgram {
     /// The gear's pitch diameter and normal module (to express errors at the pitch circle).
     pub pitch_diameter_mm: f64,
     pub normal_module_mm: f64,
+    #[serde(with = "hob_gearing::serde_arrays")]
     passes: [PassSetpoint; MAX_PASSES],
     pass_count: usize,
     single: Option<PassSetpoint>,

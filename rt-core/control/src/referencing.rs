@@ -19,7 +19,7 @@ use super::{DriveMode, State};
 pub const MODE_CHANGE_TIMEOUT_S: f64 = 1.0;
 
 /// Which axes a "home" command references.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 pub enum HomeAxes {
     X,
     Y,
@@ -28,7 +28,7 @@ pub enum HomeAxes {
 }
 
 /// Where the referencing of one axis stands.
-#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 pub enum HomingStep {
     /// Asked for homing mode; waiting for the mode display to confirm it.
     #[default]
@@ -43,7 +43,7 @@ pub enum HomingStep {
 }
 
 /// The referencing state of the linear axes.
-#[derive(Debug, Clone, Copy, Default, PartialEq)]
+#[derive(Debug, Clone, Copy, Default, PartialEq, serde::Serialize, serde::Deserialize)]
 pub(super) struct Referencing {
     /// X, Y referenced.
     pub referenced: [bool; 2],

@@ -38,7 +38,7 @@ const PLUNGE_CLEARANCE_MM: f64 = 1.0;
 const OVERRIDE_SPINDLE_RPM_S: f64 = 10.0;
 
 /// Sequencer states; `name` is the short word of traces and status.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize, serde::Deserialize)]
 pub enum State {
     /// Power-up: waiting for the safety chain and the first lubrication.
     #[default]
@@ -126,7 +126,7 @@ impl State {
 
 /// A request from a frontend (HMI, CLI, buttons). Checked against the machine state;
 /// a refusal changes nothing.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
 pub enum Command {
     /// Start the loaded program: all passes, or the single-mode pass.
     Start {
@@ -187,7 +187,7 @@ pub enum Command {
 }
 
 /// The sequencer's own state.
-#[derive(Debug, Clone, Copy, Default, PartialEq)]
+#[derive(Debug, Clone, Copy, Default, PartialEq, serde::Serialize, serde::Deserialize)]
 pub(super) struct Sequencer {
     pub state: State,
     pub state_time_s: f64,

@@ -3,7 +3,7 @@
 
 /// Work offsets: a position the loop works in (the program's centre distance X, the hob
 /// axis height Y above the table face) is the drive's referenced position plus these.
-#[derive(Debug, Clone, Copy, Default, PartialEq)]
+#[derive(Debug, Clone, Copy, Default, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct Offsets {
     pub x_mm: f64,
     pub y_mm: f64,
@@ -48,7 +48,7 @@ pub fn y_offset_from_touch(
 }
 
 /// The ranges of the overrides (fractions: 1.0 is 100 %).
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct OverrideLimits {
     pub feed_min: f64,
     pub feed_max: f64,

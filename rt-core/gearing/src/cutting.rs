@@ -20,7 +20,7 @@ pub fn axial_feed_mm_min(feed_mm_per_rev: f64, table_rpm: f64) -> f64 {
 
 /// The spindle's drive chain: induction motor through a belt/gear ratio, fed by a VFD
 /// whose frequency is set by an analog voltage.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct SpindleDrive {
     /// Motor revolutions per spindle revolution (6 on the thesis machine).
     pub motor_to_spindle_ratio: f64,

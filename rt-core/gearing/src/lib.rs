@@ -22,6 +22,7 @@ pub mod approach;
 pub mod cutting;
 pub mod gearbox;
 pub mod iso1328;
+pub mod serde_arrays;
 pub mod shapes;
 pub mod signs;
 pub mod span;

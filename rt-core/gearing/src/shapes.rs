@@ -22,7 +22,7 @@ pub fn crowning_height_mm(radius_mm: f64, face_width_mm: f64) -> Option<f64> {
 
 /// A circular crowning arc: the programmed depth holds at mid-face, the ends are cut
 /// deeper by `height_mm`.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct Crowning {
     pub height_mm: f64,
     pub radius_mm: f64,
@@ -49,8 +49,9 @@ impl Crowning {
 }
 
 /// A piecewise-linear X offset through operator-entered (face position, offset) points.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct Contour {
+    #[serde(with = "crate::serde_arrays")]
     points: [(f64, f64); MAX_CONTOUR_POINTS],
     len: usize,
 }
@@ -112,7 +113,7 @@ impl Contour {
 }
 
 /// The X shape of a job: a crowning arc, a contour, both superimposed, or neither.
-#[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default, serde::Serialize, serde::Deserialize)]
 pub struct XShape {
     pub crowning: Option<Crowning>,
     pub contour: Option<Contour>,

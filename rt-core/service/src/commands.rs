@@ -30,6 +30,8 @@ pub enum Mail {
     /// A program and the [`hob_ipc::program_hash`] of the text it was built from.
     Load(CycleProgram, u64),
     Command(Command),
+    /// Write the flight recorder's last seconds (`hob record`): not the control core's.
+    Record,
 }
 
 /// The loop's verdict: accepted with the work offsets after the command, or refused.
@@ -59,6 +61,9 @@ pub fn to_mail(req: &CommandRequest, machine: &MachineConfig) -> Result<Mail, St
         let text = req.text();
         return build_program(&req.name(), &text, machine)
             .map(|p| Mail::Load(p, hob_ipc::program_hash(&text)));
+    }
+    if req.command == command::FLIGHT_RECORD {
+        return Ok(Mail::Record);
     }
     encode::command_from_code(&encode::Args::from_request(req))
         .map(Mail::Command)
@@ -164,6 +169,7 @@ pub fn answer(
     req: &CommandRequest,
     machine: &MachineConfig,
     state_file: &Path,
+    flight_dir: &Path,
     mailbox: &ThreadMailbox,
 ) -> CommandResponse {
     let what = codec::command_name(req.command);
@@ -177,6 +183,10 @@ pub fn answer(
                 Mail::Load(p, _) => format!("loaded {} ({} passes)", req.name(), p.passes().len()),
                 Mail::Command(c @ Command::TouchOff { .. }) => save_offsets(state_file, offsets, c),
                 Mail::Command(_) => format!("{what}: accepted"),
+                Mail::Record => format!(
+                    "{what}: the flight recorder's last seconds go to {} (hob replay FILE)",
+                    flight_dir.display()
+                ),
             };
             CommandResponse::new(true, 0, &text)
         }
@@ -193,6 +203,7 @@ pub fn answer(
 pub fn serve(
     machine: &MachineConfig,
     state_file: &Path,
+    flight_dir: &Path,
     mailbox: &ThreadMailbox,
     stop: &AtomicBool,
     ready: impl FnOnce(),
@@ -203,7 +214,7 @@ pub fn serve(
     while !stop.load(Ordering::Relaxed) {
         match server.receive() {
             Ok(Some(active)) => {
-                let response = answer(active.payload(), machine, state_file, mailbox);
+                let response = answer(active.payload(), machine, state_file, flight_dir, mailbox);
                 let _ = active.send_copy(response);
             }
             Ok(None) => std::thread::sleep(Duration::from_millis(2)),

@@ -8,6 +8,7 @@
 
 use crate::commands::{LoopMailbox, Mail};
 use crate::encode;
+use crate::recorder::{AFTER_FAULT_CYCLES, Reason, Recorder};
 use crate::stats::LoopTiming;
 use hob_canopen::bus::CanBus;
 use hob_control::{Controller, CycleOutputs, State};
@@ -49,6 +50,12 @@ pub struct RtLoop<B: CanBus> {
     program_hash: u64,
     bus_events: [Option<BusEvent>; BUS_EVENTS],
     outputs: CycleOutputs,
+    /// The flight recorder: each cycle's mail, inputs and outputs.
+    pub recorder: Recorder,
+    /// A fault was latched after the last cycle (a new one asks for a record).
+    was_faulted: bool,
+    /// A cycle stop to apply as the next cycle's mail (the termination's controlled stop).
+    stop_pending: bool,
 }
 
 impl<B: CanBus> RtLoop<B> {
@@ -62,6 +69,7 @@ impl<B: CanBus> RtLoop<B> {
         mailbox: LoopMailbox,
         timing: LoopTiming,
         counters: Arc<LoopCounters>,
+        recorder: Recorder,
     ) -> Self {
         let period_ns = (cyclic.plan().cycle_s * 1e9).round() as u64;
         Self {
@@ -78,6 +86,9 @@ impl<B: CanBus> RtLoop<B> {
             program_hash: 0,
             bus_events: [None; BUS_EVENTS],
             outputs: CycleOutputs::default(),
+            recorder,
+            was_faulted: false,
+            stop_pending: false,
         }
     }
 
@@ -117,21 +128,49 @@ impl<B: CanBus> RtLoop<B> {
         while let Ok(Some(f)) = self.bus.try_recv() {
             self.cyclic.receive(&f);
         }
-        if let Ok(mail) = self.mailbox.requests.try_recv() {
+        self.recorder.begin_cycle(&self.controller);
+        if self.stop_pending {
+            // Alone in its cycle: one mail per cycle, as the record holds it.
+            self.stop_pending = false;
+            self.recorder.command(hob_control::Command::Stop);
+            let _ = self.controller.command(hob_control::Command::Stop);
+        } else if let Ok(mail) = self.mailbox.requests.try_recv() {
             let verdict = match mail {
-                Mail::Load(p, hash) => self.controller.load(p).map(|()| self.program_hash = hash),
-                Mail::Command(c) => self.controller.command(c),
+                Mail::Load(p, hash) => {
+                    self.recorder.load(&p);
+                    self.controller.load(p).map(|()| self.program_hash = hash)
+                }
+                Mail::Command(c) => {
+                    self.recorder.command(c);
+                    self.controller.command(c)
+                }
+                Mail::Record => {
+                    let cycle = self.controller.status().cycle;
+                    self.recorder.request(Reason::Request, cycle);
+                    Ok(())
+                }
             }
             .map(|()| self.controller.offsets());
             let _ = self.mailbox.verdicts.try_send(verdict);
         }
         let inputs = self.cyclic.inputs();
         self.outputs = self.controller.step(&inputs);
+        self.recorder.end_cycle(&inputs, &self.outputs);
         let sync_ns = now_ns();
         if self.cyclic.transmit(&self.outputs, &mut self.bus).is_err() {
             self.counters.tx_errors.fetch_add(1, Ordering::Relaxed);
         }
         let status = self.controller.status();
+        // A new fault, latched (its reaction starts now): its record, once the first
+        // seconds of the reaction have run too.
+        let faulted = status.fault.is_some();
+        if !self.was_faulted
+            && let Some(f) = status.fault
+        {
+            self.recorder
+                .request(Reason::Fault(f), status.cycle + AFTER_FAULT_CYCLES);
+        }
+        self.was_faulted = faulted;
         let (passes, loaded, pitch_radius_mm, normal_module_mm) =
             self.controller.program().map_or((0, false, 0.0, 0.0), |p| {
                 (
@@ -193,7 +232,7 @@ impl<B: CanBus> RtLoop<B> {
             if stop.load(Ordering::Relaxed) && stopping_since.is_none() {
                 stopping_since = Some(n);
                 if !at_rest {
-                    let _ = self.controller.command(hob_control::Command::Stop);
+                    self.stop_pending = true;
                 }
             }
             if let Some(since) = stopping_since {

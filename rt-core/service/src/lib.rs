@@ -19,4 +19,5 @@ pub mod commands;
 pub mod cycle;
 pub mod encode;
 pub mod lifecycle;
+pub mod recorder;
 pub mod stats;

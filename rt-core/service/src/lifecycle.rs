@@ -14,6 +14,7 @@
 
 use crate::commands::{self, ThreadMailbox};
 use crate::cycle::{LoopCounters, RtLoop};
+use crate::recorder;
 use crate::stats::{self, LoopTiming, StatsTiming, Timing};
 use hob_can_transport::shm::open_bus;
 use hob_canopen::bus::CanBus;
@@ -44,6 +45,8 @@ pub struct Settings {
     pub require_rt: bool,
     /// The machine state file (work offsets); `None`: the machine file's `state.file`.
     pub state_file: Option<std::path::PathBuf>,
+    /// Where flight records go; `None`: `flight/` beside the state file.
+    pub flight_dir: Option<std::path::PathBuf>,
 }
 
 /// Stage 1: the machine is known and its bus is up.
@@ -55,6 +58,7 @@ pub struct Configured {
     booted: Booted,
     require_rt: bool,
     state_file: std::path::PathBuf,
+    flight_dir: std::path::PathBuf,
     offsets: hob_control::Offsets,
 }
 
@@ -88,6 +92,19 @@ pub fn configure(machine: MachineConfig, settings: &Settings) -> Result<Configur
             }
         }
     };
+    let flight_dir = settings.flight_dir.clone().unwrap_or_else(|| {
+        state_file
+            .parent()
+            .filter(|p| !p.as_os_str().is_empty())
+            .unwrap_or(Path::new("."))
+            .join("flight")
+    });
+    if let Err(e) = std::fs::create_dir_all(&flight_dir) {
+        eprintln!(
+            "hob-rt: WARNING: {}: {e}: flight records cannot be written",
+            flight_dir.display()
+        );
+    }
     // The loop's publishers first, before the bus is touched: they are the loop's alone
     // (`hob_ipc::LOOP_ONLY`), so a second hob-rt on this instance is refused here, before
     // it could reset the nodes of the loop that runs.
@@ -116,6 +133,7 @@ pub fn configure(machine: MachineConfig, settings: &Settings) -> Result<Configur
         booted,
         require_rt: settings.require_rt,
         state_file,
+        flight_dir,
         offsets,
     })
 }
@@ -160,14 +178,19 @@ pub struct Helpers {
     stop: Arc<AtomicBool>,
     commands: JoinHandle<()>,
     stats: JoinHandle<Timing>,
+    /// The flight records' writer: ends when the loop (its recorder) is gone.
+    flight: JoinHandle<()>,
     rt_report: Arc<OnceLock<RtReport>>,
 }
 
 impl Helpers {
+    #[allow(clippy::too_many_arguments)]
     fn start(
         machine: &MachineConfig,
         iface: &str,
         state_file: &std::path::Path,
+        flight_dir: &std::path::Path,
+        flight_writer: recorder::Writer,
         thread_box: ThreadMailbox,
         stats_timing: StatsTiming,
         counters: &Arc<LoopCounters>,
@@ -179,6 +202,7 @@ impl Helpers {
             let stop = Arc::clone(&stop);
             let machine = machine.clone();
             let state_file = state_file.to_path_buf();
+            let flight_dir = flight_dir.to_path_buf();
             let ready_tx = ready_tx.clone();
             std::thread::Builder::new()
                 .name("hob-rt-commands".into())
@@ -187,7 +211,9 @@ impl Helpers {
                         let _ = ready_tx.send(());
                     };
                     hob_rt_os::keep_off_core(machine.service.loop_core);
-                    if let Err(e) = commands::serve(&machine, &state_file, &thread_box, &stop, ready) {
+                    if let Err(e) =
+                        commands::serve(&machine, &state_file, &flight_dir, &thread_box, &stop, ready)
+                    {
                         eprintln!("hob-rt: {e}");
                     }
                 })
@@ -220,6 +246,17 @@ impl Helpers {
                 })
                 .map_err(|e| (1, format!("stats thread: {e}")))?
         };
+        let flight = {
+            let dir = flight_dir.to_path_buf();
+            let loop_core = machine.service.loop_core;
+            std::thread::Builder::new()
+                .name("hob-rt-flight".into())
+                .spawn(move || {
+                    hob_rt_os::keep_off_core(loop_core);
+                    flight_writer.serve(&dir);
+                })
+                .map_err(|e| (1, format!("flight record thread: {e}")))?
+        };
         let ready = (0..2).all(|_| ready_rx.recv_timeout(Duration::from_secs(10)).is_ok());
         if !ready {
             return Err((1, "the command and stats threads did not start".into()));
@@ -228,6 +265,7 @@ impl Helpers {
             stop,
             commands,
             stats,
+            flight,
             rt_report,
         })
     }
@@ -307,6 +345,7 @@ pub struct Active {
     _node: iceoryx2::node::Node<Svc>,
     machine: MachineConfig,
     iface: String,
+    flight_dir: std::path::PathBuf,
     helpers: Helpers,
     realtime: RealTime,
     counters: Arc<LoopCounters>,
@@ -325,12 +364,26 @@ impl Configured {
             booted,
             require_rt,
             state_file,
+            flight_dir,
             offsets,
         } = self;
         let (thread_box, loop_box) = commands::mailboxes();
         let (loop_timing, stats_timing): (LoopTiming, StatsTiming) = stats::circulation();
         let counters = Arc::new(LoopCounters::default());
-        let helpers = Helpers::start(&machine, &iface, &state_file, thread_box, stats_timing, &counters)?;
+        let mut controller = Controller::new(ControlParams::from_machine(&machine));
+        controller.set_offsets(offsets);
+        // The flight recorder's rings, before the memory lock.
+        let (flight, flight_writer) = recorder::recorder(&controller, recorder::SEGMENT_CYCLES);
+        let helpers = Helpers::start(
+            &machine,
+            &iface,
+            &state_file,
+            &flight_dir,
+            flight_writer,
+            thread_box,
+            stats_timing,
+            &counters,
+        )?;
         let realtime = RealTime::enter(&ports, &helpers, &machine);
         realtime.announce();
         if require_rt && !realtime.report.is_complete() {
@@ -348,8 +401,6 @@ impl Configured {
                 "hob-rt: {iface} cannot echo our SYNCs in order: TPDOs are matched by counting the SYNCs each drive owes"
             );
         }
-        let mut controller = Controller::new(ControlParams::from_machine(&machine));
-        controller.set_offsets(offsets);
         let LoopPorts {
             _node: node,
             state,
@@ -364,11 +415,13 @@ impl Configured {
             loop_box,
             loop_timing,
             Arc::clone(&counters),
+            flight,
         );
         Ok(Active {
             _node: node,
             machine,
             iface,
+            flight_dir,
             helpers,
             realtime,
             counters,
@@ -397,6 +450,22 @@ impl Active {
         self.rt_loop.run(stop, max_cycles);
         self.rt_loop.message("hob-rt stopped");
         let status = self.rt_loop.controller.status();
+        // The stop's flight record: the last seconds up to here (the loop has ended).
+        match recorder::write(
+            &self.flight_dir,
+            self.rt_loop.recorder.live(),
+            &recorder::Reason::Stop,
+        ) {
+            Ok(p) => eprintln!("hob-rt: flight record (stop) written: {}", p.display()),
+            Err(e) => eprintln!("hob-rt: flight record (stop) NOT written: {e}"),
+        }
+        let dumps = (self.rt_loop.recorder.dumps, self.rt_loop.recorder.missed);
+        if dumps.1 > 0 {
+            eprintln!(
+                "hob-rt: flight records: {} written, {} missed (the writer was busy)",
+                dumps.0, dumps.1
+            );
+        }
         Stopped {
             _node: self._node,
             machine: self.machine,
@@ -432,6 +501,7 @@ impl Stopped {
     pub fn finish(self, hgrm: Option<&Path>) -> Result<(), Failure> {
         self.helpers.stop.store(true, Ordering::Relaxed);
         let _ = self.helpers.commands.join();
+        let _ = self.helpers.flight.join();
         let total = self
             .helpers
             .stats

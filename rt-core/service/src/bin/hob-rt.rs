@@ -17,6 +17,7 @@ static ALLOCATOR: CountingAllocator = CountingAllocator;
 
 const USAGE: &str =
     "usage: hob-rt [--machine FILE] [--iface IFACE|shm] [--require-rt] [--cycles N] [--hgrm DIR]
+              [--state-file FILE] [--flight-dir DIR]
 
   --machine FILE  machine configuration [default: config/machine.toml, then /etc/hob/machine.toml]
   --iface IFACE   CAN interface (can0, vcan0) or `shm` for the shared-memory virtual bus
@@ -26,6 +27,9 @@ const USAGE: &str =
   --hgrm DIR      at exit, write the loop's histograms to DIR: wake.hgrm, compute.hgrm
                   (percentile text, us), wake.hist, compute.hist (every value, ns) and
                   hob-rt.json (cycles, overruns, real-time set-up)
+  --state-file FILE  the work offsets [default: state.file of the configuration]
+  --flight-dir DIR   where the flight recorder's records go (on a fault, at the stop, on
+                  `hob record`; `hob replay FILE`) [default: flight/ beside the state file]
 
 Environment: HOB_INSTANCE names the instance of the shared-memory services (default main).";
 
@@ -37,6 +41,7 @@ struct Args {
     cycles: Option<u64>,
     hgrm: Option<PathBuf>,
     state_file: Option<PathBuf>,
+    flight_dir: Option<PathBuf>,
 }
 
 fn parse_args() -> Result<Args, String> {
@@ -54,6 +59,7 @@ fn parse_args() -> Result<Args, String> {
             }
             "--hgrm" => a.hgrm = Some(value("--hgrm")?.into()),
             "--state-file" => a.state_file = Some(value("--state-file")?.into()),
+            "--flight-dir" => a.flight_dir = Some(value("--flight-dir")?.into()),
             "-h" | "--help" => return Err(String::new()),
             other => return Err(format!("unknown argument {other}")),
         }
@@ -108,6 +114,7 @@ fn run(args: &Args, machine: MachineConfig) -> Result<(), (u8, String)> {
         iface: args.iface.clone(),
         require_rt: args.require_rt,
         state_file: args.state_file.clone(),
+        flight_dir: args.flight_dir.clone(),
     };
     lifecycle::configure(machine, &settings)?
         .activate()?

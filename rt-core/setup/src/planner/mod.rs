@@ -29,7 +29,7 @@ use serde::Serialize;
 use std::path::Path;
 
 /// What a pass is for.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, serde::Deserialize)]
 #[serde(rename_all = "kebab-case")]
 pub enum PassKind {
     Rough,

@@ -1,0 +1,235 @@
+//! A flight record: what the loop took in and gave out, cycle by cycle, over its last
+//! seconds, and the control core's whole state before the first of them; and its replay.
+//!
+//! The control core is a pure function of its state, the commands it takes and the inputs
+//! latched at each SYNC (`bench/plant/tests/determinism.rs`), so stepping a copy of the
+//! state it had over the recorded commands and inputs gives the recorded outputs bit for
+//! bit, or the first cycle where they part says that something else was at work. `hob-rt`
+//! keeps the record in fixed rings (`hob_service::recorder`) and writes it to disk
+//! ([`encode`]); `hob replay` reads it back ([`decode`]) and replays it.
+//!
+//! The file: one text line `hob-flight-record 1 <bytes> <fnv64 hex>\n`, then the record in
+//! postcard's serde encoding (floats to the bit). A file cut short or changed is refused by
+//! its length and checksum before anything is decoded; one of another format version is
+//! refused by the line.
+
+use crate::program::CycleProgram;
+use crate::{Command, Controller, CycleInputs, CycleOutputs};
+
+/// What reached the control core in a cycle besides its inputs.
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
+pub enum Mail {
+    None,
+    Command(Command),
+    /// A program loaded: the record's `programs[i]`.
+    Load(u16),
+    /// A program loaded that the record could not keep (more loads than it holds): the
+    /// replay cannot go past it.
+    LoadNotKept,
+}
+
+/// One cycle.
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct Record {
+    /// Applied before the step, as the loop applies its mail.
+    pub mail: Mail,
+    pub inputs: CycleInputs,
+    pub outputs: CycleOutputs,
+}
+
+/// Why a record was written.
+pub const REASONS: [&str; 3] = ["fault", "stop", "request"];
+
+/// A whole flight record.
+#[derive(Debug, Clone, serde::Serialize, serde::Deserialize)]
+pub struct FlightRecord {
+    /// `fault: <alarm>`, `stop`, `request`.
+    pub reason: String,
+    /// When it was written, UTC (`2026-11-26T11:00:00Z`).
+    pub written_utc: String,
+    /// The control core's state before the first record.
+    pub start: Controller,
+    /// The controller's cycle counter at the first record.
+    pub first_cycle: u64,
+    pub records: Vec<Record>,
+    pub programs: Vec<CycleProgram>,
+}
+
+/// How a replay went.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Replay {
+    /// Cycles stepped.
+    pub cycles: usize,
+    /// The first record whose outputs differ from the replay's, with both.
+    pub first_difference: Option<(usize, CycleOutputs, CycleOutputs)>,
+    /// Where the replay had to stop early (a program not kept), if it did.
+    pub stopped_at: Option<usize>,
+    /// The outputs replayed, cycle by cycle.
+    pub outputs: Vec<CycleOutputs>,
+}
+
+/// The outputs to the bit: every `f64` by its exact `Debug` form (the shortest text that
+/// reads back to the same bits; -0.0 and NaN included).
+pub fn same_bits(a: &CycleOutputs, b: &CycleOutputs) -> bool {
+    format!("{a:?}") == format!("{b:?}")
+}
+
+impl FlightRecord {
+    /// Steps `controller` (the record's start, or a copy changed for a "what if") over the
+    /// record's mail and inputs.
+    pub fn replay(&self, mut controller: Controller) -> Replay {
+        let mut r = Replay {
+            cycles: 0,
+            first_difference: None,
+            stopped_at: None,
+            outputs: Vec::with_capacity(self.records.len()),
+        };
+        for (k, rec) in self.records.iter().enumerate() {
+            match rec.mail {
+                Mail::None => {}
+                Mail::Command(c) => {
+                    let _ = controller.command(c);
+                }
+                Mail::Load(i) => match self.programs.get(usize::from(i)) {
+                    Some(p) => {
+                        let _ = controller.load(*p);
+                    }
+                    None => {
+                        r.stopped_at = Some(k);
+                        break;
+                    }
+                },
+                Mail::LoadNotKept => {
+                    r.stopped_at = Some(k);
+                    break;
+                }
+            }
+            let out = controller.step(&rec.inputs);
+            while controller.events().pop().is_some() {}
+            if r.first_difference.is_none() && !same_bits(&out, &rec.outputs) {
+                r.first_difference = Some((k, rec.outputs, out));
+            }
+            r.outputs.push(out);
+            r.cycles += 1;
+        }
+        r
+    }
+}
+
+const MAGIC: &str = "hob-flight-record";
+const VERSION: u32 = 1;
+
+/// FNV-1a, 64 bits: a checksum against a file cut short or damaged (not against intent).
+fn fnv64(bytes: &[u8]) -> u64 {
+    bytes.iter().fold(0xcbf2_9ce4_8422_2325, |h, &b| {
+        (h ^ u64::from(b)).wrapping_mul(0x0100_0000_01b3)
+    })
+}
+
+/// The file's bytes.
+pub fn encode(r: &FlightRecord) -> Result<Vec<u8>, String> {
+    let body = postcard::to_allocvec(r).map_err(|e| format!("flight record: {e}"))?;
+    let mut out = format!("{MAGIC} {VERSION} {} {:016x}\n", body.len(), fnv64(&body)).into_bytes();
+    out.extend_from_slice(&body);
+    Ok(out)
+}
+
+/// A record from a file's bytes; `name` for the messages.
+pub fn decode(bytes: &[u8], name: &str) -> Result<FlightRecord, String> {
+    let nl = bytes
+        .iter()
+        .take(128)
+        .position(|&b| b == b'\n')
+        .ok_or_else(|| format!("{name}: not a flight record (no header line)"))?;
+    let head = std::str::from_utf8(&bytes[..nl]).map_err(|_| format!("{name}: not a flight record"))?;
+    let f: Vec<&str> = head.split(' ').collect();
+    if f.len() != 4 || f[0] != MAGIC {
+        return Err(format!("{name}: not a flight record (header {head:?})"));
+    }
+    if f[1] != VERSION.to_string() {
+        return Err(format!(
+            "{name}: flight record format {}, this build reads format {VERSION}",
+            f[1]
+        ));
+    }
+    let len: usize = f[2]
+        .parse()
+        .map_err(|_| format!("{name}: bad length in the header"))?;
+    let sum = u64::from_str_radix(f[3], 16).map_err(|_| format!("{name}: bad checksum in the header"))?;
+    let body = &bytes[nl + 1..];
+    if body.len() != len {
+        return Err(format!(
+            "{name}: {} bytes after the header, the header says {len}: cut short or extended",
+            body.len()
+        ));
+    }
+    if fnv64(body) != sum {
+        return Err(format!("{name}: checksum mismatch: the file is damaged"));
+    }
+    postcard::from_bytes(body).map_err(|e| {
+        format!("{name}: does not decode as this build's flight record ({e}): written by another version of hob-rt?")
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::{ControlParams, Controller, CycleInputs};
+
+    fn record() -> FlightRecord {
+        let mut c = Controller::new(ControlParams::from_machine(
+            &hob_setup::config::machine::shipped_for_tests(),
+        ));
+        let start = c.clone();
+        let records = (0..50)
+            .map(|k| {
+                let inputs = CycleInputs {
+                    spindle_counts: k * 11,
+                    ..CycleInputs::default()
+                };
+                Record {
+                    mail: Mail::None,
+                    inputs,
+                    outputs: c.step(&inputs),
+                }
+            })
+            .collect();
+        FlightRecord {
+            reason: "request".into(),
+            written_utc: "2026-11-26T12:00:00Z".into(),
+            start,
+            first_cycle: 0,
+            records,
+            programs: Vec::new(),
+        }
+    }
+
+    #[test]
+    fn a_record_reads_back_and_replays_bit_for_bit() {
+        let r = record();
+        let back = decode(&encode(&r).unwrap(), "f").unwrap();
+        assert_eq!(back.records, r.records);
+        let rep = back.replay(back.start.clone());
+        assert_eq!((rep.cycles, rep.first_difference), (50, None));
+    }
+
+    #[test]
+    fn a_file_cut_short_damaged_or_of_another_format_is_refused_with_the_reason() {
+        let bytes = encode(&record()).unwrap();
+        let e = decode(&bytes[..bytes.len() - 10], "f").unwrap_err();
+        assert!(e.contains("cut short"), "{e}");
+        let mut damaged = bytes.clone();
+        let last = damaged.len() - 1;
+        damaged[last] ^= 1;
+        assert!(decode(&damaged, "f").unwrap_err().contains("checksum"));
+        let other =
+            String::from_utf8_lossy(&bytes).replacen("hob-flight-record 1 ", "hob-flight-record 2 ", 1);
+        assert!(decode(other.as_bytes(), "f").unwrap_err().contains("format 2"));
+        assert!(
+            decode(b"hello\n", "f")
+                .unwrap_err()
+                .contains("not a flight record")
+        );
+        assert!(decode(b"", "f").unwrap_err().contains("not a flight record"));
+    }
+}
