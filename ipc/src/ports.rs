@@ -82,7 +82,12 @@ pub fn node(name: &str) -> Result<Node<Svc>, IpcError> {
         .name(&node_name)
         .signal_handling_mode(SignalHandlingMode::Disabled)
         .create::<Svc>()
-        .map_err(err("node"))?;
+        .map_err(|e| {
+            IpcError(format!(
+                "node: {e:?} (every process of the bus runs as the user that made it, hob on the machine PC: \
+                 its files in /tmp/iceoryx2 and /dev/shm are that user's alone)"
+            ))
+        })?;
     // Resources of nodes killed with `kill -9` (their ports still count against the
     // services' limits until removed).
     let _ = node.try_cleanup_dead_nodes();

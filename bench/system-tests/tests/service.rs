@@ -571,6 +571,27 @@ fn watchdog_watches_the_sync_and_the_state_and_only_the_loop_publishes() {
                         !text3.contains("bus boot") && !text3.contains("operational"),
                         "{text3}"
                     );
+                    // A process of another user cannot join the bus at all: neither read
+                    // the state nor publish (iceoryx2's files are the bus user's alone).
+                    let foreign = |b: &Bench, exe: &str, args: &[&str]| {
+                        let mut c =
+                            b.command_any("setpriv", &["--reuid=65534", "--regid=65534", "--clear-groups"]);
+                        c.arg(b.bin.join(exe)).args(args).env("HOB_INSTANCE", &b.instance);
+                        c.output().unwrap()
+                    };
+                    let o = foreign(
+                        b,
+                        "hob-loop-double",
+                        &["--iface", &iface, "--machine", &path(&machine), "--run-ms", "500"],
+                    );
+                    let text4 = String::from_utf8_lossy(&o.stderr).to_string();
+                    assert_eq!(o.status.code(), Some(2), "another user's publisher: {text4}");
+                    assert!(
+                        text4.contains("node:") && text4.contains("runs as the user"),
+                        "{text4}"
+                    );
+                    let o = foreign(b, "hob", &["status"]);
+                    assert_ne!(o.status.code(), Some(0), "another user read the state");
                     format!(
                         "{}; {}; {}",
                         text.lines().last().unwrap_or(""),
