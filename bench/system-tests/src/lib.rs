@@ -49,6 +49,17 @@ pub fn env_num<T: std::str::FromStr>(name: &str, default: Option<T>) -> Option<T
     }
 }
 
+/// Whether a test that involves no CAN is to be left out here: `HOB_CAN_TESTS_ONLY=1` (the
+/// emulated guest, where the test command runs only what involves vcan0; the same test ran
+/// on this host's bus earlier in the same run). Says so on stderr.
+pub fn host_only(test: &str) -> bool {
+    let skip = env_var("HOB_CAN_TESTS_ONLY").as_deref() == Some("1");
+    if skip {
+        eprintln!("{test}: involves no CAN: run on the host's bus, not here (HOB_CAN_TESTS_ONLY=1)");
+    }
+    skip
+}
+
 /// `HOB_MIN_PACE`, default 0.9.
 pub fn min_pace() -> f64 {
     env_num("HOB_MIN_PACE", Some(0.9)).unwrap_or(0.9)

