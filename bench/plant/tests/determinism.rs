@@ -1,44 +1,19 @@
 //! The determinism a replay depends on (issue 18, flight recorder): the control core is a
 //! pure function of its state, the commands it takes and the inputs latched at each SYNC.
 //! A copy of the controller taken in the cut, stepped again over the recorded inputs with
-//! the recorded commands at the same cycles, gives the recorded outputs bit for bit; one
-//! input changed by a single count gives different outputs (the comparison can fail).
+//! the recorded commands at the same cycles (`hob_control::flight`'s replay, as `hob
+//! replay` runs it), gives the recorded outputs bit for bit; one input changed by a single
+//! count gives different outputs (the comparison can fail).
 #![allow(clippy::unwrap_used)]
 
 mod common;
 
-use hob_control::{Command, Controller, CycleInputs, CycleOutputs, State};
+use hob_control::flight::{FlightRecord, Mail, Record};
+use hob_control::{Command, State};
 
-/// What a flight recorder keeps of one cycle.
-#[derive(Debug, Clone, Copy)]
-struct Record {
-    command: Option<Command>,
-    inputs: CycleInputs,
-    outputs: CycleOutputs,
-}
-
-/// The outputs to the bit: every `f64` by its bits, through its exact `Debug` form
-/// (shortest round-trip: equal text is equal bits, -0.0 and NaN included).
-fn bits(o: &CycleOutputs) -> String {
-    format!("{o:?}")
-}
-
-/// Steps `c` over the records' commands and inputs; the index of the first cycle whose
-/// outputs differ from the record, if any.
-fn replay(mut c: Controller, records: &[Record], change: impl Fn(usize, &mut CycleInputs)) -> Option<usize> {
-    for (k, r) in records.iter().enumerate() {
-        if let Some(cmd) = r.command {
-            let _ = c.command(cmd);
-        }
-        let mut inputs = r.inputs;
-        change(k, &mut inputs);
-        let out = c.step(&inputs);
-        while c.events().pop().is_some() {}
-        if bits(&out) != bits(&r.outputs) {
-            return Some(k);
-        }
-    }
-    None
+/// The index of the first record whose outputs the replay of `r` does not reproduce.
+fn parted(r: &FlightRecord) -> Option<usize> {
+    r.replay(r.start.clone()).first_difference.map(|(k, ..)| k)
 }
 
 #[test]
@@ -79,38 +54,47 @@ fn a_copy_of_the_controller_replays_the_recorded_cycles_bit_for_bit() {
         });
         let (inputs, outputs) = seen.unwrap();
         records.push(Record {
-            command,
+            mail: command.map_or(Mail::None, Mail::Command),
             inputs,
             outputs,
         });
     }
+    let record = FlightRecord {
+        reason: "test".into(),
+        written_utc: String::new(),
+        start: snapshot,
+        first_cycle: 0,
+        records,
+        programs: Vec::new(),
+    };
     assert_eq!(
         sim.controller.status().state,
         State::Cut,
         "still cutting at the end"
     );
     // Replayed: every cycle's outputs to the bit, twice over.
-    assert_eq!(replay(snapshot.clone(), &records, |_, _| {}), None);
-    assert_eq!(replay(snapshot.clone(), &records, |_, _| {}), None);
+    assert_eq!(parted(&record), None);
+    assert_eq!(parted(&record), None);
     // One spindle count more at cycle 1000: the outputs part from there on.
-    let parted = replay(snapshot.clone(), &records, |k, i| {
-        if k == 1000 {
-            i.spindle_counts = i.spindle_counts.wrapping_add(1);
-        }
-    });
+    let mut one_more = record.clone();
+    let i = &mut one_more.records[1000].inputs;
+    i.spindle_counts = i.spindle_counts.wrapping_add(1);
+    let k = parted(&one_more);
     assert!(
-        parted.is_some_and(|k| k >= 1000),
-        "one count more changed nothing, or changed the past: {parted:?}"
+        k.is_some_and(|k| k >= 1000),
+        "one count more changed nothing, or changed the past: {k:?}"
     );
     // The spindle observer at half its bandwidth (a replay's "what if"): the table's
     // targets part.
-    let mut slower = snapshot.clone();
+    let mut slower = record.start.clone();
     slower.set_observer_bandwidth_hz(slower.params().observer_bandwidth_hz / 2.0);
-    let parted = replay(slower, &records, |_, _| {});
-    assert!(parted.is_some(), "the observer's bandwidth changes nothing");
+    assert!(
+        record.replay(slower).first_difference.is_some(),
+        "the observer's bandwidth changes nothing"
+    );
     // A command left out (the feed hold): the outputs part at once.
-    let mut without_hold = records.clone();
-    without_hold[1500].command = None;
-    let parted = replay(snapshot, &without_hold, |_, _| {});
-    assert!(parted.is_some_and(|k| (1500..1600).contains(&k)), "{parted:?}");
+    let mut without_hold = record.clone();
+    without_hold.records[1500].mail = Mail::None;
+    let k = parted(&without_hold);
+    assert!(k.is_some_and(|k| (1500..1600).contains(&k)), "{k:?}");
 }

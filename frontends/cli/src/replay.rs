@@ -6,7 +6,7 @@
 //! machine does not answer a replay), how far the targets move and what the controller's
 //! own estimate of its synchronisation error becomes.
 
-use hob_control::flight::{FlightRecord, Mail};
+use hob_control::flight::FlightRecord;
 use hob_control::{Controller, CycleOutputs, State};
 use std::fmt::Write as _;
 use std::path::Path;
@@ -21,34 +21,22 @@ struct Along {
     fault: Option<(usize, hob_control::fault::Fault)>,
 }
 
-fn along(r: &FlightRecord, mut c: Controller) -> (Vec<CycleOutputs>, Along) {
+fn along(r: &FlightRecord, c: Controller) -> (Vec<CycleOutputs>, Along) {
     let mut outs = Vec::with_capacity(r.records.len());
     let mut a = Along::default();
-    for rec in &r.records {
-        match rec.mail {
-            Mail::Command(cmd) => {
-                let _ = c.command(cmd);
-            }
-            Mail::Load(i) => {
-                if let Some(p) = r.programs.get(usize::from(i)) {
-                    let _ = c.load(*p);
-                }
-            }
-            Mail::None | Mail::LoadNotKept => {}
-        }
-        outs.push(c.step(&rec.inputs));
-        while c.events().pop().is_some() {}
+    r.replay_each(c, |k, c, out| {
+        outs.push(*out);
         let s = c.status();
         if a.fault.is_none()
             && let Some(f) = s.fault
         {
-            a.fault = Some((outs.len() - 1, f));
+            a.fault = Some((k, f));
         }
         if s.state == State::Cut {
             a.cut_cycles += 1;
             a.sync_error_max_arcsec = a.sync_error_max_arcsec.max(s.sync_error_arcsec.abs());
         }
-    }
+    });
     (outs, a)
 }
 

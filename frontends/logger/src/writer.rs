@@ -60,10 +60,8 @@ pub struct LogWriter {
     next_index: u64,
     in_file: u64,
     state: Option<File>,
-    /// State records not yet written.
+    /// State records not yet written (the last of them is `last_cycle`'s).
     pending: Vec<u8>,
-    /// Cycles of the first and last record in `pending`.
-    pending_cycles: Option<(u64, u64)>,
     events: Option<File>,
     /// Event lines not yet written, and how many.
     events_pending: Vec<u8>,
@@ -73,7 +71,6 @@ pub struct LogWriter {
     gaps_pending: Vec<u8>,
     last_cycle: Option<u64>,
     last_event: Option<u64>,
-    buf: Vec<u8>,
     failing: Option<Failing>,
     pub stats: LogStats,
     /// Test builds: every write fails as on a full disk.
@@ -137,7 +134,6 @@ impl LogWriter {
             in_file: 0,
             state: None,
             pending: Vec::with_capacity(STATE_CHUNK),
-            pending_cycles: None,
             events: Some(append(&dir.join("events.log"))?),
             events_pending: Vec::new(),
             events_pending_count: 0,
@@ -145,7 +141,6 @@ impl LogWriter {
             gaps_pending: Vec::new(),
             last_cycle,
             last_event: None,
-            buf: Vec::with_capacity(record_bytes()),
             failing: None,
             stats: LogStats::default(),
             #[cfg(test)]
@@ -221,11 +216,7 @@ impl LogWriter {
             self.stats.samples_unwritten += 1;
             return Ok(());
         }
-        self.buf.clear();
-        encode(s, &mut self.buf);
-        self.pending.extend_from_slice(&self.buf);
-        let first = self.pending_cycles.map_or(s.cycle, |c| c.0);
-        self.pending_cycles = Some((first, s.cycle));
+        encode(s, &mut self.pending);
         if self.pending.len() >= STATE_CHUNK {
             self.write_states();
         }
@@ -266,7 +257,7 @@ impl LogWriter {
         }
         if let Some(e) = error {
             let left = ((self.pending.len() - done) / rec) as u64;
-            let last = self.pending_cycles.map_or(0, |c| c.1);
+            let last = self.last_cycle.unwrap_or(0);
             let first_unwritten = self
                 .pending
                 .get(done..done + rec)
@@ -277,7 +268,6 @@ impl LogWriter {
             self.start_failing(&e, first_unwritten, last, left);
         }
         self.pending.clear();
-        self.pending_cycles = None;
     }
 
     fn start_failing(&mut self, e: &std::io::Error, first_cycle: Option<u64>, last_cycle: u64, count: u64) {

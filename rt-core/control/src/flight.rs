@@ -76,14 +76,14 @@ pub fn same_bits(a: &CycleOutputs, b: &CycleOutputs) -> bool {
 
 impl FlightRecord {
     /// Steps `controller` (the record's start, or a copy changed for a "what if") over the
-    /// record's mail and inputs.
-    pub fn replay(&self, mut controller: Controller) -> Replay {
-        let mut r = Replay {
-            cycles: 0,
-            first_difference: None,
-            stopped_at: None,
-            outputs: Vec::with_capacity(self.records.len()),
-        };
+    /// record's mail and inputs, handing `each` the record's index, the controller after
+    /// the step and its outputs; the index where it had to stop (a program not kept), if
+    /// it did.
+    pub fn replay_each(
+        &self,
+        mut controller: Controller,
+        mut each: impl FnMut(usize, &Controller, &CycleOutputs),
+    ) -> Option<usize> {
         for (k, rec) in self.records.iter().enumerate() {
             match rec.mail {
                 Mail::None => {}
@@ -94,25 +94,34 @@ impl FlightRecord {
                     Some(p) => {
                         let _ = controller.load(*p);
                     }
-                    None => {
-                        r.stopped_at = Some(k);
-                        break;
-                    }
+                    None => return Some(k),
                 },
-                Mail::LoadNotKept => {
-                    r.stopped_at = Some(k);
-                    break;
-                }
+                Mail::LoadNotKept => return Some(k),
             }
             let out = controller.step(&rec.inputs);
             while controller.events().pop().is_some() {}
-            if r.first_difference.is_none() && !same_bits(&out, &rec.outputs) {
-                r.first_difference = Some((k, rec.outputs, out));
-            }
-            r.outputs.push(out);
-            r.cycles += 1;
+            each(k, &controller, &out);
         }
-        r
+        None
+    }
+
+    /// The replay of the whole record, every output compared with the recorded one.
+    pub fn replay(&self, controller: Controller) -> Replay {
+        let mut outputs = Vec::with_capacity(self.records.len());
+        let mut first_difference = None;
+        let stopped_at = self.replay_each(controller, |k, _, out| {
+            let recorded = self.records[k].outputs;
+            if first_difference.is_none() && !same_bits(out, &recorded) {
+                first_difference = Some((k, recorded, *out));
+            }
+            outputs.push(*out);
+        });
+        Replay {
+            cycles: outputs.len(),
+            first_difference,
+            stopped_at,
+            outputs,
+        }
     }
 }
 

@@ -455,6 +455,11 @@ impl Controller {
         self.apply_offsets(offsets);
     }
 
+    /// The cycle counter (what `status().cycle` says, without building the status).
+    pub fn cycle(&self) -> u64 {
+        self.cycle
+    }
+
     /// The spindle observer's bandwidth changed, its state kept: a replay's "what if"
     /// (`hob replay --observer-bandwidth-hz`), never the loop's.
     pub fn set_observer_bandwidth_hz(&mut self, hz: f64) {

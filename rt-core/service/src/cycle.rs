@@ -145,8 +145,7 @@ impl<B: CanBus> RtLoop<B> {
                     self.controller.command(c)
                 }
                 Mail::Record => {
-                    let cycle = self.controller.status().cycle;
-                    self.recorder.request(Reason::Request, cycle);
+                    self.recorder.request(Reason::Request, self.controller.cycle());
                     Ok(())
                 }
             }

@@ -19,7 +19,7 @@ use hob_control::flight::{FlightRecord, Mail, Record};
 use hob_control::program::CycleProgram;
 use hob_control::{Controller, CycleInputs, CycleOutputs};
 use std::path::{Path, PathBuf};
-use std::sync::mpsc::{Receiver, SyncSender, TryRecvError, TrySendError};
+use std::sync::mpsc::{Receiver, SyncSender, TrySendError};
 
 /// Records per segment: 8 s at 1 kHz (8 to 16 s are kept).
 pub const SEGMENT_CYCLES: usize = 8000;
@@ -40,7 +40,6 @@ pub enum Reason {
 #[derive(Debug)]
 struct Segment {
     start: Controller,
-    first_cycle: u64,
     records: Vec<Record>,
     programs: [Option<CycleProgram>; PROGRAM_SLOTS],
 }
@@ -49,7 +48,6 @@ impl Segment {
     fn new(c: &Controller, cap: usize) -> Box<Self> {
         Box::new(Self {
             start: c.clone(),
-            first_cycle: c.status().cycle,
             records: Vec::with_capacity(cap),
             programs: [None; PROGRAM_SLOTS],
         })
@@ -58,7 +56,6 @@ impl Segment {
     /// Starts the segment again at `c`'s state (allocation-free).
     fn restart(&mut self, c: &Controller) {
         self.start = c.clone();
-        self.first_cycle = c.status().cycle;
         self.records.clear();
         self.programs = [None; PROGRAM_SLOTS];
     }
@@ -73,10 +70,8 @@ pub struct Pair {
 
 impl Pair {
     fn new(c: &Controller, cap: usize) -> Box<Self> {
-        let mut older = Segment::new(c, cap);
-        older.records.clear();
         Box::new(Self {
-            older,
+            older: Segment::new(c, cap),
             newer: Segment::new(c, cap),
         })
     }
@@ -105,7 +100,7 @@ impl Pair {
             reason,
             written_utc,
             start: first.start.clone(),
-            first_cycle: first.first_cycle,
+            first_cycle: first.start.cycle(),
             records,
             programs,
         }
@@ -160,20 +155,19 @@ impl Recorder {
     /// dump to the writer, starts a new segment when the newer one is full.
     pub fn begin_cycle(&mut self, c: &Controller) {
         self.mail = Mail::None;
-        if self.spare.is_none() {
-            match self.from_writer.try_recv() {
-                Ok(p) => self.spare = Some(p),
-                Err(TryRecvError::Empty | TryRecvError::Disconnected) => {}
-            }
+        if self.spare.is_none()
+            && let Ok(p) = self.from_writer.try_recv()
+        {
+            self.spare = Some(p);
         }
-        let cycle = c.status().cycle;
+        let cycle = c.cycle();
         if let Some((due, reason)) = self.pending
             && cycle >= due
         {
             self.pending = None;
             match self.spare.take() {
                 Some(mut next) => {
-                    next.older.restart(c);
+                    // An empty older segment is no segment: only the newer starts here.
                     next.older.records.clear();
                     next.newer.restart(c);
                     let full = std::mem::replace(&mut self.live, next);
