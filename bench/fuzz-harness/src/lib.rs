@@ -13,6 +13,9 @@ use hob_logger::format::{decode as decode_state, encode as encode_state, parse_e
 use hob_process_image::capture::{check_schedule, parse_candump};
 use hob_process_image::master::Cyclic;
 use hob_process_image::plan::BusPlan;
+use hob_rt_os::alloc_guard;
+/// The allocator a target binary installs to have `cyclic`'s heap check count.
+pub use hob_rt_os::alloc_guard::CountingAllocator;
 use hob_service::commands::{Mail, to_mail};
 use hob_service::encode;
 use hob_setup::config::Problems;
@@ -107,7 +110,9 @@ pub fn machine(data: &[u8]) {
 /// cycles cut anywhere: a byte 0 ends a cycle (`Cyclic::inputs`), any other byte starts a
 /// frame `[len % 9] [id lo] [id hi] [data...]`. Each drive's reported position is one a
 /// TPDO1 of that drive carried (or the start's 0), and a drive is fresh only in a cycle in
-/// which such a frame arrived.
+/// which such a frame arrived. Neither `receive` nor `inputs` touches the heap: where the
+/// counting allocator is the global one (the fuzz target, the replay test), every call is
+/// counted as a cycle's and must count nothing.
 pub fn cyclic(data: &[u8]) {
     let plan = BusPlan::from_machine(shipped());
     let mut c = Cyclic::unbooted(plan);
@@ -119,7 +124,7 @@ pub fn cyclic(data: &[u8]) {
         let op = data[i];
         i += 1;
         if op == 0 {
-            let inp = c.inputs();
+            let inp = no_heap("Cyclic::inputs", || c.inputs());
             for (k, fb) in [inp.table, inp.x, inp.y].iter().enumerate() {
                 assert!(
                     carried[k].contains(&fb.position_counts),
@@ -148,8 +153,24 @@ pub fn cyclic(data: &[u8]) {
                 arrived[k] = true;
             }
         }
-        c.receive(&f);
+        no_heap("Cyclic::receive", || c.receive(&f));
     }
+}
+
+/// Runs `f` as a control cycle's code under `hob_rt_os::alloc_guard` and asserts it made no
+/// heap operation (none is counted when that allocator is not the global one).
+pub fn no_heap<T>(what: &str, f: impl FnOnce() -> T) -> T {
+    let before = alloc_guard::counts();
+    alloc_guard::in_cycle(true);
+    let out = f();
+    alloc_guard::in_cycle(false);
+    if let (Some(b), Some(a)) = (before, alloc_guard::counts()) {
+        assert_eq!(
+            a, b,
+            "{what} touched the heap (system, pool operations before and after)"
+        );
+    }
+    out
 }
 
 /// A small object dictionary for the SDO target: a read-only entry, writable entries of

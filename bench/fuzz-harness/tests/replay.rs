@@ -1,7 +1,12 @@
 //! Replays every committed corpus input and past crash of each fuzz target through its
 //! properties (`hob_fuzz_harness::TARGETS`): on stable, in the test command.
 
+use hob_rt_os::alloc_guard::{CountingAllocator, counts};
 use std::path::Path;
+
+// The `cyclic` target's "never allocates" is checked where this allocator counts.
+#[global_allocator]
+static ALLOC: CountingAllocator = CountingAllocator;
 
 #[test]
 fn every_corpus_input_and_past_crash_keeps_its_properties() {
@@ -25,5 +30,16 @@ fn every_corpus_input_and_past_crash_keeps_its_properties() {
         assert!(seen > 0, "{name}: no corpus under {}", root.display());
         replayed += seen;
     }
+    assert!(
+        counts().is_some(),
+        "the counting allocator is not the global one: nothing was checked"
+    );
     println!("replayed {replayed} inputs");
+}
+
+#[test]
+fn the_heap_check_sees_an_allocation() {
+    let caught = std::panic::catch_unwind(|| hob_fuzz_harness::no_heap("a Vec", || vec![1u8; 64].len()));
+    assert!(caught.is_err(), "an allocation inside the check went unseen");
+    assert_eq!(hob_fuzz_harness::no_heap("nothing", || 2 + 2), 4);
 }
