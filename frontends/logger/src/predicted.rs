@@ -195,7 +195,7 @@ impl PredictedGear {
                 normal_module_mm,
                 grade,
             ),
-            helix_tolerance_um: iso1328::helix_slope_tolerance_um(
+            helix_tolerance_um: iso1328::helix_total_tolerance_um(
                 reference_diameter_mm,
                 face_width_mm,
                 grade,
@@ -217,7 +217,7 @@ impl PredictedGear {
     pub fn text(&self) -> String {
         let (fpt, fp, helix) = self.shares();
         format!(
-            "f_pt {:.2} um ({:.0} % of grade {} {:.2} um), F_p {:.2} um ({:.0} % of {:.2} um), helix {:.2} um ({:.0} % of f_Hb {:.2} um)",
+            "f_pt {:.2} um ({:.0} % of grade {} {:.2} um), F_p {:.2} um ({:.0} % of {:.2} um), helix {:.2} um ({:.0} % of F_beta {:.2} um)",
             self.single_pitch_um,
             100.0 * fpt,
             self.grade,

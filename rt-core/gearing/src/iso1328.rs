@@ -21,10 +21,27 @@ pub fn cumulative_pitch_tolerance_um(reference_diameter_mm: f64, normal_module_m
     (0.002 * d + 0.55 * d.sqrt() + 0.7 * normal_module_mm + 12.0) * grade_factor(grade)
 }
 
-/// Helix slope tolerance `f_Hbeta` (equal to the helix form tolerance `f_fbeta`) in
-/// micrometres, for face width `b`: `(0.07 sqrt(d) + 0.45 sqrt(b) + 3) * sqrt(2)^(grade - 5)`.
+/// Helix slope tolerance `f_Hbeta` in micrometres, for face width `b`:
+/// `(0.05 sqrt(d) + 0.35 sqrt(b) + 4) * sqrt(2)^(grade - 5)` (ISO 1328-1:2013, formula 10).
 pub fn helix_slope_tolerance_um(reference_diameter_mm: f64, face_width_mm: f64, grade: u8) -> f64 {
-    (0.07 * reference_diameter_mm.sqrt() + 0.45 * face_width_mm.sqrt() + 3.0) * grade_factor(grade)
+    (0.05 * reference_diameter_mm.sqrt() + 0.35 * face_width_mm.sqrt() + 4.0) * grade_factor(grade)
+}
+
+/// Helix form tolerance `f_fbeta` in micrometres, for face width `b`:
+/// `(0.07 sqrt(d) + 0.45 sqrt(b) + 4) * sqrt(2)^(grade - 5)` (formula 11).
+pub fn helix_form_tolerance_um(reference_diameter_mm: f64, face_width_mm: f64, grade: u8) -> f64 {
+    (0.07 * reference_diameter_mm.sqrt() + 0.45 * face_width_mm.sqrt() + 4.0) * grade_factor(grade)
+}
+
+/// Total helix tolerance `F_beta` in micrometres: `sqrt(f_Hbeta^2 + f_fbeta^2)` of the
+/// unrounded slope and form tolerances (formula 12). It bounds the whole spread of a helix
+/// trace between two helices of the design, which is what a range along the face measures.
+pub fn helix_total_tolerance_um(reference_diameter_mm: f64, face_width_mm: f64, grade: u8) -> f64 {
+    helix_slope_tolerance_um(reference_diameter_mm, face_width_mm, grade).hypot(helix_form_tolerance_um(
+        reference_diameter_mm,
+        face_width_mm,
+        grade,
+    ))
 }
 
 /// Profile form tolerance `f_falpha` in micrometres: `(0.55 m_n + 5) * sqrt(2)^(grade - 5)`
@@ -46,15 +63,28 @@ mod tests {
     }
 
     #[test]
-    fn cumulative_and_helix_tolerances_match_the_1995_tables_they_replaced() {
+    fn cumulative_tolerance_matches_the_1995_table_it_replaced() {
         // ISO 1328-1:1995, grade 5, d 50..125 mm, m 3.5..6 mm: F_p = 20 um; the 2013
-        // formula at d = 85, m = 5 gives 20.7 um. Helix, b 20..40 mm: f_Hbeta = 6.0 um;
-        // the formula at d = 85, b = 40 gives 6.5 um.
+        // formula at d = 85, m = 5 gives 20.7 um.
         let fp = cumulative_pitch_tolerance_um(85.0, 5.0, 5);
         assert!((fp - 20.741).abs() < 1e-3, "{fp}");
-        let fh = helix_slope_tolerance_um(85.0, 40.0, 5);
-        assert!((fh - 6.491).abs() < 1e-3, "{fh}");
         assert!((cumulative_pitch_tolerance_um(85.0, 5.0, 4) * std::f64::consts::SQRT_2 - fp).abs() < 1e-9);
+    }
+
+    #[test]
+    fn helix_tolerances_by_hand() {
+        // d 85, b 40, grade 5: sqrt(85) = 9.2195, sqrt(40) = 6.3246;
+        // f_Hbeta = 0.461 + 2.214 + 4 = 6.675 um, f_fbeta = 0.645 + 2.846 + 4 = 7.491 um,
+        // F_beta = hypot = 10.034 um; grade 7 twice each.
+        let (h, f, t) = (
+            helix_slope_tolerance_um(85.0, 40.0, 5),
+            helix_form_tolerance_um(85.0, 40.0, 5),
+            helix_total_tolerance_um(85.0, 40.0, 5),
+        );
+        assert!((h - 6.6746).abs() < 1e-3, "{h}");
+        assert!((f - 7.4914).abs() < 1e-3, "{f}");
+        assert!((t - 10.0335).abs() < 1e-3, "{t}");
+        assert!((helix_total_tolerance_um(85.0, 40.0, 7) - 2.0 * t).abs() < 1e-9);
     }
 
     #[test]

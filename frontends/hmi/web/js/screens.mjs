@@ -1,6 +1,7 @@
 // The machine's screens: power-up, jog and set-up, single mode with the span measurement,
 // automatic, the cut report, alarms, diagnostics. Values come from the loop's frames; every
 // button is one loop command whose answer (accepted, or the loop's refusal) is shown.
+import { Component } from "preact";
 import { useState, useEffect } from "preact/hooks";
 import { html, fmt, CmdButton } from "./ui.mjs";
 import { HoldKey } from "./hold.mjs";
@@ -232,9 +233,21 @@ export function Alarms({ conn }) {
       <button class="key small" data-testid="older-events" disabled=${older.done} onClick=${more}>${older.done ? "NO OLDER EVENTS" : "OLDER"}</button>
       ${older.note ? html`<span class="small" data-testid="older-note">${older.note}</span>` : ""}
       ${conn.lost.length ? html`<span class="warn">events ${conn.lost.map((l) => `${l.from}..${l.to}`).join(", ")} are older than the HMI's memory: ${conn.lost[0].why}</span>` : ""}</div>
-    <table class="grid events"><tr><th>#</th><th>time</th><th>who</th><th>what</th></tr>
+    <${EventRows} list=${list} version=${`${only}:${list.length}:${list.length ? list[0].seq : ""}:${list.length ? list[list.length - 1].seq : ""}`} /></section>`;
+}
+
+// The table of events is re-drawn when its events change, not with every frame of the loop:
+// a burst of bus events (thousands of rows) must not slow the page's other screens or taps.
+class EventRows extends Component {
+  shouldComponentUpdate(next) {
+    return next.version !== this.props.version;
+  }
+
+  render({ list }) {
+    return html`<table class="grid events"><tr><th>#</th><th>time</th><th>who</th><th>what</th></tr>
       ${list.map((e) => html`<tr class=${e.kind} data-testid="event"><td>${e.seq}</td><td>${time(e)}</td><td>${e.operator ? "operator" : "machine"}</td>
-        <td>${e.text}${e.alarm ? html`<div class="small"><b>the machine:</b> ${e.alarm.reaction}<br /><b>remedy:</b> ${e.alarm.remedy}<br /><b>to continue:</b> ${e.alarm.how_to_continue}</div>` : ""}</td></tr>`)}</table></section>`;
+        <td>${e.text}${e.alarm ? html`<div class="small"><b>the machine:</b> ${e.alarm.reaction}<br /><b>remedy:</b> ${e.alarm.remedy}<br /><b>to continue:</b> ${e.alarm.how_to_continue}</div>` : ""}</td></tr>`)}</table>`;
+  }
 }
 
 // A whole distribution as bars in powers of two; the bar's length is log10 of its count, so
