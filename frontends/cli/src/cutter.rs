@@ -201,6 +201,7 @@ pub fn dynamics(
     body: &hob_cutters::dynamics::CutterBody,
     material: &hob_cutters::dynamics::Material,
     cut: &hob_cutters::dynamics::SideCut,
+    allowable_bending_mpa: f64,
     limit_um: Option<f64>,
 ) -> Result<String, String> {
     use hob_cutters::dynamics::{deflection, speed_ranges};
@@ -208,6 +209,9 @@ pub fn dynamics(
         .link()
         .map_err(|e| format!("--{}", e.to_string().replace('_', "-")))?;
     let d = deflection(body, material, cut).map_err(|e| format!("--{}", e.to_string().replace('_', "-")))?;
+    let load_limit_n = body
+        .load_limit_n(allowable_bending_mpa)
+        .map_err(|e| format!("--{}", e.to_string().replace('_', "-")))?;
     let mut o = String::new();
     let _ = writeln!(
         o,
@@ -233,6 +237,16 @@ pub fn dynamics(
         o,
         "predicted profile error (the largest side deflection): {:.1} um",
         d.profile_error_um
+    );
+    let _ = writeln!(
+        o,
+        "peak load on the cutter body {:.0} N; it takes {load_limit_n:.0} N at {allowable_bending_mpa} MPa: {}",
+        d.peak_load_n,
+        if d.peak_load_n <= load_limit_n {
+            "within"
+        } else {
+            "OVERLOADED (hob plan refuses such a pass)"
+        }
     );
     if (NEAR_RESONANCE.0..=NEAR_RESONANCE.1).contains(&d.frequency_ratio) {
         let _ = writeln!(

@@ -299,6 +299,9 @@ enum CutterCommand {
         /// Logarithmic decrement of its free vibration (seed 003; a tap test measures it).
         #[arg(long, default_value_t = 0.3)]
         log_decrement: f64,
+        /// The bending stress the cutter's body may carry (an assumption unless its maker gives it).
+        #[arg(long, default_value_t = hob_cutters::dynamics::DEFAULT_ALLOWABLE_BENDING_MPA)]
+        allowable_bending_mpa: f64,
         /// The workpiece material's specific cutting force (domain.md section 8: 2600).
         #[arg(long)]
         kc11_n_mm2: f64,
@@ -743,6 +746,7 @@ fn run(command: Command) -> Result<(), Failure> {
                     teeth,
                     youngs_modulus_mpa,
                     log_decrement,
+                    allowable_bending_mpa,
                     kc11_n_mm2,
                     mc,
                     chip_thickness_mm,
@@ -766,7 +770,7 @@ fn run(command: Command) -> Result<(), Failure> {
                 chip_width_mm,
                 cutting_speed_m_min,
             };
-            match cutter::dynamics(&body, &material, &cut, limit_um) {
+            match cutter::dynamics(&body, &material, &cut, allowable_bending_mpa, limit_um) {
                 Ok(text) => emit(&text),
                 Err(e) => {
                     eprintln!("hob: refused: {e}");

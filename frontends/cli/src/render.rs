@@ -223,13 +223,17 @@ fn write_plan(o: &mut String, program: &Path, p: &Plan) -> std::fmt::Result {
                 .collect();
             writeln!(
                 o,
-                "  pass {}: one flank's side force {:.0} N (chip {:.3} x {:.2} mm), amplification {:.2}, predicted profile error {:.2} um{}",
+                "  pass {}: one flank's side force {:.0} N (chip {:.3} x {:.2} mm), amplification {:.2}, predicted profile error {:.2} um, peak load {:.0} N{}{}",
                 k + 1,
                 cp.side_force_n,
                 cp.side_chip_thickness_mm,
                 cp.side_chip_width_mm,
                 cp.amplification,
                 cp.profile_error_um,
+                cp.peak_load_n,
+                cp.load_limit_n
+                    .map(|l| format!(" of {l:.0} N the body takes"))
+                    .unwrap_or_default(),
                 if ranges.is_empty() {
                     String::new()
                 } else {

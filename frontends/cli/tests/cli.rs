@@ -438,6 +438,19 @@ fn cutter_dynamics_reports_the_link_and_warns_near_resonance() {
         ranges.contains(", ") && !ranges.contains("-200.0 m/min, "),
         "{ranges}"
     );
+    // The body (b 2.5 mm) takes 2 x 2.5^2 x 400 = 5000 N: 172 N of side force near
+    // resonance is within; ten times the chip width there (~1.7 kN, amplified ~8) is not.
+    let o = run("40", "500");
+    assert!(o.contains("it takes 5000 N at 400 MPa: within"), "{o}");
+    let mut a = base.to_vec();
+    a[17] = "20";
+    a.extend(["--cutting-speed-m-min", "40"]);
+    let out = hob(&a);
+    assert!(
+        text(&out.stdout).contains("it takes 5000 N at 400 MPa: OVERLOADED"),
+        "{}",
+        text(&out.stdout)
+    );
     let mut a = base.to_vec();
     a.extend(["--cutting-speed-m-min", "40"]);
     a[7] = "0";

@@ -20,6 +20,12 @@
 //!   The cutter's largest side deflection, its flank's profile error (the seed's figure 1),
 //!   is `F / (2 C) (1 + |A(f_z)|)` with the link's amplification and the force's lag
 //!   `|A| = 1 / sqrt((1 - r^2)^2 + (2 zeta r)^2) / sqrt(1 + (2 pi f_z T_P)^2)`, `r = f_z / f`.
+//! - Overload: at that peak the cutter body carries the elastic load `C y_max`. Equation (6)
+//!   is the stiffness `3 E I / R_a^3` of a cantilever of length `R_a` with `I = R_a b^3`; the
+//!   same beam's bending stress at its root is `(F R_a)(b / 2) / I = F / (2 b^2)`, so the body
+//!   takes `2 b^2 [sigma]` at an allowable bending stress `[sigma]` ([`CutterBody::load_limit_n`]).
+//!   That beam is as wide as 12 radii (more than the disk's circumference): the stress is
+//!   an optimistic estimate and `[sigma]` must carry the margin.
 
 use std::f64::consts::{PI, TAU};
 
@@ -48,6 +54,11 @@ pub struct Link {
     pub damping_ratio: f64,
 }
 
+/// The allowable bending stress of a cutter body when none is given, MPa: an assumption,
+/// not a sourced figure, well below what hardened high-speed steel takes in bending; the
+/// cutter's maker should state it.
+pub const DEFAULT_ALLOWABLE_BENDING_MPA: f64 = 400.0;
+
 /// Why no figures: a value out of its range (named).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct OutOfRange(pub &'static str);
@@ -67,6 +78,13 @@ fn positive(v: f64, name: &'static str) -> Result<f64, OutOfRange> {
 }
 
 impl CutterBody {
+    /// The side load the body takes at the allowable bending stress `allowable_mpa`, N:
+    /// `2 b^2 [sigma]` (the beam of equation 6, see the module's notes).
+    pub fn load_limit_n(&self, allowable_mpa: f64) -> Result<f64, OutOfRange> {
+        let b = positive(self.width_mm, "width_mm")?;
+        Ok(2.0 * b * b * positive(allowable_mpa, "allowable_bending_mpa")?)
+    }
+
     /// Seed 003's equations (6)-(9).
     pub fn link(&self) -> Result<Link, OutOfRange> {
         let b = positive(self.width_mm, "width_mm")?;
@@ -121,6 +139,8 @@ pub struct Deflection {
     pub amplification: f64,
     /// The largest side deflection, um: the flank's predicted profile error.
     pub profile_error_um: f64,
+    /// The load on the cutter body at that deflection, `C y_max`, N.
+    pub peak_load_n: f64,
 }
 
 /// Seed 003's shear angle, chip contact length over chip thickness and chip compression
@@ -155,6 +175,7 @@ pub fn deflection(body: &CutterBody, material: &Material, cut: &SideCut) -> Resu
         / ((1.0 - r * r).powi(2) + (2.0 * zeta * r).powi(2)).sqrt()
         / (1.0 + (TAU * fz * lag).powi(2)).sqrt();
     let profile_error_um = force / (2.0 * link.stiffness_n_mm) * (1.0 + amplification) * 1000.0;
+    let peak_load_n = link.stiffness_n_mm * profile_error_um / 1000.0;
     Ok(Deflection {
         side_force_n: force,
         force_lag_s: lag,
@@ -163,6 +184,7 @@ pub fn deflection(body: &CutterBody, material: &Material, cut: &SideCut) -> Resu
         frequency_ratio: r,
         amplification,
         profile_error_um,
+        peak_load_n,
     })
 }
 
@@ -297,6 +319,36 @@ mod tests {
             "{ranges:?}"
         );
         assert_eq!(ranges[0].0, 1.0);
+    }
+
+    #[test]
+    fn the_load_limit_by_hand() {
+        // b 2.5 mm, [sigma] 300 MPa: 2 x 6.25 x 300 = 3750 N; at 3750 N eq. 6's beam
+        // (I = R b^3 = 100 x 15.625 mm^4) sees M = 3750 x 100 N mm at 1.25 mm from its axis:
+        // 375 000 x 1.25 / 1562.5 = 300 MPa.
+        let limit = seed_cutter().load_limit_n(300.0).unwrap();
+        assert!((limit - 3750.0).abs() < 1e-9, "{limit}");
+        assert!((limit * 100.0 * 1.25 / (100.0 * 2.5f64.powi(3)) - 300.0).abs() < 1e-9);
+        assert_eq!(
+            seed_cutter().load_limit_n(0.0),
+            Err(OutOfRange("allowable_bending_mpa"))
+        );
+        // The peak load is the stiffness times the peak deflection: statically the mean force
+        // and its fundamental, F.
+        let steel = Material {
+            kc11_n_mm2: 2600.0,
+            mc: 0.26,
+        };
+        let cut = SideCut {
+            chip_thickness_mm: 0.05,
+            chip_width_mm: 5.0,
+            cutting_speed_m_min: 1.0,
+        };
+        let d = deflection(&seed_cutter(), &steel, &cut).unwrap();
+        assert!(
+            (d.peak_load_n - d.side_force_n).abs() < 0.01 * d.side_force_n,
+            "{d:?}"
+        );
     }
 
     #[test]

@@ -135,6 +135,11 @@ pub struct DiskTool {
     /// Young's modulus of its material (alloy steel 2.1e5 MPa, seed 003).
     #[serde(default = "DiskTool::default_modulus")]
     pub youngs_modulus_mpa: f64,
+    /// The bending stress its body may carry, MPa: a pass whose predicted peak side load
+    /// exceeds what this allows (seed 003's beam, docs/cutters.md) is refused; if not given,
+    /// [`hob_cutters::dynamics::DEFAULT_ALLOWABLE_BENDING_MPA`] (an assumption).
+    #[serde(default = "DiskTool::default_allowable_bending")]
+    pub allowable_bending_mpa: f64,
 }
 
 impl DiskTool {
@@ -144,6 +149,10 @@ impl DiskTool {
 
     fn default_modulus() -> f64 {
         2.1e5
+    }
+
+    fn default_allowable_bending() -> f64 {
+        hob_cutters::dynamics::DEFAULT_ALLOWABLE_BENDING_MPA
     }
 
     /// Problems named `tool.disk.<field>`.
@@ -168,6 +177,13 @@ impl DiskTool {
             self.youngs_modulus_mpa,
             1e4,
             1e6,
+            "MPa",
+        );
+        p.within(
+            "tool.disk.allowable_bending_mpa",
+            self.allowable_bending_mpa,
+            10.0,
+            3000.0,
             "MPa",
         );
     }

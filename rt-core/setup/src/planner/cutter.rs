@@ -2,11 +2,11 @@
 //! profile (`[tool.disk]`) is from the gear's involute, refused beyond the profile form
 //! tolerance of the grade the program asks for (`workpiece.grade`); with the cutter's mass,
 //! its natural frequency (seed 003) against each pass's tooth-passing frequency, warned near
-//! resonance.
+//! resonance, and refused where its predicted peak side load overloads its body.
 
 use crate::config::Problems;
 use crate::job::{Program, ToolKind};
-use crate::planner::Pass;
+use crate::planner::{Pass, PassKind};
 use hob_cutters::dynamics::{CutterBody, Material, SideCut, deflection, speed_ranges};
 use hob_cutters::fit::fit;
 use hob_cutters::space::{Gear, Space};
@@ -46,6 +46,10 @@ pub struct CutterPass {
     pub frequency_ratio: f64,
     pub amplification: f64,
     pub profile_error_um: f64,
+    /// The load on the cutter body at the peak deflection, and what it takes at
+    /// `tool.disk.allowable_bending_mpa` (a pass above it is refused), N.
+    pub peak_load_n: f64,
+    pub load_limit_n: Option<f64>,
     /// Cutting speeds (m/min, 5-200) with the error within `f_falpha`, when a grade is given.
     pub speed_ranges_m_min: Vec<(f64, f64)>,
 }
@@ -135,6 +139,22 @@ pub fn plan(
             let Ok(d) = deflection(&b, &material, &cut) else {
                 continue;
             };
+            let load_limit_n = b.load_limit_n(disk.allowable_bending_mpa).ok();
+            if let Some(limit) = load_limit_n {
+                let key = match pass.kind {
+                    PassKind::Finish => "strategy.finish.feed_mm_per_rev",
+                    PassKind::Rough | PassKind::Single => "strategy.rough.feed_mm_per_rev",
+                };
+                p.require(d.peak_load_n <= limit, key, || {
+                    format!(
+                        "pass {}: the disk cutter's predicted peak side load {:.0} N (deflection {:.0} um, seed 003) overloads it: its body takes {limit:.0} N at tool.disk.allowable_bending_mpa = {} MPa; a smaller feed, a shallower pass or another cutting speed lowers the load",
+                        k + 1,
+                        d.peak_load_n,
+                        d.profile_error_um,
+                        disk.allowable_bending_mpa
+                    )
+                });
+            }
             let speed_ranges_m_min = tolerance
                 .and_then(|tol| speed_ranges(&b, &material, &cut, (5.0, 200.0, 0.5), tol).ok())
                 .unwrap_or_default();
@@ -155,6 +175,8 @@ pub fn plan(
                 frequency_ratio: d.frequency_ratio,
                 amplification: d.amplification,
                 profile_error_um: d.profile_error_um,
+                peak_load_n: d.peak_load_n,
+                load_limit_n,
                 speed_ranges_m_min,
             });
         }

@@ -541,3 +541,40 @@ fn a_disk_cutters_profile_is_judged_against_the_gear_and_the_grade() {
         "{err}"
     );
 }
+
+/// The cutter's body under its peak side load (seed 003's beam, `2 b^2 [sigma]`): the
+/// example's 24 mm cutter takes 2 x 24^2 x 400 = 460 800 N, far above its passes; at 10 MPa
+/// (11 520 N) a rough feed of 4 mm/rev overloads it in the full-depth pass only (chip 0.333
+/// mm x 18.62 mm: 2600 x 18.62 x 0.333^0.74 = 21.5 kN) and is refused by the feed's key,
+/// with the load and the limit; at the example's 1 mm/rev (7.7 kN) it is not.
+#[test]
+fn a_pass_that_overloads_the_disk_cutter_is_refused_with_the_limit() {
+    let src = program_src("tooth-by-tooth-z24-m8.toml");
+    let p = plan_src(&src).expect("plan");
+    let c = p.cutter.as_ref().expect("cutter");
+    assert_eq!(c.passes.len(), 3);
+    for cp in &c.passes {
+        assert!(close(cp.load_limit_n.unwrap(), 460_800.0, 1e-6), "{cp:?}");
+        assert!(cp.peak_load_n > 3000.0 && cp.peak_load_n < 8000.0, "{cp:?}");
+    }
+    let weak = src.replace("mass_kg = 10.0 ", "mass_kg = 10.0\nallowable_bending_mpa = 10.0 ");
+    let p = plan_src(&weak).expect("the example's feed is within 11 520 N");
+    assert!(close(
+        p.cutter.unwrap().passes[0].load_limit_n.unwrap(),
+        11_520.0,
+        1e-6
+    ));
+    let fast = weak.replace("feed_mm_per_rev = 1.0 }", "feed_mm_per_rev = 4.0 }");
+    assert_ne!(fast, weak);
+    assert_eq!(refused_keys(&fast), ["strategy.rough.feed_mm_per_rev"]);
+    let err = plan_src(&fast).expect_err("overload").to_string();
+    assert!(
+        err.contains("pass 2: the disk cutter's predicted peak side load 21")
+            && err.contains("its body takes 11520 N at tool.disk.allowable_bending_mpa = 10 MPa"),
+        "{err}"
+    );
+    assert_eq!(
+        refused_keys(&weak.replace("allowable_bending_mpa = 10.0", "allowable_bending_mpa = 0.0")),
+        ["tool.disk.allowable_bending_mpa"]
+    );
+}
