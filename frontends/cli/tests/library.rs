@@ -436,18 +436,41 @@ fn usage_of_a_recorded_cut_is_added_to_the_tool() {
     );
 }
 
-/// `hob lib tools grind NAME`: a library disk cutter with its profile (the tooth-by-tooth
-/// example's `[tool]`) ground per gash; a hob (no `[tool.disk]`) refused.
+/// The shipped library's disk cutter (`config/library/tools/module-cutter-m8-no5.toml`)
+/// taken into a machine's library with `hob lib tools create`; the shipped tooth-by-tooth
+/// program that names it planned through that library with the cutter judged; `hob lib
+/// tools grind NAME` grinds it per gash; a hob (no `[tool.disk]`) refused.
 #[test]
-fn a_library_disk_cutter_is_ground_from_its_profile() {
+fn a_library_disk_cutter_is_planned_and_ground_from_its_profile() {
     let dir = library_dir("grind");
-    let src =
-        std::fs::read_to_string(support::root().join("config/programs/tooth-by-tooth-z24-m8.toml")).unwrap();
-    let (a, b) = section(&src, "[tool]\n", "[cycle]\n");
-    let file = support::temp_file("cutter-m8.toml", &format!("format_version = 1\n\n{}", &src[a..b]));
+    let file = support::root().join("config/library/tools/module-cutter-m8-no5.toml");
     ok(
         &dir,
-        &["lib", "tools", "create", "cutter-m8", file.to_str().unwrap()],
+        &[
+            "lib",
+            "tools",
+            "create",
+            "module-cutter-m8-no5",
+            file.to_str().unwrap(),
+        ],
+    );
+    let plan = ok(
+        &dir,
+        &["plan", "config/library/programs/tooth-by-tooth-z24-m8.toml"],
+    );
+    assert!(
+        plan.contains("disk cutter's profile: 10.79 um from the gear's involute")
+            && plan.contains("peak load 7695 N of 460800 N the body takes"),
+        "{plan}"
+    );
+    ok(
+        &dir,
+        &["lib", "tools", "rename", "module-cutter-m8-no5", "cutter-m8"],
+    );
+    refused(
+        &dir,
+        &["plan", "config/library/programs/tooth-by-tooth-z24-m8.toml"],
+        &["module-cutter-m8-no5"],
     );
     let nc = dir.join("cutter-m8.nc");
     let args = [

@@ -356,3 +356,36 @@ fn usage_adds_up_and_is_validated() {
     lib.check_program(Path::new("p.toml"), &text, &shipped_for_tests())
         .unwrap();
 }
+
+/// The library shipped as an example (`config/library`, the layout of `[library] dir`):
+/// every entry is valid, and its tooth-by-tooth program, which names the designed disk
+/// cutter, resolves to the self-contained example and plans as it does.
+#[test]
+fn the_shipped_library_is_valid_and_its_program_plans_as_the_self_contained_example() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("../..");
+    let lib = Library::open(&root.join("config/library")).unwrap();
+    let m = shipped_for_tests();
+    let programs = lib.list_programs(&m).unwrap();
+    let tools = lib.list_tools().unwrap();
+    assert!(!programs.is_empty() && !tools.is_empty());
+    for e in programs.iter().chain(&tools) {
+        assert_eq!(e.problem, None, "{}", e.name);
+    }
+    let cutter = lib.tool("module-cutter-m8-no5").unwrap();
+    assert_eq!(cutter.usage, Usage::default(), "a new cutter has cut nothing");
+    assert!(cutter.tool.disk.is_some(), "a profile disk cutter");
+    let origin = lib.path(Kind::Program, "tooth-by-tooth-z24-m8").unwrap();
+    let text = lib.text(Kind::Program, "tooth-by-tooth-z24-m8").unwrap();
+    assert!(text.contains("library = \"module-cutter-m8-no5\""), "{text}");
+    let resolved = lib.resolve(&origin, &text).unwrap();
+    let inline_path = root.join("config/programs/tooth-by-tooth-z24-m8.toml");
+    let inline = std::fs::read_to_string(&inline_path).unwrap();
+    assert_eq!(
+        Program::parse(&origin, &resolved).unwrap(),
+        Program::parse(&inline_path, &inline).unwrap()
+    );
+    let a = plan_source(&origin, &resolved, &m).unwrap();
+    let b = plan_source(&inline_path, &inline, &m).unwrap();
+    assert_eq!(a, b);
+    assert!(a.cutter.is_some(), "the plan judges the library cutter");
+}
