@@ -574,7 +574,7 @@ pub enum Variation {
     NoPllMeasuredSync,
     InertiaHalf,
     InertiaDouble,
-    Encoder10000Lines,
+    TableUnit10000,
     BandwidthHalf,
     BandwidthDouble,
     WheelPerfect,
@@ -601,7 +601,7 @@ impl Variation {
         Variation::NoPllMeasuredSync,
         Variation::InertiaHalf,
         Variation::InertiaDouble,
-        Variation::Encoder10000Lines,
+        Variation::TableUnit10000,
         Variation::BandwidthHalf,
         Variation::BandwidthDouble,
         Variation::WheelPerfect,
@@ -628,7 +628,7 @@ impl Variation {
             Variation::NoPllMeasuredSync => "no SYNC PLL, SYNC late as measured",
             Variation::InertiaHalf => "table inertia x0.5, drive tuned for x1",
             Variation::InertiaDouble => "table inertia x2, drive tuned for x1",
-            Variation::Encoder10000Lines => "table encoder 10 000 lines (2500)",
+            Variation::TableUnit10000 => "table position unit 10 000 counts/turn (2^20)",
             Variation::BandwidthHalf => "table servo loops x0.5 (60/400 Hz)",
             Variation::BandwidthDouble => "table servo loops x2",
             Variation::WheelPerfect => "worm wheel perfect (grade 4)",
@@ -666,7 +666,7 @@ impl Variation {
                 t.tuned_table_inertia_kg_m2 = Some(t.table_inertia_kg_m2);
                 t.table_inertia_kg_m2 *= if self == Variation::InertiaHalf { 0.5 } else { 2.0 };
             }
-            Variation::Encoder10000Lines => m.table.encoder_counts_per_motor_rev *= 4,
+            Variation::TableUnit10000 => m.table.encoder_counts_per_motor_rev = 10_000,
             Variation::BandwidthHalf | Variation::BandwidthDouble => {
                 let k = if self == Variation::BandwidthHalf {
                     0.5

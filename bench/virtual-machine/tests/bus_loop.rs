@@ -243,18 +243,27 @@ fn a_short_cut_over_the_bus_follows_the_gearbox_law() {
     let mut rpdos = 0usize;
     let mut in_cut = Vec::new();
     let mut spindle = None;
+    // The machine file's units; the table's targets wrap at 32 bits (every 27 table turns in
+    // its 2^20 counts per motor turn): followed continuously.
+    let m = machine();
+    let spindle_counts_per_deg = f64::from(m.spindle.encoder_counts_per_rev) / 360.0;
+    let mut target_counts: Option<(i32, i64)> = None;
     for f in &frames {
         match Cob::of(f.id) {
             Cob::Tpdo(1, n) if n == table.node => {
                 let v = table.actual.unpack(f).unwrap();
-                spindle = Some(f64::from(v[1] as u32 as i32) * 360.0 / 10_000.0);
+                spindle = Some(f64::from(v[1] as u32 as i32) / spindle_counts_per_deg);
             }
             Cob::Rpdo(1, n) if n == table.node => {
                 let state = states.get(rpdos).copied();
                 rpdos += 1;
                 if let Some(s) = spindle.take() {
-                    let target =
-                        f64::from(table.target.unpack(f).unwrap()[0] as u32 as i32) * 360.0 / 750_000.0;
+                    let raw = table.target.unpack(f).unwrap()[0] as u32 as i32;
+                    let total = target_counts.map_or(i64::from(raw), |(last, total)| {
+                        total + i64::from(raw.wrapping_sub(last))
+                    });
+                    target_counts = Some((raw, total));
+                    let target = total as f64 / m.table.counts_per_deg();
                     pairs.push((s, target));
                     in_cut.push(state == Some(State::Cut));
                 }

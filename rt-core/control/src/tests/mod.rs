@@ -60,8 +60,13 @@ fn counts_and_units_round_trip_with_polarity() {
         sign: -1.0,
     };
     assert_eq!(inverted.to_counts(10.0), -30_000);
-    // Table: 750 000 counts per revolution.
-    assert_eq!(p.table.to_counts(360.0), 750_000);
+    // Table: 2^20 counts per motor turn, 75 motor turns per revolution; a target wraps at
+    // 32 bits as the drive's counter does (27 revolutions and a bit).
+    assert_eq!(p.table.to_counts(360.0), 78_643_200);
+    assert_eq!(
+        p.table.to_counts(30.0 * 360.0),
+        30i64.wrapping_mul(78_643_200) as i32
+    );
 }
 
 #[test]

@@ -40,9 +40,10 @@ fn the_shipped_configuration_is_the_thesis_machine() {
     assert_eq!(m.spindle.encoder_counts_per_rev, 10_000);
     assert!((m.y.counts_per_mm() - 3000.0).abs() < 1e-12);
     assert!((m.x.counts_per_mm() - 3000.0).abs() < 1e-12);
-    // 750 000 counts per table revolution, 1.728 arcsec per count.
-    assert!((m.table.counts_per_deg() * 360.0 - 750_000.0).abs() < 1e-9);
-    assert!((3600.0 / m.table.counts_per_deg() - 1.728).abs() < 1e-12);
+    // 2^20 counts per motor turn through the 75:1 worm: 78 643 200 per table revolution,
+    // 0.0165 arcsec per count.
+    assert!((m.table.counts_per_deg() * 360.0 - 78_643_200.0).abs() < 1e-6);
+    assert!((3600.0 / m.table.counts_per_deg() - 0.016_479_5).abs() < 1e-6);
 }
 
 #[test]
