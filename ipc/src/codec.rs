@@ -1003,7 +1003,15 @@ pub fn bus_event_text(e: &EventSample) -> String {
             format!("EMCY node {node} 0x{code:04X}: {}", emcy_text(code))
         }
         bus_event::HEARTBEAT_LOST => format!("heartbeat of node {node} lost"),
-        bus_event::TPDO_MISSING => format!("TPDO of node {node} missing {} cycles in a row", e.value),
+        bus_event::TPDO_MISSING => {
+            let cycles = e.value;
+            format!(
+                "TPDO of node {} late or lost in {cycles} cycle{} since its last report, at most {} in a row",
+                node & 0xFF,
+                if cycles == 1.0 { "" } else { "s" },
+                node >> 8
+            )
+        }
         bus_event::SEND_FAILED => {
             let why = match e.a {
                 send_error::QUEUE_FULL => BusError::Full.to_string(),

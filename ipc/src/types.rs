@@ -170,7 +170,8 @@ pub mod bus_event {
     /// An emergency message: `value` is its error code.
     pub const EMCY: u32 = 1;
     pub const HEARTBEAT_LOST: u32 = 2;
-    /// `value` cycles in a row without the node's synchronous TPDO.
+    /// The node's synchronous TPDO late or lost in `value` cycles since its last report;
+    /// `a`: the node in its low byte, the longest run of them in a row above it.
     pub const TPDO_MISSING: u32 = 3;
     /// A frame could not be sent: `a` is a [`super::send_error`] code, `value` the errno.
     pub const SEND_FAILED: u32 = 4;

@@ -387,13 +387,36 @@ pub struct Liveness {
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum BusEvent {
     Emcy(Emcy),
-    HeartbeatLost { node: u8 },
-    TpdoMissing { node: u8, in_a_row: u32 },
+    HeartbeatLost {
+        node: u8,
+    },
+    /// A drive's synchronous TPDO late or lost: in `missed` cycles since its last such
+    /// report, at most `longest_in_a_row` of them in a row. Reported at the first miss after
+    /// a quiet [`TPDO_REPORT_CYCLES`], at the miss that reaches the fault count, and for
+    /// the misses in between at most once per [`TPDO_REPORT_CYCLES`] (a burst of late
+    /// frames is a few counted reports, not an event per cycle; no miss goes uncounted).
+    TpdoMissing {
+        node: u8,
+        missed: u32,
+        longest_in_a_row: u32,
+    },
     SendFailed(BusError),
 }
 
 /// Capacity of the bus event ring.
 pub const BUS_EVENTS: usize = 64;
+
+/// Cycles between two reports of a drive's missing TPDOs (1 s at 1 kHz).
+pub const TPDO_REPORT_CYCLES: u64 = 1000;
+
+/// One drive's missing TPDOs not reported yet.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+struct MissReport {
+    unreported: u32,
+    longest_in_a_row: u32,
+    /// The cycle of the last report (None: never).
+    last_cycle: Option<u64>,
+}
 
 /// The cyclic part of the master: no allocation, never blocks.
 #[derive(Debug, Clone)]
@@ -418,6 +441,7 @@ pub struct Cyclic {
     syncs_heard: u64,
     answers_sync: [u64; 3],
     misses: [u32; 3],
+    miss_reports: [MissReport; 3],
     inputs: [u8; 3],
     inputs_seen: bool,
     /// Per drive: the last RPDO2 sent (mode of operation, controlword) and the cycles since.
@@ -458,6 +482,7 @@ impl Cyclic {
             syncs_heard: 0,
             answers_sync: [0; 3],
             misses: [0; 3],
+            miss_reports: [MissReport::default(); 3],
             inputs: [0; 3],
             inputs_seen: false,
             last_control: [None; 3],
@@ -492,6 +517,34 @@ impl Cyclic {
             self.event_count += 1;
         } else {
             self.lost_events += 1;
+        }
+    }
+
+    /// Counts drive `i`'s miss this cycle (if `missed`) and reports what is unreported when
+    /// it is time ([`BusEvent::TpdoMissing`]).
+    fn report_misses(&mut self, i: usize, missed: bool) {
+        let cycle = self.cycle;
+        let in_a_row = self.misses[i];
+        let r = &mut self.miss_reports[i];
+        let quiet = r
+            .last_cycle
+            .is_none_or(|c| cycle.saturating_sub(c) >= TPDO_REPORT_CYCLES);
+        if missed {
+            r.unreported = r.unreported.saturating_add(1);
+            r.longest_in_a_row = r.longest_in_a_row.max(in_a_row);
+        }
+        let at_fault = missed && in_a_row == self.plan.tpdo_misses_to_fault;
+        if r.unreported > 0 && (quiet || at_fault) {
+            let e = BusEvent::TpdoMissing {
+                node: self.plan.drives[i].node,
+                missed: r.unreported,
+                longest_in_a_row: r.longest_in_a_row,
+            };
+            *r = MissReport {
+                last_cycle: Some(cycle),
+                ..MissReport::default()
+            };
+            self.event(e);
         }
     }
 
@@ -637,13 +690,9 @@ impl Cyclic {
             if current {
                 self.misses[i] = 0;
             } else {
-                self.misses[i] += 1;
-                let node = self.plan.drives[i].node;
-                let in_a_row = self.misses[i];
-                if in_a_row <= self.plan.tpdo_misses_to_fault {
-                    self.event(BusEvent::TpdoMissing { node, in_a_row });
-                }
+                self.misses[i] = self.misses[i].saturating_add(1);
             }
+            self.report_misses(i, !current);
             let state = PowerState::from_statusword(self.statusword[i]);
             let sw = self.statusword[i];
             fb[i] = AxisFeedback {

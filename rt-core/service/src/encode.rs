@@ -508,10 +508,15 @@ pub fn bus_event_sample(cycle: u64, be: &BusEvent) -> EventSample {
             e.a = u32::from(node);
             e.b = bus_event::HEARTBEAT_LOST;
         }
-        BusEvent::TpdoMissing { node, in_a_row } => {
-            e.a = u32::from(node);
+        BusEvent::TpdoMissing {
+            node,
+            missed,
+            longest_in_a_row,
+        } => {
+            // The node in the low byte, the longest run above it (`hob_ipc::codec`).
+            e.a = u32::from(node) | longest_in_a_row.min(0x00FF_FFFF) << 8;
             e.b = bus_event::TPDO_MISSING;
-            e.value = f64::from(in_a_row);
+            e.value = f64::from(missed);
         }
         BusEvent::SendFailed(err) => {
             e.b = bus_event::SEND_FAILED;

@@ -663,3 +663,68 @@ fn the_cycle_with_mode_changes_and_homing_allocates_nothing() {
     }
     assert_eq!((system, pool), (0, 0), "heap operations in 400 cycles");
 }
+
+/// A burst of late or lost TPDOs is a few counted reports, not an event per cycle: the
+/// first miss after a quiet second at once, the rest at most once a second, the miss that
+/// reaches the fault count at once; the reports' counts add up to every miss.
+#[test]
+fn missing_tpdos_are_reported_counted_at_most_once_a_second() {
+    let (mut m, mut ours, mut nodes) = master(true);
+    let table = m.plan().drives[0];
+    let to_fault = m.plan().tpdo_misses_to_fault;
+    assert!(to_fault >= 2, "{to_fault}");
+    // The first cycle has no answers yet (each drive's miss reported at once). Then the
+    // table drive's answer missing: every other cycle in 1100..2100 (500), a run of the
+    // fault count from 2500 (within a second of the last report), once at 5000.
+    let missing = |k: u32| {
+        ((1100..2100).contains(&k) && k.is_multiple_of(2)) || (2500..2500 + to_fault).contains(&k) || k == 5000
+    };
+    cycle(&mut m, &mut ours);
+    let mut events = [None; BUS_EVENTS];
+    assert_eq!(
+        m.take_events(&mut events),
+        3,
+        "the first cycle: each drive's answer missing"
+    );
+    let (mut misses, mut reports) = (0u32, Vec::new());
+    for k in 1..7000u32 {
+        assert!(heard_sync(&mut nodes));
+        for d in m.plan().drives {
+            if d.node != table.node || !missing(k) {
+                nodes.send(&d.actual.pack(&[u64::from(k), u64::from(k)])).unwrap();
+            }
+        }
+        let i = cycle(&mut m, &mut ours);
+        misses += u32::from(!i.table.fresh);
+        let n = m.take_events(&mut events);
+        for e in events[..n].iter().flatten() {
+            match *e {
+                BusEvent::TpdoMissing {
+                    node,
+                    missed,
+                    longest_in_a_row,
+                } => {
+                    assert_eq!(node, table.node, "only the table drive missed (cycle {k})");
+                    reports.push((k, missed, longest_in_a_row));
+                }
+                // The test's nodes send no heartbeats.
+                BusEvent::HeartbeatLost { .. } => {}
+                ref other => panic!("{other:?}"),
+            }
+        }
+    }
+    assert_eq!(misses, 500 + to_fault + 1);
+    let counted: u32 = reports.iter().map(|r| r.1).sum();
+    assert_eq!(counted, misses, "{reports:?}");
+    // At 1100 at once; the burst's rest a second after it (499 at 2100); the run at its
+    // fault count at once though a report came 400 cycles before; then the single one.
+    assert_eq!(reports[0], (1100, 1, 1), "{reports:?}");
+    assert_eq!(reports[1], (2100, 499, 1), "{reports:?}");
+    assert_eq!(
+        reports[2],
+        (2500 + to_fault - 1, to_fault, to_fault),
+        "{reports:?}"
+    );
+    assert_eq!(reports[3], (5000, 1, 1), "{reports:?}");
+    assert_eq!(reports.len(), 4, "{reports:?}");
+}

@@ -440,8 +440,20 @@ fn every_bus_event_is_worded_from_its_numbers() {
             "heartbeat of node 5 lost".into(),
         ),
         (
-            BusEvent::TpdoMissing { node: 2, in_a_row: 4 },
-            "TPDO of node 2 missing 4 cycles in a row".into(),
+            BusEvent::TpdoMissing {
+                node: 2,
+                missed: 37,
+                longest_in_a_row: 4,
+            },
+            "TPDO of node 2 late or lost in 37 cycles since its last report, at most 4 in a row".into(),
+        ),
+        (
+            BusEvent::TpdoMissing {
+                node: 127,
+                missed: 1,
+                longest_in_a_row: 1,
+            },
+            "TPDO of node 127 late or lost in 1 cycle since its last report, at most 1 in a row".into(),
         ),
         (
             BusEvent::SendFailed(BusError::Full),
