@@ -82,8 +82,9 @@ impl VmFault {
 
 const DRIVE_DEVICE_TYPE: u32 = 0x0002_0192; // CiA 402, servo
 const IO_DEVICE_TYPE: u32 = 0x0003_0191; // CiA 401, digital in + out
-/// Following error window of the simulated drives (0x6065), counts.
-const FOLLOWING_WINDOW_COUNTS: u32 = 20_000;
+/// Following error window of the simulated drives (0x6065) at power-on, motor turns (in
+/// each drive's position unit: the machine file's counts per motor turn).
+const FOLLOWING_WINDOW_MOTOR_TURNS: u32 = 2;
 /// Controlword bit 8: halt.
 const CW_HALT: u16 = 1 << 8;
 
@@ -100,6 +101,7 @@ fn drive_od(
     spindle: Option<(u16, u8)>,
     modes: &[i8],
     homing: Option<HomingParams>,
+    following_window_counts: u32,
 ) -> Od {
     let supported: u32 = modes.iter().fold(0, |b, m| b | 1 << (m - 1));
     let mut od = Od::default();
@@ -119,7 +121,7 @@ fn drive_od(
         .set(object::MODES_OF_OPERATION, 0, Access::Rw, &[0])
         .set(object::MODES_DISPLAY, 0, Access::Ro, &[0])
         .set(object::POSITION_ACTUAL, 0, Access::Ro, &0i32.to_le_bytes())
-        .set(0x6065, 0, Access::Rw, &FOLLOWING_WINDOW_COUNTS.to_le_bytes())
+        .set(0x6065, 0, Access::Rw, &following_window_counts.to_le_bytes())
         .set(object::TARGET_POSITION, 0, Access::Rw, &0i32.to_le_bytes())
         .set(object::VELOCITY_OFFSET, 0, Access::Rw, &0i32.to_le_bytes())
         .set(object::INTERPOLATION_PERIOD, 0, Access::Ro, &[2])
@@ -266,6 +268,11 @@ impl VirtualMachine {
             },
         };
         let physics = Plant::new(plant, machine, start, gashes);
+        let counts_per_turn = [
+            machine.table.encoder_counts_per_motor_rev,
+            machine.x.encoder_counts_per_motor_rev,
+            machine.y.encoder_counts_per_motor_rev,
+        ];
         let drives = std::array::from_fn(|i| {
             let node = plan.drives[i].node;
             let d = &physics.drives[i];
@@ -278,6 +285,7 @@ impl VirtualMachine {
                     (i == 0).then_some(spindle),
                     d.supported_modes(),
                     homing,
+                    counts_per_turn[i].saturating_mul(FOLLOWING_WINDOW_MOTOR_TURNS),
                 ),
             )
         });
@@ -671,8 +679,10 @@ impl VirtualMachine {
                 self.fault(i, code, out);
             } else if enable[i]
                 && csp[i]
-                && (i64::from(targets[i]) - positions[i]).unsigned_abs()
-                    > u64::from(self.drives[i].od.u32(0x6065, 0))
+                // In the drive's 32-bit counts, as a drive compares them: the target and the
+                // position both wrap (every 27 table turns in 2^20 counts per motor turn).
+                && targets[i].wrapping_sub(positions[i] as i32).unsigned_abs()
+                    > self.drives[i].od.u32(0x6065, 0)
             {
                 self.fault(i, 0x8611, out);
             } else if !powered

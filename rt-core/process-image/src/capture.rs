@@ -207,6 +207,9 @@ pub fn check_gearbox(
     let mut spindle = None;
     let (mut x_target, mut y_target, mut last_y) = (f64::NAN, f64::NAN, f64::NAN);
     let mut pairs: Vec<(f64, f64, bool)> = Vec::new();
+    // The table's targets wrap at 32 bits (every 27 table turns in 2^20 counts per motor
+    // turn): followed continuously from the first.
+    let mut table_counts: Option<(i32, i64)> = None;
     for c in frames {
         let f = &c.frame;
         if f.id == b.actual.cob_id
@@ -225,7 +228,12 @@ pub fn check_gearbox(
             && let Some(v) = b.target.unpack(f)
             && let Some(s) = spindle.take()
         {
-            let table = f64::from(v[0] as u32 as i32) / table_counts_per_deg;
+            let raw = v[0] as u32 as i32;
+            let total = table_counts.map_or(i64::from(raw), |(last, total)| {
+                total + i64::from(raw.wrapping_sub(last))
+            });
+            table_counts = Some((raw, total));
+            let table = total as f64 / table_counts_per_deg;
             let feeding = y_target != last_y && last_y.is_finite();
             let at_depth = cut_x_mm.iter().any(|cx| (x_target - cx).abs() < 0.1);
             pairs.push((s, table, feeding && at_depth));
@@ -383,6 +391,37 @@ mod tests {
             assert_eq!(r.violations.len(), 1, "{frame}: {:?}", r.violations);
             assert!(r.violations[0].contains(words), "{frame}: {:?}", r.violations);
         }
+    }
+
+    /// The table's targets in 2^20 counts per motor turn wrap at 32 bits in the cut: the
+    /// law is checked across the wrap as anywhere else, and a wrong ratio is still seen.
+    #[test]
+    fn the_gearbox_check_follows_the_table_targets_across_the_32_bit_wrap() {
+        let plan = plan();
+        let (b, x, y) = (plan.drives[0], plan.drives[1], plan.drives[2]);
+        let spindle_per_deg = 10_000.0 / 360.0;
+        let table_per_deg = 1_048_576.0 * 75.0 / 360.0;
+        let frames = |ratio: f64| {
+            let start = i64::from(i32::MAX) - 10 * 46_259;
+            let mut v = Vec::new();
+            for k in 0..100i64 {
+                let s = k * 100;
+                let t = start + (ratio * s as f64 / spindle_per_deg * table_per_deg).round() as i64;
+                let frame = |f: Frame| Captured { t_s: None, frame: f };
+                v.push(frame(b.actual.pack(&[0, s as u32 as u64])));
+                v.push(frame(x.target.pack(&[(80.0 * 3000.0) as u32 as u64, 0])));
+                v.push(frame(y.target.pack(&[(k * 30) as u32 as u64, 0])));
+                v.push(frame(b.target.pack(&[t as i32 as u32 as u64, 0])));
+            }
+            v
+        };
+        let scales = [spindle_per_deg, table_per_deg, 3000.0, 3000.0];
+        let ratio = 1.0 / 17.0;
+        let r = check_gearbox(&frames(ratio), &plan, ratio, scales, &[80.0], 20);
+        assert!(r.windows >= 3, "{r:?}");
+        assert!(r.worst_relative_error < 1e-4, "{r:?}");
+        let r = check_gearbox(&frames(1.01 * ratio), &plan, ratio, scales, &[80.0], 20);
+        assert!((r.worst_relative_error - 0.01).abs() < 1e-3, "{r:?}");
     }
 
     #[test]

@@ -584,3 +584,49 @@ fn powered_up_near_home_the_drives_still_home_over_a_short_way() {
             .any(|q| q.key == "simulation.power_on_near_home_mm")
     );
 }
+
+/// The table's position in 2^20 counts per motor turn wraps at 32 bits every 27 table turns:
+/// a drive running through the wrap in CSP follows its target across it, reports the
+/// wrapped position and does not fault (it compares target and position in its own 32-bit
+/// counts, as a drive does).
+#[test]
+fn the_table_drive_runs_through_the_32_bit_wrap_without_a_fault() {
+    let m = machine();
+    let counts_per_deg = m.table.counts_per_deg();
+    let mut cfg = plant_config();
+    cfg.simulation.drive_counters = hob_plant::config::DriveCounters::Referenced;
+    // 1.4 to 2.4 deg of table below the wrap.
+    let start_deg = (f64::from(i32::MAX) / counts_per_deg - 1.4).floor();
+    let mut vm = vm_with(
+        &cfg,
+        Start {
+            x_mm: 150.0,
+            y_mm: 150.0,
+            table_deg: start_deg,
+        },
+    );
+    enabled(&mut vm, TABLE, 8);
+    let first = read(&mut vm, TABLE, object::POSITION_ACTUAL, 0) as i32;
+    assert!(first > i32::MAX - 1_000_000, "{first}");
+    let mut target = first;
+    let mut wrapped = false;
+    for _ in 0..3000 {
+        target = target.wrapping_add(437); // 2 deg/s of table
+        write(&mut vm, TABLE, object::TARGET_POSITION, 0, &target.to_le_bytes()).unwrap();
+        sync(&mut vm);
+        let sw = statusword(&mut vm, TABLE);
+        assert_eq!(
+            PowerState::from_statusword(sw),
+            PowerState::OperationEnabled,
+            "sw {sw:#06x}"
+        );
+        let actual = read(&mut vm, TABLE, object::POSITION_ACTUAL, 0) as i32;
+        wrapped |= actual < 0;
+        // Following within a tenth of a degree of table, across the wrap.
+        assert!(
+            f64::from(target.wrapping_sub(actual).unsigned_abs()) < 0.1 * counts_per_deg,
+            "target {target}, actual {actual}"
+        );
+    }
+    assert!(wrapped, "the position never wrapped");
+}

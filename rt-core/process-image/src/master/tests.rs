@@ -677,7 +677,9 @@ fn missing_tpdos_are_reported_counted_at_most_once_a_second() {
     // table drive's answer missing: every other cycle in 1100..2100 (500), a run of the
     // fault count from 2500 (within a second of the last report), once at 5000.
     let missing = |k: u32| {
-        ((1100..2100).contains(&k) && k.is_multiple_of(2)) || (2500..2500 + to_fault).contains(&k) || k == 5000
+        ((1100..2100).contains(&k) && k.is_multiple_of(2))
+            || (2500..2500 + to_fault).contains(&k)
+            || k == 5000
     };
     cycle(&mut m, &mut ours);
     let mut events = [None; BUS_EVENTS];
