@@ -280,18 +280,26 @@ mod tests {
         assert!((t - 5.4e-4).abs() < 0.05e-4, "{t}");
     }
 
+    /// Steel (domain.md section 8) and a 0.05 x 5 mm side chip at 1 m/min: far below any
+    /// resonance, static.
+    fn steel_at_1_m_min() -> (Material, SideCut) {
+        (
+            Material {
+                kc11_n_mm2: 2600.0,
+                mc: 0.26,
+            },
+            SideCut {
+                chip_thickness_mm: 0.05,
+                chip_width_mm: 5.0,
+                cutting_speed_m_min: 1.0,
+            },
+        )
+    }
+
     #[test]
     fn the_deflection_is_static_far_below_resonance_and_peaks_at_it() {
         let body = seed_cutter();
-        let steel = Material {
-            kc11_n_mm2: 2600.0,
-            mc: 0.26,
-        };
-        let cut = SideCut {
-            chip_thickness_mm: 0.05,
-            chip_width_mm: 5.0,
-            cutting_speed_m_min: 1.0,
-        };
+        let (steel, cut) = steel_at_1_m_min();
         // At 1 m/min the teeth pass at 45 x 1.59 rpm / 60 = 1.19 Hz: static, F / C.
         let d = deflection(&body, &steel, &cut).unwrap();
         let force = 2600.0 * 5.0 * 0.05f64.powf(0.74);
@@ -335,15 +343,7 @@ mod tests {
         );
         // The peak load is the stiffness times the peak deflection: statically the mean force
         // and its fundamental, F.
-        let steel = Material {
-            kc11_n_mm2: 2600.0,
-            mc: 0.26,
-        };
-        let cut = SideCut {
-            chip_thickness_mm: 0.05,
-            chip_width_mm: 5.0,
-            cutting_speed_m_min: 1.0,
-        };
+        let (steel, cut) = steel_at_1_m_min();
         let d = deflection(&seed_cutter(), &steel, &cut).unwrap();
         assert!(
             (d.peak_load_n - d.side_force_n).abs() < 0.01 * d.side_force_n,
