@@ -164,8 +164,8 @@ pub mod event_kind {
     pub const OFFSET_CHANGED: u32 = 14;
 }
 
-/// What a [`event_kind::BUS`] event's `b` says happened; `a` is the node, `value` the
-/// code, count or OS error that goes with it.
+/// What a [`event_kind::BUS`] event's `b` says happened; `a` is the node (in its low byte
+/// for [`bus_event::TPDO_MISSING`]), `value` the code, count or OS error that goes with it.
 pub mod bus_event {
     /// An emergency message: `value` is its error code.
     pub const EMCY: u32 = 1;

@@ -8,8 +8,14 @@ use std::path::Path;
 #[global_allocator]
 static ALLOC: CountingAllocator = CountingAllocator;
 
+/// The heap counts are the process's: one test at a time (`cargo test` runs them on threads).
+static ONE_AT_A_TIME: std::sync::Mutex<()> = std::sync::Mutex::new(());
+
 #[test]
 fn every_corpus_input_and_past_crash_keeps_its_properties() {
+    let _one = ONE_AT_A_TIME
+        .lock()
+        .unwrap_or_else(std::sync::PoisonError::into_inner);
     let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../fuzz");
     let mut replayed = 0;
     for (name, target) in hob_fuzz_harness::TARGETS {
@@ -39,6 +45,9 @@ fn every_corpus_input_and_past_crash_keeps_its_properties() {
 
 #[test]
 fn the_heap_check_sees_an_allocation() {
+    let _one = ONE_AT_A_TIME
+        .lock()
+        .unwrap_or_else(std::sync::PoisonError::into_inner);
     let caught = std::panic::catch_unwind(|| hob_fuzz_harness::no_heap("a Vec", || vec![1u8; 64].len()));
     assert!(caught.is_err(), "an allocation inside the check went unseen");
     assert_eq!(hob_fuzz_harness::no_heap("nothing", || 2 + 2), 4);

@@ -303,11 +303,13 @@ pub fn check_capture(machine: &MachineConfig, file: &Path, program: Option<&Path
                 .chain(cycle.single().iter())
                 .map(|p| p.x_mm)
                 .collect();
+            // Counts per unit with each axis's sign (a machine with an inverted axis counts
+            // the other way; `AxisScale::to_units`).
             let scales = [
-                params.spindle.counts_per_unit,
-                params.table.counts_per_unit,
-                params.x.counts_per_unit,
-                params.y.counts_per_unit,
+                params.spindle.counts_per_unit * params.spindle.sign,
+                params.table.counts_per_unit * params.table.sign,
+                params.x.counts_per_unit * params.x.sign,
+                params.y.counts_per_unit * params.y.sign,
             ];
             Some(hob_process_image::capture::check_gearbox(
                 &frames,

@@ -392,9 +392,11 @@ pub enum BusEvent {
     },
     /// A drive's synchronous TPDO late or lost: in `missed` cycles since its last such
     /// report, at most `longest_in_a_row` of them in a row. Reported at the first miss after
-    /// a quiet [`TPDO_REPORT_CYCLES`], at the miss that reaches the fault count, and for
-    /// the misses in between at most once per [`TPDO_REPORT_CYCLES`] (a burst of late
-    /// frames is a few counted reports, not an event per cycle; no miss goes uncounted).
+    /// a quiet second ([`TPDO_REPORT_S`]), at the miss that reaches the fault count, and for
+    /// the misses in between at most once a second (a burst of late frames is a few counted
+    /// reports, not an event per cycle); a silent drive's misses past the fault count are
+    /// reported once its TPDOs come back. A report the event ring has no room for is kept
+    /// and sent later: no miss goes uncounted.
     TpdoMissing {
         node: u8,
         missed: u32,
@@ -406,8 +408,8 @@ pub enum BusEvent {
 /// Capacity of the bus event ring.
 pub const BUS_EVENTS: usize = 64;
 
-/// Cycles between two reports of a drive's missing TPDOs (1 s at 1 kHz).
-pub const TPDO_REPORT_CYCLES: u64 = 1000;
+/// Time between two reports of a drive's missing TPDOs, s.
+pub const TPDO_REPORT_S: f64 = 1.0;
 
 /// One drive's missing TPDOs not reported yet.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
@@ -442,6 +444,8 @@ pub struct Cyclic {
     answers_sync: [u64; 3],
     misses: [u32; 3],
     miss_reports: [MissReport; 3],
+    /// [`TPDO_REPORT_S`] in cycles (computed once).
+    miss_report_cycles: u64,
     inputs: [u8; 3],
     inputs_seen: bool,
     /// Per drive: the last RPDO2 sent (mode of operation, controlword) and the cycles since.
@@ -483,6 +487,7 @@ impl Cyclic {
             answers_sync: [0; 3],
             misses: [0; 3],
             miss_reports: [MissReport::default(); 3],
+            miss_report_cycles: (TPDO_REPORT_S / plan.cycle_s).ceil().max(1.0) as u64,
             inputs: [0; 3],
             inputs_seen: false,
             last_control: [None; 3],
@@ -511,12 +516,15 @@ impl Cyclic {
         &self.plan
     }
 
-    fn event(&mut self, e: BusEvent) {
+    /// Queues `e`; false (and counted lost) when the ring is full.
+    fn event(&mut self, e: BusEvent) -> bool {
         if self.event_count < BUS_EVENTS {
             self.events[self.event_count] = Some(e);
             self.event_count += 1;
+            true
         } else {
             self.lost_events += 1;
+            false
         }
     }
 
@@ -525,26 +533,29 @@ impl Cyclic {
     fn report_misses(&mut self, i: usize, missed: bool) {
         let cycle = self.cycle;
         let in_a_row = self.misses[i];
+        let to_fault = self.plan.tpdo_misses_to_fault;
+        let every = self.miss_report_cycles;
         let r = &mut self.miss_reports[i];
-        let quiet = r
-            .last_cycle
-            .is_none_or(|c| cycle.saturating_sub(c) >= TPDO_REPORT_CYCLES);
+        let quiet = r.last_cycle.is_none_or(|c| cycle.saturating_sub(c) >= every);
         if missed {
             r.unreported = r.unreported.saturating_add(1);
             r.longest_in_a_row = r.longest_in_a_row.max(in_a_row);
         }
-        let at_fault = missed && in_a_row == self.plan.tpdo_misses_to_fault;
-        if r.unreported > 0 && (quiet || at_fault) {
+        let at_fault = missed && in_a_row == to_fault;
+        // A drive silent past the fault count: its run is counted and reported when it ends.
+        let silent = missed && in_a_row > to_fault;
+        if r.unreported > 0 && !silent && (quiet || at_fault) {
             let e = BusEvent::TpdoMissing {
                 node: self.plan.drives[i].node,
                 missed: r.unreported,
                 longest_in_a_row: r.longest_in_a_row,
             };
-            *r = MissReport {
-                last_cycle: Some(cycle),
-                ..MissReport::default()
-            };
-            self.event(e);
+            if self.event(e) {
+                self.miss_reports[i] = MissReport {
+                    last_cycle: Some(cycle),
+                    ..MissReport::default()
+                };
+            }
         }
     }
 

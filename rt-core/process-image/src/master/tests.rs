@@ -675,11 +675,13 @@ fn missing_tpdos_are_reported_counted_at_most_once_a_second() {
     assert!(to_fault >= 2, "{to_fault}");
     // The first cycle has no answers yet (each drive's miss reported at once). Then the
     // table drive's answer missing: every other cycle in 1100..2100 (500), a run of the
-    // fault count from 2500 (within a second of the last report), once at 5000.
+    // fault count from 2500 (within a second of the last report), once at 5000, and silent
+    // for 3000 cycles from 6000 (unplugged).
     let missing = |k: u32| {
         ((1100..2100).contains(&k) && k.is_multiple_of(2))
             || (2500..2500 + to_fault).contains(&k)
             || k == 5000
+            || (6000..9000).contains(&k)
     };
     cycle(&mut m, &mut ours);
     let mut events = [None; BUS_EVENTS];
@@ -689,7 +691,7 @@ fn missing_tpdos_are_reported_counted_at_most_once_a_second() {
         "the first cycle: each drive's answer missing"
     );
     let (mut misses, mut reports) = (0u32, Vec::new());
-    for k in 1..7000u32 {
+    for k in 1..11_000u32 {
         assert!(heard_sync(&mut nodes));
         for d in m.plan().drives {
             if d.node != table.node || !missing(k) {
@@ -715,18 +717,21 @@ fn missing_tpdos_are_reported_counted_at_most_once_a_second() {
             }
         }
     }
-    assert_eq!(misses, 500 + to_fault + 1);
+    assert_eq!(misses, 500 + to_fault + 1 + 3000);
     let counted: u32 = reports.iter().map(|r| r.1).sum();
     assert_eq!(counted, misses, "{reports:?}");
     // At 1100 at once; the burst's rest a second after it (499 at 2100); the run at its
-    // fault count at once though a report came 400 cycles before; then the single one.
-    assert_eq!(reports[0], (1100, 1, 1), "{reports:?}");
-    assert_eq!(reports[1], (2100, 499, 1), "{reports:?}");
-    assert_eq!(
-        reports[2],
+    // fault count at once though a report came 400 cycles before; the single one; the
+    // silence at its start, at the fault count, and the rest of it once it ended (not once
+    // a second while it lasted).
+    let expected = [
+        (1100, 1, 1),
+        (2100, 499, 1),
         (2500 + to_fault - 1, to_fault, to_fault),
-        "{reports:?}"
-    );
-    assert_eq!(reports[3], (5000, 1, 1), "{reports:?}");
-    assert_eq!(reports.len(), 4, "{reports:?}");
+        (5000, 1, 1),
+        (6000, 1, 1),
+        (6000 + to_fault - 1, to_fault - 1, to_fault),
+        (9000, 3000 - to_fault, 3000),
+    ];
+    assert_eq!(reports, expected, "{reports:?}");
 }

@@ -357,6 +357,12 @@ impl LinearAxisConfig {
 
     fn validate(&self, axis: &str, p: &mut Problems) {
         let k = |name: &str| format!("{axis}.{name}");
+        velocity_fits_the_pdo(
+            p,
+            &k("encoder_counts_per_motor_rev"),
+            self.encoder_counts_per_motor_rev,
+            self.motor_max_rpm,
+        );
         p.require((1..=127).contains(&self.can_node_id), &k("can_node_id"), || {
             format!("must be a CANopen node id 1 .. 127 (is {})", self.can_node_id)
         });
@@ -799,6 +805,12 @@ impl MachineConfig {
 
     fn validate_table(&self, p: &mut Problems) {
         let t = &self.table;
+        velocity_fits_the_pdo(
+            p,
+            "table.encoder_counts_per_motor_rev",
+            t.encoder_counts_per_motor_rev,
+            t.motor_max_rpm,
+        );
         p.require((1..=127).contains(&t.can_node_id), "table.can_node_id", || {
             format!("must be a CANopen node id 1 .. 127 (is {})", t.can_node_id)
         });
@@ -943,6 +955,18 @@ fn absolute_path(p: &mut Problems, key: &str, value: &str) {
             format!("must be an absolute path, starting with / (is {value:?})")
         });
     }
+}
+
+/// A drive's velocity (counts/s, the target PDO's 32-bit velocity offset 0x60B1) at the
+/// motor's top speed must fit in an i32: a position unit that fine is refused by its key.
+fn velocity_fits_the_pdo(p: &mut Problems, key: &str, counts_per_rev: u32, motor_max_rpm: f64) {
+    let counts_s = f64::from(counts_per_rev) * motor_max_rpm / 60.0;
+    p.require(counts_s <= f64::from(i32::MAX), key, || {
+        format!(
+            "{counts_per_rev} counts per motor turn at {motor_max_rpm} rpm is {counts_s:.0} counts/s, beyond the drive's 32-bit velocity ({})",
+            i32::MAX
+        )
+    });
 }
 
 fn check_bits(p: &mut Problems, table: &str, bindings: &[(&str, DigitalBinding)], count: u8) {

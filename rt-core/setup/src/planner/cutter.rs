@@ -5,7 +5,7 @@
 //! resonance, and refused where its predicted peak side load overloads its body.
 
 use crate::config::Problems;
-use crate::job::{Program, ToolKind};
+use crate::job::{Program, SingleSpeeds, ToolKind};
 use crate::planner::{Pass, PassKind};
 use hob_cutters::dynamics::{CutterBody, Material, SideCut, deflection, speed_ranges};
 use hob_cutters::fit::fit;
@@ -141,9 +141,15 @@ pub fn plan(
             };
             let load_limit_n = b.load_limit_n(disk.allowable_bending_mpa).ok();
             if let Some(limit) = load_limit_n {
-                let key = match pass.kind {
-                    PassKind::Finish => "strategy.finish.feed_mm_per_rev",
-                    PassKind::Rough | PassKind::Single => "strategy.rough.feed_mm_per_rev",
+                // The strategy whose feed the pass runs at (a single pass: the one
+                // `cycle.single_speeds` names).
+                let key = match (pass.kind, prog.cycle.single_speeds) {
+                    (PassKind::Finish, _) | (PassKind::Single, SingleSpeeds::Finish) => {
+                        "strategy.finish.feed_mm_per_rev"
+                    }
+                    (PassKind::Rough, _) | (PassKind::Single, SingleSpeeds::Rough) => {
+                        "strategy.rough.feed_mm_per_rev"
+                    }
                 };
                 p.require(d.peak_load_n <= limit, key, || {
                     format!(

@@ -577,4 +577,13 @@ fn a_pass_that_overloads_the_disk_cutter_is_refused_with_the_limit() {
         refused_keys(&weak.replace("allowable_bending_mpa = 10.0", "allowable_bending_mpa = 0.0")),
         ["tool.disk.allowable_bending_mpa"]
     );
+    // A single pass at the finishing speeds is refused by the feed it runs at.
+    let single = weak
+        .replace(
+            "mode = \"automatic\"",
+            "mode = \"single\"\nsingle_speeds = \"finish\"\nsingle_depth_mm = 18.0",
+        )
+        .replace("feed_mm_per_rev = 0.5 }", "feed_mm_per_rev = 4.0 }");
+    assert_ne!(single, weak);
+    assert_eq!(refused_keys(&single), ["strategy.finish.feed_mm_per_rev"]);
 }

@@ -72,6 +72,20 @@ fn a_bad_value_is_named_with_its_position() {
     );
 }
 
+/// The table's 2^20 counts per motor turn at 4000 rpm is 69.9 M counts/s; 2^26 would be
+/// 4.5 G, beyond the drive's 32-bit velocity: refused by the unit's key.
+#[test]
+fn a_position_unit_whose_velocity_overflows_the_pdo_is_refused() {
+    let src = shipped_with(&[(
+        "encoder_counts_per_motor_rev = 1048576",
+        "encoder_counts_per_motor_rev = 67108864",
+    )]);
+    let err = load_src(&src).unwrap_err();
+    let keys: Vec<&str> = err.problems().iter().map(|p| p.key.as_str()).collect();
+    assert_eq!(keys, ["table.encoder_counts_per_motor_rev"], "{err}");
+    assert!(err.to_string().contains("4473924267 counts/s"), "{err}");
+}
+
 #[test]
 fn all_problems_are_reported_at_once() {
     let src = shipped_with(&[
