@@ -247,7 +247,7 @@ fn a_short_cut_over_the_bus_follows_the_gearbox_law() {
     // its 2^20 counts per motor turn): followed continuously.
     let m = machine();
     let spindle_counts_per_deg = f64::from(m.spindle.encoder_counts_per_rev) / 360.0;
-    let mut target_counts: Option<(i32, i64)> = None;
+    let mut target_counts = hob_control::observer::Unwrapper::default();
     for f in &frames {
         match Cob::of(f.id) {
             Cob::Tpdo(1, n) if n == table.node => {
@@ -258,11 +258,7 @@ fn a_short_cut_over_the_bus_follows_the_gearbox_law() {
                 let state = states.get(rpdos).copied();
                 rpdos += 1;
                 if let Some(s) = spindle.take() {
-                    let raw = table.target.unpack(f).unwrap()[0] as u32 as i32;
-                    let total = target_counts.map_or(i64::from(raw), |(last, total)| {
-                        total + i64::from(raw.wrapping_sub(last))
-                    });
-                    target_counts = Some((raw, total));
+                    let total = target_counts.update(table.target.unpack(f).unwrap()[0] as u32 as i32);
                     let target = total as f64 / m.table.counts_per_deg();
                     pairs.push((s, target));
                     in_cut.push(state == Some(State::Cut));

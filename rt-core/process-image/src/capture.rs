@@ -209,7 +209,7 @@ pub fn check_gearbox(
     let mut pairs: Vec<(f64, f64, bool)> = Vec::new();
     // The table's targets wrap at 32 bits (every 27 table turns in 2^20 counts per motor
     // turn): followed continuously from the first.
-    let mut table_counts: Option<(i32, i64)> = None;
+    let mut table_counts = hob_control::observer::Unwrapper::default();
     for c in frames {
         let f = &c.frame;
         if f.id == b.actual.cob_id
@@ -228,11 +228,7 @@ pub fn check_gearbox(
             && let Some(v) = b.target.unpack(f)
             && let Some(s) = spindle.take()
         {
-            let raw = v[0] as u32 as i32;
-            let total = table_counts.map_or(i64::from(raw), |(last, total)| {
-                total + i64::from(raw.wrapping_sub(last))
-            });
-            table_counts = Some((raw, total));
+            let total = table_counts.update(v[0] as u32 as i32);
             let table = total as f64 / table_counts_per_deg;
             let feeding = y_target != last_y && last_y.is_finite();
             let at_depth = cut_x_mm.iter().any(|cx| (x_target - cx).abs() < 0.1);
