@@ -12,13 +12,14 @@
 //!   restarted logger is handed the loop's recent events again and writes them again;
 //!   [`export::read_events`] reads each event once, and tells the runs of `hob-rt` apart.
 //! - `gaps.log`: one line per run of samples the logger missed: `first_cycle last_cycle count`.
-//! - `logger.json`: written at exit and every second: samples recorded, samples lost,
+//! - `logger.json`: written at exit and every 200 ms: samples recorded, samples lost,
 //!   events recorded, events lost, files.
 
 pub mod delay;
 pub mod export;
 pub mod format;
 pub mod predicted;
+pub mod pump;
 pub mod trace;
 pub mod truth;
 pub mod writer;

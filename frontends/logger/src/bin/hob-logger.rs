@@ -10,6 +10,7 @@
 //! usage: hob-logger DIR
 
 use hob_logger::LogWriter;
+use hob_logger::pump::{Item, Queue};
 use std::process::ExitCode;
 use std::sync::atomic::Ordering;
 use std::time::{Duration, Instant};
@@ -31,13 +32,64 @@ fn main() -> ExitCode {
             return ExitCode::from(1);
         }
     };
-    let mut w = match LogWriter::open(std::path::Path::new(&dir), &hob_ipc::instance()) {
+    let w = match LogWriter::open(std::path::Path::new(&dir), &hob_ipc::instance()) {
         Ok(w) => w,
         Err(e) => {
             eprintln!("hob-logger: {dir}: {e}");
             return ExitCode::from(1);
         }
     };
+    eprintln!("hob-logger: recording into {dir}");
+    // The disk is written by a thread of its own: a write that blocks never keeps this one
+    // from draining the bus (module `pump`).
+    let (mut forward, queue) = hob_logger::pump::queue(hob_logger::pump::QUEUE_BATCHES);
+    let writer = {
+        let dir = dir.clone();
+        std::thread::Builder::new()
+            .name("writer".into())
+            .spawn(move || write(&dir, queue, w))
+    };
+    let writer = match writer {
+        Ok(t) => t,
+        Err(e) => {
+            eprintln!("hob-logger: cannot start the writing thread: {e}");
+            return ExitCode::from(1);
+        }
+    };
+    let mut dropped_reported = 0;
+    let mut last_report = Instant::now() - Duration::from_secs(1);
+    loop {
+        let stopping = stop.load(Ordering::Relaxed);
+        // After the stop request: what arrived before it, then the end.
+        let mut batch = Vec::new();
+        while let Some(s) = ports.next_state() {
+            batch.push(Item::State(s));
+        }
+        while let Some(e) = ports.next_event() {
+            batch.push(Item::Event(e));
+        }
+        forward.forward(batch);
+        if forward.dropped_items > dropped_reported && last_report.elapsed() >= Duration::from_secs(1) {
+            eprintln!(
+                "hob-logger: the writing is behind by more than the queue holds: {} samples and events dropped (counted lost)",
+                forward.dropped_items
+            );
+            dropped_reported = forward.dropped_items;
+            last_report = Instant::now();
+        }
+        if stopping {
+            break;
+        }
+        std::thread::sleep(POLL);
+    }
+    drop(forward);
+    let _ = writer.join();
+    ExitCode::SUCCESS
+}
+
+/// The writing thread: everything that touches the disk, and the recorder's health on the
+/// bus after each flush.
+fn write(dir: &str, queue: Queue, mut w: LogWriter) {
     let recorder = hob_ipc::node("hob-logger-recorder")
         .and_then(|n| {
             let p = hob_ipc::publisher(&hob_ipc::open_recorder(&n)?, "recorder publisher")?;
@@ -45,75 +97,53 @@ fn main() -> ExitCode {
         })
         .map_err(|e| eprintln!("hob-logger: note: records without reporting its health on the bus: {e}"))
         .ok();
-    eprintln!("hob-logger: recording into {dir}");
-    let mut last_flush = Instant::now();
     let mut failing_since_ns = 0u64;
     let mut seq = 0u64;
-    while !stop.load(Ordering::Relaxed) {
-        while let Some(s) = ports.next_state() {
-            let _ = w.push_state(&s);
-        }
-        while let Some(e) = ports.next_event() {
-            let _ = w.push_event(&e);
-        }
-        if last_flush.elapsed() >= FLUSH {
-            let result = w.flush();
-            last_flush = Instant::now();
-            match (w.failing(), failing_since_ns) {
-                (Some(f), 0) => {
-                    failing_since_ns = hob_rt_os::now_ns();
-                    eprintln!(
-                        "hob-logger: ALARM: {dir}: cannot write: {}: recording what arrives as not written until a write succeeds",
-                        f.error
-                    );
-                }
-                (None, since) if since != 0 => {
-                    failing_since_ns = 0;
-                    eprintln!(
-                        "hob-logger: {dir}: writing again after {:.1} s; {} samples and {} events not written in all (gaps.log)",
-                        (hob_rt_os::now_ns() - since) as f64 / 1e9,
-                        w.stats.samples_unwritten,
-                        w.stats.events_unwritten
-                    );
-                }
-                (None, _) => {
-                    if let Err(e) = result {
-                        eprintln!("hob-logger: {dir}/logger.json: {e}");
-                    }
-                }
-                _ => {}
+    queue.write_until_closed(&mut w, FLUSH, |w, result| {
+        match (w.failing(), failing_since_ns) {
+            (Some(f), 0) => {
+                failing_since_ns = hob_rt_os::now_ns();
+                eprintln!(
+                    "hob-logger: ALARM: {dir}: cannot write: {}: recording what arrives as not written until a write succeeds",
+                    f.error
+                );
             }
-            if let Some((_, p)) = &recorder {
-                seq += 1;
-                let st = &w.stats;
-                let _ = p.send_copy(hob_ipc::RecorderSample {
-                    seq,
-                    time_ns: hob_rt_os::now_ns(),
-                    samples_written: st.samples - st.samples_unwritten,
-                    samples_unwritten: st.samples_unwritten,
-                    events_unwritten: st.events_unwritten,
-                    samples_lost: st.samples_lost,
-                    failing_since_ns,
-                    last_errno: w.failing().map_or(0, |f| f.errno),
-                    writing: u8::from(w.failing().is_none()),
-                    _pad: [0; 3],
-                });
+            (None, since) if since != 0 => {
+                failing_since_ns = 0;
+                eprintln!(
+                    "hob-logger: {dir}: writing again after {:.1} s; {} samples and {} events not written in all (gaps.log)",
+                    (hob_rt_os::now_ns() - since) as f64 / 1e9,
+                    w.stats.samples_unwritten,
+                    w.stats.events_unwritten
+                );
             }
+            (None, _) => {
+                if let Err(e) = result {
+                    eprintln!("hob-logger: {dir}/logger.json: {e}");
+                }
+            }
+            _ => {}
         }
-        std::thread::sleep(POLL);
-    }
-    // What arrived before the stop request.
-    while let Some(s) = ports.next_state() {
-        let _ = w.push_state(&s);
-    }
-    while let Some(e) = ports.next_event() {
-        let _ = w.push_event(&e);
-    }
-    let _ = w.flush();
+        if let Some((_, p)) = &recorder {
+            seq += 1;
+            let st = &w.stats;
+            let _ = p.send_copy(hob_ipc::RecorderSample {
+                seq,
+                time_ns: hob_rt_os::now_ns(),
+                samples_written: st.samples - st.samples_unwritten,
+                samples_unwritten: st.samples_unwritten,
+                events_unwritten: st.events_unwritten,
+                samples_lost: st.samples_lost,
+                failing_since_ns,
+                last_errno: w.failing().map_or(0, |f| f.errno),
+                writing: u8::from(w.failing().is_none()),
+                _pad: [0; 3],
+            });
+        }
+    });
     let s = &w.stats;
     eprintln!(
         "hob-logger: {} samples ({} lost, {} not written), {} events ({} lost, {} not written) in {}",
         s.samples, s.samples_lost, s.samples_unwritten, s.events, s.events_lost, s.events_unwritten, dir
     );
-    ExitCode::SUCCESS
 }
