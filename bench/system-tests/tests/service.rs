@@ -1052,7 +1052,7 @@ fn silent_machine_mid_cut() {
             assert!(
                 what_if
                     .text
-                    .contains("what if the spindle observer's bandwidth were 5 Hz"),
+                    .contains("what if the spindle observer's bandwidth were 5 Hz instead of 10 Hz, the machine answering"),
                 "{}",
                 what_if.text
             );

@@ -2,9 +2,11 @@
 //! record`) replayed through this build's control core: from the state the record starts
 //! with, over its commands and inputs, every output compared with the recorded one to the
 //! bit. With `--observer-bandwidth-hz` it replays a second time with the spindle
-//! observer's bandwidth changed and shows what that changes: for the same inputs (the
-//! machine does not answer a replay), how far the targets move and what the controller's
-//! own estimate of its synchronisation error becomes.
+//! observer's bandwidth changed, the machine answering the changed targets
+//! (`FlightRecord::replay_answered`: each drive follows them with the lag found in the
+//! record and the recorded deviation), and shows what that changes: how far the targets
+//! and the table move, what the controller's own estimate of its synchronisation error
+//! becomes, and the first fault.
 
 use hob_control::flight::FlightRecord;
 use hob_control::{Controller, CycleOutputs, State};
@@ -21,12 +23,16 @@ struct Along {
     fault: Option<(usize, hob_control::fault::Fault)>,
 }
 
-fn along(r: &FlightRecord, c: Controller) -> (Vec<CycleOutputs>, Along) {
+/// The replay of `c`, the machine answering (with the recorded controller: the recorded
+/// run); the outputs, the table positions as answered and the figures.
+fn along(r: &FlightRecord, c: Controller, lags: [usize; 3]) -> (Vec<CycleOutputs>, Vec<(i32, bool)>, Along) {
     let mut outs = Vec::with_capacity(r.records.len());
+    let mut table = Vec::with_capacity(r.records.len());
     let mut a = Along::default();
-    r.replay_each(c, |k, c, out| {
+    r.replay_answered(c, lags, |k, c, inputs, out| {
         outs.push(*out);
         let s = c.status();
+        table.push((inputs.table.position_counts, s.state == State::Cut));
         if a.fault.is_none()
             && let Some(f) = s.fault
         {
@@ -37,7 +43,7 @@ fn along(r: &FlightRecord, c: Controller) -> (Vec<CycleOutputs>, Along) {
             a.sync_error_max_arcsec = a.sync_error_max_arcsec.max(s.sync_error_arcsec.abs());
         }
     });
-    (outs, a)
+    (outs, table, a)
 }
 
 /// The replay's report; Err(text) when the outputs do not match (exit 1) or the file is
@@ -86,11 +92,17 @@ pub fn replay(path: &Path, observer_bandwidth_hz: Option<f64>) -> Result<String,
             ));
         }
         let was = r.start.params().observer_bandwidth_hz;
-        let (base_out, base) = along(&r, r.start.clone());
+        let found = r.follow_lags();
+        // An axis that did not move follows with the lag of those that did.
+        let fallback = found.iter().flatten().copied().max().unwrap_or(2);
+        let lags = found.map(|l| l.unwrap_or(fallback));
+        let (base_out, base_table, base) = along(&r, r.start.clone(), lags);
         let mut changed = r.start.clone();
         changed.set_observer_bandwidth_hz(hz);
-        let (new_out, new) = along(&r, changed);
+        let (new_out, new_table, new) = along(&r, changed, lags);
         let (mut d_table, mut d_x, mut first) = (0i64, 0i64, None);
+        // The table's path against the recorded one, in the cycles both cut.
+        let mut moved: Vec<f64> = Vec::new();
         for (k, (a, b)) in base_out.iter().zip(&new_out).enumerate() {
             let dt = i64::from(b.table_target_counts.wrapping_sub(a.table_target_counts)).abs();
             let dx = i64::from(b.x_target_counts.wrapping_sub(a.x_target_counts)).abs();
@@ -99,22 +111,39 @@ pub fn replay(path: &Path, observer_bandwidth_hz: Option<f64>) -> Result<String,
             }
             d_table = d_table.max(dt);
             d_x = d_x.max(dx);
+            let ((new_at, new_cut), (base_at, base_cut)) = (new_table[k], base_table[k]);
+            if new_cut && base_cut {
+                moved.push(f64::from(new_at.wrapping_sub(base_at)));
+            }
         }
+        let arcsec_per_count = 3600.0 / r.start.params().table.counts_per_unit;
+        // A constant shift is the phase the engagement took, which only places the teeth
+        // on the blank; what changes the gear is the rest.
+        let phase = moved.iter().sum::<f64>() / moved.len().max(1) as f64;
+        let varies = moved.iter().map(|d| (d - phase).abs()).fold(0.0f64, f64::max);
+        let lag_text = |l: Option<usize>| l.map_or(format!("{fallback} (did not move)"), |l| l.to_string());
         let _ = writeln!(
             o,
-            "what if the spindle observer's bandwidth were {hz} Hz instead of {was} Hz (the same inputs: the machine does not answer a replay):"
+            "what if the spindle observer's bandwidth were {hz} Hz instead of {was} Hz, the machine answering the changed targets (each drive follows them with the lag found in the record, B {}, X {}, Y {} cycles, and the recorded deviation from them):",
+            lag_text(found[0]),
+            lag_text(found[1]),
+            lag_text(found[2])
         );
         let _ = writeln!(
             o,
-            "  table targets differ by up to {d_table} counts, X targets by up to {d_x} counts{}",
+            "  table targets differ by up to {d_table} counts ({:.2} arcsec), X targets by up to {d_x} counts{}; in the cut ({} cycles) the table's path differs from the recorded one by a constant {:.2} arcsec (the engagement's phase: where the teeth fall on the blank) and beyond it by up to {:.2} arcsec",
+            d_table as f64 * arcsec_per_count,
             first.map_or(String::new(), |k| format!(
                 ", from cycle {}",
                 r.first_cycle + k as u64
-            ))
+            )),
+            moved.len(),
+            phase * arcsec_per_count,
+            varies * arcsec_per_count
         );
         let _ = writeln!(
             o,
-            "  the controller's estimate of its sync error in the cut ({} cycles): at most {:.3} arcsec, recorded settings {:.3} arcsec",
+            "  the controller's estimate of its sync error in the cut ({} cycles): at most {:.3} arcsec, recorded settings {:.3} arcsec (its own estimate, against its own observer: not the truth)",
             new.cut_cycles, new.sync_error_max_arcsec, base.sync_error_max_arcsec
         );
         let fault = |a: &Along| {

@@ -75,6 +75,25 @@ pub fn same_bits(a: &CycleOutputs, b: &CycleOutputs) -> bool {
 }
 
 impl FlightRecord {
+    /// Hands a cycle's mail to `controller` as the loop did (a refusal is the controller's
+    /// answer, as it was); false for a program the record did not keep.
+    fn deliver(&self, controller: &mut Controller, mail: Mail) -> bool {
+        match mail {
+            Mail::None => {}
+            Mail::Command(c) => {
+                let _ = controller.command(c);
+            }
+            Mail::Load(i) => match self.programs.get(usize::from(i)) {
+                Some(p) => {
+                    let _ = controller.load(*p);
+                }
+                None => return false,
+            },
+            Mail::LoadNotKept => return false,
+        }
+        true
+    }
+
     /// Steps `controller` (the record's start, or a copy changed for a "what if") over the
     /// record's mail and inputs, handing `each` the record's index, the controller after
     /// the step and its outputs; the index where it had to stop (a program not kept), if
@@ -85,18 +104,8 @@ impl FlightRecord {
         mut each: impl FnMut(usize, &Controller, &CycleOutputs),
     ) -> Option<usize> {
         for (k, rec) in self.records.iter().enumerate() {
-            match rec.mail {
-                Mail::None => {}
-                Mail::Command(c) => {
-                    let _ = controller.command(c);
-                }
-                Mail::Load(i) => match self.programs.get(usize::from(i)) {
-                    Some(p) => {
-                        let _ = controller.load(*p);
-                    }
-                    None => return Some(k),
-                },
-                Mail::LoadNotKept => return Some(k),
+            if !self.deliver(&mut controller, rec.mail) {
+                return Some(k);
             }
             let out = controller.step(&rec.inputs);
             while controller.events().pop().is_some() {}
@@ -122,6 +131,115 @@ impl FlightRecord {
             stopped_at,
             outputs,
         }
+    }
+}
+
+/// The longest lag between a target and the position showing it that
+/// [`FlightRecord::follow_lags`] looks for, cycles.
+pub const MAX_FOLLOW_LAG: usize = 8;
+
+fn targets(o: &CycleOutputs) -> [i32; 3] {
+    [o.table_target_counts, o.x_target_counts, o.y_target_counts]
+}
+
+fn positions(i: &CycleInputs) -> [i32; 3] {
+    [i.table.position_counts, i.x.position_counts, i.y.position_counts]
+}
+
+/// Whether the position of axis `a` (B, X, Y) arrived for this cycle.
+fn fresh(i: &CycleInputs, a: usize) -> bool {
+    [i.table, i.x, i.y][a].fresh
+}
+
+/// Whether the drive of axis `a` (B, X, Y) follows the targets of `o`.
+fn follows(o: &CycleOutputs, a: usize) -> bool {
+    o.drives_enabled && o.drive_modes[a] == crate::DriveMode::CyclicPosition
+}
+
+impl FlightRecord {
+    /// For each axis (B, X, Y), the lag in cycles between a target sent and the drive's
+    /// latched position showing it: the `d` in `1 ..= MAX_FOLLOW_LAG` (a target is computed after the inputs) for which the
+    /// recorded positions differ least from the targets `d` cycles before them (the mean
+    /// square of the difference over the cycles where the drive followed its targets and
+    /// the axis moved, its position fresh); `None` for an axis that did not move.
+    pub fn follow_lags(&self) -> [Option<usize>; 3] {
+        let n = self.records.len();
+        std::array::from_fn(|a| {
+            let moved = self
+                .records
+                .windows(2)
+                .any(|w| follows(&w[0].outputs, a) && targets(&w[0].outputs)[a] != targets(&w[1].outputs)[a]);
+            if !moved {
+                return None;
+            }
+            (1..=MAX_FOLLOW_LAG.min(n.saturating_sub(1)))
+                .map(|d| {
+                    let (mut sum, mut count) = (0.0f64, 0u32);
+                    for k in d..n {
+                        let sent = &self.records[k - d].outputs;
+                        if follows(sent, a) && fresh(&self.records[k].inputs, a) {
+                            let e = positions(&self.records[k].inputs)[a].wrapping_sub(targets(sent)[a]);
+                            sum += f64::from(e) * f64::from(e);
+                            count += 1;
+                        }
+                    }
+                    (
+                        d,
+                        if count == 0 {
+                            f64::INFINITY
+                        } else {
+                            sum / f64::from(count)
+                        },
+                    )
+                })
+                .min_by(|x, y| x.1.total_cmp(&y.1))
+                .map(|(d, _)| d)
+        })
+    }
+
+    /// Like [`FlightRecord::replay_each`], but the machine answers the controller: each
+    /// drive's position is the recorded one moved by how far the controller's target
+    /// `lags[a]` cycles before moved from the recorded target (while the drive followed
+    /// its targets; afterwards the last such shift stays). A drive that followed its
+    /// targets with the recorded lag and the recorded deviation from them, whatever the
+    /// targets: for a "what if" that changes the targets a little (a gain, a bandwidth),
+    /// not one that changes what the machine does. The spindle (its own VFD) and the I/O
+    /// are as recorded. With the recorded controller every shift is 0: the recorded run.
+    /// `each` is also handed the inputs as answered.
+    pub fn replay_answered(
+        &self,
+        mut controller: Controller,
+        lags: [usize; 3],
+        mut each: impl FnMut(usize, &Controller, &CycleInputs, &CycleOutputs),
+    ) -> Option<usize> {
+        let mut sent: Vec<CycleOutputs> = Vec::with_capacity(self.records.len());
+        let mut shift = [0i32; 3];
+        for (k, rec) in self.records.iter().enumerate() {
+            for (a, lag) in lags.iter().enumerate() {
+                // At least a cycle: a target is computed after the cycle's inputs.
+                if let Some(j) = k.checked_sub((*lag).max(1))
+                    && follows(&self.records[j].outputs, a)
+                    && follows(&sent[j], a)
+                {
+                    shift[a] = targets(&sent[j])[a].wrapping_sub(targets(&self.records[j].outputs)[a]);
+                }
+            }
+            let mut inputs = rec.inputs;
+            for (fb, s) in [&mut inputs.table, &mut inputs.x, &mut inputs.y]
+                .into_iter()
+                .zip(shift)
+            {
+                fb.position_counts = fb.position_counts.wrapping_add(s);
+            }
+            if !self.deliver(&mut controller, rec.mail) {
+                return Some(k);
+            }
+            let out = controller.step(&inputs);
+            while controller.events().pop().is_some() {}
+            each(k, &controller, &inputs, &out);
+            sent.push(out);
+        }
+        None
     }
 }
 
@@ -220,6 +338,28 @@ mod tests {
         assert_eq!(back.records, r.records);
         let rep = back.replay(back.start.clone());
         assert_eq!((rep.cycles, rep.first_difference), (50, None));
+    }
+
+    #[test]
+    fn the_follow_lag_is_the_delay_that_explains_the_positions() {
+        let mut r = record();
+        let target = |k: usize| (k * k) as i32 * 37;
+        for (k, rec) in r.records.iter_mut().enumerate() {
+            rec.outputs.drives_enabled = true;
+            rec.outputs.table_target_counts = target(k);
+            rec.outputs.y_target_counts = -target(k);
+            rec.inputs.table.fresh = true;
+            rec.inputs.table.position_counts = target(k.saturating_sub(3)) + 5;
+            rec.inputs.y.fresh = true;
+            rec.inputs.y.position_counts = -target(k.saturating_sub(1));
+        }
+        assert_eq!(r.follow_lags(), [Some(3), None, Some(1)]);
+        // Positions that did not arrive are not evidence.
+        for rec in &mut r.records[10..] {
+            rec.inputs.table.fresh = false;
+            rec.inputs.table.position_counts = 0;
+        }
+        assert_eq!(r.follow_lags()[0], Some(3));
     }
 
     #[test]
