@@ -130,11 +130,13 @@ pub enum Refusal {
     NotReferenced = 11,
     TablePositionLost = 12,
     JogActive = 13,
+    SpindleTurning = 14,
+    FlanksCrossed = 15,
 }
 
 impl Refusal {
     /// Every refusal, in code order (`ALL[i].code() == i + 1`).
-    pub const ALL: [Refusal; 13] = [
+    pub const ALL: [Refusal; 15] = [
         Refusal::NoProgram,
         Refusal::CycleRunning,
         Refusal::Faulted,
@@ -148,6 +150,8 @@ impl Refusal {
         Refusal::NotReferenced,
         Refusal::TablePositionLost,
         Refusal::JogActive,
+        Refusal::SpindleTurning,
+        Refusal::FlanksCrossed,
     ];
 
     pub const fn code(self) -> u32 {
@@ -173,6 +177,8 @@ impl Refusal {
             Refusal::NotReferenced => "not-referenced",
             Refusal::TablePositionLost => "table-position-lost",
             Refusal::JogActive => "jog-active",
+            Refusal::SpindleTurning => "spindle-turning",
+            Refusal::FlanksCrossed => "flanks-crossed",
         }
     }
 
@@ -193,9 +199,15 @@ impl Refusal {
                 "X and Y are not referenced: only referencing (hob home) and slow jogs until they are"
             }
             Refusal::TablePositionLost => {
-                "the table lost its position since the tooth phase was recorded: continuing would cut a new set of gaps into this part"
+                "the table lost its position since the tooth phase was recorded: continuing would cut a new set of gaps into this part (touch both flanks of a cut gap to align to it: hob touch-flank)"
             }
             Refusal::JogActive => "a jog is running: release it (or stop) first",
+            Refusal::SpindleTurning => {
+                "the spindle turns: a flank touch needs the hob standing still (spindle off)"
+            }
+            Refusal::FlanksCrossed => {
+                "this flank lies on the wrong side of the other one: the table is turned positive to touch one flank of the gap and negative to touch the other"
+            }
         }
     }
 }
@@ -851,7 +863,7 @@ pub fn coupling_name(c: u32) -> &'static str {
 }
 
 /// Every [`command`] code, in code order.
-pub const COMMANDS: [u32; 19] = [
+pub const COMMANDS: [u32; 20] = [
     command::LOAD_PROGRAM,
     command::START,
     command::FEED_HOLD,
@@ -871,6 +883,7 @@ pub const COMMANDS: [u32; 19] = [
     command::CONTINUE,
     command::SPINDLE_HOLD,
     command::FLIGHT_RECORD,
+    command::TOUCH_FLANK,
 ];
 
 /// The command's name as the CLI spells it (`?` for a code this build does not know).
@@ -895,12 +908,13 @@ pub fn command_name(code: u32) -> &'static str {
         command::CONTINUE => "continue",
         command::SPINDLE_HOLD => "spindle hold",
         command::FLIGHT_RECORD => "record",
+        command::TOUCH_FLANK => "touch flank",
         _ => "?",
     }
 }
 
 /// Every [`event_kind`] code, in code order.
-pub const EVENT_KINDS: [u32; 14] = [
+pub const EVENT_KINDS: [u32; 16] = [
     event_kind::STATE_CHANGED,
     event_kind::ALARM,
     event_kind::ALARM_CLEARED,
@@ -915,6 +929,8 @@ pub const EVENT_KINDS: [u32; 14] = [
     event_kind::REFERENCED,
     event_kind::DEAD_MAN_STOP,
     event_kind::OFFSET_CHANGED,
+    event_kind::FLANK_TOUCHED,
+    event_kind::PHASE_ALIGNED,
 ];
 
 /// The name of an [`event_kind`] code (`None` for one this build does not know).
@@ -934,6 +950,8 @@ pub fn event_kind_name(k: u32) -> Option<&'static str> {
         event_kind::REFERENCED => "referenced",
         event_kind::DEAD_MAN_STOP => "dead-man-stop",
         event_kind::OFFSET_CHANGED => "offset-changed",
+        event_kind::FLANK_TOUCHED => "flank-touched",
+        event_kind::PHASE_ALIGNED => "phase-aligned",
         _ => return None,
     })
 }
@@ -964,6 +982,20 @@ pub fn event_text(e: &EventSample) -> String {
             format!("jog {} stopped: its renewals stopped (dead-man)", axis_name(e.a))
         }
         event_kind::OFFSET_CHANGED => format!("touch-off: {} offset {:+.4} mm", axis_name(e.a), e.value),
+        event_kind::FLANK_TOUCHED => format!(
+            "flank touched, the table turned {}: tooth phase {:.4} deg; the part's phase is set when both flanks are touched",
+            if e.a == u32::from(crate::direction::POSITIVE) {
+                "positive"
+            } else {
+                "negative"
+            },
+            e.value
+        ),
+        event_kind::PHASE_ALIGNED => format!(
+            "aligned to the cut gaps: tooth phase {:.4} deg, {:.4} deg of play between the flanks",
+            e.value,
+            f64::from(e.a) * 1e-6
+        ),
         k => format!("event kind {k}"),
     }
 }

@@ -51,15 +51,27 @@ pub fn home(axes: &str) -> Result<CommandRequest, String> {
 /// `JOG_CONTINUOUS`: `+` or `-` at `speed` (mm/min, deg/min for B), renewed by sending it again.
 pub fn jog_continuous(axis: &str, dir: &str, speed: f64) -> Result<CommandRequest, String> {
     let a = axis_of("jog-hold", axis)?;
-    let d = match dir {
-        "+" | "plus" => direction::POSITIVE,
-        "-" | "minus" => direction::NEGATIVE,
-        _ => return Err(format!("jog-hold: direction {dir} is not + or -")),
-    };
+    let d = direction_of("jog-hold", dir)?;
     let mut r = CommandRequest::new(command::JOG_CONTINUOUS);
     r.axis = a.code();
     r.direction = d;
     r.value = speed;
+    Ok(r)
+}
+
+fn direction_of(what: &str, dir: &str) -> Result<u8, String> {
+    match dir {
+        "+" | "plus" | "positive" => Ok(direction::POSITIVE),
+        "-" | "minus" | "negative" => Ok(direction::NEGATIVE),
+        _ => Err(format!("{what}: direction {dir} is not + or -")),
+    }
+}
+
+/// `TOUCH_FLANK`: a flank of the cut gap touches the hob's tooth, the table having been
+/// turned `+` or `-` to it.
+pub fn touch_flank(dir: &str) -> Result<CommandRequest, String> {
+    let mut r = CommandRequest::new(command::TOUCH_FLANK);
+    r.direction = direction_of("touch-flank", dir)?;
     Ok(r)
 }
 

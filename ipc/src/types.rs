@@ -162,6 +162,12 @@ pub mod event_kind {
     pub const DEAD_MAN_STOP: u32 = 13;
     /// A touch-off set a work offset: `a` the axis code, `value` the offset (mm).
     pub const OFFSET_CHANGED: u32 = 14;
+    /// A flank of a cut gap touched: `a` the [`super::direction`] the table turned,
+    /// `value` the tooth phase there (deg).
+    pub const FLANK_TOUCHED: u32 = 15;
+    /// Both flanks touched: `value` the part's tooth phase (deg), `a` the play between
+    /// the flanks in micro-degrees.
+    pub const PHASE_ALIGNED: u32 = 16;
 }
 
 /// What a [`event_kind::BUS`] event's `b` says happened; `a` is the node (in its low byte
@@ -362,6 +368,9 @@ pub mod command {
     pub const SPINDLE_HOLD: u32 = 18;
     /// Write the flight recorder's last seconds to disk (`hob record`).
     pub const FLIGHT_RECORD: u32 = 19;
+    /// `direction`: the way the table was turned until a flank of the cut gap touched the
+    /// hob's tooth (aligning to a part whose gaps are cut).
+    pub const TOUCH_FLANK: u32 = 20;
 }
 
 /// Directions of a continuous jog ([`CommandRequest::direction`]).
@@ -379,7 +388,7 @@ pub struct CommandRequest {
     pub single: u8,
     /// JOG, JOG_CONTINUOUS, TOUCH_OFF: 1 B, 2 X, 3 Y; HOME: 0 both, 2 X, 3 Y.
     pub axis: u8,
-    /// JOG_CONTINUOUS: a [`direction`] code.
+    /// JOG_CONTINUOUS, TOUCH_FLANK: a [`direction`] code.
     pub direction: u8,
     pub _pad: [u8; 1],
     /// JOG: distance (mm, or deg for B); SPINDLE_ON: rpm.

@@ -583,6 +583,140 @@ fn continue_is_refused_and_nothing_moves_when_the_table_lost_its_position() {
     assert!(!out.spindle_run_forward && !out.spindle_run_reverse);
 }
 
+/// Jogs the table until its true tooth phase is `goal_deg` (the operator turning it until
+/// a flank of the gap touches the hob); returns the true phase it stopped at.
+fn jog_table_to_phase(sim: &mut Simulation, law: &Law, goal_deg: f64) -> f64 {
+    for _ in 0..3 {
+        let row = sim.step();
+        let off = goal_deg - law.phase_deg(&row);
+        if off.abs() < 1e-4 {
+            break;
+        }
+        sim.command(Command::Jog {
+            axis: Axis::B,
+            distance: off,
+        })
+        .unwrap();
+        run(sim, 60.0, |r| r.state == State::Idle);
+        assert_eq!(state_of(sim), State::Idle);
+    }
+    run(sim, 0.2, |_| false);
+    law.phase_deg(&sim.step())
+}
+
+#[test]
+fn touching_both_flanks_of_a_cut_gap_aligns_a_part_whose_table_lost_its_position() {
+    let (mut sim, job, cycle, plan, before) = faulted_in_the_second_pass();
+    let law = Law::of(&job, &cycle);
+    // The table's drive restarts while the machine stands in the fault (as above): the
+    // part's tooth phase is gone and "continue" is refused.
+    let physical = sim.plant.table.position_counts();
+    sim.plant.drives[0] = Drive::without_homing(physical, 0);
+    sim.step();
+    repair_and_reset(&mut sim);
+    assert_eq!(sim.command(Command::Continue), Err(Refusal::TablePositionLost));
+
+    // Pass 1's gaps on the machine's true angles; the gap nearest the table now.
+    let phase_at = |rows: &[TraceRow], pass: u32| {
+        law.mean_phase_deg(
+            rows.iter()
+                .filter(|r| r.state == State::Cut && r.pass == pass)
+                .take(2000),
+        )
+    };
+    let first = phase_at(&before.rows, 1);
+    let now = law.phase_deg(&sim.step());
+    let centre = now + law.off_gap_deg(now, first);
+    // The hob's tooth has this much play either side in the gap: a touch of one flank
+    // alone, or a sign mixed up, would be off by it, 250 times the tolerance below.
+    let play_deg = 0.1 * law.pitch_deg;
+
+    // Not while the spindle turns.
+    sim.command(Command::SpindleOn { rpm: 30.0 }).unwrap();
+    run(&mut sim, 3.0, |_| false);
+    assert_eq!(
+        sim.command(Command::TouchFlank {
+            turned: Direction::Negative
+        }),
+        Err(Refusal::SpindleTurning)
+    );
+    sim.command(Command::SpindleOff).unwrap();
+    run(&mut sim, 10.0, |_| false);
+
+    // Turned negative until the lower flank touches; the phase is not set by one touch.
+    // (The spindle turned: the same gap is now nearest another equivalent phase.)
+    let now = law.phase_deg(&sim.step());
+    let centre = now + law.off_gap_deg(now, centre);
+    let neg = jog_table_to_phase(&mut sim, &law, centre - play_deg / 2.0);
+    let from_event = sim.events.len();
+    assert_eq!(
+        sim.command(Command::TouchFlank {
+            turned: Direction::Negative
+        }),
+        Ok(())
+    );
+    sim.step();
+    assert!(!sim.controller.status().table_position_whole);
+    // A "positive" touch below the negative one: refused, nothing changes.
+    jog_table_to_phase(&mut sim, &law, centre - play_deg);
+    assert_eq!(
+        sim.command(Command::TouchFlank {
+            turned: Direction::Positive
+        }),
+        Err(Refusal::FlanksCrossed)
+    );
+    // The upper flank: aligned.
+    let pos = jog_table_to_phase(&mut sim, &law, centre + play_deg / 2.0);
+    assert_eq!(
+        sim.command(Command::TouchFlank {
+            turned: Direction::Positive
+        }),
+        Ok(())
+    );
+    sim.step();
+    assert!(sim.controller.status().table_position_whole);
+    let aligned: Vec<(f64, f64)> = sim.events[from_event..]
+        .iter()
+        .filter_map(|e| match e.kind {
+            EventKind::PhaseAligned { phase_deg, play_deg } => Some((phase_deg, play_deg)),
+            _ => None,
+        })
+        .collect();
+    assert_eq!(aligned.len(), 1, "{aligned:?}");
+    assert!(
+        (aligned[0].1 - (pos - neg)).abs() < 1e-3,
+        "play {} deg, touched {} deg apart",
+        aligned[0].1,
+        pos - neg
+    );
+
+    // Continue: the interrupted pass on pass 1's gaps.
+    assert_eq!(sim.command(Command::Continue), Ok(()));
+    let from_event = sim.events.len();
+    let resumed = run(&mut sim, 600.0, |r| {
+        matches!(r.state, State::Idle | State::Faulted)
+    });
+    assert!(
+        sim.events[from_event..]
+            .iter()
+            .any(|e| e.kind == EventKind::CycleDone),
+        "{:?}",
+        resumed.faults()
+    );
+    let again = phase_at(&resumed.rows, 2);
+    let r_mm = plan.pitch_diameter_mm / 2.0;
+    let tolerance_arcsec = um_to_arcsec_at_radius(bound_um(&plan), r_mm);
+    let off_first = law.off_gap_deg(first, again) * 3600.0;
+    println!(
+        "aligned: touches {neg:.5} and {pos:.5} deg (true), pass 1's gap {first:.5} deg, resumed {again:.5} deg: {off_first:.2} arcsec off (tolerance {tolerance_arcsec:.2})"
+    );
+    assert!(
+        off_first.abs() <= tolerance_arcsec,
+        "resumed {off_first} arcsec off pass 1's gaps"
+    );
+    assert!(play_deg * 3600.0 / 2.0 > 100.0 * tolerance_arcsec);
+}
+
 // ---------------------------------------------------------------------------------------
 // 3. The dead-man of the continuous jog
 // ---------------------------------------------------------------------------------------

@@ -137,6 +137,15 @@ enum Command {
     Continue,
     /// A new blank is on the table: forget the recorded tooth phase.
     NewBlank,
+    /// Aligning to a part whose gaps are cut (its table lost its position, or a pre-cut
+    /// part): with the spindle off and a hob tooth in a gap, the table turned `+` (or `-`)
+    /// until a flank touches the tooth. After both flanks the part's tooth phase is their
+    /// middle, and continue (or start) cuts those gaps.
+    TouchFlank {
+        /// `+` or `-`: the way the table was turned to the flank.
+        #[arg(allow_hyphen_values = true)]
+        turned: String,
+    },
     /// Write the loop's flight record now: its last seconds of inputs, commands and outputs
     /// (hob-rt writes one by itself on a fault and at its stop).
     Record,
@@ -641,6 +650,9 @@ fn run(command: Command) -> Result<(), Failure> {
             }
         },
         Command::NewBlank => service_result(service::request(&service::simple(code::NEW_BLANK))),
+        Command::TouchFlank { turned } => {
+            service_result(service::touch_flank(&turned).and_then(|r| service::request(&r)))
+        }
         Command::Log { command } => match command {
             LogCommand::Export { dir, csv, out } => {
                 if !csv {

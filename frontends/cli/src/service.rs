@@ -71,6 +71,10 @@ pub fn touch_off(
     hob_ipc::request::touch_off(axis, diameter, height).map_err(refused)
 }
 
+pub fn touch_flank(turned: &str) -> Result<CommandRequest, (u8, String)> {
+    hob_ipc::request::touch_flank(turned).map_err(refused)
+}
+
 /// How often a continuous jog is renewed (the machine file's dead-man time is longer).
 pub const JOG_RENEWAL: Duration = Duration::from_millis(100);
 

@@ -429,6 +429,10 @@ pub enum Op {
         axis: String,
         value: f64,
     },
+    /// A flank of a cut gap touched, the table turned `+` or `-` to it.
+    TouchFlank {
+        turned: String,
+    },
     Spindle {
         rpm: f64,
     },
@@ -481,6 +485,7 @@ impl Op {
             Op::Start { single } => Ok(request::start(*single)),
             Op::Override { what, percent } => request::override_request(what, *percent),
             Op::TouchOff { axis, value } => request::touch_off_value(axis, *value),
+            Op::TouchFlank { turned } => request::touch_flank(turned),
             Op::Spindle { rpm } if *rpm == 0.0 => Ok(request::simple(c::SPINDLE_OFF)),
             Op::Spindle { rpm } => Ok(request::spindle_on(*rpm)),
             Op::Load { program } => Err(format!("load {program}: read from the library by the server")),
@@ -567,6 +572,10 @@ mod tests {
                 r#"{"t":"cmd","id":1,"op":"spindle","rpm":0}"#,
                 request::simple(hob_ipc::command::SPINDLE_OFF),
             ),
+            (
+                r#"{"t":"cmd","id":1,"op":"touch_flank","turned":"-"}"#,
+                request::touch_flank("-").expect("touch flank"),
+            ),
         ];
         for (json, want) in cases {
             let ClientMsg::Cmd { op, .. } = parse(json) else {
@@ -590,6 +599,11 @@ mod tests {
             panic!("not a command")
         };
         assert!(op.request().is_err(), "the table needs no reference");
+        let ClientMsg::Cmd { op, .. } = parse(r#"{"t":"cmd","id":1,"op":"touch_flank","turned":"up"}"#)
+        else {
+            panic!("not a command")
+        };
+        assert!(op.request().is_err(), "a flank touch needs + or -");
     }
 
     #[test]

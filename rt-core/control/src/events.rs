@@ -23,6 +23,17 @@ pub enum EventKind {
     PhaseRecorded {
         phase_deg: f64,
     },
+    /// A flank touched with the table turned in `turned`: the tooth phase there, deg.
+    FlankTouched {
+        turned: crate::jog::Direction,
+        phase_deg: f64,
+    },
+    /// Both flanks touched: the part's tooth phase (their middle) and the play between
+    /// them, deg.
+    PhaseAligned {
+        phase_deg: f64,
+        play_deg: f64,
+    },
     Accepted(Command),
     Refused {
         command: Command,

@@ -153,4 +153,9 @@ pub enum Refusal {
     TablePositionLost,
     /// A jog is running: release it first.
     JogActive,
+    /// The spindle turns: a flank touch needs the hob standing still.
+    SpindleTurning,
+    /// The flank touched with the table turned positive lies below the one touched turned
+    /// negative: not the two flanks of one gap.
+    FlanksCrossed,
 }

@@ -12,6 +12,7 @@
 //! panic. Errors are `Copy` enums ([`fault::Fault`], [`fault::Refusal`]); events go into
 //! a fixed ring ([`events::EventRing`]) that the caller drains.
 
+mod align;
 pub mod eccentricity;
 pub mod egb;
 pub mod events;

@@ -184,6 +184,14 @@ pub enum Command {
     },
     /// A new blank is on the table: forget the recorded tooth phase.
     NewBlank,
+    /// Aligning to a part whose gaps are already cut (the table lost its position, or a
+    /// pre-cut part to finish): the hob and the spindle stand still in a gap and the table
+    /// was turned in `turned` until a flank of the gap touched the hob's tooth. The loop
+    /// notes the tooth phase there; once both flanks are touched the part's phase is their
+    /// middle (module `align`).
+    TouchFlank {
+        turned: Direction,
+    },
 }
 
 /// The sequencer's own state.
@@ -209,6 +217,8 @@ pub(super) struct Sequencer {
     /// The table lost its position after the tooth phase of an interrupted part was
     /// recorded: "continue" is refused until a new start or a new blank.
     pub phase_lost: bool,
+    /// The tooth phase noted at each flank touch (table turned negative, positive).
+    pub flank_touch: [Option<f64>; 2],
     /// Power-up conditions met (chain closed, lubricated, no fault): enable the drives.
     init_ready: bool,
     /// In the fault reaction's retract: when X's command reached the safe position
@@ -277,6 +287,7 @@ impl Controller {
         if !same_law {
             // A different gear: the recorded phase belongs to another blank.
             self.gearbox.set_params(params);
+            self.sequencer.flank_touch = [None; 2];
         }
         if self.program != Some(program) {
             // "Continue" belongs to the program it interrupted.
@@ -332,6 +343,7 @@ impl Controller {
                 self.check_can_start(&program, single)?;
                 self.sequencer.interrupted = None;
                 self.sequencer.phase_lost = false;
+                self.sequencer.flank_touch = [None; 2];
                 self.begin_cycle(single, 0);
                 Ok(())
             }
@@ -487,7 +499,19 @@ impl Controller {
                 self.gearbox.new_blank();
                 self.sequencer.interrupted = None;
                 self.sequencer.phase_lost = false;
+                self.sequencer.flank_touch = [None; 2];
                 Ok(())
+            }
+            Command::TouchFlank { turned } => {
+                match state {
+                    State::Idle => {}
+                    State::Init => return Err(Refusal::NotReady),
+                    State::Jog => return Err(Refusal::JogActive),
+                    _ => return Err(Refusal::CycleRunning),
+                }
+                // The gearbox's law comes with the program.
+                self.program.ok_or(Refusal::NoProgram)?;
+                self.touch_flank(turned)
             }
         }
     }
@@ -543,6 +567,8 @@ impl Controller {
     /// A drive lost its position: X or Y its reference; the table the tooth phase.
     pub(super) fn position_lost(&mut self, axis: Axis) {
         if axis == Axis::B {
+            // Touches noted before are in the table's old frame.
+            self.sequencer.flank_touch = [None; 2];
             if self.gearbox.recorded_phase_deg().is_some() {
                 self.sequencer.phase_lost =
                     self.sequencer.interrupted.is_some() || self.sequencer.state.in_cycle();

@@ -83,6 +83,8 @@ pub const fn refusal(r: Refusal) -> codec::Refusal {
         Refusal::NotReferenced => codec::Refusal::NotReferenced,
         Refusal::TablePositionLost => codec::Refusal::TablePositionLost,
         Refusal::JogActive => codec::Refusal::JogActive,
+        Refusal::SpindleTurning => codec::Refusal::SpindleTurning,
+        Refusal::FlanksCrossed => codec::Refusal::FlanksCrossed,
         Refusal::BadValue => codec::Refusal::BadValue,
         Refusal::SafetyChainOpen => codec::Refusal::SafetyChainOpen,
         Refusal::DrivesNotEnabled => codec::Refusal::DrivesNotEnabled,
@@ -105,6 +107,8 @@ pub const fn refusal_of(r: codec::Refusal) -> Refusal {
         codec::Refusal::NotReferenced => Refusal::NotReferenced,
         codec::Refusal::TablePositionLost => Refusal::TablePositionLost,
         codec::Refusal::JogActive => Refusal::JogActive,
+        codec::Refusal::SpindleTurning => Refusal::SpindleTurning,
+        codec::Refusal::FlanksCrossed => Refusal::FlanksCrossed,
     }
 }
 
@@ -336,6 +340,21 @@ impl Args {
     }
 }
 
+const fn direction_code(d: Direction) -> u8 {
+    match d {
+        Direction::Positive => direction::POSITIVE,
+        Direction::Negative => direction::NEGATIVE,
+    }
+}
+
+fn direction_of(code: u8) -> Option<Direction> {
+    match code {
+        direction::POSITIVE => Some(Direction::Positive),
+        direction::NEGATIVE => Some(Direction::Negative),
+        _ => None,
+    }
+}
+
 /// A command's code and arguments.
 pub const fn command_code(c: Command) -> Args {
     match c {
@@ -362,10 +381,7 @@ pub const fn command_code(c: Command) -> Args {
             direction: d,
             speed_per_min,
         } => Args {
-            direction: match d {
-                Direction::Positive => direction::POSITIVE,
-                Direction::Negative => direction::NEGATIVE,
-            },
+            direction: direction_code(d),
             ..Args::of(command::JOG_CONTINUOUS).axis(a).value(speed_per_min)
         },
         Command::JogRelease => Args::of(command::JOG_RELEASE),
@@ -373,6 +389,10 @@ pub const fn command_code(c: Command) -> Args {
         Command::SpindleOverride { percent } => Args::of(command::SPINDLE_OVERRIDE).value(percent),
         Command::TouchOff { axis: a, value_mm } => Args::of(command::TOUCH_OFF).axis(a).value(value_mm),
         Command::Continue => Args::of(command::CONTINUE),
+        Command::TouchFlank { turned } => Args {
+            direction: direction_code(turned),
+            ..Args::of(command::TOUCH_FLANK)
+        },
     }
 }
 
@@ -408,12 +428,11 @@ pub fn command_from_code(a: &Args) -> Option<Command> {
         },
         command::JOG_CONTINUOUS => Command::JogContinuous {
             axis: ax()?,
-            direction: match a.direction {
-                direction::POSITIVE => Direction::Positive,
-                direction::NEGATIVE => Direction::Negative,
-                _ => return None,
-            },
+            direction: direction_of(a.direction)?,
             speed_per_min: a.value,
+        },
+        command::TOUCH_FLANK => Command::TouchFlank {
+            turned: direction_of(a.direction)?,
         },
         command::JOG_RELEASE => Command::JogRelease,
         command::FEED_OVERRIDE => Command::FeedOverride { percent: a.value },
@@ -451,6 +470,17 @@ pub fn event_sample(seq: u64, e: &Event) -> EventSample {
         }
         EventKind::PhaseRecorded { phase_deg } => {
             s.kind = event_kind::PHASE_RECORDED;
+            s.value = phase_deg;
+        }
+        EventKind::FlankTouched { turned, phase_deg } => {
+            s.kind = event_kind::FLANK_TOUCHED;
+            s.a = u32::from(direction_code(turned));
+            s.value = phase_deg;
+        }
+        EventKind::PhaseAligned { phase_deg, play_deg } => {
+            s.kind = event_kind::PHASE_ALIGNED;
+            // Micro-degrees (the play is less than half a pitch, well below 4 294 deg).
+            s.a = (play_deg * 1e6).round().clamp(0.0, f64::from(u32::MAX)) as u32;
             s.value = phase_deg;
         }
         EventKind::Accepted(c) => {

@@ -131,3 +131,22 @@ test("touch-off X sets the offset the loop reports; an absurd gauge is refused w
   await shot(page, "touch-off");
   await page.close();
 });
+
+test("a flank touch is the loop's to check: refused while the spindle turns, taken with it still", async () => {
+  const page = await open("jog");
+  assert.equal(status().program_loaded, true, "the program loaded above");
+  await page.locator('[data-testid="spindle-rpm"]').fill("20");
+  await page.locator('[data-testid="cmd-spindle"]').first().tap();
+  await waitFor("the spindle turning", () => Math.abs(status().spindle_rpm) > 5, 30000);
+  await page.locator('[data-testid="touch-flank-minus"]').tap();
+  const refused = page.locator('[data-testid="toast"].refused', { hasText: "FLANK AT B" });
+  await refused.first().waitFor({ timeout: 10000 });
+  assert.match(await refused.first().innerText(), /spindle turns/);
+  await page.locator('[data-testid="cmd-spindle"]').nth(1).tap();
+  await waitFor("the spindle standing", () => Math.abs(status().spindle_rpm) < 0.05, 60000);
+  await page.locator('[data-testid="touch-flank-minus"]').tap();
+  await page.locator('[data-testid="toast"].ok', { hasText: "FLANK AT B" }).first().waitFor({ timeout: 10000 });
+  await waitFor("the touch in the loop's events", () => status().events.some((e) => e.text.startsWith("flank touched, the table turned negative")), 10000);
+  await shot(page, "align");
+  await page.close();
+});

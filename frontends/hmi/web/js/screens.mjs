@@ -109,6 +109,11 @@ export function Jog({ conn, program }) {
         <${CmdButton} conn=${conn} op="touch_off" fields=${{ axis: "x", value: Number(dia) }} label="TOUCH OFF X" testid="touch-x" disabled=${dia === ""} /></div>
       <div class="row">Y: gauge top above the table <input type="number" inputmode="decimal" value=${height} data-testid="touch-y-value" onInput=${(e) => setHeight(e.target.value)} /> mm
         <${CmdButton} conn=${conn} op="touch_off" fields=${{ axis: "y", value: Number(height) }} label="TOUCH OFF Y" testid="touch-y" disabled=${height === ""} /></div></div>
+    <div class="card"><h2>Align to cut gaps</h2>
+      ${s && !s.referenced.table ? html`<p class="warn" data-testid="table-lost">The table lost its position: CONTINUE would cut new gaps into this part. Align to its gaps (or NEW BLANK for a new part).</p>` : ""}
+      <p class="hint">For a part whose gaps are cut: spindle off, a hob tooth in a gap. Jog B − until a flank touches the tooth, tap FLANK AT B −; jog B + until the other flank touches, tap FLANK AT B +. The loop takes the middle as the part's tooth phase.</p>
+      <div class="row"><${CmdButton} conn=${conn} op="touch_flank" fields=${{ turned: "-" }} label="FLANK AT B −" testid="touch-flank-minus" />
+        <${CmdButton} conn=${conn} op="touch_flank" fields=${{ turned: "+" }} label="FLANK AT B +" testid="touch-flank-plus" /></div></div>
     <div class="card"><h2>Set-up sheet${program ? `: ${program}` : ""}</h2>
       ${plan && s && s.program_loaded && conn.frame.loaded_here !== program ? html`<p class="warn" data-testid="setup-not-loaded">The loop has another program loaded${conn.frame.loaded_here ? ` (${conn.frame.loaded_here})` : ""}: this sheet is for ${program}, load it before setting up.</p>` : ""}
       ${plan ? html`<table class="kv" data-testid="setup-sheet">

@@ -83,9 +83,15 @@ mod old {
                 "X and Y are not referenced: only referencing (hob home) and slow jogs until they are"
             }
             Refusal::TablePositionLost => {
-                "the table lost its position since the tooth phase was recorded: continuing would cut a new set of gaps into this part"
+                "the table lost its position since the tooth phase was recorded: continuing would cut a new set of gaps into this part (touch both flanks of a cut gap to align to it: hob touch-flank)"
             }
             Refusal::JogActive => "a jog is running: release it (or stop) first",
+            Refusal::SpindleTurning => {
+                "the spindle turns: a flank touch needs the hob standing still (spindle off)"
+            }
+            Refusal::FlanksCrossed => {
+                "this flank lies on the wrong side of the other one: the table is turned positive to touch one flank of the gap and negative to touch the other"
+            }
         }
     }
 
@@ -108,6 +114,7 @@ mod old {
             Command::TouchOff { .. } => "touch-off",
             Command::Continue => "continue",
             Command::SpindleHold { .. } => "spindle hold",
+            Command::TouchFlank { .. } => "touch flank",
         }
     }
 }
@@ -215,6 +222,12 @@ fn every_command() -> Vec<Command> {
         Command::SpindleOverride { percent: 110.0 },
         Command::Continue,
         Command::SpindleHold { rpm: 42.5 },
+        Command::TouchFlank {
+            turned: Direction::Negative,
+        },
+        Command::TouchFlank {
+            turned: Direction::Positive,
+        },
     ];
     for axis in AXES {
         v.push(Command::Jog {
@@ -379,6 +392,27 @@ fn every_event_has_its_old_text() {
         ),
         (EventKind::ProgramLoaded, "program loaded".into()),
         (EventKind::CycleDone, "cycle done".into()),
+        (
+            EventKind::FlankTouched {
+                turned: Direction::Negative,
+                phase_deg: -3.25,
+            },
+            "flank touched, the table turned negative: tooth phase -3.2500 deg; the part's phase is set when both flanks are touched".into(),
+        ),
+        (
+            EventKind::FlankTouched {
+                turned: Direction::Positive,
+                phase_deg: 1.5,
+            },
+            "flank touched, the table turned positive: tooth phase 1.5000 deg; the part's phase is set when both flanks are touched".into(),
+        ),
+        (
+            EventKind::PhaseAligned {
+                phase_deg: 12.5,
+                play_deg: 1.234567,
+            },
+            "aligned to the cut gaps: tooth phase 12.5000 deg, 1.2346 deg of play between the flanks".into(),
+        ),
     ];
     for (from, to) in OLD_STATES.into_iter().zip(OLD_STATES.into_iter().rev()) {
         cases.push((
