@@ -527,3 +527,13 @@ fn cutter_grind_writes_a_program_of_linear_moves_per_tooth() {
     );
     assert!(!nc.exists());
 }
+
+/// `hob touch-flank` takes `+` or `-` (the way the table was turned to the flank); anything
+/// else is refused before anything is sent to the loop.
+#[test]
+fn a_flank_touch_needs_the_way_the_table_turned() {
+    assert_refused(
+        &["touch-flank", "up"],
+        &["touch-flank: direction up is not + or -"],
+    );
+}
