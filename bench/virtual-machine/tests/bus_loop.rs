@@ -71,6 +71,15 @@ fn short_program(m: &MachineConfig) -> (Program, CycleProgram, planner::Plan) {
     (job, cycle, plan)
 }
 
+/// The controller's bound on the synchronisation error, arcsec of table: a quarter of the
+/// gear's ISO 1328-1 grade-5 single pitch tolerance at its pitch circle.
+fn bound_arcsec(cycle: &CycleProgram) -> f64 {
+    let bound_um =
+        hob_gearing::iso1328::single_pitch_tolerance_um(cycle.pitch_diameter_mm, cycle.normal_module_mm, 5)
+            / 4.0;
+    hob_gearing::units::um_to_arcsec_at_radius(bound_um, cycle.pitch_diameter_mm / 2.0)
+}
+
 struct Bed {
     master: MasterLoop<MemoryBus>,
     vm: VmThread,
@@ -293,13 +302,7 @@ fn a_short_cut_over_the_bus_follows_the_gearbox_law() {
     // 139.3 spindle rpm here, 7.0 deg/s of table apart, so 1 ms late moves it by 25 arcsec
     // between them, beyond the spread allowed (2 x 8.6 arcsec; measured 6.7).
     let vm = bed.vm.stop().unwrap();
-    let bound_arcsec = hob_gearing::iso1328::single_pitch_tolerance_um(
-        bed.cycle.pitch_diameter_mm,
-        bed.cycle.normal_module_mm,
-        5,
-    ) / 4.0
-        / (bed.cycle.pitch_diameter_mm / 2.0 * 1000.0)
-        * 206_264.8;
+    let bound_arcsec = bound_arcsec(&bed.cycle);
     let spread = vm.cut_error_spread_arcsec().expect("the tool never cut");
     eprintln!("true error spread over the cut {spread:.2} arcsec, bound +-{bound_arcsec:.2} arcsec");
     assert!(
@@ -445,10 +448,7 @@ fn garbage_and_a_few_lost_frames_do_not_disturb_the_cut() {
     // stays within the controller's bound (a quarter of the grade-5 single pitch
     // tolerance at the pitch circle) on either side of its centre. Without the faults the
     // spread was 6.9 arcsec (2026-11-26).
-    let bound_um =
-        hob_gearing::iso1328::single_pitch_tolerance_um(cycle.pitch_diameter_mm, cycle.normal_module_mm, 5)
-            / 4.0;
-    let bound_arcsec = bound_um / (cycle.pitch_diameter_mm / 2.0 * 1000.0) * 206_264.8;
+    let bound_arcsec = bound_arcsec(&cycle);
     let spread = vm.cut_error_spread_arcsec().expect("the tool never cut");
     eprintln!(
         "{} PDOs dropped, {} garbage frames over {} SYNCs ({} in the cut); true error spread {spread:.2} arcsec, bound +-{bound_arcsec:.2} arcsec",
