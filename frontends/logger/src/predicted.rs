@@ -62,6 +62,12 @@ pub fn sections(samples: &[TrueSample], teeth: u32, phase_deg: f64) -> Vec<Secti
     b.finish()
 }
 
+/// Rows of the cut without a true sample that [`SectionBuilder::skip`] bridges by
+/// interpolating between the samples either side (10 ms at a 1 ms cycle): the simulated
+/// machine writes no truth for a SYNC it could not answer in time, one or a few at a time
+/// in an emulated guest. A longer run ends the stretch.
+pub const MAX_BRIDGED_ROWS: u32 = 10;
+
 /// [`sections`] one sample at a time, for a recording too long to hold: the memory is one
 /// section's gaps and the sections completed.
 #[derive(Debug, Clone)]
@@ -69,6 +75,8 @@ pub struct SectionBuilder {
     pitch_deg: f64,
     phase_deg: f64,
     prev: Option<TrueSample>,
+    /// Rows skipped since `prev`.
+    skipped: u32,
     gap_um: Vec<f64>,
     filled: usize,
     y_sum: f64,
@@ -82,6 +90,7 @@ impl SectionBuilder {
             pitch_deg: 360.0 / z as f64,
             phase_deg,
             prev: None,
+            skipped: 0,
             gap_um: vec![f64::NAN; z],
             filled: 0,
             y_sum: 0.0,
@@ -91,6 +100,7 @@ impl SectionBuilder {
 
     /// The next sample of a continuous stretch of the cut.
     pub fn add(&mut self, b: TrueSample) {
+        self.skipped = 0;
         let Some(a) = self.prev.replace(b) else {
             return;
         };
@@ -129,6 +139,16 @@ impl SectionBuilder {
     /// one; the gaps already crossed in the open section stay.
     pub fn interrupt(&mut self) {
         self.prev = None;
+        self.skipped = 0;
+    }
+
+    /// A row of the cut without a true sample: bridged up to [`MAX_BRIDGED_ROWS`] in a row
+    /// (the next sample is interpolated from the last), beyond that the stretch ends.
+    pub fn skip(&mut self) {
+        self.skipped += 1;
+        if self.skipped > MAX_BRIDGED_ROWS {
+            self.interrupt();
+        }
     }
 
     /// The sections completed.
@@ -270,6 +290,36 @@ mod tests {
                 }
             })
             .collect()
+    }
+
+    #[test]
+    fn short_runs_without_truth_are_bridged_and_a_long_one_ends_the_stretch() {
+        // An error linear in the table angle: interpolation across a missing run is exact.
+        let samples = cut(3.0, 1000, false, |deg, _| 0.01 * deg);
+        let full = sections(&samples, 17, 0.0);
+        assert_eq!(full.len(), 3);
+        // Every 7th..(7+k)th sample of each 20 missing, k up to the bridge: the same gear.
+        let with_gaps = |missing: usize| {
+            let mut b = SectionBuilder::new(17, 0.0);
+            for (i, s) in samples.iter().enumerate() {
+                if i % 40 >= 7 && i % 40 < 7 + missing {
+                    b.skip();
+                } else {
+                    b.add(*s);
+                }
+            }
+            b.finish()
+        };
+        let bridged = with_gaps(MAX_BRIDGED_ROWS as usize);
+        assert_eq!(bridged.len(), full.len());
+        for (a, b) in bridged.iter().zip(&full) {
+            for (x, y) in a.gap_um.iter().zip(&b.gap_um) {
+                assert!((x - y).abs() < 1e-9, "{x} vs {y}");
+            }
+        }
+        // One row more than the bridge every 40: each such run ends the stretch, the gaps
+        // crossed in it stay open, and fewer sections complete.
+        assert!(with_gaps(MAX_BRIDGED_ROWS as usize + 1).len() < full.len());
     }
 
     #[test]

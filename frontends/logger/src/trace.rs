@@ -231,13 +231,16 @@ impl SummaryBuilder {
                 .iter_mut()
                 .zip([row.sync_err_arcsec, row.blank_err_arcsec])
             {
-                match err.filter(|_| in_cut) {
-                    Some(e) => b.add(TrueSample {
+                match (in_cut, err) {
+                    (true, Some(e)) => b.add(TrueSample {
                         table_deg: row.table_deg,
                         y_mm: row.y_mm,
                         error_um: arcsec_to_um_at_radius(e, self.pitch_radius_mm),
                     }),
-                    None => b.interrupt(),
+                    // In the cut without a true sample (a recording's truth has none for a
+                    // SYNC the simulated machine did not answer): bridged when short.
+                    (true, None) => b.skip(),
+                    (false, _) => b.interrupt(),
                 }
             }
         }
