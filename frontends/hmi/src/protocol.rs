@@ -512,7 +512,7 @@ impl Answer {
             refusal: if ok {
                 None
             } else {
-                codec::Refusal::from_code(r.refusal).map(codec::Refusal::text)
+                codec::Refusal::from_code(r.refusal).map(codec::Refusal::name)
             },
             text: r.text(),
         }

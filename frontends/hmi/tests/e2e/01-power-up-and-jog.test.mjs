@@ -2,7 +2,9 @@
 // Chromium, checked against the loop's own state (`hob status --json`).
 import { test, after } from "node:test";
 import assert from "node:assert/strict";
-import { startHmi, browser, status, waitFor, shot, touchHold } from "./lib/hmi.mjs";
+import { readFileSync } from "node:fs";
+import { join } from "node:path";
+import { startHmi, browser, status, waitFor, shot, touchHold, need } from "./lib/hmi.mjs";
 
 const hmi = await startHmi();
 const ctx = await browser();
@@ -141,12 +143,16 @@ test("a flank touch is the loop's to check: refused while the spindle turns, tak
   await page.locator('[data-testid="touch-flank-minus"]').tap();
   const refused = page.locator('[data-testid="toast"].refused', { hasText: "FLANK AT B" });
   await refused.first().waitFor({ timeout: 10000 });
-  assert.match(await refused.first().innerText(), /spindle turns/);
+  assert.match(await refused.first().innerText(), /REFUSED: touch flank refused: the spindle turns/);
+  assert.equal(await refused.first().getAttribute("data-refusal"), "spindle-turning");
   await page.locator('[data-testid="cmd-spindle"]').nth(1).tap();
   await waitFor("the spindle standing", () => Math.abs(status().spindle_rpm) < 0.05, 60000);
   await page.locator('[data-testid="touch-flank-minus"]').tap();
   await page.locator('[data-testid="toast"].ok', { hasText: "FLANK AT B" }).first().waitFor({ timeout: 10000 });
-  await waitFor("the touch in the loop's events", () => status().events.some((e) => e.text.startsWith("flank touched, the table turned negative")), 10000);
+  // The loop's event, as the logger recorded it (a fresh `hob status` may come before the
+  // loop hands it the events' history).
+  const events = join(need("HOB_LOG_DIR"), "events.log");
+  await waitFor("the touch in the loop's events (the logger's events.log)", () => readFileSync(events, "utf8").includes("flank touched, the table turned negative"), 10000);
   await shot(page, "align");
   await page.close();
 });

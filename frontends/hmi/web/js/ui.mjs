@@ -24,7 +24,7 @@ export function CmdButton({ conn, op, fields, label, cls = "", disabled, onAnswe
 export function Toasts({ conn }) {
   const list = conn.toasts || [];
   return html`<div class="toasts">${list.map(
-    (t) => html`<div class=${`toast ${t.ok ? "ok" : "refused"}`} data-testid="toast" onClick=${() => conn.dismiss(t.key)}>
-      <b>${t.label}:</b> ${t.ok ? "accepted" : "REFUSED"}${t.refusal ? ` (${t.refusal})` : ""} ${t.text}</div>`,
+    (t) => html`<div class=${`toast ${t.ok ? "ok" : "refused"}`} data-testid="toast" data-refusal=${t.refusal || ""} onClick=${() => conn.dismiss(t.key)}>
+      <b>${t.label}:</b> ${t.ok ? t.text || "accepted" : html`REFUSED: ${t.text}`}</div>`,
   )}</div>`;
 }
