@@ -405,7 +405,22 @@ fn service_session() {
     let capture = (b.iface != "shm" && which("candump")).then(|| {
         let c = b.command_any("candump", &["-L", "-r", "33554432", &iface]);
         let p = b.spawn_cmd("candump", c, "kill-rt.candump");
-        std::thread::sleep(Duration::from_millis(500));
+        // The loop's SYNCs in the capture before hob-rt is killed: in the emulated guest
+        // candump once took longer than the half second this waited to start capturing
+        // ("no SYNC before the reaction in the capture", 2026-11-26).
+        let log = b.log_of(p);
+        b.wait_for(
+            "candump capturing the loop's SYNCs",
+            Duration::from_secs(30),
+            |_| {
+                let frames = parse_candump(&std::fs::read_to_string(&log).unwrap_or_default());
+                if frames.iter().any(|f| f.id == 0x80) {
+                    Ok(())
+                } else {
+                    Err(format!("{} frames, no SYNC", frames.len()))
+                }
+            },
+        );
         p
     });
     b.step(
