@@ -267,6 +267,16 @@ impl Sequencer {
     }
 }
 
+/// Set-up commands and starts need the machine idle: the refusal for any other state.
+fn idle(state: State) -> Result<(), Refusal> {
+    match state {
+        State::Idle => Ok(()),
+        State::Init => Err(Refusal::NotReady),
+        State::Jog => Err(Refusal::JogActive),
+        _ => Err(Refusal::CycleRunning),
+    }
+}
+
 impl Controller {
     /// Loads a program (built outside the loop). Refused during a cycle or a fault.
     pub fn load(&mut self, program: CycleProgram) -> Result<(), Refusal> {
@@ -416,12 +426,7 @@ impl Controller {
             } => self.jog_continuous(axis, direction, speed_per_min),
             Command::JogRelease => self.jog_release(),
             Command::Home { axes } => {
-                match state {
-                    State::Idle => {}
-                    State::Init => return Err(Refusal::NotReady),
-                    State::Jog => return Err(Refusal::JogActive),
-                    _ => return Err(Refusal::CycleRunning),
-                }
+                idle(state)?;
                 if !self.drives_ready() {
                     return Err(Refusal::DrivesNotEnabled);
                 }
@@ -429,12 +434,7 @@ impl Controller {
                 Ok(())
             }
             Command::TouchOff { axis, value_mm } => {
-                match state {
-                    State::Idle => {}
-                    State::Init => return Err(Refusal::NotReady),
-                    State::Jog => return Err(Refusal::JogActive),
-                    _ => return Err(Refusal::CycleRunning),
-                }
+                idle(state)?;
                 if !self.referencing.is_referenced(axis) || axis == Axis::B {
                     return Err(if axis == Axis::B {
                         Refusal::BadValue
@@ -503,12 +503,7 @@ impl Controller {
                 Ok(())
             }
             Command::TouchFlank { turned } => {
-                match state {
-                    State::Idle => {}
-                    State::Init => return Err(Refusal::NotReady),
-                    State::Jog => return Err(Refusal::JogActive),
-                    _ => return Err(Refusal::CycleRunning),
-                }
+                idle(state)?;
                 // The gearbox's law comes with the program.
                 self.program.ok_or(Refusal::NoProgram)?;
                 self.touch_flank(turned)
@@ -519,12 +514,7 @@ impl Controller {
     /// What a start (or a continue) needs: idle, referenced, the chain closed, the
     /// drives enabled, the program's moves within the soft limits.
     fn check_can_start(&self, program: &CycleProgram, single: bool) -> Result<(), Refusal> {
-        match self.sequencer.state {
-            State::Idle => {}
-            State::Init => return Err(Refusal::NotReady),
-            State::Jog => return Err(Refusal::JogActive),
-            _ => return Err(Refusal::CycleRunning),
-        }
+        idle(self.sequencer.state)?;
         if single && program.single().is_none() {
             return Err(Refusal::NoSingleDepth);
         }
