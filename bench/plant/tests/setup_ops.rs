@@ -110,6 +110,16 @@ impl Law {
     }
 
     /// How far phase `b` lies from the tooth gap of phase `a` (deg, within half a pitch).
+    /// The true phase of a pass's gaps: the mean over the first 2 s of its cut (where the
+    /// gaps are cut).
+    fn cut_phase_deg(&self, rows: &[TraceRow], pass: u32) -> f64 {
+        self.mean_phase_deg(
+            rows.iter()
+                .filter(|r| r.state == State::Cut && r.pass == pass)
+                .take(2000),
+        )
+    }
+
     fn off_gap_deg(&self, a: f64, b: f64) -> f64 {
         let d = b - a;
         d - (d / self.pitch_deg).round() * self.pitch_deg
@@ -499,16 +509,9 @@ fn continue_after_a_fault_in_the_second_pass_cuts_the_same_tooth_gaps() {
     // law, averaged over the first 2 s of a pass's cut (where the gaps are cut), at pass
     // 1's first engagement, at pass 2's before the fault, and at the re-engagement after
     // "continue".
-    let phase_at = |rows: &[TraceRow], pass: u32| {
-        law.mean_phase_deg(
-            rows.iter()
-                .filter(|r| r.state == State::Cut && r.pass == pass)
-                .take(2000),
-        )
-    };
-    let first = phase_at(&before.rows, 1);
-    let second = phase_at(&before.rows, 2);
-    let again = phase_at(&resumed, 2);
+    let first = law.cut_phase_deg(&before.rows, 1);
+    let second = law.cut_phase_deg(&before.rows, 2);
+    let again = law.cut_phase_deg(&resumed, 2);
     // Tolerance: a shift of the gaps between passes is a pitch error of the finished
     // gear, so it may take at most the controller's whole share of the pitch tolerance,
     // the sync error bound (a quarter of grade 5, 8.6 arcsec here). Each phase is a mean
@@ -617,14 +620,7 @@ fn touching_both_flanks_of_a_cut_gap_aligns_a_part_whose_table_lost_its_position
     assert_eq!(sim.command(Command::Continue), Err(Refusal::TablePositionLost));
 
     // Pass 1's gaps on the machine's true angles; the gap nearest the table now.
-    let phase_at = |rows: &[TraceRow], pass: u32| {
-        law.mean_phase_deg(
-            rows.iter()
-                .filter(|r| r.state == State::Cut && r.pass == pass)
-                .take(2000),
-        )
-    };
-    let first = phase_at(&before.rows, 1);
+    let first = law.cut_phase_deg(&before.rows, 1);
     let now = law.phase_deg(&sim.step());
     let centre = now + law.off_gap_deg(now, first);
     // The hob's tooth has this much play either side in the gap: a touch of one flank
@@ -703,7 +699,7 @@ fn touching_both_flanks_of_a_cut_gap_aligns_a_part_whose_table_lost_its_position
         "{:?}",
         resumed.faults()
     );
-    let again = phase_at(&resumed.rows, 2);
+    let again = law.cut_phase_deg(&resumed.rows, 2);
     let r_mm = plan.pitch_diameter_mm / 2.0;
     let tolerance_arcsec = um_to_arcsec_at_radius(bound_um(&plan), r_mm);
     let off_first = law.off_gap_deg(first, again) * 3600.0;
