@@ -12,6 +12,9 @@
 //! | `command` | request-response  | [`CommandRequest`] → [`CommandResponse`] | frontends → `hob-rt` |
 //! | `can`     | publish-subscribe | [`CanFrameSample`]                | the shared-memory virtual CAN bus |
 //!
+//! Frontends of another user than the bus's (the HMI, an operator's shell) reach these
+//! through `hob-gateway` ([`gateway`]; `HOB_GATEWAY`): [`follow`] and [`commands`] pick the way.
+//!
 //! The liveness signal is the `state` stream itself: a new sample every millisecond. The
 //! watchdog waits on it with its own deadline, so the loop never calls `notify()` (a
 //! syscall per cycle) for anybody.
@@ -23,14 +26,16 @@
 //! every frontend decodes with [`codec`] and prints its texts.
 
 pub mod codec;
+pub mod gateway;
 mod ports;
 pub mod request;
 mod types;
 
+pub use gateway::{Commands, Feed, commands, follow};
 pub use ports::{
-    CAN_BUFFER, CanError, CanPort, Client, IpcError, Ports, PubSub, STATE_BUFFER, command_server, instance,
-    node, open_can, open_can_port, open_command, open_events, open_recorder, open_state, open_stats,
-    publisher, service_name, use_instance,
+    CAN_BUFFER, CanError, CanPort, Client, EVENT_BUFFER, EVENT_HISTORY, IpcError, Ports, PubSub,
+    STATE_BUFFER, command_server, instance, node, open_can, open_can_port, open_command, open_events,
+    open_recorder, open_state, open_stats, publisher, service_name, use_instance,
 };
 pub use types::*;
 

@@ -37,7 +37,12 @@ pub struct IpcError(pub String);
 
 impl std::fmt::Display for IpcError {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        write!(f, "shared-memory services: {}", self.0)
+        // The gateway's own failures name it; the rest are iceoryx2's.
+        if self.0.starts_with("the gateway") {
+            write!(f, "{}", self.0)
+        } else {
+            write!(f, "shared-memory services: {}", self.0)
+        }
     }
 }
 

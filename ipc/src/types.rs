@@ -2,6 +2,7 @@
 //! the layout is the same in every process built from this crate.
 
 use iceoryx2::prelude::ZeroCopySend;
+use serde::{Deserialize, Serialize};
 
 /// Capacity of the text of a command request (a program file's TOML).
 pub const REQUEST_TEXT_BYTES: usize = 16 * 1024;
@@ -27,7 +28,7 @@ pub fn read_text(buf: &[u8], len: u32) -> String {
 }
 
 /// One axis: actual and commanded position (mm, or deg for B).
-#[derive(Debug, Clone, Copy, Default, PartialEq, ZeroCopySend)]
+#[derive(Debug, Clone, Copy, Default, PartialEq, ZeroCopySend, Serialize, Deserialize)]
 #[repr(C)]
 pub struct AxisSample {
     pub actual: f64,
@@ -35,7 +36,7 @@ pub struct AxisSample {
 }
 
 /// An alarm: code 0 is none; axis/end/values depend on the code.
-#[derive(Debug, Clone, Copy, Default, PartialEq, ZeroCopySend)]
+#[derive(Debug, Clone, Copy, Default, PartialEq, ZeroCopySend, Serialize, Deserialize)]
 #[repr(C)]
 pub struct AlarmCode {
     pub code: u32,
@@ -49,7 +50,7 @@ pub struct AlarmCode {
 }
 
 /// One sample per control cycle.
-#[derive(Debug, Clone, Copy, Default, PartialEq, ZeroCopySend)]
+#[derive(Debug, Clone, Copy, Default, PartialEq, ZeroCopySend, Serialize, Deserialize)]
 #[repr(C)]
 pub struct StateSample {
     /// The loop's cycle counter (consecutive: a gap is a lost sample).
@@ -197,7 +198,7 @@ pub mod bus_kind {
 }
 
 /// An event of the loop. `a`, `b`, `value` depend on `kind`.
-#[derive(Debug, Clone, Copy, PartialEq, ZeroCopySend)]
+#[derive(Debug, Clone, Copy, PartialEq, ZeroCopySend, Serialize, Deserialize)]
 #[repr(C)]
 pub struct EventSample {
     /// Consecutive event number (a gap is a lost event).
@@ -210,6 +211,7 @@ pub struct EventSample {
     pub text_len: u32,
     pub alarm: AlarmCode,
     pub value: f64,
+    #[serde(with = "crate::gateway::fixed_bytes")]
     pub text: [u8; EVENT_TEXT_BYTES],
 }
 
@@ -236,7 +238,7 @@ impl EventSample {
 }
 
 /// A latency distribution summary, ns.
-#[derive(Debug, Clone, Copy, Default, PartialEq, ZeroCopySend)]
+#[derive(Debug, Clone, Copy, Default, PartialEq, ZeroCopySend, Serialize, Deserialize)]
 #[repr(C)]
 pub struct Percentiles {
     pub count: u64,
@@ -254,7 +256,7 @@ pub const LOG2_BUCKETS: usize = 32;
 
 /// A whole distribution in powers of two: `counts[i]` values in [2^i, 2^(i+1)) ns (bucket 0
 /// also holds 0, the last everything above).
-#[derive(Debug, Clone, Copy, PartialEq, ZeroCopySend)]
+#[derive(Debug, Clone, Copy, PartialEq, ZeroCopySend, Serialize, Deserialize)]
 #[repr(C)]
 pub struct Log2Histogram {
     pub counts: [u64; LOG2_BUCKETS],
@@ -284,7 +286,7 @@ impl Log2Histogram {
 /// The recorder's health, published by `hob-logger` (its service's only publisher) every
 /// 200 ms: whether it can write, and what it received but could not write (disk full, a
 /// write failed). `hob status` and the HMI show it; the loop never waits for it.
-#[derive(Debug, Clone, Copy, Default, PartialEq, ZeroCopySend)]
+#[derive(Debug, Clone, Copy, Default, PartialEq, ZeroCopySend, Serialize, Deserialize)]
 #[repr(C)]
 pub struct RecorderSample {
     pub seq: u64,
@@ -308,7 +310,7 @@ pub struct RecorderSample {
 }
 
 /// The loop's own timing since it started, published by `hob-rt` twice a second.
-#[derive(Debug, Clone, Copy, Default, PartialEq, ZeroCopySend)]
+#[derive(Debug, Clone, Copy, Default, PartialEq, ZeroCopySend, Serialize, Deserialize)]
 #[repr(C)]
 pub struct StatsSample {
     pub cycle: u64,
@@ -380,7 +382,7 @@ pub mod direction {
 }
 
 /// A request from a frontend.
-#[derive(Debug, Clone, Copy, PartialEq, ZeroCopySend)]
+#[derive(Debug, Clone, Copy, PartialEq, ZeroCopySend, Serialize, Deserialize)]
 #[repr(C)]
 pub struct CommandRequest {
     pub command: u32,
@@ -396,7 +398,9 @@ pub struct CommandRequest {
     /// LOAD_PROGRAM: the program file's name (for messages) and its TOML text.
     pub name_len: u32,
     pub text_len: u32,
+    #[serde(with = "crate::gateway::fixed_bytes")]
     pub name: [u8; 256],
+    #[serde(with = "crate::gateway::fixed_bytes")]
     pub text: [u8; REQUEST_TEXT_BYTES],
 }
 
@@ -440,7 +444,7 @@ impl CommandRequest {
 }
 
 /// The loop's answer.
-#[derive(Debug, Clone, Copy, PartialEq, ZeroCopySend)]
+#[derive(Debug, Clone, Copy, PartialEq, ZeroCopySend, Serialize, Deserialize)]
 #[repr(C)]
 pub struct CommandResponse {
     pub accepted: u8,
@@ -448,6 +452,7 @@ pub struct CommandResponse {
     /// Refusal code when refused (0 when the request itself was malformed).
     pub refusal: u32,
     pub text_len: u32,
+    #[serde(with = "crate::gateway::fixed_bytes")]
     pub text: [u8; RESPONSE_TEXT_BYTES],
 }
 

@@ -1,8 +1,9 @@
 //! The deployment's units (`deploy/systemd/`), read as systemd reads their keys: every
-//! process of hob runs as the unprivileged user `hob`, cannot gain privileges, sees the
-//! file system read-only but for hob's own state and the bus (so none can write the machine
-//! file in /etc/hob), and only the loop and the watchdog hold a capability, each the ones
-//! it needs (README, "Deploying on the machine PC").
+//! process of the bus runs as the unprivileged user `hob`, the HMI as `hob-hmi` through the
+//! gateway; none can gain privileges, each sees the file system read-only but for hob's own
+//! state and the bus (so none can write the machine file in /etc/hob), and only the loop and
+//! the watchdog hold a capability, each the ones it needs (README, "Deploying on the
+//! machine PC").
 #![allow(clippy::unwrap_used)]
 
 use std::collections::BTreeMap;
@@ -35,15 +36,16 @@ fn service_keys(unit: &str) -> BTreeMap<String, String> {
 #[test]
 fn every_process_runs_unprivileged_and_cannot_write_the_machine_file() {
     let caps = [
-        ("hob-rt.service", "CAP_SYS_NICE CAP_IPC_LOCK"),
-        ("hob-watchdog.service", "CAP_SYS_NICE"),
-        ("hob-logger.service", ""),
-        ("hob-hmi.service", ""),
+        ("hob-rt.service", "CAP_SYS_NICE CAP_IPC_LOCK", "hob"),
+        ("hob-watchdog.service", "CAP_SYS_NICE", "hob"),
+        ("hob-logger.service", "", "hob"),
+        ("hob-gateway.service", "", "hob"),
+        ("hob-hmi.service", "", "hob-hmi"),
     ];
-    for (unit, allowed) in caps {
+    for (unit, allowed, user) in caps {
         let k = service_keys(unit);
         let get = |key: &str| k.get(key).map(String::as_str);
-        assert_eq!(get("User"), Some("hob"), "{unit}");
+        assert_eq!(get("User"), Some(user), "{unit}");
         assert_eq!(get("NoNewPrivileges"), Some("yes"), "{unit}");
         assert_eq!(
             get("ProtectSystem"),
@@ -67,4 +69,43 @@ fn every_process_runs_unprivileged_and_cannot_write_the_machine_file() {
         let exec = get("ExecStart").unwrap_or("");
         assert!(exec.starts_with("/usr/local/bin/hob"), "{unit}: {exec}");
     }
+}
+
+/// The HMI faces people: it is not a process of the bus (its user cannot open the bus's
+/// files) but reaches the loop through the gateway's socket, and may write only the library;
+/// the gateway lets the operators' group command and the viewers' group watch.
+#[test]
+fn the_hmi_reaches_the_loop_through_the_gateway_as_a_user_of_the_operators_group() {
+    let hmi = service_keys("hob-hmi.service");
+    let gateway = service_keys("hob-gateway.service");
+    let socket = hmi
+        .get("Environment")
+        .and_then(|e| e.strip_prefix("HOB_GATEWAY="))
+        .expect("hob-hmi.service: Environment=HOB_GATEWAY=...");
+    let exec = gateway.get("ExecStart").map(String::as_str).unwrap_or("");
+    let args: Vec<&str> = exec.split_whitespace().collect();
+    let value = |flag: &str| {
+        args.iter()
+            .position(|a| *a == flag)
+            .and_then(|i| args.get(i + 1))
+            .copied()
+    };
+    assert_eq!(
+        value("--socket"),
+        Some(socket),
+        "the gateway listens where the HMI looks"
+    );
+    assert_eq!(
+        value("--operators"),
+        hmi.get("Group").map(String::as_str),
+        "the HMI's group commands"
+    );
+    assert_eq!(value("--viewers"), Some("hob-view"));
+    assert!(socket.starts_with("/run/hob/"), "{socket}");
+    assert_eq!(gateway.get("RuntimeDirectory").map(String::as_str), Some("hob"));
+    assert_eq!(
+        hmi.get("ReadWritePaths").map(String::as_str),
+        Some("/var/lib/hob/library"),
+        "the HMI writes the library alone, not the bus's files in /tmp"
+    );
 }

@@ -54,6 +54,8 @@ const ALLOWED: &[(&str, &[&str])] = &[
             "hob-rt-os",
         ],
     ),
+    // The gateway for the frontends of other users: forwards the wire, no control core.
+    ("hob-gateway", &["hob-ipc"]),
     (
         "hob-cli",
         &[
@@ -177,7 +179,14 @@ const PURE: &[(&str, &[&str])] = &[
 const EDGE_OUTSIDE: &[(&str, &[&str])] = &[("hob-store", &["serde", "toml"])];
 
 /// What the product links: never the simulated machine, the virtual machine or the lab.
-const PRODUCT: &[&str] = &["hob-service", "hob-logger", "hob-watchdog", "hob-cli", "hob-hmi"];
+const PRODUCT: &[&str] = &[
+    "hob-service",
+    "hob-logger",
+    "hob-watchdog",
+    "hob-gateway",
+    "hob-cli",
+    "hob-hmi",
+];
 const SIMULATORS: &[&str] = &["hob-plant", "hob-virtual-machine", "hob-lab", "hob-bench"];
 
 struct Workspace {

@@ -1,9 +1,10 @@
 //! `hob status|load|start|hold|resume|stop|reset|jog`: the running service, through the
 //! same shared-memory interfaces as every frontend (the HMI included): the `state`,
-//! `events` and `stats` streams, and the `command` request-response service.
+//! `events` and `stats` streams, and the `command` request-response service; through
+//! `hob-gateway` when `HOB_GATEWAY` names its socket (a user who is not the bus's).
 
 use hob_ipc::codec;
-use hob_ipc::{CommandRequest, CommandResponse, EventSample, Ports, StateSample, StatsSample};
+use hob_ipc::{CommandRequest, CommandResponse, EventSample, Feed, StateSample, StatsSample};
 use std::fmt::Write as _;
 use std::path::Path;
 use std::time::{Duration, Instant};
@@ -14,8 +15,8 @@ const ANSWER: Duration = Duration::from_secs(3);
 /// Sends a request; Ok(text) when accepted, Err((exit code, text)) otherwise: 2 refused,
 /// 1 no answer.
 pub fn request(req: &CommandRequest) -> Result<String, (u8, String)> {
-    let client = hob_ipc::Client::connect(&format!("hob-cli-{}", std::process::id()))
-        .map_err(|e| (1, e.to_string()))?;
+    let mut client =
+        hob_ipc::commands(&format!("hob-cli-{}", std::process::id())).map_err(|e| (1, e.to_string()))?;
     let r: CommandResponse = client.request(req, ANSWER).map_err(|e| (1, e.to_string()))?;
     if r.accepted != 0 {
         Ok(r.text())
@@ -93,8 +94,8 @@ pub fn jog_hold(
     if !(seconds.is_finite() && seconds >= 0.0) {
         return Err((2, format!("jog-hold: --seconds {seconds} is not a duration")));
     }
-    let client = hob_ipc::Client::connect(&format!("hob-cli-{}", std::process::id()))
-        .map_err(|e| (1, e.to_string()))?;
+    let mut client =
+        hob_ipc::commands(&format!("hob-cli-{}", std::process::id())).map_err(|e| (1, e.to_string()))?;
     let end = Instant::now() + Duration::from_secs_f64(seconds);
     let mut renewals = 0u32;
     loop {
@@ -144,7 +145,7 @@ fn monotonic_ns() -> u64 {
 }
 
 /// Reads the newest state, the loop's stats and the recent events.
-pub fn snapshot(ports: &Ports) -> Result<Snapshot, String> {
+pub fn snapshot(ports: &mut dyn Feed) -> Result<Snapshot, String> {
     let state = ports.wait_state(Duration::from_secs(2)).ok_or_else(|| {
         format!(
             "no state from hob-rt within 2 s (is it running? HOB_INSTANCE={})",
@@ -432,9 +433,9 @@ pub fn status_json(s: &Snapshot) -> String {
 
 /// `hob status`: once, or `--watch` (a line per half second until interrupted).
 pub fn status(watch: bool, json: bool) -> Result<String, (u8, String)> {
-    let ports =
-        Ports::subscribe(&format!("hob-status-{}", std::process::id())).map_err(|e| (1, e.to_string()))?;
-    let snap = snapshot(&ports).map_err(|e| (1, e))?;
+    let mut ports =
+        hob_ipc::follow(&format!("hob-status-{}", std::process::id())).map_err(|e| (1, e.to_string()))?;
+    let snap = snapshot(ports.as_mut()).map_err(|e| (1, e))?;
     if !watch {
         return Ok(if json {
             status_json(&snap)

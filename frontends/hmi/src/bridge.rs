@@ -215,11 +215,11 @@ pub fn utc_ms() -> u64 {
         .map_or(0, |d| d.as_millis() as u64)
 }
 
-/// The bridge thread: subscribes as `hob-hmi-PID`, drains every [`DRAIN_EVERY`], publishes
+/// The bridge thread: subscribes as `hob-hmi-PID` (or follows through `hob-gateway` when
+/// `HOB_GATEWAY` names it), drains every [`DRAIN_EVERY`], publishes
 /// a frame every [`FRAME_EVERY`], until `stop`.
 pub fn run(mut bridge: Bridge, stop: &AtomicBool) -> Result<(), String> {
-    let ports =
-        hob_ipc::Ports::subscribe(&format!("hob-hmi-{}", std::process::id())).map_err(|e| e.to_string())?;
+    let mut ports = hob_ipc::follow(&format!("hob-hmi-{}", std::process::id())).map_err(|e| e.to_string())?;
     let mut next_frame = Instant::now() + FRAME_EVERY;
     while !stop.load(Ordering::Relaxed) {
         let now = Instant::now();

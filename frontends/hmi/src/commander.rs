@@ -46,15 +46,16 @@ impl Commander {
 }
 
 /// Serves jobs until every [`Commander`] is dropped; connects to the loop's command service
-/// as `hob-hmi-cmd-PID` (again after a failure, so a loop started later is reached).
+/// as `hob-hmi-cmd-PID`, or to `hob-gateway` when `HOB_GATEWAY` names it (again after a failure,
+/// so a loop started later is reached).
 pub fn run(jobs: mpsc::Receiver<Job>) {
     let name = format!("hob-hmi-cmd-{}", std::process::id());
-    let mut client: Option<hob_ipc::Client> = None;
+    let mut client: Option<Box<dyn hob_ipc::Commands>> = None;
     for job in jobs {
         if client.is_none() {
-            client = hob_ipc::Client::connect(&name).ok();
+            client = hob_ipc::commands(&name).ok();
         }
-        let reply = match &client {
+        let reply = match &mut client {
             Some(c) => c.request(&job.request, ANSWER).map_err(|e| {
                 format!(
                     "no answer from the loop (hob-rt) within {} s: {e}",

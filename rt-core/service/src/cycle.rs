@@ -31,6 +31,9 @@ pub struct LoopCounters {
     pub cycle: AtomicU64,
     pub overruns: AtomicU64,
     pub tx_errors: AtomicU64,
+    /// State samples the loop could not publish (no sample free to loan, or the send
+    /// failed): a follower sees them as a gap it did not cause.
+    pub state_unpublished: AtomicU64,
 }
 
 /// Everything the loop owns.
@@ -199,8 +202,12 @@ impl<B: CanBus> RtLoop<B> {
             s.nmt_state[i] = l.state.map_or(hob_ipc::NMT_NOT_HEARD, |n| n as u8);
             s.heartbeat_age_cycles[i] = l.cycles_since_heartbeat;
         }
-        if let Ok(sample) = self.state_pub.loan_uninit() {
-            let _ = sample.write_payload(s).send();
+        let published = match self.state_pub.loan_uninit() {
+            Ok(sample) => sample.write_payload(s).send().is_ok(),
+            Err(_) => false,
+        };
+        if !published {
+            self.counters.state_unpublished.fetch_add(1, Ordering::Relaxed);
         }
         self.publish_events(status.cycle);
         self.counters.cycle.store(status.cycle, Ordering::Relaxed);

@@ -508,9 +508,10 @@ impl Stopped {
             .join()
             .map_err(|_| (1, "stats thread panicked".to_string()))?;
         let overruns = self.counters.overruns.load(Ordering::Relaxed);
+        let unpublished = self.counters.state_unpublished.load(Ordering::Relaxed);
         let (allocations, pool_blocks) = alloc_guard::counts().unwrap_or((0, 0));
         eprintln!(
-            "hob-rt: stopped in state {} after {} cycles, {overruns} overruns; in cycles: {allocations} system heap allocations, {pool_blocks} pool blocks",
+            "hob-rt: stopped in state {} after {} cycles, {overruns} overruns, {unpublished} state samples not published; in cycles: {allocations} system heap allocations, {pool_blocks} pool blocks",
             self.status.state.name(),
             self.status.cycle,
         );

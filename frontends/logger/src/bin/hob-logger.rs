@@ -58,11 +58,22 @@ fn main() -> ExitCode {
     };
     let mut dropped_reported = 0;
     let mut last_report = Instant::now() - Duration::from_secs(1);
+    // The longest this thread went between two drains (the bus keeps 2048 samples: a pause
+    // longer than they last loses the oldest), and when.
+    let mut last_drain = Instant::now();
+    let mut longest_pause = (Duration::ZERO, 0u64);
+    let mut newest_cycle = 0u64;
     loop {
         let stopping = stop.load(Ordering::Relaxed);
+        let pause = last_drain.elapsed();
+        if pause > longest_pause.0 {
+            longest_pause = (pause, newest_cycle);
+        }
+        last_drain = Instant::now();
         // After the stop request: what arrived before it, then the end.
         let mut batch = Vec::new();
         while let Some(s) = ports.next_state() {
+            newest_cycle = s.cycle;
             batch.push(Item::State(s));
         }
         while let Some(e) = ports.next_event() {
@@ -84,6 +95,11 @@ fn main() -> ExitCode {
     }
     drop(forward);
     let _ = writer.join();
+    eprintln!(
+        "hob-logger: the longest pause between two drains of the bus: {:.0} ms (after cycle {})",
+        longest_pause.0.as_secs_f64() * 1e3,
+        longest_pause.1
+    );
     ExitCode::SUCCESS
 }
 

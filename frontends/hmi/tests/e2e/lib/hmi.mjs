@@ -20,7 +20,14 @@ const BIN = () => need("HOB_BIN");
 export function startHmi(port = 0) {
   const args = ["--machine", need("HOB_MACHINE"), "--library", need("HOB_LIBRARY"), "--log-dir", need("HOB_LOG_DIR"),
     "--bind", `127.0.0.1:${port}`, "--vendor", need("HOB_VENDOR")];
-  const proc = spawn(join(BIN(), "hob-hmi"), args, { env: process.env, stdio: ["ignore", "pipe", "pipe"] });
+  // As deployed: another user than the bus's, through hob-gateway (HOB_HMI_USER uid:gid,
+  // HOB_HMI_GATEWAY its socket; bench/system-tests/tests/hmi.rs sets both).
+  const user = process.env.HOB_HMI_USER;
+  const [exe, argv, env] = user
+    ? ["setpriv", ["--reuid", user.split(":")[0], "--regid", user.split(":")[1], "--clear-groups", "--",
+        join(BIN(), "hob-hmi"), ...args], { ...process.env, HOB_GATEWAY: need("HOB_HMI_GATEWAY") }]
+    : [join(BIN(), "hob-hmi"), args, process.env];
+  const proc = spawn(exe, argv, { env, stdio: ["ignore", "pipe", "pipe"] });
   let err = "";
   proc.stderr.on("data", (d) => { err += d; });
   return new Promise((resolve, reject) => {

@@ -1,0 +1,415 @@
+//! `hob-gateway`: the frontends of other users reach the loop through it (`hob_ipc::gate`).
+//!
+//! ```sh
+//! hob-gateway --socket /run/hob/gateway.sock --operators hob-ops --viewers hob-view
+//! ```
+//!
+//! It runs as the bus's user, beside `hob-rt`. Each connection is asked the kernel who is on
+//! the other end (`SO_PEERCRED`): members of the operators' group may watch and command, of
+//! the viewers' group watch; anyone else is refused with a line saying why. Every command is
+//! forwarded to the loop, which checks and answers it as it does the CLI's; each is written
+//! to standard output with who sent it and the loop's answer (the journal keeps it). A slow
+//! watcher loses samples (it sees the gap in the cycle numbers), never slows anybody.
+
+use hob_ipc::gateway::{self as gw, FromGateway, Role, ToGateway};
+use hob_ipc::{CommandRequest, CommandResponse, EventSample};
+use nix::sys::socket::{getsockopt, sockopt::PeerCredentials};
+use nix::unistd::{Gid, Group, Uid, User};
+use std::collections::VecDeque;
+use std::ffi::CString;
+use std::io::{Read, Write};
+use std::os::unix::fs::PermissionsExt;
+use std::os::unix::net::{UnixListener, UnixStream};
+use std::path::{Path, PathBuf};
+use std::sync::mpsc::{self, Receiver, Sender, SyncSender, TrySendError};
+use std::sync::{Arc, Mutex};
+use std::time::Duration;
+
+/// Frames a watcher may have queued before it loses samples (2 s of the loop's state).
+const WATCH_QUEUE: usize = 2048;
+/// Events a new watcher is sent first (as iceoryx2's history gives a new subscriber).
+const EVENT_BACKLOG: usize = hob_ipc::EVENT_HISTORY;
+/// How long a command may wait for the loop's answer.
+const ANSWER: Duration = Duration::from_secs(3);
+
+const USAGE: &str = "usage: hob-gateway --socket PATH --operators GROUP [--viewers GROUP]";
+
+#[derive(Debug)]
+struct Args {
+    socket: PathBuf,
+    operators: Group,
+    viewers: Option<Group>,
+}
+
+/// A group by name or number, or an error naming the option.
+fn group(option: &str, v: &str) -> Result<Group, String> {
+    let found = match v.parse::<u32>() {
+        Ok(n) => Group::from_gid(Gid::from_raw(n)),
+        Err(_) => Group::from_name(v),
+    };
+    match found {
+        Ok(Some(g)) => Ok(g),
+        Ok(None) => Err(format!("{option} {v}: no such group on this PC")),
+        Err(e) => Err(format!("{option} {v}: {e}")),
+    }
+}
+
+fn parse(mut it: impl Iterator<Item = String>) -> Result<Args, String> {
+    let (mut socket, mut operators, mut viewers) = (None, None, None);
+    while let Some(a) = it.next() {
+        let mut value = |name: &str| it.next().ok_or_else(|| format!("{name} needs a value\n{USAGE}"));
+        match a.as_str() {
+            "--socket" => socket = Some(PathBuf::from(value("--socket")?)),
+            "--operators" => operators = Some(group("--operators", &value("--operators")?)?),
+            "--viewers" => viewers = Some(group("--viewers", &value("--viewers")?)?),
+            "-h" | "--help" => return Err(USAGE.into()),
+            other => return Err(format!("unknown argument {other}\n{USAGE}")),
+        }
+    }
+    let operators = operators.ok_or_else(|| format!("--operators is required\n{USAGE}"))?;
+    if viewers.as_ref().is_some_and(|v: &Group| v.gid == operators.gid) {
+        return Err(format!(
+            "--viewers {0}: the same group as --operators {0}",
+            operators.name
+        ));
+    }
+    Ok(Args {
+        socket: socket.ok_or_else(|| format!("--socket is required\n{USAGE}"))?,
+        operators,
+        viewers,
+    })
+}
+
+/// The watchers and what a new one is sent first.
+#[derive(Debug, Default)]
+struct Watchers {
+    queues: Vec<SyncSender<Arc<FromGateway>>>,
+    events: VecDeque<EventSample>,
+    stats: Option<Arc<FromGateway>>,
+    recorder: Option<Arc<FromGateway>>,
+}
+
+impl Watchers {
+    fn send(&mut self, msg: &Arc<FromGateway>) {
+        self.queues.retain(|q| match q.try_send(msg.clone()) {
+            Ok(()) | Err(TrySendError::Full(_)) => true,
+            Err(TrySendError::Disconnected(_)) => false,
+        });
+    }
+}
+
+/// Follows the loop's streams and hands every frame to every watcher.
+fn feed(watchers: Arc<Mutex<Watchers>>) {
+    let name = format!("hob-gateway-{}", std::process::id());
+    loop {
+        let mut ports = match hob_ipc::Ports::subscribe(&name) {
+            Ok(p) => p,
+            Err(e) => {
+                eprintln!("hob-gateway: {e}; trying again in 1 s");
+                std::thread::sleep(Duration::from_secs(1));
+                continue;
+            }
+        };
+        loop {
+            {
+                let mut w = watchers.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
+                while let Some(s) = gw::Feed::next_state(&mut ports) {
+                    w.send(&Arc::new(FromGateway::State(Box::new(s))));
+                }
+                while let Some(e) = gw::Feed::next_event(&mut ports) {
+                    if w.events.len() >= EVENT_BACKLOG {
+                        w.events.pop_front();
+                    }
+                    w.events.push_back(e);
+                    w.send(&Arc::new(FromGateway::Event(Box::new(e))));
+                }
+                if let Some(s) = gw::Feed::latest_stats(&mut ports) {
+                    let m = Arc::new(FromGateway::Stats(Box::new(s)));
+                    w.send(&m);
+                    w.stats = Some(m);
+                }
+                if let Some(r) = gw::Feed::latest_recorder(&mut ports) {
+                    let m = Arc::new(FromGateway::Recorder(Box::new(r)));
+                    w.send(&m);
+                    w.recorder = Some(m);
+                }
+            }
+            std::thread::sleep(Duration::from_millis(2));
+        }
+    }
+}
+
+/// A command and where its answer goes.
+type Job = (Box<CommandRequest>, SyncSender<CommandResponse>);
+
+/// Owns the command client (iceoryx2's ports are not thread-safe): one request at a time.
+fn commander(jobs: Receiver<Job>) {
+    let name = format!("hob-gateway-cmd-{}", std::process::id());
+    let mut client: Option<hob_ipc::Client> = None;
+    for (req, reply) in jobs {
+        if client.is_none() {
+            client = hob_ipc::Client::connect(&name).ok();
+        }
+        let answer = match client.as_ref().map(|c| c.request(&req, ANSWER)) {
+            Some(Ok(a)) => a,
+            Some(Err(e)) => {
+                // Connect again for the next one (a loop restarted since).
+                client = None;
+                CommandResponse::new(false, 0, &format!("no answer from the loop (hob-rt): {e}"))
+            }
+            None => CommandResponse::new(
+                false,
+                0,
+                "cannot reach the loop's command service (is hob-rt running?)",
+            ),
+        };
+        let _ = reply.send(answer);
+    }
+}
+
+/// Who is on the other end: user name, uid, pid and every group it is in.
+fn peer(stream: &UnixStream) -> Result<(String, u32, i32, Vec<u32>), String> {
+    let cred = getsockopt(stream, PeerCredentials).map_err(|e| format!("SO_PEERCRED: {e}"))?;
+    let uid = cred.uid();
+    let mut groups = vec![cred.gid()];
+    let name = match User::from_uid(Uid::from_raw(uid)) {
+        Ok(Some(u)) => {
+            if let Ok(c) = CString::new(u.name.clone())
+                && let Ok(list) = nix::unistd::getgrouplist(&c, u.gid)
+            {
+                groups.extend(list.iter().map(|g| g.as_raw()));
+            }
+            u.name
+        }
+        _ => format!("uid {uid}"),
+    };
+    Ok((name, uid, cred.pid(), groups))
+}
+
+fn write(stream: &mut UnixStream, msg: &FromGateway) -> std::io::Result<()> {
+    let bytes = gw::encode(msg).map_err(std::io::Error::other)?;
+    stream.write_all(&bytes)
+}
+
+/// One connection: its writer drains the connection's queue; this thread reads requests.
+fn serve(
+    mut stream: UnixStream,
+    policy: &Policy,
+    groups_named: &str,
+    watchers: &Arc<Mutex<Watchers>>,
+    jobs: &Sender<Job>,
+) {
+    let (user, uid, pid, groups) = match peer(&stream) {
+        Ok(p) => p,
+        Err(e) => {
+            let _ = write(&mut stream, &FromGateway::Refused(e));
+            return;
+        }
+    };
+    let who = format!("{user} (uid {uid}, pid {pid})");
+    let Some(role) = policy.role(uid, &groups) else {
+        println!("hob-gateway: {who} refused: in none of the groups {groups_named}");
+        let _ = write(
+            &mut stream,
+            &FromGateway::Refused(format!("{who} is in none of the groups {groups_named}")),
+        );
+        return;
+    };
+    println!("hob-gateway: {who} connected, may {}", role.name());
+    let (queue, frames) = mpsc::sync_channel::<Arc<FromGateway>>(WATCH_QUEUE);
+    let _ = queue.send(Arc::new(FromGateway::Welcome {
+        user: user.clone(),
+        role,
+    }));
+    let Ok(mut out) = stream.try_clone() else {
+        return;
+    };
+    // Not joined: it ends at its next write after the connection is shut down below (or
+    // when nothing holds its queue any more).
+    std::thread::spawn(move || {
+        for f in frames {
+            if write(&mut out, &f).is_err() {
+                break;
+            }
+        }
+        let _ = out.shutdown(std::net::Shutdown::Both);
+    });
+    let mut buf = Vec::new();
+    let mut chunk = [0u8; 16 * 1024];
+    'conn: loop {
+        let n = match stream.read(&mut chunk) {
+            Ok(0) | Err(_) => break,
+            Ok(n) => n,
+        };
+        buf.extend_from_slice(&chunk[..n]);
+        loop {
+            let (msg, used) = match gw::decode::<ToGateway>(&buf) {
+                Ok(Some(x)) => x,
+                Ok(None) => break,
+                Err(e) => {
+                    println!("hob-gateway: {who}: {e}; connection closed");
+                    let _ = queue.send(Arc::new(FromGateway::Refused(e)));
+                    break 'conn;
+                }
+            };
+            buf.drain(..used);
+            match msg {
+                ToGateway::Watch => {
+                    let mut w = watchers.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
+                    let first = w
+                        .events
+                        .iter()
+                        .map(|e| Arc::new(FromGateway::Event(Box::new(*e))))
+                        .chain(w.stats.clone())
+                        .chain(w.recorder.clone());
+                    for m in first {
+                        let _ = queue.try_send(m);
+                    }
+                    w.queues.push(queue.clone());
+                }
+                ToGateway::Request(req) => {
+                    let what = hob_ipc::codec::command_name(req.command);
+                    if role != Role::Operate {
+                        println!("hob-gateway: {who}: {what} refused: may watch, not command");
+                        let _ = queue.send(Arc::new(FromGateway::Refused(format!(
+                            "{user} may watch, not command (not in the operators' group)"
+                        ))));
+                        continue;
+                    }
+                    let (reply, answer) = mpsc::sync_channel(1);
+                    let a = if jobs.send((req, reply)).is_ok() {
+                        answer.recv().ok()
+                    } else {
+                        None
+                    }
+                    .unwrap_or_else(|| {
+                        CommandResponse::new(false, 0, "the gateway's command thread has stopped")
+                    });
+                    println!(
+                        "hob-gateway: {who}: {what} -> {}: {}",
+                        if a.accepted != 0 { "accepted" } else { "refused" },
+                        a.text()
+                    );
+                    let _ = queue.send(Arc::new(FromGateway::Answer(Box::new(a))));
+                }
+            }
+        }
+    }
+    let _ = stream.shutdown(std::net::Shutdown::Both);
+}
+
+fn bind(path: &Path) -> Result<UnixListener, String> {
+    if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
+        std::fs::create_dir_all(dir).map_err(|e| format!("--socket {}: {e}", path.display()))?;
+    }
+    // A socket left by a gate that was killed: nobody answers on it.
+    if path.exists() {
+        if UnixStream::connect(path).is_ok() {
+            return Err(format!("--socket {}: another gate answers on it", path.display()));
+        }
+        std::fs::remove_file(path).map_err(|e| format!("--socket {}: {e}", path.display()))?;
+    }
+    let l = UnixListener::bind(path).map_err(|e| format!("--socket {}: {e}", path.display()))?;
+    // Anyone may connect: who may do what is the gateway's check, with an answer that says why.
+    std::fs::set_permissions(path, std::fs::Permissions::from_mode(0o666))
+        .map_err(|e| format!("--socket {}: {e}", path.display()))?;
+    Ok(l)
+}
+
+fn main() {
+    let args = match parse(std::env::args().skip(1)) {
+        Ok(a) => a,
+        Err(e) => {
+            eprintln!("hob-gateway: {e}");
+            std::process::exit(2);
+        }
+    };
+    let listener = match bind(&args.socket) {
+        Ok(l) => l,
+        Err(e) => {
+            eprintln!("hob-gateway: {e}");
+            std::process::exit(2);
+        }
+    };
+    let policy = Policy {
+        own_uid: Uid::effective().as_raw(),
+        operators_gid: args.operators.gid.as_raw(),
+        viewers_gid: args.viewers.as_ref().map(|g| g.gid.as_raw()),
+    };
+    let groups_named = match &args.viewers {
+        Some(v) => format!("{} (operate) and {} (watch)", args.operators.name, v.name),
+        None => format!("{} (operate)", args.operators.name),
+    };
+    println!(
+        "hob-gateway: instance {}, socket {}, groups {groups_named}",
+        hob_ipc::instance(),
+        args.socket.display()
+    );
+    let watchers = Arc::new(Mutex::new(Watchers::default()));
+    {
+        let w = watchers.clone();
+        std::thread::spawn(move || feed(w));
+    }
+    let (jobs, rx) = mpsc::channel::<Job>();
+    std::thread::spawn(move || commander(rx));
+    let policy = Arc::new(policy);
+    let groups_named = Arc::new(groups_named);
+    for stream in listener.incoming() {
+        let Ok(stream) = stream else { continue };
+        let (policy, groups_named, watchers, jobs) = (
+            policy.clone(),
+            groups_named.clone(),
+            watchers.clone(),
+            jobs.clone(),
+        );
+        std::thread::spawn(move || serve(stream, &policy, &groups_named, &watchers, &jobs));
+    }
+}
+
+/// Who may do what, from the peer's user and groups (the gateway's `--operators` and
+/// `--viewers` groups): root and the bus's own user operate; a member of the operators'
+/// group operates, of the viewers' group watches; anyone else is refused.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Policy {
+    pub own_uid: u32,
+    pub operators_gid: u32,
+    pub viewers_gid: Option<u32>,
+}
+
+impl Policy {
+    /// `groups`: the peer's primary group and every group it is a member of.
+    pub fn role(&self, uid: u32, groups: &[u32]) -> Option<Role> {
+        if uid == 0 || uid == self.own_uid || groups.contains(&self.operators_gid) {
+            Some(Role::Operate)
+        } else if self.viewers_gid.is_some_and(|g| groups.contains(&g)) {
+            Some(Role::Watch)
+        } else {
+            None
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_policy_gives_each_peer_its_role() {
+        let p = Policy {
+            own_uid: 998,
+            operators_gid: 1001,
+            viewers_gid: Some(1002),
+        };
+        assert_eq!(p.role(0, &[0]), Some(Role::Operate));
+        assert_eq!(p.role(998, &[998]), Some(Role::Operate));
+        assert_eq!(p.role(1500, &[1500, 1001]), Some(Role::Operate));
+        assert_eq!(p.role(1500, &[1500, 1002]), Some(Role::Watch));
+        assert_eq!(p.role(1500, &[1002, 1001]), Some(Role::Operate));
+        assert_eq!(p.role(1500, &[1500]), None);
+        let no_viewers = Policy {
+            viewers_gid: None,
+            ..p
+        };
+        assert_eq!(no_viewers.role(1500, &[1002]), None);
+    }
+}

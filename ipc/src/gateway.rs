@@ -1,0 +1,511 @@
+//! The gateway: how a frontend of another user reaches the loop. iceoryx2 0.10 makes its files
+//! (`/dev/shm`, `/tmp/iceoryx2`) its creator's alone, and a process that could open them
+//! could also write into them; so the processes of the bus (`hob-rt`, the logger, the
+//! watchdog) run as one user, and the frontends that face people (the HMI, an operator's
+//! shell) run as others and talk to `hob-gateway`, a process of the bus, over a Unix socket.
+//! The gateway knows who is on the other end (the kernel's peer credentials), lets the
+//! members of the operators' group command and the viewers' group watch, and only ever
+//! forwards: the state it sends is the loop's, a command is the loop's to check and answer.
+//!
+//! Wire: frames of a little-endian `u32` length and that many bytes of postcard
+//! ([`ToGateway`] one way, [`FromGateway`] the other). Frontends choose the gateway with `HOB_GATEWAY`
+//! (the socket's path): [`follow`] and [`commands`] then return its client instead of the
+//! shared-memory ports.
+
+use crate::ports::{Client, IpcError, Ports};
+use crate::{CommandRequest, CommandResponse, EventSample, RecorderSample, StateSample, StatsSample};
+use serde::{Deserialize, Serialize};
+use std::collections::VecDeque;
+use std::io::{ErrorKind, Read, Write};
+use std::os::unix::net::UnixStream;
+use std::path::{Path, PathBuf};
+use std::time::{Duration, Instant};
+
+/// The largest frame either side accepts (a program's text is 16 KiB).
+pub const MAX_FRAME: usize = 64 * 1024;
+
+/// What a peer may do: decided by the gateway from the peer's user and groups.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+pub enum Role {
+    /// Watch and command (the operators' group, the bus's own user, root).
+    Operate,
+    /// Watch only (the viewers' group).
+    Watch,
+}
+
+impl Role {
+    pub fn name(self) -> &'static str {
+        match self {
+            Role::Operate => "operate",
+            Role::Watch => "watch",
+        }
+    }
+}
+
+/// A frontend to the gateway.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub enum ToGateway {
+    /// Send me the loop's streams (state, events, stats, the recorder's health).
+    Watch,
+    /// A command for the loop.
+    Request(Box<CommandRequest>),
+}
+
+/// The gateway to a frontend.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub enum FromGateway {
+    /// The first frame of a connection the gateway took: who the peer is and what it may do.
+    Welcome {
+        user: String,
+        role: Role,
+    },
+    /// The connection, or a request on it, was refused by the gateway (the loop never saw it).
+    Refused(String),
+    /// The loop's answer to the last request.
+    Answer(Box<CommandResponse>),
+    State(Box<StateSample>),
+    Event(Box<EventSample>),
+    Stats(Box<StatsSample>),
+    Recorder(Box<RecorderSample>),
+}
+
+/// One frame: length and postcard bytes.
+pub fn encode<T: Serialize>(msg: &T) -> Result<Vec<u8>, String> {
+    let body = postcard::to_stdvec(msg).map_err(|e| format!("encode: {e}"))?;
+    if body.len() > MAX_FRAME {
+        return Err(format!("a frame of {} bytes (at most {MAX_FRAME})", body.len()));
+    }
+    let mut out = Vec::with_capacity(4 + body.len());
+    out.extend_from_slice(&(body.len() as u32).to_le_bytes());
+    out.extend_from_slice(&body);
+    Ok(out)
+}
+
+/// The first whole frame at the start of `buf`: `Ok(None)` when it is not all there yet,
+/// else the message and the bytes it took. A length over [`MAX_FRAME`] or bytes that do
+/// not decode are an error (the connection is closed: nothing after it can be trusted).
+pub fn decode<T: for<'de> Deserialize<'de>>(buf: &[u8]) -> Result<Option<(T, usize)>, String> {
+    let Some(len) = buf.get(..4) else {
+        return Ok(None);
+    };
+    let len = u32::from_le_bytes([len[0], len[1], len[2], len[3]]) as usize;
+    if len > MAX_FRAME {
+        return Err(format!("a frame of {len} bytes (at most {MAX_FRAME})"));
+    }
+    let Some(body) = buf.get(4..4 + len) else {
+        return Ok(None);
+    };
+    let msg = postcard::from_bytes(body).map_err(|e| format!("a frame that does not decode: {e}"))?;
+    Ok(Some((msg, 4 + len)))
+}
+
+/// Serde for the byte arrays of the samples that are longer than serde's 32 (texts): the
+/// bytes, and exactly as many back.
+pub mod fixed_bytes {
+    use serde::de::{Error, Visitor};
+    use serde::{Deserializer, Serializer};
+
+    pub fn serialize<S: Serializer, const N: usize>(a: &[u8; N], s: S) -> Result<S::Ok, S::Error> {
+        s.serialize_bytes(a)
+    }
+
+    pub fn deserialize<'de, D: Deserializer<'de>, const N: usize>(d: D) -> Result<[u8; N], D::Error> {
+        struct Exactly<const N: usize>;
+        impl<const N: usize> Visitor<'_> for Exactly<N> {
+            type Value = [u8; N];
+            fn expecting(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+                write!(f, "{N} bytes")
+            }
+            fn visit_bytes<E: Error>(self, v: &[u8]) -> Result<[u8; N], E> {
+                v.try_into().map_err(|_| E::invalid_length(v.len(), &self))
+            }
+        }
+        d.deserialize_bytes(Exactly::<N>)
+    }
+}
+
+/// The loop's streams as a follower reads them, from the shared memory or through the gateway.
+pub trait Feed: std::fmt::Debug {
+    /// The next state sample waiting, if any.
+    fn next_state(&mut self) -> Option<StateSample>;
+    fn next_event(&mut self) -> Option<EventSample>;
+    /// The newest stats sample waiting, if any.
+    fn latest_stats(&mut self) -> Option<StatsSample>;
+    /// The newest report of the recorder's health waiting, if any.
+    fn latest_recorder(&mut self) -> Option<RecorderSample>;
+
+    /// Waits up to `timeout` for a state sample; returns the newest one waiting.
+    fn wait_state(&mut self, timeout: Duration) -> Option<StateSample> {
+        let end = Instant::now() + timeout;
+        loop {
+            let mut last = None;
+            while let Some(s) = self.next_state() {
+                last = Some(s);
+            }
+            if last.is_some() {
+                return last;
+            }
+            if Instant::now() >= end {
+                return None;
+            }
+            std::thread::sleep(Duration::from_millis(2));
+        }
+    }
+}
+
+/// A frontend's way to send the loop commands.
+pub trait Commands: std::fmt::Debug {
+    /// Sends `req` and waits up to `timeout` for the answer.
+    fn request(&mut self, req: &CommandRequest, timeout: Duration) -> Result<CommandResponse, IpcError>;
+}
+
+impl Feed for Ports {
+    fn next_state(&mut self) -> Option<StateSample> {
+        Ports::next_state(self)
+    }
+    fn next_event(&mut self) -> Option<EventSample> {
+        Ports::next_event(self)
+    }
+    fn latest_stats(&mut self) -> Option<StatsSample> {
+        Ports::latest_stats(self)
+    }
+    fn latest_recorder(&mut self) -> Option<RecorderSample> {
+        Ports::latest_recorder(self)
+    }
+}
+
+impl Commands for Client {
+    fn request(&mut self, req: &CommandRequest, timeout: Duration) -> Result<CommandResponse, IpcError> {
+        Client::request(self, req, timeout)
+    }
+}
+
+/// The gateway's socket a frontend should use: `HOB_GATEWAY`, if set.
+pub fn gateway_path() -> Option<PathBuf> {
+    std::env::var_os("HOB_GATEWAY")
+        .filter(|s| !s.is_empty())
+        .map(PathBuf::from)
+}
+
+/// The loop's streams for a follower named `name`: through the gateway when `HOB_GATEWAY` is set,
+/// else the shared-memory subscribers.
+pub fn follow(name: &str) -> Result<Box<dyn Feed>, IpcError> {
+    Ok(match gateway_path() {
+        Some(p) => {
+            let mut g = GatewayClient::connect(&p)?;
+            g.watch()?;
+            Box::new(g)
+        }
+        None => Box::new(Ports::subscribe(name)?),
+    })
+}
+
+/// A command channel for a frontend named `name`: through the gateway when `HOB_GATEWAY` is set.
+pub fn commands(name: &str) -> Result<Box<dyn Commands>, IpcError> {
+    Ok(match gateway_path() {
+        Some(p) => Box::new(GatewayClient::connect(&p)?),
+        None => Box::new(Client::connect(name)?),
+    })
+}
+
+/// A connection to the gateway.
+#[derive(Debug)]
+pub struct GatewayClient {
+    stream: UnixStream,
+    path: PathBuf,
+    /// Who the gateway says we are, and what we may do.
+    pub user: String,
+    pub role: Role,
+    buf: Vec<u8>,
+    states: VecDeque<StateSample>,
+    events: VecDeque<EventSample>,
+    stats: Option<StatsSample>,
+    recorder: Option<RecorderSample>,
+    /// Asked for the streams (asked again after a reconnection).
+    watching: bool,
+    /// The connection broke: when to try again.
+    retry_at: Option<Instant>,
+}
+
+/// How often a follower whose gateway went away tries to connect again.
+const RECONNECT_EVERY: Duration = Duration::from_secs(1);
+
+impl GatewayClient {
+    /// Connects and reads the gateway's welcome (or its refusal, as the error).
+    pub fn connect(path: &Path) -> Result<Self, IpcError> {
+        let stream = UnixStream::connect(path).map_err(|e| {
+            IpcError(format!(
+                "the gateway {}: {e} (is hob-gateway running?)",
+                path.display()
+            ))
+        })?;
+        let mut c = Self {
+            stream,
+            path: path.to_path_buf(),
+            user: String::new(),
+            role: Role::Watch,
+            buf: Vec::new(),
+            states: VecDeque::new(),
+            events: VecDeque::new(),
+            stats: None,
+            recorder: None,
+            watching: false,
+            retry_at: None,
+        };
+        match c.next_frame(Some(Instant::now() + Duration::from_secs(5)))? {
+            FromGateway::Welcome { user, role } => {
+                c.user = user;
+                c.role = role;
+                Ok(c)
+            }
+            FromGateway::Refused(why) => {
+                Err(IpcError(format!("the gateway {} refused: {why}", path.display())))
+            }
+            other => Err(IpcError(format!(
+                "the gateway {}: {other:?} before its welcome",
+                path.display()
+            ))),
+        }
+    }
+
+    /// Asks for the loop's streams.
+    pub fn watch(&mut self) -> Result<(), IpcError> {
+        self.watching = true;
+        self.send(&ToGateway::Watch)
+    }
+
+    fn send(&mut self, msg: &ToGateway) -> Result<(), IpcError> {
+        let bytes = encode(msg).map_err(IpcError)?;
+        self.stream
+            .write_all(&bytes)
+            .map_err(|e| IpcError(format!("the gateway {}: {e}", self.path.display())))
+    }
+
+    /// The next frame: waits until `deadline` (`None`: only what has arrived already;
+    /// then `ErrorKind::WouldBlock` is reported as an error text "nothing").
+    fn next_frame(&mut self, deadline: Option<Instant>) -> Result<FromGateway, IpcError> {
+        loop {
+            if let Some((msg, used)) =
+                decode::<FromGateway>(&self.buf).map_err(|e| IpcError(format!("the gateway: {e}")))?
+            {
+                self.buf.drain(..used);
+                return Ok(msg);
+            }
+            let wait = match deadline {
+                None => None,
+                Some(d) => {
+                    let left = d.saturating_duration_since(Instant::now());
+                    if left.is_zero() {
+                        return Err(IpcError(format!(
+                            "the gateway {}: no answer in time",
+                            self.path.display()
+                        )));
+                    }
+                    Some(left)
+                }
+            };
+            let _ = self.stream.set_nonblocking(wait.is_none());
+            let _ = self.stream.set_read_timeout(wait);
+            let mut chunk = [0u8; 16 * 1024];
+            match self.stream.read(&mut chunk) {
+                Ok(0) => {
+                    return Err(IpcError(format!(
+                        "the gateway {} closed the connection",
+                        self.path.display()
+                    )));
+                }
+                Ok(n) => self.buf.extend_from_slice(&chunk[..n]),
+                Err(e) if matches!(e.kind(), ErrorKind::WouldBlock | ErrorKind::TimedOut) => {
+                    if deadline.is_none() {
+                        return Err(IpcError(NOTHING.into()));
+                    }
+                }
+                Err(e) if e.kind() == ErrorKind::Interrupted => {}
+                Err(e) => return Err(IpcError(format!("the gateway {}: {e}", self.path.display()))),
+            }
+        }
+    }
+
+    /// Files a stream frame; anything else is returned.
+    fn file(&mut self, msg: FromGateway) -> Option<FromGateway> {
+        match msg {
+            FromGateway::State(s) => {
+                if self.states.len() >= crate::STATE_BUFFER {
+                    self.states.pop_front();
+                }
+                self.states.push_back(*s);
+            }
+            FromGateway::Event(e) => {
+                if self.events.len() >= crate::ports::EVENT_BUFFER {
+                    self.events.pop_front();
+                }
+                self.events.push_back(*e);
+            }
+            FromGateway::Stats(s) => self.stats = Some(*s),
+            FromGateway::Recorder(r) => self.recorder = Some(*r),
+            other => return Some(other),
+        }
+        None
+    }
+
+    /// Takes in whatever the gateway has sent (never waits). A connection that broke (the
+    /// gateway restarted) is made again, at most every [`RECONNECT_EVERY`]; the samples in
+    /// between are missing, and show as a gap in the cycle numbers.
+    fn pump(&mut self) {
+        if let Some(at) = self.retry_at {
+            if Instant::now() < at {
+                return;
+            }
+            match GatewayClient::connect(&self.path) {
+                Ok(mut fresh) => {
+                    if !self.watching || fresh.watch().is_ok() {
+                        fresh.watching = self.watching;
+                        self.stream = fresh.stream;
+                        self.buf.clear();
+                        self.retry_at = None;
+                    }
+                }
+                Err(_) => {
+                    self.retry_at = Some(Instant::now() + RECONNECT_EVERY);
+                    return;
+                }
+            }
+        }
+        loop {
+            match self.next_frame(None) {
+                Ok(msg) => {
+                    let _ = self.file(msg);
+                }
+                Err(e) => {
+                    if e.0 != NOTHING {
+                        self.retry_at = Some(Instant::now() + RECONNECT_EVERY);
+                    }
+                    return;
+                }
+            }
+        }
+    }
+}
+
+const NOTHING: &str = "nothing waiting";
+
+impl Commands for GatewayClient {
+    fn request(&mut self, req: &CommandRequest, timeout: Duration) -> Result<CommandResponse, IpcError> {
+        self.send(&ToGateway::Request(Box::new(*req)))?;
+        let end = Instant::now() + timeout;
+        loop {
+            let msg = self.next_frame(Some(end)).map_err(|e| {
+                IpcError(format!(
+                    "{e} (no answer from hob-rt within {} ms through the gateway)",
+                    timeout.as_millis()
+                ))
+            })?;
+            match self.file(msg) {
+                Some(FromGateway::Answer(r)) => return Ok(*r),
+                Some(FromGateway::Refused(why)) => {
+                    return Ok(CommandResponse::new(
+                        false,
+                        0,
+                        &format!("refused by the gateway: {why}"),
+                    ));
+                }
+                Some(other) => return Err(IpcError(format!("the gateway sent {other:?} for a request"))),
+                None => {}
+            }
+        }
+    }
+}
+
+impl Feed for GatewayClient {
+    fn next_state(&mut self) -> Option<StateSample> {
+        if self.states.is_empty() {
+            self.pump();
+        }
+        self.states.pop_front()
+    }
+    fn next_event(&mut self) -> Option<EventSample> {
+        if self.events.is_empty() {
+            self.pump();
+        }
+        self.events.pop_front()
+    }
+    fn latest_stats(&mut self) -> Option<StatsSample> {
+        self.pump();
+        self.stats.take()
+    }
+    fn latest_recorder(&mut self) -> Option<RecorderSample> {
+        self.pump();
+        self.recorder.take()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use proptest::prelude::*;
+
+    fn sample(cycle: u64, err: f64) -> StateSample {
+        StateSample {
+            cycle,
+            sync_error_arcsec: err,
+            drive_statusword: [0x1237, 0x0637, 0xFFFF],
+            ..Default::default()
+        }
+    }
+
+    proptest! {
+        #[test]
+        fn every_decode_of_an_encode_is_the_identity(
+            cycle in any::<u64>(),
+            err in any::<f64>().prop_filter("NaN is not equal to itself", |f| !f.is_nan()),
+            name in "[a-z/._-]{0,200}",
+            text in "\\PC{0,3000}",
+            accepted in any::<bool>(),
+        ) {
+            let req = CommandRequest::load_program(&name, &text).unwrap();
+            let mut ev = EventSample { seq: cycle, kind: 7, ..Default::default() };
+            ev.text_len = crate::write_text(&mut ev.text, &text);
+            let msgs = [
+                FromGateway::State(Box::new(sample(cycle, err))),
+                FromGateway::Event(Box::new(ev)),
+                FromGateway::Answer(Box::new(CommandResponse::new(accepted, 3, &text))),
+                FromGateway::Welcome { user: name.clone(), role: Role::Watch },
+            ];
+            for m in msgs {
+                let bytes = encode(&m).unwrap();
+                let (back, used) = decode::<FromGateway>(&bytes).unwrap().unwrap();
+                prop_assert_eq!(used, bytes.len());
+                prop_assert_eq!(back, m);
+            }
+            let bytes = encode(&ToGateway::Request(Box::new(req))).unwrap();
+            let (back, _) = decode::<ToGateway>(&bytes).unwrap().unwrap();
+            prop_assert_eq!(back, ToGateway::Request(Box::new(req)));
+        }
+
+        #[test]
+        fn a_frame_cut_short_waits_and_garbage_is_refused(bytes in proptest::collection::vec(any::<u8>(), 0..600)) {
+            // Whatever arrives: a whole message, "not yet", or a refusal; never a panic.
+            let _ = decode::<ToGateway>(&bytes);
+            let frame = encode(&FromGateway::State(Box::new(sample(5, 1.5)))).unwrap();
+            for cut in 0..frame.len() {
+                prop_assert_eq!(decode::<FromGateway>(&frame[..cut]).unwrap(), None);
+            }
+        }
+    }
+
+    #[test]
+    fn a_length_over_the_limit_is_refused_before_anything_is_read() {
+        let mut b = ((MAX_FRAME + 1) as u32).to_le_bytes().to_vec();
+        b.extend_from_slice(&[0; 16]);
+        assert!(decode::<ToGateway>(&b).unwrap_err().contains("at most"));
+        // A fixed array of the wrong length does not decode.
+        let mut bad = encode(&FromGateway::Answer(Box::new(CommandResponse::new(
+            true, 0, "ok",
+        ))))
+        .unwrap();
+        bad.truncate(bad.len() - 1);
+        let n = (bad.len() - 4) as u32;
+        bad[..4].copy_from_slice(&n.to_le_bytes());
+        assert!(decode::<FromGateway>(&bad).is_err());
+    }
+}
