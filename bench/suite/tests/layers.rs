@@ -55,7 +55,7 @@ const ALLOWED: &[(&str, &[&str])] = &[
         ],
     ),
     // The gateway for the frontends of other users: forwards the wire, no control core.
-    ("hob-gateway", &["hob-ipc"]),
+    ("hob-gateway", &["hob-ipc", "hob-rt-os"]),
     (
         "hob-cli",
         &[

@@ -110,6 +110,7 @@ fn feed(watchers: Arc<Mutex<Watchers>>) {
                 continue;
             }
         };
+        let mut off_core = false;
         loop {
             {
                 let mut w = watchers.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
@@ -124,6 +125,12 @@ fn feed(watchers: Arc<Mutex<Watchers>>) {
                     w.send(&Arc::new(FromGateway::Event(Box::new(e))));
                 }
                 if let Some(s) = gw::Feed::latest_stats(&mut ports) {
+                    // This thread off the loop's core, as every frontend, once the loop's
+                    // stats say which it is.
+                    if !off_core && let Ok(core) = u32::try_from(s.core) {
+                        off_core = true;
+                        let _ = hob_rt_os::keep_off_core(core);
+                    }
                     let m = Arc::new(FromGateway::Stats(Box::new(s)));
                     w.send(&m);
                     w.stats = Some(m);
