@@ -29,7 +29,7 @@ use std::sync::OnceLock;
 pub type Target = fn(&[u8]);
 
 /// The targets, by name (`fuzz/fuzz_targets/NAME.rs`, `fuzz/corpus/NAME/`).
-pub const TARGETS: [(&str, Target); 8] = [
+pub const TARGETS: [(&str, Target); 9] = [
     ("candump", candump),
     ("program", program),
     ("machine", machine),
@@ -38,6 +38,7 @@ pub const TARGETS: [(&str, Target); 8] = [
     ("command", command),
     ("log", log),
     ("hmi", hmi),
+    ("gateway", gateway),
 ];
 
 /// The shipped machine file, the machine the programs are planned on.
@@ -383,4 +384,52 @@ pub fn hmi(data: &[u8]) {
             }
         }
     }
+}
+
+/// The gateway's frames (`hob_ipc::gateway`): what `hob-gateway` reads from a user who is
+/// not the bus's, and what a frontend reads back. Any bytes are a whole message, "not all
+/// there yet" (only when the length says more than there is), or a refusal with a reason,
+/// never a panic; a decoded message encodes, and the decode of that encode is the identity
+/// (compared as bytes: a NaN in a request is not equal to itself); a request that gets
+/// through is one the loop's own decode answers (accepts, or refuses with a reason).
+pub fn gateway(data: &[u8]) {
+    use hob_ipc::gateway::{FromGateway, ToGateway, decode, encode};
+    fn check<T>(data: &[u8]) -> Option<T>
+    where
+        T: serde::Serialize + for<'de> serde::Deserialize<'de>,
+    {
+        match decode::<T>(data) {
+            Err(why) => {
+                assert!(!why.is_empty());
+                None
+            }
+            Ok(None) => {
+                if let Some(len) = data.get(..4) {
+                    let len = u32::from_le_bytes([len[0], len[1], len[2], len[3]]) as usize;
+                    assert!(4 + len > data.len(), "a whole frame of {len} bytes not decoded");
+                }
+                None
+            }
+            Ok(Some((msg, used))) => {
+                assert!((4..=data.len()).contains(&used));
+                let bytes = encode(&msg).expect("a decoded message encodes");
+                let (again, n) = decode::<T>(&bytes)
+                    .expect("an encoded message decodes")
+                    .expect("an encoded message is whole");
+                assert_eq!(n, bytes.len());
+                assert_eq!(
+                    encode(&again).expect("encodes"),
+                    bytes,
+                    "decode of encode is not the identity"
+                );
+                Some(msg)
+            }
+        }
+    }
+    if let Some(ToGateway::Request(req)) = check::<ToGateway>(data)
+        && let Err(why) = to_mail(&req, shipped())
+    {
+        assert!(!why.is_empty());
+    }
+    let _ = check::<FromGateway>(data);
 }

@@ -1524,6 +1524,52 @@ fn frontends_of_another_user_watch_and_command_through_the_gateway() {
         text.trim().to_string()
     });
     b.step(
+        "one user's connections are limited; another user's are still served",
+        |b| {
+            // 16 `hob status --watch` of root through the gateway hold 16 connections.
+            let watchers: Vec<std::process::Child> = (0..16)
+                .map(|_| {
+                    let mut c = b.command("hob");
+                    c.args(["status", "--watch"])
+                        .env("HOB_GATEWAY", &socket)
+                        .stdout(std::process::Stdio::null())
+                        .stderr(std::process::Stdio::null());
+                    c.spawn().unwrap()
+                })
+                .collect();
+            let log = b.log_of(gateway);
+            b.wait_for("16 connections of root", Duration::from_secs(30), |_| {
+                let text = std::fs::read_to_string(&log).unwrap_or_default();
+                let n = text
+                    .lines()
+                    .filter(|l| l.contains("root (uid 0,") && l.contains("connected"))
+                    .count();
+                if n >= 16 {
+                    Ok(())
+                } else {
+                    Err(format!("{n} connected"))
+                }
+            });
+            let mut c = b.command("hob");
+            c.args(["status"]).env("HOB_GATEWAY", &socket);
+            let o = c.output().unwrap();
+            let text = String::from_utf8_lossy(&o.stderr).to_string();
+            let (code, _, other) = as_nobody(b, operators, true, &["status", "--json"]);
+            for mut w in watchers {
+                let _ = w.kill();
+                let _ = w.wait();
+            }
+            assert_ne!(o.status.code(), Some(0), "root's 17th connection was served");
+            assert!(text.contains("16 connections open"), "{text}");
+            assert_eq!(
+                code,
+                Some(0),
+                "another user's status while root holds 16: {other}"
+            );
+            text.trim().to_string()
+        },
+    );
+    b.step(
         "the frontends' user cannot join the bus (nor publish the loop's state) nor write the machine file",
         |b| {
             let (code, _, text) = as_nobody(b, operators, false, &["status"]);

@@ -15,7 +15,7 @@ use hob_ipc::gateway::{self as gw, FromGateway, Role, ToGateway};
 use hob_ipc::{CommandRequest, CommandResponse, EventSample};
 use nix::sys::socket::{getsockopt, sockopt::PeerCredentials};
 use nix::unistd::{Gid, Group, Uid, User};
-use std::collections::VecDeque;
+use std::collections::{HashMap, VecDeque};
 use std::ffi::CString;
 use std::io::{Read, Write};
 use std::os::unix::fs::PermissionsExt;
@@ -31,6 +31,10 @@ const WATCH_QUEUE: usize = 2048;
 const EVENT_BACKLOG: usize = hob_ipc::EVENT_HISTORY;
 /// How long a command may wait for the loop's answer.
 const ANSWER: Duration = Duration::from_secs(3);
+/// Connections served at once for one user (an HMI takes two, a CLI call one): one more is
+/// refused with the reason, so that no user can exhaust the gateway's threads or crowd out
+/// another user (the HMI's own user keeps its connections whatever an operator's shell does).
+const MAX_CONNECTIONS_PER_USER: usize = 16;
 
 const USAGE: &str = "usage: hob-gateway --socket PATH --operators GROUP [--viewers GROUP]";
 
@@ -361,15 +365,40 @@ fn main() {
     std::thread::spawn(move || commander(rx));
     let policy = Arc::new(policy);
     let groups_named = Arc::new(groups_named);
+    let open: Arc<Mutex<HashMap<u32, usize>>> = Arc::default();
     for stream in listener.incoming() {
-        let Ok(stream) = stream else { continue };
-        let (policy, groups_named, watchers, jobs) = (
+        let Ok(mut stream) = stream else { continue };
+        let Ok(uid) = getsockopt(&stream, PeerCredentials).map(|c| c.uid()) else {
+            continue;
+        };
+        {
+            let mut open = open.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
+            let n = open.entry(uid).or_default();
+            if *n >= MAX_CONNECTIONS_PER_USER {
+                let _ = write(
+                    &mut stream,
+                    &FromGateway::Refused(format!(
+                        "uid {uid} has {MAX_CONNECTIONS_PER_USER} connections open, the most one user may; try again when one ends"
+                    )),
+                );
+                continue;
+            }
+            *n += 1;
+        }
+        let (policy, groups_named, watchers, jobs, open) = (
             policy.clone(),
             groups_named.clone(),
             watchers.clone(),
             jobs.clone(),
+            open.clone(),
         );
-        std::thread::spawn(move || serve(stream, &policy, &groups_named, &watchers, &jobs));
+        std::thread::spawn(move || {
+            serve(stream, &policy, &groups_named, &watchers, &jobs);
+            let mut open = open.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
+            if let Some(n) = open.get_mut(&uid) {
+                *n = n.saturating_sub(1);
+            }
+        });
     }
 }
 
