@@ -233,6 +233,11 @@ const RECONNECT_EVERY: Duration = Duration::from_secs(1);
 impl GatewayClient {
     /// Connects and reads the gateway's welcome (or its refusal, as the error).
     pub fn connect(path: &Path) -> Result<Self, IpcError> {
+        Self::connect_within(path, Duration::from_secs(5))
+    }
+
+    /// [`Self::connect`], waiting at most `welcome_within` for the welcome.
+    fn connect_within(path: &Path, welcome_within: Duration) -> Result<Self, IpcError> {
         let stream = UnixStream::connect(path).map_err(|e| {
             IpcError(format!(
                 "the gateway {}: {e} (is hob-gateway running?)",
@@ -252,7 +257,7 @@ impl GatewayClient {
             watching: false,
             retry_at: None,
         };
-        match c.next_frame(Some(Instant::now() + Duration::from_secs(5)))? {
+        match c.next_frame(Some(Instant::now() + welcome_within))? {
             FromGateway::Welcome { user, role } => {
                 c.user = user;
                 c.role = role;
@@ -276,6 +281,10 @@ impl GatewayClient {
 
     fn send(&mut self, msg: &ToGateway) -> Result<(), IpcError> {
         let bytes = encode(msg).map_err(IpcError)?;
+        // Reading may have left the socket non-blocking; a gateway that stopped reading
+        // does not hold a frontend for ever.
+        let _ = self.stream.set_nonblocking(false);
+        let _ = self.stream.set_write_timeout(Some(Duration::from_secs(5)));
         self.stream
             .write_all(&bytes)
             .map_err(|e| IpcError(format!("the gateway {}: {e}", self.path.display())))
@@ -348,27 +357,32 @@ impl GatewayClient {
         None
     }
 
-    /// Takes in whatever the gateway has sent (never waits). A connection that broke (the
-    /// gateway restarted) is made again, at most every [`RECONNECT_EVERY`]; the samples in
-    /// between are missing, and show as a gap in the cycle numbers.
+    /// Connects again (the gateway restarted, or the last request timed out): the new
+    /// connection's welcome, and the streams again if they were asked for.
+    fn reconnect(&mut self, welcome_within: Duration) -> Result<(), IpcError> {
+        let mut fresh = GatewayClient::connect_within(&self.path, welcome_within)?;
+        if self.watching {
+            fresh.watch()?;
+        }
+        self.stream = fresh.stream;
+        self.user = fresh.user;
+        self.role = fresh.role;
+        self.buf.clear();
+        self.retry_at = None;
+        Ok(())
+    }
+
+    /// Takes in whatever the gateway has sent (does not wait for more). A connection that
+    /// broke (the gateway restarted) is made again, at most every [`RECONNECT_EVERY`]; the
+    /// samples in between are missing, and show as a gap in the cycle numbers.
     fn pump(&mut self) {
         if let Some(at) = self.retry_at {
             if Instant::now() < at {
                 return;
             }
-            match GatewayClient::connect(&self.path) {
-                Ok(mut fresh) => {
-                    if !self.watching || fresh.watch().is_ok() {
-                        fresh.watching = self.watching;
-                        self.stream = fresh.stream;
-                        self.buf.clear();
-                        self.retry_at = None;
-                    }
-                }
-                Err(_) => {
-                    self.retry_at = Some(Instant::now() + RECONNECT_EVERY);
-                    return;
-                }
+            self.retry_at = Some(Instant::now() + RECONNECT_EVERY);
+            if self.reconnect(Duration::from_millis(500)).is_err() {
+                return;
             }
         }
         loop {
@@ -391,10 +405,17 @@ const NOTHING: &str = "nothing waiting";
 
 impl Commands for GatewayClient {
     fn request(&mut self, req: &CommandRequest, timeout: Duration) -> Result<CommandResponse, IpcError> {
+        if self.retry_at.is_some() {
+            self.reconnect(Duration::from_secs(2))?;
+        }
         self.send(&ToGateway::Request(Box::new(*req)))?;
         let end = Instant::now() + timeout;
         loop {
             let msg = self.next_frame(Some(end)).map_err(|e| {
+                // A late answer must not be taken for the next request's: this connection
+                // is done, the next request makes a new one.
+                let _ = self.stream.shutdown(std::net::Shutdown::Both);
+                self.retry_at = Some(Instant::now());
                 IpcError(format!(
                     "{e} (no answer from hob-rt within {} ms through the gateway)",
                     timeout.as_millis()

@@ -1,4 +1,4 @@
-//! `hob-gateway`: the frontends of other users reach the loop through it (`hob_ipc::gate`).
+//! `hob-gateway`: the frontends of other users reach the loop through it (`hob_ipc::gateway`).
 //!
 //! ```sh
 //! hob-gateway --socket /run/hob/gateway.sock --operators hob-ops --viewers hob-view
@@ -21,16 +21,23 @@ use std::io::{Read, Write};
 use std::os::unix::fs::PermissionsExt;
 use std::os::unix::net::{UnixListener, UnixStream};
 use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicI64, Ordering};
 use std::sync::mpsc::{self, Receiver, Sender, SyncSender, TrySendError};
 use std::sync::{Arc, Mutex};
-use std::time::Duration;
+use std::time::{Duration, Instant};
 
 /// Frames a watcher may have queued before it loses samples (2 s of the loop's state).
 const WATCH_QUEUE: usize = 2048;
 /// Events a new watcher is sent first (as iceoryx2's history gives a new subscriber).
 const EVENT_BACKLOG: usize = hob_ipc::EVENT_HISTORY;
 /// How long a command may wait for the loop's answer.
-const ANSWER: Duration = Duration::from_secs(3);
+const ANSWER: Duration = Duration::from_secs(2);
+/// A command not sent to the loop within this long of its arrival (others ahead of it in
+/// the queue) is answered "expired" and never sent: the frontends give up after 3 s, and a
+/// START or a jog must not reach the loop after the operator was told it failed.
+const EXPIRES: Duration = Duration::from_millis(2500);
+/// How long the writing to one peer may block before the connection is given up.
+const WRITE_TIMEOUT: Duration = Duration::from_secs(5);
 /// Connections served at once for one user (an HMI takes two, a CLI call one): one more is
 /// refused with the reason, so that no user can exhaust the gateway's threads or crowd out
 /// another user (the HMI's own user keeps its connections whatever an operator's shell does).
@@ -84,10 +91,11 @@ fn parse(mut it: impl Iterator<Item = String>) -> Result<Args, String> {
     })
 }
 
-/// The watchers and what a new one is sent first.
+/// The watchers (each connection's queue, by connection number) and what a new one is sent
+/// first.
 #[derive(Debug, Default)]
 struct Watchers {
-    queues: Vec<SyncSender<Arc<FromGateway>>>,
+    queues: Vec<(u64, SyncSender<Arc<FromGateway>>)>,
     events: VecDeque<EventSample>,
     stats: Option<Arc<FromGateway>>,
     recorder: Option<Arc<FromGateway>>,
@@ -95,10 +103,27 @@ struct Watchers {
 
 impl Watchers {
     fn send(&mut self, msg: &Arc<FromGateway>) {
-        self.queues.retain(|q| match q.try_send(msg.clone()) {
+        self.queues.retain(|(_, q)| match q.try_send(msg.clone()) {
             Ok(()) | Err(TrySendError::Full(_)) => true,
             Err(TrySendError::Disconnected(_)) => false,
         });
+    }
+
+    /// A connection that ended: its queue goes, so its writer ends too.
+    fn remove(&mut self, id: u64) {
+        self.queues.retain(|(i, _)| *i != id);
+    }
+}
+
+/// The core the loop runs on, once its stats said it (-1: not yet).
+static LOOP_CORE: AtomicI64 = AtomicI64::new(-1);
+
+/// Keeps the calling thread off the loop's core, if it is known (every thread of the
+/// gateway calls this as it starts; the feed thread moves the whole process when it learns
+/// the core).
+fn off_the_loops_core() {
+    if let Ok(core) = u32::try_from(LOOP_CORE.load(Ordering::Relaxed)) {
+        let _ = hob_rt_os::keep_off_core(core);
     }
 }
 
@@ -114,14 +139,27 @@ fn feed(watchers: Arc<Mutex<Watchers>>) {
                 continue;
             }
         };
-        let mut off_core = false;
+        let mut last_cycle = 0u64;
         loop {
             {
                 let mut w = watchers.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
                 while let Some(s) = gw::Feed::next_state(&mut ports) {
+                    // A restarted loop: the previous one's stats and recorder report are
+                    // not a new watcher's first news.
+                    if s.cycle < last_cycle {
+                        w.stats = None;
+                        w.recorder = None;
+                    }
+                    last_cycle = s.cycle;
                     w.send(&Arc::new(FromGateway::State(Box::new(s))));
                 }
                 while let Some(e) = gw::Feed::next_event(&mut ports) {
+                    // A restarted loop numbers its events from 1 again (its start-up
+                    // messages may come before its first state): the previous loop's
+                    // events are not given to a new watcher as its own.
+                    if w.events.back().is_some_and(|b| e.seq <= b.seq) {
+                        w.events.clear();
+                    }
                     if w.events.len() >= EVENT_BACKLOG {
                         w.events.pop_front();
                     }
@@ -129,11 +167,13 @@ fn feed(watchers: Arc<Mutex<Watchers>>) {
                     w.send(&Arc::new(FromGateway::Event(Box::new(e))));
                 }
                 if let Some(s) = gw::Feed::latest_stats(&mut ports) {
-                    // This thread off the loop's core, as every frontend, once the loop's
-                    // stats say which it is.
-                    if !off_core && let Ok(core) = u32::try_from(s.core) {
-                        off_core = true;
-                        let _ = hob_rt_os::keep_off_core(core);
+                    // Off the loop's core, as every frontend, once the loop's stats say
+                    // which it is: every thread of the gateway, and those started later.
+                    if LOOP_CORE.load(Ordering::Relaxed) < 0 && s.core >= 0 {
+                        LOOP_CORE.store(i64::from(s.core), Ordering::Relaxed);
+                        if let Ok(core) = u32::try_from(s.core) {
+                            let _ = hob_rt_os::keep_process_off_core(core);
+                        }
                     }
                     let m = Arc::new(FromGateway::Stats(Box::new(s)));
                     w.send(&m);
@@ -150,14 +190,24 @@ fn feed(watchers: Arc<Mutex<Watchers>>) {
     }
 }
 
-/// A command and where its answer goes.
-type Job = (Box<CommandRequest>, SyncSender<CommandResponse>);
+/// A command, when it must have been sent by, and where its answer goes.
+type Job = (Box<CommandRequest>, Instant, SyncSender<CommandResponse>);
 
-/// Owns the command client (iceoryx2's ports are not thread-safe): one request at a time.
+/// Owns the command client (iceoryx2's ports are not thread-safe): one request at a time;
+/// one that waited past its deadline behind others is not sent.
 fn commander(jobs: Receiver<Job>) {
+    off_the_loops_core();
     let name = format!("hob-gateway-cmd-{}", std::process::id());
     let mut client: Option<hob_ipc::Client> = None;
-    for (req, reply) in jobs {
+    for (req, expires, reply) in jobs {
+        if Instant::now() >= expires {
+            let _ = reply.send(CommandResponse::new(
+                false,
+                0,
+                "not sent to the loop: it waited too long behind other commands (try again)",
+            ));
+            continue;
+        }
         if client.is_none() {
             client = hob_ipc::Client::connect(&name).ok();
         }
@@ -202,14 +252,18 @@ fn write(stream: &mut UnixStream, msg: &FromGateway) -> std::io::Result<()> {
     stream.write_all(&bytes)
 }
 
-/// One connection: its writer drains the connection's queue; this thread reads requests.
+/// One connection (number `id`): its writer drains the connection's queue; this thread
+/// reads requests. Returns when the peer is gone and the writer has ended.
 fn serve(
     mut stream: UnixStream,
+    id: u64,
     policy: &Policy,
     groups_named: &str,
     watchers: &Arc<Mutex<Watchers>>,
     jobs: &Sender<Job>,
 ) {
+    off_the_loops_core();
+    let _ = stream.set_write_timeout(Some(WRITE_TIMEOUT));
     let (user, uid, pid, groups) = match peer(&stream) {
         Ok(p) => p,
         Err(e) => {
@@ -235,9 +289,11 @@ fn serve(
     let Ok(mut out) = stream.try_clone() else {
         return;
     };
-    // Not joined: it ends at its next write after the connection is shut down below (or
-    // when nothing holds its queue any more).
-    std::thread::spawn(move || {
+    // It ends when every sender of its queue is gone (this thread's at the end, the
+    // watchers' copy removed then) or a write fails (the peer gone, or blocked past
+    // WRITE_TIMEOUT).
+    let writer = std::thread::Builder::new().spawn(move || {
+        off_the_loops_core();
         for f in frames {
             if write(&mut out, &f).is_err() {
                 break;
@@ -245,6 +301,11 @@ fn serve(
         }
         let _ = out.shutdown(std::net::Shutdown::Both);
     });
+    let Ok(writer) = writer else {
+        println!("hob-gateway: {who}: no thread for its writing; connection closed");
+        return;
+    };
+    let mut watching = false;
     let mut buf = Vec::new();
     let mut chunk = [0u8; 16 * 1024];
     'conn: loop {
@@ -265,7 +326,9 @@ fn serve(
             };
             buf.drain(..used);
             match msg {
+                ToGateway::Watch if watching => {}
                 ToGateway::Watch => {
+                    watching = true;
                     let mut w = watchers.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
                     let first = w
                         .events
@@ -276,7 +339,7 @@ fn serve(
                     for m in first {
                         let _ = queue.try_send(m);
                     }
-                    w.queues.push(queue.clone());
+                    w.queues.push((id, queue.clone()));
                 }
                 ToGateway::Request(req) => {
                     let what = hob_ipc::codec::command_name(req.command);
@@ -288,7 +351,7 @@ fn serve(
                         continue;
                     }
                     let (reply, answer) = mpsc::sync_channel(1);
-                    let a = if jobs.send((req, reply)).is_ok() {
+                    let a = if jobs.send((req, Instant::now() + EXPIRES, reply)).is_ok() {
                         answer.recv().ok()
                     } else {
                         None
@@ -306,6 +369,13 @@ fn serve(
             }
         }
     }
+    // The writer sends what is queued (a refusal's reason included) and ends.
+    watchers
+        .lock()
+        .unwrap_or_else(std::sync::PoisonError::into_inner)
+        .remove(id);
+    drop(queue);
+    let _ = writer.join();
     let _ = stream.shutdown(std::net::Shutdown::Both);
 }
 
@@ -357,17 +427,34 @@ fn main() {
         args.socket.display()
     );
     let watchers = Arc::new(Mutex::new(Watchers::default()));
+    let (jobs, rx) = mpsc::channel::<Job>();
     {
         let w = watchers.clone();
-        std::thread::spawn(move || feed(w));
+        // The feed and the commander are the gateway: if either ends (a panic), so does the
+        // process, and systemd starts it again.
+        std::thread::spawn(move || {
+            feed(w);
+            std::process::exit(1);
+        });
+        std::thread::spawn(move || {
+            commander(rx);
+            std::process::exit(1);
+        });
     }
-    let (jobs, rx) = mpsc::channel::<Job>();
-    std::thread::spawn(move || commander(rx));
     let policy = Arc::new(policy);
     let groups_named = Arc::new(groups_named);
     let open: Arc<Mutex<HashMap<u32, usize>>> = Arc::default();
+    let mut next_id = 0u64;
     for stream in listener.incoming() {
-        let Ok(mut stream) = stream else { continue };
+        let mut stream = match stream {
+            Ok(s) => s,
+            Err(e) => {
+                // Out of file descriptors or the like: not a busy loop.
+                eprintln!("hob-gateway: accept: {e}");
+                std::thread::sleep(Duration::from_millis(100));
+                continue;
+            }
+        };
         let Ok(uid) = getsockopt(&stream, PeerCredentials).map(|c| c.uid()) else {
             continue;
         };
@@ -385,20 +472,45 @@ fn main() {
             }
             *n += 1;
         }
-        let (policy, groups_named, watchers, jobs, open) = (
+        next_id += 1;
+        let id = next_id;
+        let slot = Slot {
+            open: open.clone(),
+            uid,
+        };
+        let (policy, groups_named, watchers, jobs) = (
             policy.clone(),
             groups_named.clone(),
             watchers.clone(),
             jobs.clone(),
-            open.clone(),
         );
-        std::thread::spawn(move || {
-            serve(stream, &policy, &groups_named, &watchers, &jobs);
-            let mut open = open.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
-            if let Some(n) = open.get_mut(&uid) {
-                *n = n.saturating_sub(1);
-            }
+        let started = std::thread::Builder::new().spawn(move || {
+            let _slot = slot;
+            serve(stream, id, &policy, &groups_named, &watchers, &jobs);
         });
+        if let Err(e) = started {
+            // The slot was given back when the closure was dropped.
+            eprintln!("hob-gateway: no thread for a connection of uid {uid}: {e}");
+        }
+    }
+}
+
+/// One of a user's connections; given back when dropped (also when its thread panics).
+#[derive(Debug)]
+struct Slot {
+    open: Arc<Mutex<HashMap<u32, usize>>>,
+    uid: u32,
+}
+
+impl Drop for Slot {
+    fn drop(&mut self) {
+        let mut open = self
+            .open
+            .lock()
+            .unwrap_or_else(std::sync::PoisonError::into_inner);
+        if let Some(n) = open.get_mut(&self.uid) {
+            *n = n.saturating_sub(1);
+        }
     }
 }
 

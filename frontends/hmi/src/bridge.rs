@@ -219,7 +219,27 @@ pub fn utc_ms() -> u64 {
 /// `HOB_GATEWAY` names it), drains every [`DRAIN_EVERY`], publishes
 /// a frame every [`FRAME_EVERY`], until `stop`.
 pub fn run(mut bridge: Bridge, stop: &AtomicBool) -> Result<(), String> {
-    let mut ports = hob_ipc::follow(&format!("hob-hmi-{}", std::process::id())).map_err(|e| e.to_string())?;
+    // The bus or the gateway may not be there yet (the HMI started first, the gateway
+    // restarting): the frames say the loop is silent meanwhile, and this tries again.
+    let name = format!("hob-hmi-{}", std::process::id());
+    let mut said = false;
+    let mut ports = loop {
+        match hob_ipc::follow(&name) {
+            Ok(p) => break p,
+            Err(e) => {
+                if !said {
+                    eprintln!("hob-hmi: {e}; trying again every second");
+                    said = true;
+                }
+                if stop.load(Ordering::Relaxed) {
+                    return Ok(());
+                }
+                let now = Instant::now();
+                bridge.frame(now, hob_rt_os::now_ns(), utc_ms());
+                std::thread::sleep(Duration::from_secs(1));
+            }
+        }
+    };
     let mut next_frame = Instant::now() + FRAME_EVERY;
     while !stop.load(Ordering::Relaxed) {
         let now = Instant::now();

@@ -123,6 +123,34 @@ pub fn keep_off_core(core: u32) -> bool {
     sched_setaffinity(Pid::from_raw(0), &set).is_ok()
 }
 
+/// [`keep_off_core`] for every thread of this process (each in `/proc/self/task`), for a
+/// process that learns the loop's core only after it started its threads; threads started
+/// later inherit it from the thread that starts them. False if any thread could not be
+/// moved.
+pub fn keep_process_off_core(core: u32) -> bool {
+    use nix::sched::{CpuSet, sched_getaffinity, sched_setaffinity};
+    use nix::unistd::Pid;
+    let Ok(tasks) = std::fs::read_dir("/proc/self/task") else {
+        return false;
+    };
+    let mut all = true;
+    for tid in tasks
+        .flatten()
+        .filter_map(|e| e.file_name().to_str()?.parse::<i32>().ok())
+    {
+        let pid = Pid::from_raw(tid);
+        let Ok(mut set) = sched_getaffinity(pid) else {
+            all = false;
+            continue;
+        };
+        let others = (0..CpuSet::count())
+            .filter(|&c| c != core as usize && set.is_set(c).unwrap_or(false))
+            .count();
+        all &= others > 0 && set.unset(core as usize).is_ok() && sched_setaffinity(pid, &set).is_ok();
+    }
+    all
+}
+
 /// A held PM QoS request on `/dev/cpu_dma_latency`: while the file stays open no CPU
 /// enters an idle state that takes longer than the value to leave. Dropping it releases
 /// the request.

@@ -90,7 +90,7 @@ fn main() -> ExitCode {
             && let Ok(core) = u32::try_from(st.core)
         {
             off_core = true;
-            if !hob_rt_os::keep_off_core(core) {
+            if !hob_rt_os::keep_process_off_core(core) {
                 eprintln!("hob-logger: note: shares the loop's core {core} (no other core allowed)");
             }
         }
