@@ -19,11 +19,10 @@ use hob_setup::planner::Plan;
 use serde::Serialize;
 
 /// A trace row's state: the sequencer state's code in the contract between processes
-/// (`hob_ipc::codec::State`), encoded from the controller's by `hob_service::encode::state`.
+/// (`hob_ipc::codec::State`), the controller's own type (the wire's vocabulary).
 pub use hob_ipc::codec::State as RowState;
 /// The trace format and per-pass statistics are the logger's (`hob log export|report`).
 pub use hob_logger::trace::{PassSummary, SummaryBuilder, TRACE_HEADER, TraceRow};
-use hob_service::encode;
 
 /// Options of a run.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -335,7 +334,7 @@ impl Simulation {
         let blank_err_arcsec = law_deg.map(|law| (self.plant.blank_deg() - law) * 3600.0);
         TraceRow {
             t_s,
-            state: encode::state(s.state),
+            state: s.state,
             hold: s.hold,
             pass: s.pass,
             spindle_deg: self.plant.spindle_deg(),

@@ -12,7 +12,6 @@ use hob_control::events::EventKind;
 use hob_control::fault::{Axis, End, Fault, Refusal};
 use hob_plant::plant::Injection;
 use hob_plant::sim::RowState as State;
-use hob_service::encode;
 
 use State::*;
 
@@ -24,7 +23,7 @@ fn start_and_cut(sim: &mut hob_plant::sim::Simulation, cycles: u32) {
         cut_seen += u32::from(r.state == Cut);
         cut_seen > cycles
     });
-    assert_eq!(encode::state(sim.controller.status().state), Cut);
+    assert_eq!(sim.controller.status().state, Cut);
 }
 
 fn cycle_done(r: &Run) -> bool {
@@ -260,7 +259,7 @@ fn refused_commands_change_nothing() {
         }),
         Err(Refusal::BadValue)
     );
-    assert_eq!(encode::state(sim.controller.status().state), Idle);
+    assert_eq!(sim.controller.status().state, Idle);
     sim.command(Command::Start { single: false }).unwrap();
     run(&mut sim, 300.0, |r| r.state == Cut);
     assert_eq!(
@@ -276,7 +275,7 @@ fn refused_commands_change_nothing() {
     );
     assert_eq!(sim.command(Command::NewBlank), Err(Refusal::CycleRunning));
     assert_eq!(sim.controller.load(cycle), Err(Refusal::CycleRunning));
-    assert_eq!(encode::state(sim.controller.status().state), Cut);
+    assert_eq!(sim.controller.status().state, Cut);
     sim.step();
     let refused = sim
         .events

@@ -17,7 +17,6 @@ use hob_gearing::units::um_to_arcsec_at_radius;
 use hob_plant::drive::Drive;
 use hob_plant::plant::Injection;
 use hob_plant::sim::{RowState as State, SimOptions, Simulation, TraceRow, finish_summary, summary_builder};
-use hob_service::encode;
 use hob_setup::job::Program;
 use hob_setup::planner::Plan;
 use std::f64::consts::PI;
@@ -133,7 +132,7 @@ fn bound_um(plan: &Plan) -> f64 {
 }
 
 fn state_of(sim: &Simulation) -> State {
-    encode::state(sim.controller.status().state)
+    sim.controller.status().state
 }
 
 // ---------------------------------------------------------------------------------------

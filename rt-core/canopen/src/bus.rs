@@ -3,28 +3,8 @@
 
 use crate::frame::Frame;
 
-/// Why a bus operation failed.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum BusError {
-    /// The transmit queue is full (try again next cycle).
-    Full,
-    /// The interface is down or gone.
-    Down,
-    /// Another OS error (errno).
-    Os(i32),
-}
-
-impl std::fmt::Display for BusError {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        match self {
-            BusError::Full => write!(f, "transmit queue full"),
-            BusError::Down => write!(f, "interface down"),
-            BusError::Os(e) => write!(f, "OS error {e}"),
-        }
-    }
-}
-
-impl std::error::Error for BusError {}
+/// What a CAN send or receive failed on (its words are the wire's).
+pub use hob_wire::bus::BusError;
 
 /// A CAN bus endpoint. Neither call blocks.
 pub trait CanBus {

@@ -94,68 +94,8 @@ pub fn supports_mode(supported: u32, mode: i8) -> bool {
     mode >= 1 && supported & (1 << (mode - 1)) != 0
 }
 
-/// States of the power state machine (CiA 402 figure 5).
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum PowerState {
-    NotReadyToSwitchOn,
-    SwitchOnDisabled,
-    ReadyToSwitchOn,
-    SwitchedOn,
-    OperationEnabled,
-    QuickStopActive,
-    FaultReactionActive,
-    Fault,
-}
-
-impl PowerState {
-    /// Decodes the statusword (bits 0-3, 5, 6).
-    pub fn from_statusword(sw: u16) -> Self {
-        match sw & 0x006F {
-            0x0000 | 0x0020 => PowerState::NotReadyToSwitchOn,
-            0x0040 | 0x0060 => PowerState::SwitchOnDisabled,
-            0x0021 => PowerState::ReadyToSwitchOn,
-            0x0023 => PowerState::SwitchedOn,
-            0x0027 => PowerState::OperationEnabled,
-            0x0007 => PowerState::QuickStopActive,
-            0x000F | 0x002F => PowerState::FaultReactionActive,
-            0x0008 | 0x0028 => PowerState::Fault,
-            _ => match sw & 0x004F {
-                0x0040 => PowerState::SwitchOnDisabled,
-                0x0008 => PowerState::Fault,
-                _ => PowerState::NotReadyToSwitchOn,
-            },
-        }
-    }
-
-    /// The statusword a drive reports in this state (voltage enabled bit 4 set when
-    /// powered, remote bit 9 set).
-    pub fn statusword(self) -> u16 {
-        let base = match self {
-            PowerState::NotReadyToSwitchOn => 0x0000,
-            PowerState::SwitchOnDisabled => 0x0040,
-            PowerState::ReadyToSwitchOn => 0x0021,
-            PowerState::SwitchedOn => 0x0023,
-            PowerState::OperationEnabled => 0x0027,
-            PowerState::QuickStopActive => 0x0007,
-            PowerState::FaultReactionActive => 0x000F,
-            PowerState::Fault => 0x0008,
-        };
-        base | 0x0200 | 0x0010
-    }
-
-    pub fn name(self) -> &'static str {
-        match self {
-            PowerState::NotReadyToSwitchOn => "not ready to switch on",
-            PowerState::SwitchOnDisabled => "switch on disabled",
-            PowerState::ReadyToSwitchOn => "ready to switch on",
-            PowerState::SwitchedOn => "switched on",
-            PowerState::OperationEnabled => "operation enabled",
-            PowerState::QuickStopActive => "quick stop active",
-            PowerState::FaultReactionActive => "fault reaction active",
-            PowerState::Fault => "fault",
-        }
-    }
-}
+/// States of the power state machine (CiA 402 figure 5): the words of the wire.
+pub use hob_wire::bus::PowerState;
 
 /// Controlword commands.
 pub mod command {

@@ -42,42 +42,7 @@ impl Emcy {
     }
 }
 
-/// Meaning of an emergency error code.
-pub fn emcy_text(code: u16) -> &'static str {
-    match code {
-        0x0000 => "error reset or no error",
-        0x1000 => "generic error",
-        0x2310 => "continuous over-current",
-        0x2320 => "short circuit at outputs",
-        0x3210 => "DC link over-voltage",
-        0x3220 => "DC link under-voltage",
-        0x4210 => "excess temperature device",
-        0x5441 => "input stage: STO / enable input",
-        0x6010 => "software reset (watchdog)",
-        0x7303 => "resolver / encoder 1 fault",
-        0x7305 => "incremental sensor 1 fault",
-        0x8110 => "CAN overrun (objects lost)",
-        0x8120 => "CAN in error passive mode",
-        0x8130 => "life guard or heartbeat error",
-        0x8140 => "recovered from bus off",
-        0x8210 => "PDO not processed due to length error",
-        0x8611 => "following error",
-        0xFF00..=0xFFFF => "device specific",
-        c => match c >> 12 {
-            0x1 => "generic error",
-            0x2 => "current",
-            0x3 => "voltage",
-            0x4 => "temperature",
-            0x5 => "device hardware",
-            0x6 => "device software",
-            0x7 => "additional modules",
-            0x8 => "monitoring / communication",
-            0x9 => "external error",
-            0xF => "additional functions",
-            _ => "unknown",
-        },
-    }
-}
+pub use hob_wire::bus::emcy_text;
 
 #[cfg(test)]
 mod tests {

@@ -46,12 +46,7 @@ pub enum NmtState {
 
 impl NmtState {
     pub fn name(self) -> &'static str {
-        match self {
-            NmtState::BootUp => "boot-up",
-            NmtState::Stopped => "stopped",
-            NmtState::Operational => "operational",
-            NmtState::PreOperational => "pre-operational",
-        }
+        hob_wire::bus::nmt_state_name(self as u8)
     }
 
     /// The heartbeat (or boot-up, state 0) frame of `node`.

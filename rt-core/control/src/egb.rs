@@ -47,17 +47,8 @@ impl GearboxParams {
     }
 }
 
-/// Where the gearbox is.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
-pub enum Coupling {
-    Disengaged,
-    Engaging,
-    /// Coupled, moving onto the recorded tooth phase.
-    Phasing,
-    /// Coupled on the recorded tooth phase.
-    Synchronised,
-    Disengaging,
-}
+/// Where the gearbox is (the wire's vocabulary).
+pub use hob_wire::vocab::Coupling;
 
 /// What the gearbox measured this cycle.
 #[derive(Debug, Clone, Copy, PartialEq, Default, serde::Serialize, serde::Deserialize)]

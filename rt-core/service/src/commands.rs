@@ -190,11 +190,7 @@ pub fn answer(
             };
             CommandResponse::new(true, 0, &text)
         }
-        Ok(Err(r)) => CommandResponse::new(
-            false,
-            encode::refusal(r).code(),
-            &format!("{what} refused: {}", encode::refusal(r).text()),
-        ),
+        Ok(Err(r)) => CommandResponse::new(false, r.code(), &format!("{what} refused: {}", r.text())),
         Err(text) => CommandResponse::new(false, 0, &format!("{what} not done: {text}")),
     }
 }

@@ -248,7 +248,7 @@ pub fn reason_text(reason: &Reason) -> String {
     match reason {
         Reason::Fault(f) => format!(
             "fault: {}",
-            hob_ipc::codec::alarm_text(&crate::encode::alarm(Some(*f)))
+            hob_ipc::codec::alarm_text(&hob_control::fault::Fault::alarm(Some(*f)))
         ),
         Reason::Stop => "stop".into(),
         Reason::Request => "request".into(),

@@ -3,8 +3,14 @@
 //! do not change), and decodes back where the loop has a decoder.
 
 use super::*;
+use codec::{alarm_text, event_text};
+use hob_canopen::bus::BusError;
 use hob_canopen::emcy::{Emcy, emcy_text};
-use hob_ipc::codec::{alarm_text, event_text};
+use hob_control::State;
+use hob_control::egb::Coupling;
+use hob_control::fault::{End, HomingFailure, Refusal};
+use hob_ipc::{AlarmCode, codec};
+use hob_process_image::master::BusEvent;
 
 /// The texts as the old codec (`hob_ipc::codec` on the control core's types) printed them.
 mod old {
@@ -252,28 +258,26 @@ fn every_command() -> Vec<Command> {
 #[test]
 fn every_state_has_its_old_code_and_word() {
     for (i, s) in OLD_STATES.into_iter().enumerate() {
-        let c = state(s);
-        assert_eq!(c.code(), i as u32, "{s:?}");
-        assert_eq!(c.name(), s.name(), "{s:?}");
-        assert_eq!(state_of(c), s);
+        assert_eq!(s.code(), i as u32, "{s:?}");
+        assert_eq!(State::from_code(i as u32), Some(s));
     }
     // Every code of the contract is some state, and back.
-    for c in codec::State::ALL {
-        assert_eq!(state(state_of(c)), c);
+    for c in State::ALL {
+        assert_eq!(State::from_code(c.code()), Some(c));
     }
 }
 
 #[test]
 fn every_refusal_has_its_old_code_and_text() {
     for (i, r) in OLD_REFUSALS.into_iter().enumerate() {
-        let c = refusal(r);
-        assert_eq!(c.code(), i as u32 + 1, "{r:?}");
-        assert_eq!(c.text(), old::refusal_text(r));
-        assert_eq!(codec::refusal_text(c.code()), old::refusal_text(r));
-        assert_eq!(refusal_of(c), r);
+        assert_eq!(r.code(), i as u32 + 1, "{r:?}");
+        assert_eq!(r.text(), old::refusal_text(r));
+        assert_eq!(codec::refusal_text(r.code()), old::refusal_text(r));
+        assert_eq!(Refusal::from_code(r.code()), Some(r));
     }
-    for c in codec::Refusal::ALL {
-        assert_eq!(refusal(refusal_of(c)), c);
+    for c in Refusal::ALL {
+        assert_eq!(Refusal::from_code(c.code()), Some(c));
+        assert_eq!(codec::refusal_text(c.code()), old::refusal_text(c));
     }
 }
 
@@ -283,32 +287,35 @@ fn every_fault_has_its_old_text_and_round_trips() {
     assert_eq!(faults.len(), 8 + 3 * 8 + 2 * 4);
     let mut codes = std::collections::BTreeSet::new();
     for f in faults {
-        let a = alarm(Some(f));
+        let a = Fault::alarm(Some(f));
         codes.insert(a.code);
         assert_eq!(alarm_text(&a), old::fault_text(f), "{f:?}");
-        assert_eq!(fault_of(&a), Some(f));
+        assert_eq!(Fault::of_alarm(&a), Some(f));
     }
     // Every fault code of the contract is used.
     assert_eq!(codes.len(), codec::Fault::ALL.len());
-    assert_eq!(alarm(None), AlarmCode::default());
-    assert_eq!(alarm_text(&alarm(None)), "");
-    assert_eq!(fault_of(&alarm(None)), None);
+    assert_eq!(Fault::alarm(None), AlarmCode::default());
+    assert_eq!(alarm_text(&Fault::alarm(None)), "");
+    assert_eq!(Fault::of_alarm(&Fault::alarm(None)), None);
 }
 
 #[test]
 fn the_old_alarm_numbers_are_kept() {
-    let a = alarm(Some(Fault::HardwareLimit {
+    let a = Fault::alarm(Some(Fault::HardwareLimit {
         axis: Axis::Y,
         end: End::Min,
     }));
     assert_eq!((a.code, a.axis, a.end), (3, 3, 1));
-    let a = alarm(Some(Fault::SpindleSpeed {
+    let a = Fault::alarm(Some(Fault::SpindleSpeed {
         set_rpm: 119.0,
         actual_rpm: 80.0,
     }));
     assert_eq!((a.code, a.value_a, a.value_b), (9, 119.0, 80.0));
-    assert_eq!(alarm(Some(Fault::DriveNotEnabled { axis: Axis::B })).code, 14);
-    assert_eq!(alarm(Some(Fault::FeedbackLost { axis: Axis::X })).axis, 2);
+    assert_eq!(
+        Fault::alarm(Some(Fault::DriveNotEnabled { axis: Axis::B })).code,
+        14
+    );
+    assert_eq!(Fault::alarm(Some(Fault::FeedbackLost { axis: Axis::X })).axis, 2);
 }
 
 #[test]
@@ -321,8 +328,8 @@ fn every_coupling_has_its_old_code_and_name() {
         (Coupling::Disengaging, "disengaging"),
     ];
     for (i, (c, name)) in old.into_iter().enumerate() {
-        assert_eq!(coupling(c).code(), i as u32);
-        assert_eq!(codec::coupling_name(coupling(c).code()), name);
+        assert_eq!(c.code(), i as u32);
+        assert_eq!(codec::coupling_name(c.code()), name);
     }
 }
 
@@ -514,8 +521,8 @@ fn the_wires_fault_reaction_is_the_control_cores() {
     // hob_ipc::codec words the reaction from the wire (it links no control core): its
     // reading of "X can move" and "the table can follow" must be the control core's.
     for f in every_fault() {
-        let a = alarm(Some(f));
-        let c = hob_ipc::codec::Fault::of(&a).expect("a fault on the wire");
+        let a = Fault::alarm(Some(f));
+        let c = codec::Fault::of(&a).expect("a fault on the wire");
         assert_eq!(c.x_can_move(&a), f.x_can_move(), "{f:?}: X can move");
         assert_eq!(
             c.table_can_follow(&a),

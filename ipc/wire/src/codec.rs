@@ -1,294 +1,25 @@
 //! Every code of the contract between processes, as the number it is on the wire, and its
 //! text: sequencer states, refusals, alarms (faults) with their axis and end, gearbox
 //! couplings, commands, event kinds and bus events. Frontends decode with these and print
-//! these texts, from the numbers alone, so a code reads the same everywhere; the loop's
-//! side encodes its control core's types to them (`hob_service::encode`, exhaustive
-//! matches: a new state without a code does not compile).
+//! these texts, from the numbers alone, so a code reads the same everywhere. The states,
+//! refusals, axes, ends, homing failures and couplings are the control core's own types
+//! ([`crate::vocab`]); an alarm is the control core's fault as [`Fault`], its code here.
 //!
 //! The numbers are the wire format: never renumber one, only add new ones.
 
+pub use crate::bus::nmt_state_name;
+use crate::bus::{BusError, PowerState, emcy_text};
+pub use crate::vocab::{Axis, Coupling, End, HomingFailure, Refusal, State};
 use crate::{AlarmCode, EventSample, bus_event, bus_kind, command, event_kind, send_error};
-use hob_canopen::bus::BusError;
-use hob_canopen::emcy::emcy_text;
-
-/// A sequencer state ([`crate::StateSample::state`], [`event_kind::STATE_CHANGED`]'s `a` and `b`).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
-#[repr(u32)]
-pub enum State {
-    Init = 0,
-    Idle = 1,
-    Jog = 2,
-    ToSafe = 3,
-    ToStart = 4,
-    SpindleUp = 5,
-    Engage = 6,
-    Infeed = 7,
-    Plunge = 8,
-    ExtraRev = 9,
-    Clamp = 10,
-    Cut = 11,
-    Unclamp = 12,
-    Retract = 13,
-    Return = 14,
-    Index = 15,
-    Home = 16,
-    Disengage = 17,
-    SpindleDown = 18,
-    FaultRetract = 19,
-    FaultStop = 20,
-    Faulted = 21,
-    Referencing = 22,
-}
-
-impl State {
-    /// Every state, in code order (`ALL[c].code() == c`).
-    pub const ALL: [State; 23] = [
-        State::Init,
-        State::Idle,
-        State::Jog,
-        State::ToSafe,
-        State::ToStart,
-        State::SpindleUp,
-        State::Engage,
-        State::Infeed,
-        State::Plunge,
-        State::ExtraRev,
-        State::Clamp,
-        State::Cut,
-        State::Unclamp,
-        State::Retract,
-        State::Return,
-        State::Index,
-        State::Home,
-        State::Disengage,
-        State::SpindleDown,
-        State::FaultRetract,
-        State::FaultStop,
-        State::Faulted,
-        State::Referencing,
-    ];
-
-    pub const fn code(self) -> u32 {
-        self as u32
-    }
-
-    pub fn from_code(c: u32) -> Option<State> {
-        Self::ALL.get(c as usize).copied()
-    }
-
-    /// The state's word (the trace's `state` column, `hob status`).
-    pub const fn name(self) -> &'static str {
-        match self {
-            State::Init => "init",
-            State::Idle => "idle",
-            State::Jog => "jog",
-            State::ToSafe => "safe",
-            State::ToStart => "start",
-            State::SpindleUp => "spin",
-            State::Engage => "sync",
-            State::Infeed => "infeed",
-            State::Plunge => "plunge",
-            State::ExtraRev => "rev",
-            State::Clamp => "clamp",
-            State::Cut => "cut",
-            State::Unclamp => "unclamp",
-            State::Retract => "retract",
-            State::Return => "return",
-            State::Index => "index",
-            State::Home => "home",
-            State::Disengage => "disengage",
-            State::SpindleDown => "spindown",
-            State::FaultRetract => "f_retract",
-            State::FaultStop => "f_stop",
-            State::Faulted => "fault",
-            State::Referencing => "referencing",
-        }
-    }
-}
 
 /// The state's name, or `?<code>` for a code this build does not know.
 pub fn state_name(c: u32) -> String {
     State::from_code(c).map_or_else(|| format!("?{c}"), |s| s.name().to_string())
 }
 
-/// Why the loop refused a command ([`crate::CommandResponse::refusal`], the `b` of
-/// [`event_kind::REFUSED`]). Codes start at 1; 0: the request itself was malformed or the
-/// program failed its check.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
-#[repr(u32)]
-pub enum Refusal {
-    NoProgram = 1,
-    CycleRunning = 2,
-    Faulted = 3,
-    NotReady = 4,
-    NothingToDo = 5,
-    OutsideSoftLimits = 6,
-    NoSingleDepth = 7,
-    BadValue = 8,
-    SafetyChainOpen = 9,
-    DrivesNotEnabled = 10,
-    NotReferenced = 11,
-    TablePositionLost = 12,
-    JogActive = 13,
-    SpindleTurning = 14,
-    FlanksCrossed = 15,
-}
-
-impl Refusal {
-    /// Every refusal, in code order (`ALL[i].code() == i + 1`).
-    pub const ALL: [Refusal; 15] = [
-        Refusal::NoProgram,
-        Refusal::CycleRunning,
-        Refusal::Faulted,
-        Refusal::NotReady,
-        Refusal::NothingToDo,
-        Refusal::OutsideSoftLimits,
-        Refusal::NoSingleDepth,
-        Refusal::BadValue,
-        Refusal::SafetyChainOpen,
-        Refusal::DrivesNotEnabled,
-        Refusal::NotReferenced,
-        Refusal::TablePositionLost,
-        Refusal::JogActive,
-        Refusal::SpindleTurning,
-        Refusal::FlanksCrossed,
-    ];
-
-    pub const fn code(self) -> u32 {
-        self as u32
-    }
-
-    pub fn from_code(c: u32) -> Option<Refusal> {
-        c.checked_sub(1).and_then(|i| Self::ALL.get(i as usize).copied())
-    }
-
-    pub const fn name(self) -> &'static str {
-        match self {
-            Refusal::NoProgram => "no-program",
-            Refusal::CycleRunning => "cycle-running",
-            Refusal::Faulted => "faulted",
-            Refusal::NotReady => "not-ready",
-            Refusal::NothingToDo => "nothing-to-do",
-            Refusal::OutsideSoftLimits => "outside-soft-limits",
-            Refusal::NoSingleDepth => "no-single-depth",
-            Refusal::BadValue => "bad-value",
-            Refusal::SafetyChainOpen => "safety-chain-open",
-            Refusal::DrivesNotEnabled => "drives-not-enabled",
-            Refusal::NotReferenced => "not-referenced",
-            Refusal::TablePositionLost => "table-position-lost",
-            Refusal::JogActive => "jog-active",
-            Refusal::SpindleTurning => "spindle-turning",
-            Refusal::FlanksCrossed => "flanks-crossed",
-        }
-    }
-
-    /// What the operator reads for a refusal.
-    pub const fn text(self) -> &'static str {
-        match self {
-            Refusal::NoProgram => "no program loaded: load one first (hob load PROGRAM)",
-            Refusal::CycleRunning => "a cycle is running: stop it first",
-            Refusal::Faulted => "the machine is in fault: remove the cause, then reset",
-            Refusal::NotReady => "power-up not finished (lubrication, safety chain, drives)",
-            Refusal::NothingToDo => "nothing to do in this state",
-            Refusal::OutsideSoftLimits => "the move would leave the soft limits",
-            Refusal::NoSingleDepth => "the program has no single-mode depth",
-            Refusal::BadValue => "the value is not a finite number in range",
-            Refusal::SafetyChainOpen => "the safety chain is open: close it with the reset button first",
-            Refusal::DrivesNotEnabled => "not every drive reports \"operation enabled\" yet",
-            Refusal::NotReferenced => {
-                "X and Y are not referenced: only referencing (hob home) and slow jogs until they are"
-            }
-            Refusal::TablePositionLost => {
-                "the table lost its position since the tooth phase was recorded: continuing would cut a new set of gaps into this part (touch both flanks of a cut gap to align to it: hob touch-flank)"
-            }
-            Refusal::JogActive => "a jog is running: release it (or stop) first",
-            Refusal::SpindleTurning => {
-                "the spindle turns: a flank touch needs the hob standing still (spindle off)"
-            }
-            Refusal::FlanksCrossed => {
-                "this flank lies on the wrong side of the other one: the table is turned positive to touch one flank of the gap and negative to touch the other"
-            }
-        }
-    }
-}
-
 /// The text of a refusal code (`?<code>` for one this build does not know).
 pub fn refusal_text(c: u32) -> String {
     Refusal::from_code(c).map_or_else(|| format!("?{c}"), |r| r.text().to_string())
-}
-
-/// An axis ([`AlarmCode::axis`], [`crate::CommandRequest::axis`]; 0: none).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
-#[repr(u8)]
-pub enum Axis {
-    B = 1,
-    X = 2,
-    Y = 3,
-}
-
-impl Axis {
-    pub const ALL: [Axis; 3] = [Axis::B, Axis::X, Axis::Y];
-
-    pub const fn code(self) -> u8 {
-        self as u8
-    }
-
-    pub fn from_code(c: u8) -> Option<Axis> {
-        c.checked_sub(1).and_then(|i| Self::ALL.get(i as usize).copied())
-    }
-
-    pub const fn name(self) -> &'static str {
-        match self {
-            Axis::B => "B",
-            Axis::X => "X",
-            Axis::Y => "Y",
-        }
-    }
-
-    /// The unit of the axis's positions and distances.
-    pub const fn unit(self) -> &'static str {
-        match self {
-            Axis::B => "deg",
-            Axis::X | Axis::Y => "mm",
-        }
-    }
-
-    /// The axis of a name as an operator types it (`x`, `Y`, `b`).
-    pub fn parse(name: &str) -> Option<Axis> {
-        match name.to_ascii_lowercase().as_str() {
-            "b" => Some(Axis::B),
-            "x" => Some(Axis::X),
-            "y" => Some(Axis::Y),
-            _ => None,
-        }
-    }
-}
-
-/// Which end of an axis ([`AlarmCode::end`]; 0: none).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
-#[repr(u8)]
-pub enum End {
-    Min = 1,
-    Max = 2,
-}
-
-impl End {
-    pub const ALL: [End; 2] = [End::Min, End::Max];
-
-    pub const fn code(self) -> u8 {
-        self as u8
-    }
-
-    pub fn from_code(c: u8) -> Option<End> {
-        c.checked_sub(1).and_then(|i| Self::ALL.get(i as usize).copied())
-    }
-
-    pub const fn name(self) -> &'static str {
-        match self {
-            End::Min => "min",
-            End::Max => "max",
-        }
-    }
 }
 
 /// What stopped the machine ([`AlarmCode::code`]; 0: no alarm). Which of the alarm's
@@ -399,44 +130,6 @@ macro_rules! continue_phase_lost {
         "the part on the table has lost its tooth phase and cannot be finished on the same \
          gaps: CONTINUE is refused; NEW BLANK with a new part, then START"
     };
-}
-
-/// Why referencing failed (the `end` byte of a [`Fault::HomingFailed`] alarm).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
-#[repr(u8)]
-pub enum HomingFailure {
-    ModeNotConfirmed = 1,
-    NotStarted = 2,
-    DriveError = 3,
-    Timeout = 4,
-}
-
-impl HomingFailure {
-    pub const ALL: [HomingFailure; 4] = [
-        HomingFailure::ModeNotConfirmed,
-        HomingFailure::NotStarted,
-        HomingFailure::DriveError,
-        HomingFailure::Timeout,
-    ];
-
-    pub const fn code(self) -> u8 {
-        self as u8
-    }
-
-    pub fn from_code(c: u8) -> Option<HomingFailure> {
-        c.checked_sub(1).and_then(|i| Self::ALL.get(i as usize).copied())
-    }
-
-    pub const fn text(self) -> &'static str {
-        match self {
-            HomingFailure::ModeNotConfirmed => "the drive did not confirm the mode of operation (0x6061)",
-            HomingFailure::NotStarted => "the drive did not start homing",
-            HomingFailure::DriveError => {
-                "the drive reported a homing error (home switch not found before a limit?)"
-            }
-            HomingFailure::Timeout => "homing took longer than homing.timeout_s",
-        }
-    }
 }
 
 impl Fault {
@@ -817,46 +510,6 @@ pub fn alarm_text(a: &AlarmCode) -> String {
         .unwrap_or_else(|| format!("alarm code {}", a.code))
 }
 
-/// Where the gearbox is ([`crate::StateSample::coupling`]).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
-#[repr(u32)]
-pub enum Coupling {
-    Disengaged = 0,
-    Engaging = 1,
-    Phasing = 2,
-    Synchronised = 3,
-    Disengaging = 4,
-}
-
-impl Coupling {
-    /// Every coupling, in code order (`ALL[c].code() == c`).
-    pub const ALL: [Coupling; 5] = [
-        Coupling::Disengaged,
-        Coupling::Engaging,
-        Coupling::Phasing,
-        Coupling::Synchronised,
-        Coupling::Disengaging,
-    ];
-
-    pub const fn code(self) -> u32 {
-        self as u32
-    }
-
-    pub fn from_code(c: u32) -> Option<Coupling> {
-        Self::ALL.get(c as usize).copied()
-    }
-
-    pub const fn name(self) -> &'static str {
-        match self {
-            Coupling::Disengaged => "disengaged",
-            Coupling::Engaging => "engaging",
-            Coupling::Phasing => "phasing",
-            Coupling::Synchronised => "synchronised",
-            Coupling::Disengaging => "disengaging",
-        }
-    }
-}
-
 /// The name of a coupling code (`?` for one this build does not know).
 pub fn coupling_name(c: u32) -> &'static str {
     Coupling::from_code(c).map_or("?", Coupling::name)
@@ -1056,25 +709,12 @@ pub fn bus_event_text(e: &EventSample) -> String {
     }
 }
 
-/// The name of a [`bus_kind`] code.
 /// A drive's CiA 402 power state, from its statusword ([`crate::StateSample::drive_statusword`]).
 pub fn cia402_state_name(statusword: u16) -> &'static str {
-    hob_canopen::cia402::PowerState::from_statusword(statusword).name()
+    PowerState::from_statusword(statusword).name()
 }
 
-/// A node's NMT state from its heartbeat code ([`crate::StateSample::nmt_state`]).
-pub fn nmt_state_name(code: u8) -> &'static str {
-    use hob_canopen::nmt::NmtState;
-    match code {
-        crate::NMT_NOT_HEARD => "not heard",
-        0x00 => NmtState::BootUp.name(),
-        0x04 => NmtState::Stopped.name(),
-        0x05 => NmtState::Operational.name(),
-        0x7F => NmtState::PreOperational.name(),
-        _ => "unknown",
-    }
-}
-
+/// The name of a [`bus_kind`] code.
 pub fn bus_kind_name(k: u8) -> &'static str {
     match k {
         bus_kind::SHARED_MEMORY => "shm",

@@ -1,7 +1,8 @@
 //! `#[repr(C)]`, fixed-size message types. Flags are `u8`/`u32` and enums are codes, so
 //! the layout is the same in every process built from this crate.
 
-use iceoryx2::prelude::ZeroCopySend;
+use iceoryx2_bb_derive_macros::ZeroCopySend;
+use iceoryx2_bb_elementary_traits::zero_copy_send::ZeroCopySend;
 use serde::{Deserialize, Serialize};
 
 /// Capacity of the text of a command request (a program file's TOML).
@@ -211,7 +212,7 @@ pub struct EventSample {
     pub text_len: u32,
     pub alarm: AlarmCode,
     pub value: f64,
-    #[serde(with = "crate::gateway::fixed_bytes")]
+    #[serde(with = "crate::frame::fixed_bytes")]
     pub text: [u8; EVENT_TEXT_BYTES],
 }
 
@@ -398,9 +399,9 @@ pub struct CommandRequest {
     /// LOAD_PROGRAM: the program file's name (for messages) and its TOML text.
     pub name_len: u32,
     pub text_len: u32,
-    #[serde(with = "crate::gateway::fixed_bytes")]
+    #[serde(with = "crate::frame::fixed_bytes")]
     pub name: [u8; 256],
-    #[serde(with = "crate::gateway::fixed_bytes")]
+    #[serde(with = "crate::frame::fixed_bytes")]
     pub text: [u8; REQUEST_TEXT_BYTES],
 }
 
@@ -452,7 +453,7 @@ pub struct CommandResponse {
     /// Refusal code when refused (0 when the request itself was malformed).
     pub refusal: u32,
     pub text_len: u32,
-    #[serde(with = "crate::gateway::fixed_bytes")]
+    #[serde(with = "crate::frame::fixed_bytes")]
     pub text: [u8; RESPONSE_TEXT_BYTES],
 }
 

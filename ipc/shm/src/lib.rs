@@ -1,6 +1,9 @@
-//! hob's shared-memory services (iceoryx2): the message types and service names that `hob-rt` and every
-//! frontend (HMI, CLI, logger, safety watchdog) share, and how each service is opened so
-//! that every process uses the same settings.
+//! # hob-ipc: the edge between hob's processes
+//!
+//! The shared-memory services (iceoryx2) that `hob-rt` and every frontend (HMI, CLI,
+//! logger, safety watchdog) open with the same settings, and the gateway's client for
+//! frontends of another user. What travels is `hob-wire`'s (re-exported here, so a
+//! frontend names one crate): the messages, the vocabulary and the codec.
 //!
 //! Services (all under `hob/<instance>/`, instance from `HOB_INSTANCE`, default `main`):
 //!
@@ -18,26 +21,17 @@
 //! The liveness signal is the `state` stream itself: a new sample every millisecond. The
 //! watchdog waits on it with its own deadline, so the loop never calls `notify()` (a
 //! syscall per cycle) for anybody.
-//!
-//! The types here are plain numbers; [`codec`] names every code (states, faults and
-//! alarms, refusals, couplings, commands, events, bus events) with the number it is on
-//! the wire, and gives each its text. This crate is the bottom layer: it knows no control
-//! core. The loop encodes its control core's types to these codes (`hob_service::encode`);
-//! every frontend decodes with [`codec`] and prints its texts.
 
-pub mod codec;
 pub mod gateway;
 mod ports;
-pub mod request;
-mod types;
 
 pub use gateway::{Commands, Feed, commands, follow};
+pub use hob_wire::*;
 pub use ports::{
     CAN_BUFFER, CanError, CanPort, Client, EVENT_BUFFER, EVENT_HISTORY, IpcError, Ports, PubSub,
     STATE_BUFFER, command_server, instance, node, open_can, open_can_port, open_command, open_events,
     open_recorder, open_state, open_stats, publisher, service_name, use_instance,
 };
-pub use types::*;
 
 /// The exact iceoryx2 every process must use (re-exported so nobody depends on another).
 pub use iceoryx2;

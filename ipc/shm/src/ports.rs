@@ -3,7 +3,7 @@
 //! be as large as the service allows).
 
 use crate::Svc;
-use crate::types::{
+use crate::{
     CanFrameSample, CommandRequest, CommandResponse, EventSample, RecorderSample, StateSample, StatsSample,
 };
 use iceoryx2::node::Node;
