@@ -23,8 +23,13 @@ pub enum Overflow {
 /// A CAN transport under test.
 pub trait Transport {
     type Bus: CanBus;
-    /// `n` endpoints of one bus nobody else uses during the test (a guard keeps it so), or
-    /// why this host cannot have them (the test is then skipped with that reason printed).
+    /// The transport's declaration that this host cannot have it, with why (SocketCAN
+    /// where the kernel has no such interface): the suite's tests are then skipped with
+    /// that reason printed. `None`: the transport is available here, and every test runs.
+    fn unavailable() -> Option<String>;
+    /// `n` endpoints of one bus nobody else uses during the test (a guard keeps it so).
+    /// Only asked where the transport is available: an error is the test's failure, never
+    /// a skip.
     fn open(n: usize) -> Result<(Vec<Self::Bus>, Guard), String>;
     /// After `echo_own_sync()` returned true: whether the endpoint hears its own frame `id`.
     /// SYNC must be among them.
@@ -42,14 +47,17 @@ pub type Guard = Option<std::sync::MutexGuard<'static, ()>>;
 const ARRIVE: Duration = Duration::from_secs(2);
 const QUIET: Duration = Duration::from_millis(50);
 
-/// Opens the endpoints, or prints why not (then the caller returns: skipped).
+/// Opens the endpoints; `None` (the caller returns: skipped, the reason printed) only where
+/// the transport declares itself unavailable on this host ([`Transport::unavailable`]).
+/// Where it is available, failing to open is the test's failure.
 fn open<T: Transport>(n: usize, test: &str) -> Option<(Vec<T::Bus>, Guard)> {
+    if let Some(why) = T::unavailable() {
+        eprintln!("SKIPPED {test}: {why}");
+        return None;
+    }
     match T::open(n) {
         Ok(b) => Some(b),
-        Err(why) => {
-            eprintln!("SKIPPED {test}: {why}");
-            None
-        }
+        Err(e) => panic!("{test}: {n} endpoints did not open on an available transport: {e}"),
     }
 }
 

@@ -35,12 +35,83 @@ fn a_saved_state_loads_the_same() {
     assert_eq!(load(&path).expect("loads"), Loaded::Calibrated(second));
 }
 
+/// Seconds since the Unix epoch of the system clock, the clock `crate::utc::now` reads.
+fn unix_now_s() -> u64 {
+    std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .expect("the system clock is after 1970")
+        .as_secs()
+}
+
+/// A `YYYY-MM-DDTHH:MM:SSZ` stamp back to Unix seconds, computed here on its own (days
+/// from the civil date, H. Hinnant), not by the code under test.
+fn stamp_unix_s(stamp: &str) -> u64 {
+    let n = |r: std::ops::Range<usize>| -> i64 {
+        stamp
+            .get(r.clone())
+            .and_then(|t| t.parse().ok())
+            .unwrap_or_else(|| panic!("{stamp:?}: no number at {r:?}"))
+    };
+    let (y, m, d) = (n(0..4), n(5..7), n(8..10));
+    let y = if m <= 2 { y - 1 } else { y };
+    let era = y.div_euclid(400);
+    let yoe = y - era * 400;
+    let doy = (153 * (if m > 2 { m - 3 } else { m + 9 }) + 2) / 5 + d - 1;
+    let doe = yoe * 365 + yoe / 4 - yoe / 100 + doy;
+    let days = era * 146_097 + doe - 719_468;
+    let s = days * 86_400 + n(11..13) * 3600 + n(14..16) * 60 + n(17..19);
+    u64::try_from(s).expect("after 1970")
+}
+
+#[test]
+fn the_stamp_reader_here_agrees_with_known_instants() {
+    // `date -u -d @...`: the checks below rest on this reading.
+    for (stamp, s) in [
+        ("1970-01-01T00:00:00Z", 0),
+        ("2000-02-29T00:00:00Z", 951_782_400),
+        ("2024-12-31T23:59:59Z", 1_735_689_599),
+        ("2025-03-01T08:15:00Z", 1_740_816_900),
+    ] {
+        assert_eq!(stamp_unix_s(stamp), s, "{stamp}");
+    }
+}
+
 #[test]
 fn a_new_state_is_stamped_now_and_valid() {
+    let before = unix_now_s();
     let s = MachineState::new(1.0, 2.0, Some(40.0), Some(100.0));
+    let after = unix_now_s();
+    // Now: within the second the call began and the one it ended (the stamp is whole
+    // seconds of the system clock, UTC).
+    assert!(crate::utc::is_timestamp(&s.set_at_utc), "{:?}", s.set_at_utc);
+    let stamped = stamp_unix_s(&s.set_at_utc);
+    assert!(
+        (before..=after).contains(&stamped),
+        "stamped {:?} ({stamped} s), not now: the call ran from {} to {} ({before} to {after} s)",
+        s.set_at_utc,
+        crate::utc::from_unix_s(before),
+        crate::utc::from_unix_s(after)
+    );
+    // The values given, nothing else.
+    assert_eq!(
+        s,
+        MachineState {
+            format_version: FORMAT_VERSION,
+            x_offset_mm: 1.0,
+            y_offset_mm: 2.0,
+            set_at_utc: s.set_at_utc.clone(),
+            gauge_diameter_mm: Some(40.0),
+            gauge_height_mm: Some(100.0),
+            note: None,
+        }
+    );
+    // Valid: no problem, and it saves and loads as it is.
     let mut p = Problems::new();
     s.validate(&mut p);
     assert!(p.is_empty(), "{:?}", p.as_slice());
+    let path = test_dir("state-new").join("machine-state.toml");
+    s.save(&path).expect("saved");
+    assert_eq!(load(&path).expect("loads"), Loaded::Calibrated(s));
 }
 
 #[test]
