@@ -10,8 +10,8 @@ use hob_control::{ControlParams, Controller};
 use hob_hmi::protocol::ClientMsg;
 use hob_ipc::CommandRequest;
 use hob_logger::format::{decode as decode_state, encode as encode_state, parse_event_line, states_in_file};
+use hob_master::Cyclic;
 use hob_process_image::capture::{check_schedule, parse_candump};
-use hob_process_image::master::Cyclic;
 use hob_process_image::plan::BusPlan;
 use hob_rt_os::alloc_guard;
 /// The allocator a target binary installs to have `cyclic`'s heap check count.

@@ -1,10 +1,11 @@
 //! `hob can run`: the master in lockstep with the drives over SocketCAN (commissioning, and
 //! the vcan tests against `hob-sim`).
 
+use hob_can_transport::SystemClock;
 use hob_control::fault::Axis;
 use hob_control::program::CycleProgram;
 use hob_control::{Command, ControlParams, Controller, HomeAxes, State};
-use hob_process_image::master::boot;
+use hob_master::boot;
 use hob_process_image::plan::BusPlan;
 use hob_setup::config::Problems;
 use hob_setup::config::machine::MachineConfig;
@@ -46,7 +47,13 @@ pub fn run(machine: &MachineConfig, a: &RunArgs<'_>) -> Result<String, (u8, Stri
     };
     let mut bus = hob_cli::can::open(a.iface).map_err(|e| (1, e))?;
     let plan = BusPlan::from_machine(machine);
-    let booted = boot(&plan, &mut bus, Duration::from_millis(500)).map_err(|e| (1, format!("boot: {e}")))?;
+    let booted = boot(
+        &plan,
+        &mut bus,
+        &mut SystemClock::new(),
+        Duration::from_millis(500),
+    )
+    .map_err(|e| (1, format!("boot: {e}")))?;
     let infos = &booted.nodes;
     let mut o = String::new();
     for i in infos {
@@ -199,10 +206,10 @@ impl Runner {
         self.m.cycle();
         self.cycles += 1;
         // EMCYs are shown to the operator with the error code's meaning.
-        let mut events = [None; hob_process_image::master::BUS_EVENTS];
+        let mut events = [None; hob_master::BUS_EVENTS];
         let n = self.m.cyclic.take_events(&mut events);
         for e in events[..n].iter().flatten() {
-            if let hob_process_image::master::BusEvent::Emcy(e) = e {
+            if let hob_master::BusEvent::Emcy(e) = e {
                 self.emcy
                     .push(format!("EMCY node {}: 0x{:04X} {}", e.node, e.code, e.text()));
             }

@@ -9,18 +9,25 @@ use std::collections::{BTreeMap, BTreeSet};
 /// dependencies; dev-dependencies are free). Bottom up: wire and pure logic, then the I/O
 /// edges, then the processes, then the test bench.
 const ALLOWED: &[(&str, &[&str])] = &[
-    // The wire: the contract between processes (message types, every code and its text).
-    // It knows no control core; only CANopen's pure words for EMCY codes and send errors.
-    ("hob-ipc", &["hob-canopen"]),
-    // Pure: units and gearing, set-up, control core, CANopen, this machine's process image.
+    // The wire: the contract between processes and the machine's vocabulary (message
+    // types, every code and its words). Pure, and the bottom: it depends on no crate here.
+    ("hob-wire", &[]),
+    // Pure: units and gearing, set-up, control core, CANopen, this machine's process image
+    // and its CANopen master.
     ("hob-gearing", &[]),
     // Profile disk cutters: their profile, the tooth space they cut, their design.
     ("hob-cutters", &["hob-gearing"]),
     ("hob-setup", &["hob-gearing", "hob-cutters"]),
-    ("hob-control", &["hob-gearing", "hob-setup"]),
-    ("hob-canopen", &[]),
-    ("hob-process-image", &["hob-canopen", "hob-control", "hob-setup"]),
-    // I/O edges: the CAN transports, the OS real-time helpers, files on disk.
+    ("hob-control", &["hob-gearing", "hob-setup", "hob-wire"]),
+    ("hob-canopen", &["hob-wire"]),
+    (
+        "hob-process-image",
+        &["hob-canopen", "hob-gearing", "hob-setup", "hob-wire"],
+    ),
+    ("hob-master", &["hob-canopen", "hob-process-image", "hob-control"]),
+    // I/O edges: the shared-memory services and the gateway's socket, the CAN transports
+    // (and the clock start-up waits on), the OS real-time helpers, files on disk.
+    ("hob-ipc", &["hob-wire"]),
     ("hob-can-transport", &["hob-canopen", "hob-ipc"]),
     ("hob-rt-os", &[]),
     ("hob-store", &["hob-gearing", "hob-setup", "hob-rt-os"]),
@@ -33,6 +40,7 @@ const ALLOWED: &[(&str, &[&str])] = &[
             "hob-control",
             "hob-canopen",
             "hob-process-image",
+            "hob-master",
             "hob-can-transport",
             "hob-rt-os",
             "hob-store",
@@ -65,6 +73,7 @@ const ALLOWED: &[(&str, &[&str])] = &[
             "hob-control",
             "hob-canopen",
             "hob-process-image",
+            "hob-master",
             "hob-can-transport",
             "hob-ipc",
             "hob-logger",
@@ -95,7 +104,6 @@ const ALLOWED: &[(&str, &[&str])] = &[
             "hob-control",
             "hob-ipc",
             "hob-logger",
-            "hob-service",
         ],
     ),
     (
@@ -108,6 +116,7 @@ const ALLOWED: &[(&str, &[&str])] = &[
             "hob-ipc",
             // The truth it writes beside a recording is in the logger's format.
             "hob-logger",
+            "hob-master",
             "hob-plant",
             "hob-process-image",
             "hob-rt-os",
@@ -122,6 +131,7 @@ const ALLOWED: &[(&str, &[&str])] = &[
             "hob-control",
             "hob-ipc",
             "hob-logger",
+            "hob-master",
             "hob-plant",
             "hob-process-image",
             "hob-setup",
@@ -156,6 +166,7 @@ const ALLOWED: &[(&str, &[&str])] = &[
             "hob-hmi",
             "hob-ipc",
             "hob-logger",
+            "hob-master",
             "hob-process-image",
             "hob-rt-os",
             "hob-service",
@@ -164,14 +175,67 @@ const ALLOWED: &[(&str, &[&str])] = &[
     ),
 ];
 
+/// What a crate must not link, directly or through any other (transitive closures): the
+/// independent watchdog, the frontends that add no control logic, the contract.
+const MUST_NOT_LINK: &[(&str, &[&str])] = &[
+    // The safety watchdog is a second channel: it must not share the control core's faults.
+    ("hob-watchdog", &["hob-control", "hob-master", "hob-service"]),
+    ("hob-logger", &["hob-control", "hob-setup", "hob-master"]),
+    (
+        "hob-hmi",
+        &[
+            "hob-control",
+            "hob-master",
+            "hob-process-image",
+            "hob-can-transport",
+        ],
+    ),
+    ("hob-gateway", &["hob-control", "hob-setup", "hob-master"]),
+    // CANopen knows no control core and no machine.
+    ("hob-canopen", &["hob-control", "hob-setup", "hob-process-image"]),
+    // The bus plan borrows nothing from the control core.
+    ("hob-process-image", &["hob-control", "hob-master"]),
+    // The CAN transports carry frames: no machine, no control core.
+    (
+        "hob-can-transport",
+        &["hob-control", "hob-setup", "hob-process-image"],
+    ),
+];
+
 /// Crates without I/O: the only outside crates they may use (normal dependencies).
 const PURE: &[(&str, &[&str])] = &[
+    // iceoryx2's marker trait for shared memory and its derive: no I/O (the ports are
+    // hob-ipc's).
+    (
+        "hob-wire",
+        &[
+            "serde",
+            "postcard",
+            "iceoryx2-bb-elementary-traits",
+            "iceoryx2-bb-derive-macros",
+        ],
+    ),
     ("hob-gearing", &["serde"]),
     ("hob-cutters", &["serde"]),
     ("hob-setup", &["serde", "toml"]),
     ("hob-control", &["serde", "nalgebra", "postcard"]),
     ("hob-canopen", &[]),
     ("hob-process-image", &[]),
+    ("hob-master", &[]),
+];
+
+/// What a pure crate's source must not call: a clock, a sleep, a file, a socket, a
+/// process (checked in `src/`, tests left out; the edges do these).
+const IO_CALLS: &[&str] = &[
+    "std::fs",
+    "std::net",
+    "std::os::unix::net",
+    "std::process",
+    "Instant::now",
+    "SystemTime",
+    "thread::sleep",
+    "File::open",
+    "File::create",
 ];
 
 /// The I/O edges that may use outside crates only from a short list (files on disk need
@@ -194,6 +258,50 @@ struct Workspace {
     internal: BTreeMap<String, BTreeSet<String>>,
     /// Workspace crate -> its outside dependencies (normal).
     external: BTreeMap<String, BTreeSet<String>>,
+    /// Workspace crate -> its source files under `src/` without their tests (path, code
+    /// with comments removed).
+    sources: BTreeMap<String, Vec<(String, String)>>,
+}
+
+/// The code of a source file as the I/O check reads it: comments removed, and nothing
+/// from the first `#[cfg(test)]` on (the tests at a file's end may use the clock).
+fn code_of(text: &str) -> String {
+    let mut out = String::new();
+    for line in text.lines() {
+        if line.trim_start().starts_with("#[cfg(test)]") {
+            break;
+        }
+        let code = line.split("//").next().unwrap_or("");
+        out.push_str(code);
+        out.push('\n');
+    }
+    out
+}
+
+/// The source files of a crate's `src/`, tests left out (files named `tests.rs` or in a
+/// `tests` folder).
+fn sources_of(src: &std::path::Path) -> Vec<(String, String)> {
+    let mut out = Vec::new();
+    let mut todo = vec![src.to_path_buf()];
+    while let Some(dir) = todo.pop() {
+        let Ok(entries) = std::fs::read_dir(&dir) else {
+            continue;
+        };
+        for e in entries.flatten() {
+            let path = e.path();
+            let name = e.file_name().to_string_lossy().to_string();
+            if path.is_dir() {
+                if name != "tests" {
+                    todo.push(path);
+                }
+            } else if name.ends_with(".rs") && name != "tests.rs" {
+                let text = std::fs::read_to_string(&path).unwrap();
+                out.push((path.display().to_string(), code_of(&text)));
+            }
+        }
+    }
+    out.sort();
+    out
 }
 
 fn workspace() -> Workspace {
@@ -213,6 +321,7 @@ fn workspace() -> Workspace {
     let mut ws = Workspace {
         internal: BTreeMap::new(),
         external: BTreeMap::new(),
+        sources: BTreeMap::new(),
     };
     for p in packages {
         let name = p["name"].as_str().unwrap().to_string();
@@ -228,6 +337,9 @@ fn workspace() -> Workspace {
                 ext.insert(dep);
             }
         }
+        let manifest = std::path::PathBuf::from(p["manifest_path"].as_str().unwrap());
+        let src = manifest.parent().unwrap().join("src");
+        ws.sources.insert(name.clone(), sources_of(&src));
         ws.internal.insert(name.clone(), int);
         ws.external.insert(name, ext);
     }
@@ -280,6 +392,27 @@ fn breaches(ws: &Workspace) -> Vec<String> {
             }
         }
     }
+    for (name, _) in PURE {
+        for (path, code) in ws.sources.get(*name).into_iter().flatten() {
+            for call in IO_CALLS {
+                if code.contains(call) {
+                    out.push(format!("{name} is pure but its source calls {call} ({path})"));
+                }
+            }
+        }
+    }
+    for (name, never) in MUST_NOT_LINK {
+        let linked = closure(ws, name);
+        for n in *never {
+            if linked.contains(*n) {
+                let via: Vec<&String> = ws.internal[*name]
+                    .iter()
+                    .filter(|d| d.as_str() == *n || closure(ws, d).contains(*n))
+                    .collect();
+                out.push(format!("{name} links {n} (through {via:?})"));
+            }
+        }
+    }
     for (name, ok) in EDGE_OUTSIDE {
         for e in ws.external.get(*name).into_iter().flatten() {
             if !ok.contains(&e.as_str()) {
@@ -316,36 +449,30 @@ fn the_workspace_keeps_its_layers() {
 #[test]
 fn canopen_does_not_import_the_control_core() {
     let ws = workspace();
+    // Only the wire's words (EMCY texts, NMT and CiA 402 states, send errors).
     let c = closure(&ws, "hob-canopen");
-    assert!(c.is_empty(), "hob-canopen depends on {c:?}");
+    assert!(c.iter().all(|d| d == "hob-wire"), "hob-canopen depends on {c:?}");
 }
 
 #[test]
 fn the_contract_between_processes_is_the_bottom_layer() {
     // No control core, set-up, gearing or process image below the wire: every frontend
-    // decodes a code without linking them.
+    // decodes a code without linking them, and the control core uses its vocabulary.
     let ws = workspace();
+    let c = closure(&ws, "hob-wire");
+    assert!(c.is_empty(), "hob-wire depends on {c:?}");
     let c = closure(&ws, "hob-ipc");
-    assert!(c.iter().all(|d| d == "hob-canopen"), "hob-ipc depends on {c:?}");
-    for frontend in ["hob-logger", "hob-watchdog"] {
+    assert_eq!(
+        c,
+        BTreeSet::from(["hob-wire".to_string()]),
+        "hob-ipc depends on {c:?}"
+    );
+    for user in ["hob-control", "hob-canopen", "hob-ipc"] {
         assert!(
-            !ws.internal[frontend].contains("hob-control"),
-            "{frontend} depends on hob-control directly"
+            ws.internal[user].contains("hob-wire"),
+            "{user} does not use the wire's vocabulary"
         );
     }
-    let logger = closure(&ws, "hob-logger");
-    assert!(
-        !logger.contains("hob-control") && !logger.contains("hob-setup"),
-        "hob-logger links {logger:?}"
-    );
-    // The HMI adds no control logic: it cannot, it does not link the control core.
-    let hmi = closure(&ws, "hob-hmi");
-    assert!(
-        !hmi.contains("hob-control")
-            && !hmi.contains("hob-process-image")
-            && !hmi.contains("hob-can-transport"),
-        "hob-hmi links {hmi:?}"
-    );
 }
 
 #[test]
@@ -364,10 +491,29 @@ fn a_breach_of_each_kind_is_reported() {
         .unwrap()
         .insert("rusqlite".into());
     ws.internal
-        .get_mut("hob-ipc")
+        .get_mut("hob-wire")
         .unwrap()
         .insert("hob-control".into());
+    // Through another crate: the bus plan borrowing from the control core again makes
+    // the watchdog link it.
+    ws.internal
+        .get_mut("hob-process-image")
+        .unwrap()
+        .insert("hob-control".into());
+    // A pure crate that reads the clock, sleeps, or opens a socket.
+    ws.sources.get_mut("hob-control").unwrap().push((
+        "rt-core/control/src/late.rs".into(),
+        code_of("fn late() -> bool { std::time::Instant::now() > t0 } // std::fs in a comment is fine\n"),
+    ));
+    ws.sources.get_mut("hob-wire").unwrap().push((
+        "ipc/wire/src/peer.rs".into(),
+        code_of("fn peer() { let s = std::os::unix::net::UnixStream::connect(p); std::thread::sleep(d); }\n#[cfg(test)]\nmod tests { fn t() { std::fs::read(p); } }\n"),
+    ));
     let b = breaches(&ws).join("\n");
+    assert!(
+        !b.contains("std::fs"),
+        "a comment or a test counted as a call:\n{b}"
+    );
     for needle in [
         "hob-canopen depends on hob-control",
         "hob-control must have no I/O dependency, but hob-control uses nix",
@@ -375,7 +521,13 @@ fn a_breach_of_each_kind_is_reported() {
         "hob-cli depends on hob-plant",
         "the product crate hob-cli links hob-plant",
         "hob-new: a crate the layer rules do not know",
-        "hob-ipc depends on hob-control",
+        "hob-wire depends on hob-control",
+        "hob-process-image depends on hob-control",
+        "hob-watchdog links hob-control (through [\"hob-process-image\"])",
+        "hob-process-image links hob-control",
+        "hob-control is pure but its source calls Instant::now (rt-core/control/src/late.rs)",
+        "hob-wire is pure but its source calls std::os::unix::net (ipc/wire/src/peer.rs)",
+        "hob-wire is pure but its source calls thread::sleep (ipc/wire/src/peer.rs)",
         "hob-store may use only [\"serde\", \"toml\"] outside the workspace, but uses rusqlite",
     ] {
         assert!(b.contains(needle), "{needle:?} not reported in:\n{b}");

@@ -10,7 +10,7 @@ use crate::virtual_machine::{VirtualMachine, VmFault};
 use hob_canopen::bus::{BusError, CanBus};
 use hob_canopen::frame::{Frame, SYNC};
 use hob_control::{Controller, CycleOutputs};
-use hob_process_image::master::Cyclic;
+use hob_master::Cyclic;
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::mpsc::Receiver;

@@ -5,15 +5,15 @@
 //! The same scenarios run as separate processes on vcan in the PREEMPT_RT guest.
 #![allow(clippy::unwrap_used)]
 
-use hob_can_transport::MemoryBus;
+use hob_can_transport::{MemoryBus, SystemClock};
 use hob_canopen::cia402::PowerState;
 use hob_canopen::frame::{Cob, Frame};
 use hob_control::fault::{Axis, Fault};
 use hob_control::program::CycleProgram;
 use hob_control::{Command, ControlParams, Controller, HomeAxes, State};
+use hob_master::boot;
 use hob_plant::config::PlantConfig;
 use hob_plant::sim::start_for;
-use hob_process_image::master::boot;
 use hob_process_image::plan::BusPlan;
 use hob_setup::config::Problems;
 use hob_setup::config::machine::MachineConfig;
@@ -106,7 +106,13 @@ fn bed() -> Bed {
     let vm_bus = bus.endpoint();
     let vm = VmThread::spawn(vm, vm_bus);
     let plan = BusPlan::from_machine(&m);
-    let booted = boot(&plan, &mut bus, Duration::from_millis(500)).unwrap();
+    let booted = boot(
+        &plan,
+        &mut bus,
+        &mut SystemClock::new(),
+        Duration::from_millis(500),
+    )
+    .unwrap();
     let infos = &booted.nodes;
     assert_eq!(infos.len(), 4);
     assert!(

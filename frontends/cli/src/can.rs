@@ -2,11 +2,12 @@
 
 use hob_canopen::nmt::NmtState;
 
+use hob_can_transport::SystemClock;
 use hob_control::ControlParams;
 use hob_control::program::CycleProgram;
+use hob_master::{identify, sdo_read, sdo_write};
 use hob_process_image::capture::{check_schedule, parse_candump};
 use hob_process_image::describe::describe;
-use hob_process_image::master::{identify, sdo_read, sdo_write};
 use hob_process_image::plan::BusPlan;
 use hob_setup::config::Problems;
 use hob_setup::config::machine::MachineConfig;
@@ -100,7 +101,7 @@ pub fn scan(iface: &str, timeout: Duration) -> Result<String, String> {
     let mut o = String::new();
     let mut found = 0;
     for node in 1..=127u8 {
-        let Ok(b) = sdo_read(&mut bus, node, 0x1000, 0, timeout) else {
+        let Ok(b) = sdo_read(&mut bus, &mut SystemClock::new(), node, 0x1000, 0, timeout) else {
             continue;
         };
         found += 1;
@@ -110,7 +111,7 @@ pub fn scan(iface: &str, timeout: Duration) -> Result<String, String> {
             b.get(2).copied().unwrap_or(0),
             b.get(3).copied().unwrap_or(0),
         ]);
-        let info = identify(&mut bus, node, timeout).ok();
+        let info = identify(&mut bus, &mut SystemClock::new(), node, timeout).ok();
         let state = states[usize::from(node)].map_or("no heartbeat seen", NmtState::name);
         let _ = write!(
             o,
@@ -211,7 +212,8 @@ pub fn sdo_read_cmd(
     timeout: Duration,
 ) -> Result<String, String> {
     let mut bus = open(iface)?;
-    let b = sdo_read(&mut bus, node, index, sub, timeout).map_err(|e| format!("node {node}: {e}"))?;
+    let b = sdo_read(&mut bus, &mut SystemClock::new(), node, index, sub, timeout)
+        .map_err(|e| format!("node {node}: {e}"))?;
     Ok(format!("{}\n", decode(&b, ty)))
 }
 
@@ -227,7 +229,16 @@ pub fn sdo_write_cmd(
 ) -> Result<String, String> {
     let data = encode(value, ty)?;
     let mut bus = open(iface)?;
-    sdo_write(&mut bus, node, index, sub, &data, timeout).map_err(|e| format!("node {node}: {e}"))?;
+    sdo_write(
+        &mut bus,
+        &mut SystemClock::new(),
+        node,
+        index,
+        sub,
+        &data,
+        timeout,
+    )
+    .map_err(|e| format!("node {node}: {e}"))?;
     Ok(format!(
         "node {node} 0x{index:04X}:{sub:02X} <- {} ({} bytes)\n",
         decode(&data, ty),

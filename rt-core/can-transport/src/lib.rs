@@ -7,10 +7,12 @@
 //!   real machine's loop);
 //! - [`ShmCan`]: the shared-memory virtual CAN bus (iceoryx2), where the kernel has no CAN.
 
+pub mod clock;
 pub mod memory;
 pub mod shm;
 pub mod socketcan;
 
+pub use clock::SystemClock;
 pub use memory::MemoryBus;
 pub use shm::{ShmCan, default_iface, open_bus};
 pub use socketcan::SocketCan;

@@ -101,6 +101,11 @@ impl CanBus for MemoryBus {
         self.lock().echo_sync[me] = true;
         true
     }
+
+    fn wait_for_frame(&mut self, timeout: std::time::Duration) {
+        // Nothing wakes a waiter here: a short sleep, then the caller polls again.
+        std::thread::sleep(timeout.min(std::time::Duration::from_micros(50)));
+    }
 }
 
 // Delivery, order, own SYNC and a full queue: the conformance suite

@@ -47,6 +47,11 @@ impl CanBus for ShmCan {
             Err(_) => Err(BusError::Down),
         }
     }
+
+    fn wait_for_frame(&mut self, timeout: std::time::Duration) {
+        // Nothing wakes a waiter here: a short sleep, then the caller polls again.
+        std::thread::sleep(timeout.min(std::time::Duration::from_micros(50)));
+    }
 }
 
 /// Which bus a process is on: `vcan0`/`can0` (SocketCAN) or `shm` (the virtual bus).

@@ -19,10 +19,19 @@ pub trait CanBus {
     }
     /// Waits until a frame may be waiting, at most `timeout`: for a process that serves the
     /// bus (the virtual machine), never the loop. Where the transport cannot wake a waiter
-    /// it sleeps briefly (50 us) and the caller polls [`CanBus::try_recv`] again.
-    fn wait_for_frame(&mut self, timeout: std::time::Duration) {
-        std::thread::sleep(timeout.min(std::time::Duration::from_micros(50)));
-    }
+    /// it sleeps briefly (50 us) and the caller polls [`CanBus::try_recv`] again. The
+    /// transports (with I/O, `hob-can-transport`) say how they wait.
+    fn wait_for_frame(&mut self, timeout: std::time::Duration);
+}
+
+/// The time as start-up waits on it (an SDO answer, a boot-up, a drive changing modes):
+/// the real one is the I/O edge's (`hob_can_transport::SystemClock`), a test's can be its
+/// own. The protocol and the master read no wall clock themselves.
+pub trait Clock {
+    /// Time since some fixed origin of this clock (monotonic).
+    fn now(&self) -> std::time::Duration;
+    /// Lets `d` pass (the real clock sleeps; a test's may just advance).
+    fn pause(&mut self, d: std::time::Duration);
 }
 
 impl<B: CanBus + ?Sized> CanBus for Box<B> {

@@ -147,28 +147,8 @@ fn input_mode(input: &CycleInputs, k: usize) -> i8 {
     [input.table, input.x, input.y][k].mode_display
 }
 
-/// Scaling of one axis between counts and units.
-#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
-pub struct AxisScale {
-    pub counts_per_unit: f64,
-    pub sign: f64,
-}
-
-impl AxisScale {
-    /// Position of an encoder reading: the middle of the count's interval (an encoder
-    /// reports `floor(position)`, so taking the count itself would bias every reading by
-    /// half a count: 3.8 arcsec of table at z = 17 for the spindle's 10 000 counts).
-    pub fn to_units(&self, counts: i64) -> f64 {
-        (counts as f64 + 0.5) / self.counts_per_unit * self.sign
-    }
-
-    /// Wrapping 32-bit counts for a position (drives count modulo 2^32 in CSP).
-    pub fn to_counts(&self, units: f64) -> i32 {
-        let c = (units * self.sign * self.counts_per_unit).round();
-        // Saturating cast, then wrap to the drive's 32-bit range.
-        (c as i64) as i32
-    }
-}
+/// Scaling of one axis between counts and units (a unit conversion: `hob_gearing::units`).
+pub use hob_gearing::units::AxisScale;
 
 /// Limits and timing of one linear axis.
 #[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]

@@ -6,25 +6,8 @@
 //! (a critically damped g-h-k filter) estimates angle, speed and acceleration from the
 //! counts; quantisation (1 count = 0.036 deg) is noise it filters, not an error it keeps.
 
-/// Extends a wrapping 32-bit counter to a continuous 64-bit one.
-#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
-pub struct Unwrapper {
-    last: Option<i32>,
-    total: i64,
-}
-
-impl Unwrapper {
-    /// Continuous count for a new raw reading (at most half the counter range between
-    /// readings).
-    pub fn update(&mut self, raw: i32) -> i64 {
-        match self.last {
-            None => self.total = i64::from(raw),
-            Some(last) => self.total += i64::from(raw.wrapping_sub(last)),
-        }
-        self.last = Some(raw);
-        self.total
-    }
-}
+/// Extends a wrapping 32-bit counter to a continuous 64-bit one (`hob_gearing::units`).
+pub use hob_gearing::units::Unwrapper;
 
 /// Spindle state estimated by [`SpindleObserver`].
 #[derive(Debug, Clone, Copy, Default, PartialEq, serde::Serialize, serde::Deserialize)]

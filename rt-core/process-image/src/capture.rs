@@ -209,7 +209,7 @@ pub fn check_gearbox(
     let mut pairs: Vec<(f64, f64, bool)> = Vec::new();
     // The table's targets wrap at 32 bits (every 27 table turns in 2^20 counts per motor
     // turn): followed continuously from the first.
-    let mut table_counts = hob_control::observer::Unwrapper::default();
+    let mut table_counts = hob_gearing::units::Unwrapper::default();
     for c in frames {
         let f = &c.frame;
         if f.id == b.actual.cob_id

@@ -17,9 +17,9 @@ use hob_canopen::busload::{BusLoad, Traffic, bus_load};
 use hob_canopen::cia402::{MODE_CSP, object};
 use hob_canopen::frame::{rpdo_id, tpdo_id};
 use hob_canopen::pdo::{Direction, MapEntry, Pdo, SdoWrite};
-use hob_control::AxisScale;
-use hob_control::fault::Axis;
+use hob_gearing::units::AxisScale;
 use hob_setup::config::machine::{LinearAxisConfig, MachineConfig, Polarity};
+use hob_wire::vocab::Axis;
 
 /// Node-ID of the master (its heartbeat COB-ID is 0x700 + this).
 pub const MASTER_NODE: u8 = 0x7F;

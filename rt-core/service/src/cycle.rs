@@ -14,7 +14,7 @@ use hob_canopen::bus::CanBus;
 use hob_control::{Controller, CycleOutputs, State};
 use hob_ipc::iceoryx2::port::publisher::Publisher;
 use hob_ipc::{EventSample, StateSample, Svc, event_kind};
-use hob_process_image::master::{BUS_EVENTS, BusEvent, Cyclic};
+use hob_master::{BUS_EVENTS, BusEvent, Cyclic};
 use hob_rt_os::alloc_guard;
 use hob_rt_os::{now_ns, sleep_until_ns};
 use std::sync::Arc;

@@ -9,7 +9,7 @@ use hob_control::events::{Event, EventKind};
 use hob_control::fault::{Axis, Fault};
 use hob_control::{Command, Direction, HomeAxes, Status};
 use hob_ipc::{EventSample, StateSample, bus_event, command, direction, event_kind, send_error};
-use hob_process_image::master::BusEvent;
+use hob_master::BusEvent;
 
 fn bits(b: [bool; 3]) -> u8 {
     b.iter()

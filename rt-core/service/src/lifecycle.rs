@@ -16,12 +16,13 @@ use crate::commands::{self, ThreadMailbox};
 use crate::cycle::{LoopCounters, RtLoop};
 use crate::recorder;
 use crate::stats::{self, LoopTiming, StatsTiming, Timing};
+use hob_can_transport::SystemClock;
 use hob_can_transport::shm::open_bus;
 use hob_canopen::bus::CanBus;
 use hob_control::{ControlParams, Controller, Status};
 use hob_ipc::iceoryx2;
 use hob_ipc::{EventSample, StateSample, StatsSample, Svc};
-use hob_process_image::master::{Booted, boot};
+use hob_master::{Booted, boot};
 use hob_process_image::plan::BusPlan;
 use hob_rt_os::alloc_guard;
 use hob_rt_os::{IdleLatencyRequest, RtReport};
@@ -115,8 +116,13 @@ pub fn configure(machine: MachineConfig, settings: &Settings) -> Result<Configur
         .unwrap_or_else(|| machine.can.interface.clone());
     let mut bus = open_bus(&iface, "hob-rt-can").map_err(|e| (1, e))?;
     let plan = BusPlan::from_machine(&machine);
-    let booted = boot(&plan, &mut *bus, Duration::from_millis(500))
-        .map_err(|e| (1, format!("bus boot on {iface}: {e}")))?;
+    let booted = boot(
+        &plan,
+        &mut *bus,
+        &mut SystemClock::new(),
+        Duration::from_millis(500),
+    )
+    .map_err(|e| (1, format!("bus boot on {iface}: {e}")))?;
     for i in &booted.nodes {
         eprintln!(
             "hob-rt: node {} \"{}\" operational{}",

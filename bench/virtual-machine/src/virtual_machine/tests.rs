@@ -100,6 +100,10 @@ impl hob_canopen::bus::CanBus for Scripted {
         }
         Ok(None)
     }
+
+    fn wait_for_frame(&mut self, timeout: std::time::Duration) {
+        std::thread::sleep(timeout.min(std::time::Duration::from_micros(50)));
+    }
 }
 
 #[test]

@@ -10,7 +10,7 @@ use hob_control::State;
 use hob_control::egb::Coupling;
 use hob_control::fault::{End, HomingFailure, Refusal};
 use hob_ipc::{AlarmCode, codec};
-use hob_process_image::master::BusEvent;
+use hob_master::BusEvent;
 
 /// The texts as the old codec (`hob_ipc::codec` on the control core's types) printed them.
 mod old {

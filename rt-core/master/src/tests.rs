@@ -2,7 +2,7 @@
 //! bus order), and what the control core is told about it.
 
 use super::*;
-use hob_can_transport::MemoryBus;
+use hob_can_transport::{MemoryBus, SystemClock};
 use hob_control::{CycleOutputs, DriveMode};
 use hob_setup::config::machine::shipped_for_tests;
 
@@ -207,6 +207,8 @@ impl CanBus for RefusingBus {
     fn try_recv(&mut self) -> Result<Option<Frame>, BusError> {
         Ok(self.replies.pop_front())
     }
+
+    fn wait_for_frame(&mut self, _: Duration) {}
 }
 
 /// A request the bus refused is not a timeout: the error names the bus's reason and the
@@ -218,7 +220,7 @@ fn a_refused_sdo_request_reports_the_bus_error_and_the_object() {
         accept: 0,
         replies: Default::default(),
     };
-    let e = sdo_read(&mut bus, 2, 0x1008, 0, t).unwrap_err();
+    let e = sdo_read(&mut bus, &mut SystemClock::new(), 2, 0x1008, 0, t).unwrap_err();
     let text = e.to_string();
     assert!(
         text.contains("1008:00") && text.contains("interface down"),
@@ -229,7 +231,16 @@ fn a_refused_sdo_request_reports_the_bus_error_and_the_object() {
         accept: 1,
         replies: [Frame::new(0x584, &[0x60, 0x00, 0x20, 0x00, 0, 0, 0, 0])].into(),
     };
-    let e = sdo_write(&mut bus, 4, 0x2000, 0, b"Y axis, hob head", t).unwrap_err();
+    let e = sdo_write(
+        &mut bus,
+        &mut SystemClock::new(),
+        4,
+        0x2000,
+        0,
+        b"Y axis, hob head",
+        t,
+    )
+    .unwrap_err();
     let text = e.to_string();
     assert!(
         text.contains("2000:00") && text.contains("interface down"),
@@ -360,6 +371,8 @@ impl CanBus for FakeBus {
     fn try_recv(&mut self) -> Result<Option<Frame>, BusError> {
         Ok(self.queue.pop_front())
     }
+
+    fn wait_for_frame(&mut self, _: Duration) {}
 }
 
 /// 0x6502 announcing CSP only, and CSP with homing.
@@ -372,7 +385,13 @@ fn boot_writes_the_homing_parameters_in_counts_and_confirms_csp() {
     let plan = BusPlan::from_machine(&m);
     // The table needs only CSP.
     let mut bus = FakeBus::new(&plan, [CSP_ONLY, CSP_AND_HOMING, CSP_AND_HOMING]);
-    let booted = boot(&plan, &mut bus, Duration::from_millis(50)).expect("boots");
+    let booted = boot(
+        &plan,
+        &mut bus,
+        &mut SystemClock::new(),
+        Duration::from_millis(50),
+    )
+    .expect("boots");
     assert_eq!(booted.nodes.len(), 4);
     // Shipped X and Y: 3000 counts/mm, normal polarity, method 3, home at 240 and 440 mm,
     // 600 and 60 mm/min, 50 mm/s^2.
@@ -415,7 +434,13 @@ fn boot_mirrors_the_method_and_the_home_offset_of_an_inverted_axis() {
     m.y.homing.method = 4;
     let plan = BusPlan::from_machine(&m);
     let mut bus = FakeBus::new(&plan, [CSP_AND_HOMING; 3]);
-    boot(&plan, &mut bus, Duration::from_millis(50)).expect("boots");
+    boot(
+        &plan,
+        &mut bus,
+        &mut SystemClock::new(),
+        Duration::from_millis(50),
+    )
+    .expect("boots");
     let y = m.y.can_node_id;
     // The switch on the machine's positive side is on the inverted drive's negative side.
     assert_eq!(bus.written(y, 0x6098, 0), [vec![6]]);
@@ -432,7 +457,13 @@ fn boot_refuses_an_axis_drive_without_homing_naming_node_and_mode() {
     let m = shipped_for_tests();
     let plan = BusPlan::from_machine(&m);
     let mut bus = FakeBus::new(&plan, [CSP_AND_HOMING, CSP_ONLY, CSP_AND_HOMING]);
-    let e = boot(&plan, &mut bus, Duration::from_millis(50)).unwrap_err();
+    let e = boot(
+        &plan,
+        &mut bus,
+        &mut SystemClock::new(),
+        Duration::from_millis(50),
+    )
+    .unwrap_err();
     assert_eq!(
         e,
         BootError::NoHoming {
@@ -449,7 +480,13 @@ fn boot_refuses_an_axis_drive_without_homing_naming_node_and_mode() {
     assert!(bus.written(m.x.can_node_id, 0x6098, 0).is_empty());
     // Without CSP the refusal names CSP, as before (also on the table).
     let mut bus = FakeBus::new(&plan, [1 << 5, CSP_AND_HOMING, CSP_AND_HOMING]);
-    let e = boot(&plan, &mut bus, Duration::from_millis(50)).unwrap_err();
+    let e = boot(
+        &plan,
+        &mut bus,
+        &mut SystemClock::new(),
+        Duration::from_millis(50),
+    )
+    .unwrap_err();
     assert!(matches!(e, BootError::NoCsp { node: 2, .. }), "{e:?}");
 }
 
@@ -459,7 +496,13 @@ fn boot_refuses_a_drive_that_does_not_display_csp() {
     let plan = BusPlan::from_machine(&m);
     let mut bus = FakeBus::new(&plan, [CSP_AND_HOMING; 3]);
     bus.nodes[2].takes_mode = false;
-    let e = boot(&plan, &mut bus, Duration::from_millis(20)).unwrap_err();
+    let e = boot(
+        &plan,
+        &mut bus,
+        &mut SystemClock::new(),
+        Duration::from_millis(20),
+    )
+    .unwrap_err();
     assert_eq!(
         e,
         BootError::ModeNotTaken {
@@ -734,4 +777,58 @@ fn missing_tpdos_are_reported_counted_at_most_once_a_second() {
         (9000, 3000 - to_fault, 3000),
     ];
     assert_eq!(reports, expected, "{reports:?}");
+}
+
+/// A clock that only moves when start-up pauses on it: no wall time passes.
+#[derive(Debug, Default)]
+struct StepClock {
+    now: Duration,
+    pauses: u32,
+}
+
+impl Clock for StepClock {
+    fn now(&self) -> Duration {
+        self.now
+    }
+
+    fn pause(&mut self, d: Duration) {
+        self.now += d;
+        self.pauses += 1;
+    }
+}
+
+/// The boot waits on the clock it is given, not the wall clock: a drive that never
+/// displays CSP is refused once that clock passed the timeout (a minute of it here, in next to no
+/// wall time), and a silent bus is refused after four timeouts of it.
+#[test]
+fn boot_waits_on_the_injected_clock() {
+    let m = shipped_for_tests();
+    let plan = BusPlan::from_machine(&m);
+    let minute = Duration::from_secs(60);
+    let wall = std::time::Instant::now();
+    let mut bus = FakeBus::new(&plan, [CSP_AND_HOMING; 3]);
+    bus.nodes[2].takes_mode = false;
+    let mut clock = StepClock::default();
+    let e = boot(&plan, &mut bus, &mut clock, minute).unwrap_err();
+    assert!(matches!(e, BootError::ModeNotTaken { .. }), "{e:?}");
+    assert!(
+        clock.now >= minute && clock.now < minute + Duration::from_millis(100),
+        "{:?}",
+        clock.now
+    );
+    // Nobody on the bus: no boot-up within four timeouts of the clock.
+    let mut silent = RefusingBus {
+        accept: usize::MAX,
+        replies: Default::default(),
+    };
+    let mut clock = StepClock::default();
+    let e = boot(&plan, &mut silent, &mut clock, minute).unwrap_err();
+    assert!(matches!(e, BootError::NoBootUp { .. }), "{e:?}");
+    assert!(clock.now >= 4 * minute, "{:?}", clock.now);
+    assert!(clock.pauses > 0);
+    assert!(
+        wall.elapsed() < Duration::from_secs(60),
+        "{:?} of wall time",
+        wall.elapsed()
+    );
 }

@@ -1,6 +1,11 @@
-//! The CANopen master of the machine.
+//! # hob-master: the CANopen master of the machine
 //!
-//! - Start-up ([`boot`], may block): NMT reset, wait for every node's boot-up, read
+//! Pure: frames in, frames out. Where start-up waits (for a node's answer, for a drive to
+//! change modes), it waits on the [`Clock`] and the [`CanBus`] it is given: the real ones
+//! are the I/O edge's (`hob_can_transport::SystemClock` and the transports), a test's
+//! are its own, so no wall clock is read here.
+//!
+//! - Start-up ([`boot`], may block on the clock): NMT reset, wait for every node's boot-up, read
 //!   device type and identity, refuse a drive without cyclic synchronous position (0x6502)
 //!   and X or Y without homing, configure heartbeats, modes, the homing parameters of X
 //!   and Y, and PDOs by SDO, confirm each drive displays cyclic synchronous position
@@ -12,8 +17,7 @@
 //!   count TPDOs that did not arrive and hold their last value; watch heartbeats and
 //!   EMCYs.
 
-use crate::plan::{BusPlan, MASTER_NODE, PROFILE_DRIVE, PROFILE_IO};
-use hob_canopen::bus::{BusError, CanBus};
+use hob_canopen::bus::{BusError, CanBus, Clock};
 use hob_canopen::cia402::{self, PowerState, object};
 use hob_canopen::emcy::Emcy;
 use hob_canopen::frame::{Cob, Frame, SYNC, heartbeat_id};
@@ -21,7 +25,8 @@ use hob_canopen::nmt::{NmtCommand, NmtState};
 use hob_canopen::pdo::as_i32;
 use hob_canopen::sdo::{AbortCode, Progress, SdoClient, SdoError};
 use hob_control::{AxisFeedback, CycleInputs, CycleOutputs};
-use std::time::{Duration, Instant};
+use hob_process_image::plan::{BusPlan, MASTER_NODE, PROFILE_DRIVE, PROFILE_IO};
+use std::time::Duration;
 
 /// What a node told about itself at boot.
 #[derive(Debug, Clone, PartialEq)]
@@ -139,21 +144,26 @@ impl std::fmt::Display for BootError {
 impl std::error::Error for BootError {}
 
 /// Waits for the next frame until `deadline` (start-up only).
-fn recv_until(bus: &mut dyn CanBus, deadline: Instant) -> Result<Option<Frame>, BootError> {
+fn recv_until(
+    bus: &mut dyn CanBus,
+    clock: &mut dyn Clock,
+    deadline: Duration,
+) -> Result<Option<Frame>, BootError> {
     loop {
         if let Some(f) = bus.try_recv().map_err(BootError::Bus)? {
             return Ok(Some(f));
         }
-        if Instant::now() >= deadline {
+        if clock.now() >= deadline {
             return Ok(None);
         }
-        std::thread::sleep(Duration::from_micros(100));
+        clock.pause(Duration::from_micros(100));
     }
 }
 
 /// Runs one SDO transfer to the end (start-up and commissioning tools: blocks).
 fn transfer(
     bus: &mut dyn CanBus,
+    clock: &mut dyn Clock,
     client: &mut SdoClient,
     first: Frame,
     timeout: Duration,
@@ -162,9 +172,9 @@ fn transfer(
     let (index, sub) = (u16::from_le_bytes([first.data[1], first.data[2]]), first.data[3]);
     let not_sent = |error| SdoError::Send { index, sub, error };
     bus.send(&first).map_err(not_sent)?;
-    let mut deadline = Instant::now() + timeout;
+    let mut deadline = clock.now() + timeout;
     loop {
-        let f = match recv_until(bus, deadline) {
+        let f = match recv_until(bus, clock, deadline) {
             Ok(Some(f)) => f,
             _ => {
                 let abort = client.abort(AbortCode::TIMEOUT);
@@ -176,7 +186,7 @@ fn transfer(
             Progress::Ignored => {}
             Progress::Send(next) => {
                 bus.send(&next).map_err(not_sent)?;
-                deadline = Instant::now() + timeout;
+                deadline = clock.now() + timeout;
             }
             Progress::Uploaded | Progress::Downloaded => return Ok(()),
             Progress::Failed(e, abort) => {
@@ -192,6 +202,7 @@ fn transfer(
 /// Reads `index:sub` of `node` (blocks up to `timeout` per frame).
 pub fn sdo_read(
     bus: &mut dyn CanBus,
+    clock: &mut dyn Clock,
     node: u8,
     index: u16,
     sub: u8,
@@ -199,13 +210,14 @@ pub fn sdo_read(
 ) -> Result<Vec<u8>, SdoError> {
     let mut c = SdoClient::new(node);
     let first = c.upload(index, sub);
-    transfer(bus, &mut c, first, timeout)?;
+    transfer(bus, clock, &mut c, first, timeout)?;
     Ok(c.data().to_vec())
 }
 
 /// Writes `data` to `index:sub` of `node`.
 pub fn sdo_write(
     bus: &mut dyn CanBus,
+    clock: &mut dyn Clock,
     node: u8,
     index: u16,
     sub: u8,
@@ -214,7 +226,7 @@ pub fn sdo_write(
 ) -> Result<(), SdoError> {
     let mut c = SdoClient::new(node);
     let first = c.download(index, sub, data)?;
-    transfer(bus, &mut c, first, timeout)
+    transfer(bus, clock, &mut c, first, timeout)
 }
 
 fn u32_of(b: &[u8]) -> u32 {
@@ -225,19 +237,31 @@ fn u32_of(b: &[u8]) -> u32 {
 }
 
 /// Reads what a node says about itself (0x1000, 0x1008, 0x1018, and 0x6502 on drives).
-pub fn identify(bus: &mut dyn CanBus, node: u8, timeout: Duration) -> Result<NodeInfo, SdoError> {
-    let device_type = u32_of(&sdo_read(bus, node, 0x1000, 0, timeout)?);
-    let name = sdo_read(bus, node, 0x1008, 0, timeout)
+pub fn identify(
+    bus: &mut dyn CanBus,
+    clock: &mut dyn Clock,
+    node: u8,
+    timeout: Duration,
+) -> Result<NodeInfo, SdoError> {
+    let device_type = u32_of(&sdo_read(bus, clock, node, 0x1000, 0, timeout)?);
+    let name = sdo_read(bus, clock, node, 0x1008, 0, timeout)
         .map(|b| String::from_utf8_lossy(&b).trim_end_matches('\0').to_string())
         .unwrap_or_default();
     let mut id = |sub| {
-        sdo_read(bus, node, 0x1018, sub, timeout)
+        sdo_read(bus, clock, node, 0x1018, sub, timeout)
             .map(|b| u32_of(&b))
             .unwrap_or(0)
     };
     let (vendor_id, product_code, revision, serial) = (id(1), id(2), id(3), id(4));
     let supported_modes = if device_type & 0xFFFF == PROFILE_DRIVE {
-        Some(u32_of(&sdo_read(bus, node, object::SUPPORTED_MODES, 0, timeout)?))
+        Some(u32_of(&sdo_read(
+            bus,
+            clock,
+            node,
+            object::SUPPORTED_MODES,
+            0,
+            timeout,
+        )?))
     } else {
         None
     };
@@ -255,20 +279,25 @@ pub fn identify(bus: &mut dyn CanBus, node: u8, timeout: Duration) -> Result<Nod
 
 /// Reads 0x6061 until the drive displays cyclic synchronous position (the configuration
 /// wrote 0x6060 = 8; a drive may take a moment to change modes), for up to `timeout`.
-fn confirm_csp(bus: &mut dyn CanBus, node: u8, timeout: Duration) -> Result<(), BootError> {
-    let deadline = Instant::now() + timeout;
+fn confirm_csp(
+    bus: &mut dyn CanBus,
+    clock: &mut dyn Clock,
+    node: u8,
+    timeout: Duration,
+) -> Result<(), BootError> {
+    let deadline = clock.now() + timeout;
     loop {
-        let display = sdo_read(bus, node, object::MODES_DISPLAY, 0, timeout)
+        let display = sdo_read(bus, clock, node, object::MODES_DISPLAY, 0, timeout)
             .map_err(|error| BootError::Sdo { node, error })?
             .first()
             .map_or(0, |b| *b as i8);
         if display == cia402::MODE_CSP {
             return Ok(());
         }
-        if Instant::now() >= deadline {
+        if clock.now() >= deadline {
             return Err(BootError::ModeNotTaken { node, display });
         }
-        std::thread::sleep(Duration::from_millis(1));
+        clock.pause(Duration::from_millis(1));
     }
 }
 
@@ -284,14 +313,19 @@ pub struct Booted {
 }
 
 /// Brings every node of `plan` from power-up to operational (start-up: blocks).
-pub fn boot(plan: &BusPlan, bus: &mut dyn CanBus, timeout: Duration) -> Result<Booted, BootError> {
+pub fn boot(
+    plan: &BusPlan,
+    bus: &mut dyn CanBus,
+    clock: &mut dyn Clock,
+    timeout: Duration,
+) -> Result<Booted, BootError> {
     let nodes = plan.nodes();
     bus.send(&NmtCommand::ResetCommunication.frame(0))
         .map_err(BootError::Bus)?;
     let mut booted = [false; 4];
-    let deadline = Instant::now() + timeout * 4;
+    let deadline = clock.now() + timeout * 4;
     while !booted.iter().all(|b| *b) {
-        let Some(f) = recv_until(bus, deadline)? else {
+        let Some(f) = recv_until(bus, clock, deadline)? else {
             let missing = nodes[booted.iter().position(|b| !b).unwrap_or(0)];
             return Err(BootError::NoBootUp { node: missing });
         };
@@ -303,7 +337,7 @@ pub fn boot(plan: &BusPlan, bus: &mut dyn CanBus, timeout: Duration) -> Result<B
     }
     let mut infos = Vec::new();
     for node in nodes {
-        let info = identify(bus, node, timeout).map_err(|error| BootError::Sdo { node, error })?;
+        let info = identify(bus, clock, node, timeout).map_err(|error| BootError::Sdo { node, error })?;
         let expected = if plan.drive(node).is_some() {
             PROFILE_DRIVE
         } else {
@@ -334,6 +368,7 @@ pub fn boot(plan: &BusPlan, bus: &mut dyn CanBus, timeout: Duration) -> Result<B
         for w in plan.node_configuration(node) {
             sdo_write(
                 bus,
+                clock,
                 node,
                 w.index,
                 w.sub,
@@ -343,15 +378,15 @@ pub fn boot(plan: &BusPlan, bus: &mut dyn CanBus, timeout: Duration) -> Result<B
             .map_err(|error| BootError::Sdo { node, error })?;
         }
         if drive.is_some() {
-            confirm_csp(bus, node, timeout)?;
+            confirm_csp(bus, clock, node, timeout)?;
         }
         infos.push(info);
     }
     bus.send(&NmtCommand::Start.frame(0)).map_err(BootError::Bus)?;
     let mut operational = [false; 4];
-    let deadline = Instant::now() + timeout * 4;
+    let deadline = clock.now() + timeout * 4;
     while !operational.iter().all(|b| *b) {
-        let Some(f) = recv_until(bus, deadline)? else {
+        let Some(f) = recv_until(bus, clock, deadline)? else {
             let missing = nodes[operational.iter().position(|b| !b).unwrap_or(0)];
             return Err(BootError::NotOperational { node: missing });
         };
