@@ -264,114 +264,130 @@ impl SdoClient {
         let d = f.data;
         let same_mux = d[1..4] == mux(self.index, self.sub);
         if d[0] == 0x80 {
-            self.state = Transfer::Idle;
-            let code = AbortCode(u32::from_le_bytes([d[4], d[5], d[6], d[7]]));
-            return Progress::Failed(
-                SdoError::Aborted {
-                    index: self.index,
-                    sub: self.sub,
-                    code,
-                },
-                None,
-            );
+            return self.on_abort(&d);
         }
         match self.state {
             Transfer::Idle => Progress::Ignored,
-            Transfer::DownloadInit => {
-                if d[0] != 0x60 || !same_mux {
-                    return self.fail_protocol();
-                }
-                if self.len <= 4 && self.len > 0 {
-                    self.state = Transfer::Idle;
-                    Progress::Downloaded
-                } else {
-                    Progress::Send(self.next_download_segment(false))
-                }
+            Transfer::DownloadInit => self.on_download_init(&d, same_mux),
+            Transfer::DownloadSegment { toggle, last } => self.on_download_segment(&d, toggle, last),
+            Transfer::UploadInit => self.on_upload_init(&d, same_mux),
+            Transfer::UploadSegment { toggle } => self.on_upload_segment(&d, toggle),
+        }
+    }
+
+    /// The server aborted the transfer.
+    fn on_abort(&mut self, d: &[u8; 8]) -> Progress {
+        self.state = Transfer::Idle;
+        let code = AbortCode(u32::from_le_bytes([d[4], d[5], d[6], d[7]]));
+        Progress::Failed(
+            SdoError::Aborted {
+                index: self.index,
+                sub: self.sub,
+                code,
+            },
+            None,
+        )
+    }
+
+    /// The client aborts with `code`, failing as `error`.
+    fn fail(&mut self, code: AbortCode, error: SdoError) -> Progress {
+        let f = self.abort(code);
+        Progress::Failed(error, Some(f))
+    }
+
+    /// More data than the buffer: the client aborts (out of memory).
+    fn fail_too_long(&mut self) -> Progress {
+        let error = SdoError::TooLong {
+            index: self.index,
+            sub: self.sub,
+        };
+        self.fail(AbortCode::OUT_OF_MEMORY, error)
+    }
+
+    /// The initiate-download response: done (expedited) or the first segment.
+    fn on_download_init(&mut self, d: &[u8; 8], same_mux: bool) -> Progress {
+        if d[0] != 0x60 || !same_mux {
+            return self.fail_protocol();
+        }
+        if self.len <= 4 && self.len > 0 {
+            self.state = Transfer::Idle;
+            Progress::Downloaded
+        } else {
+            Progress::Send(self.next_download_segment(false))
+        }
+    }
+
+    /// A download segment's response: done after the last, else the next segment.
+    fn on_download_segment(&mut self, d: &[u8; 8], toggle: bool, last: bool) -> Progress {
+        if d[0] != (0x20 | (u8::from(toggle) << 4)) {
+            return self.fail_protocol();
+        }
+        if last {
+            self.state = Transfer::Idle;
+            Progress::Downloaded
+        } else {
+            Progress::Send(self.next_download_segment(!toggle))
+        }
+    }
+
+    /// The initiate-upload response: the data (expedited) or the first segment's request.
+    fn on_upload_init(&mut self, d: &[u8; 8], same_mux: bool) -> Progress {
+        if d[0] & 0xE0 != 0x40 || !same_mux {
+            return self.fail_protocol();
+        }
+        let expedited = d[0] & 0x02 != 0;
+        let sized = d[0] & 0x01 != 0;
+        if expedited {
+            let n = if sized {
+                4 - usize::from((d[0] >> 2) & 0x03)
+            } else {
+                4
+            };
+            self.buf[..n].copy_from_slice(&d[4..4 + n]);
+            self.len = n;
+            self.state = Transfer::Idle;
+            Progress::Uploaded
+        } else {
+            let size = u32::from_le_bytes([d[4], d[5], d[6], d[7]]) as usize;
+            if sized && size > SDO_MAX {
+                return self.fail_too_long();
             }
-            Transfer::DownloadSegment { toggle, last } => {
-                if d[0] != (0x20 | (u8::from(toggle) << 4)) {
-                    return self.fail_protocol();
-                }
-                if last {
-                    self.state = Transfer::Idle;
-                    Progress::Downloaded
-                } else {
-                    Progress::Send(self.next_download_segment(!toggle))
-                }
-            }
-            Transfer::UploadInit => {
-                if d[0] & 0xE0 != 0x40 || !same_mux {
-                    return self.fail_protocol();
-                }
-                let expedited = d[0] & 0x02 != 0;
-                let sized = d[0] & 0x01 != 0;
-                if expedited {
-                    let n = if sized {
-                        4 - usize::from((d[0] >> 2) & 0x03)
-                    } else {
-                        4
-                    };
-                    self.buf[..n].copy_from_slice(&d[4..4 + n]);
-                    self.len = n;
-                    self.state = Transfer::Idle;
-                    Progress::Uploaded
-                } else {
-                    let size = u32::from_le_bytes([d[4], d[5], d[6], d[7]]) as usize;
-                    if sized && size > SDO_MAX {
-                        let f = self.abort(AbortCode::OUT_OF_MEMORY);
-                        return Progress::Failed(
-                            SdoError::TooLong {
-                                index: self.index,
-                                sub: self.sub,
-                            },
-                            Some(f),
-                        );
-                    }
-                    self.len = 0;
-                    self.state = Transfer::UploadSegment { toggle: false };
-                    Progress::Send(Frame::new(sdo_rx_id(self.node), &[0x60, 0, 0, 0, 0, 0, 0, 0]))
-                }
-            }
-            Transfer::UploadSegment { toggle } => {
-                if d[0] & 0xE0 != 0x00 || (d[0] & 0x10 != 0) != toggle {
-                    let f = self.abort(if d[0] & 0xE0 == 0 {
-                        AbortCode::TOGGLE
-                    } else {
-                        AbortCode::BAD_COMMAND
-                    });
-                    return Progress::Failed(
-                        SdoError::Protocol {
-                            index: self.index,
-                            sub: self.sub,
-                        },
-                        Some(f),
-                    );
-                }
-                let n = 7 - usize::from((d[0] >> 1) & 0x07);
-                if self.len + n > SDO_MAX {
-                    let f = self.abort(AbortCode::OUT_OF_MEMORY);
-                    return Progress::Failed(
-                        SdoError::TooLong {
-                            index: self.index,
-                            sub: self.sub,
-                        },
-                        Some(f),
-                    );
-                }
-                self.buf[self.len..self.len + n].copy_from_slice(&d[1..1 + n]);
-                self.len += n;
-                if d[0] & 0x01 != 0 {
-                    self.state = Transfer::Idle;
-                    Progress::Uploaded
-                } else {
-                    let next = !toggle;
-                    self.state = Transfer::UploadSegment { toggle: next };
-                    Progress::Send(Frame::new(
-                        sdo_rx_id(self.node),
-                        &[0x60 | (u8::from(next) << 4), 0, 0, 0, 0, 0, 0, 0],
-                    ))
-                }
-            }
+            self.len = 0;
+            self.state = Transfer::UploadSegment { toggle: false };
+            Progress::Send(Frame::new(sdo_rx_id(self.node), &[0x60, 0, 0, 0, 0, 0, 0, 0]))
+        }
+    }
+
+    /// An upload segment: its data kept; done after the last, else the next request.
+    fn on_upload_segment(&mut self, d: &[u8; 8], toggle: bool) -> Progress {
+        if d[0] & 0xE0 != 0x00 || (d[0] & 0x10 != 0) != toggle {
+            let code = if d[0] & 0xE0 == 0 {
+                AbortCode::TOGGLE
+            } else {
+                AbortCode::BAD_COMMAND
+            };
+            let error = SdoError::Protocol {
+                index: self.index,
+                sub: self.sub,
+            };
+            return self.fail(code, error);
+        }
+        let n = 7 - usize::from((d[0] >> 1) & 0x07);
+        if self.len + n > SDO_MAX {
+            return self.fail_too_long();
+        }
+        self.buf[self.len..self.len + n].copy_from_slice(&d[1..1 + n]);
+        self.len += n;
+        if d[0] & 0x01 != 0 {
+            self.state = Transfer::Idle;
+            Progress::Uploaded
+        } else {
+            let next = !toggle;
+            self.state = Transfer::UploadSegment { toggle: next };
+            Progress::Send(Frame::new(
+                sdo_rx_id(self.node),
+                &[0x60 | (u8::from(next) << 4), 0, 0, 0, 0, 0, 0, 0],
+            ))
         }
     }
 }
@@ -425,130 +441,165 @@ impl SdoServer {
         if f.id != sdo_rx_id(self.node) || f.len != 8 {
             return None;
         }
-        let tx = sdo_tx_id(self.node);
         let d = f.data;
         let index = u16::from_le_bytes([d[1], d[2]]);
         let sub = d[3];
-        let ccs = d[0] >> 5;
-        let abort = |t: &mut ServerTransfer, index, sub, code| {
-            *t = ServerTransfer::Idle;
-            Some(abort_frame(tx, index, sub, code))
-        };
-        match ccs {
+        match d[0] >> 5 {
             4 => {
                 // Abort from the client.
                 self.transfer = ServerTransfer::Idle;
                 None
             }
-            1 => {
-                let expedited = d[0] & 0x02 != 0;
-                let sized = d[0] & 0x01 != 0;
-                if expedited {
-                    let n = if sized {
-                        4 - usize::from((d[0] >> 2) & 0x03)
-                    } else {
-                        4
-                    };
-                    self.transfer = ServerTransfer::Idle;
-                    return match od.write(index, sub, &d[4..4 + n]) {
-                        Ok(()) => Some(frame8(tx, 0x60, index, sub, [0; 4])),
-                        Err(code) => Some(abort_frame(tx, index, sub, code)),
-                    };
-                }
-                let size = sized.then(|| u32::from_le_bytes([d[4], d[5], d[6], d[7]]) as usize);
-                self.transfer = ServerTransfer::Download {
-                    index,
-                    sub,
-                    size,
-                    data: Vec::new(),
-                    toggle: false,
-                };
-                Some(frame8(tx, 0x60, index, sub, [0; 4]))
-            }
-            0 => {
-                let ServerTransfer::Download {
-                    index,
-                    sub,
-                    size,
-                    data,
-                    toggle,
-                } = &mut self.transfer
-                else {
-                    return abort(&mut self.transfer, index, sub, AbortCode::BAD_COMMAND);
-                };
-                let (index, sub) = (*index, *sub);
-                if (d[0] & 0x10 != 0) != *toggle {
-                    return abort(&mut self.transfer, index, sub, AbortCode::TOGGLE);
-                }
-                let n = 7 - usize::from((d[0] >> 1) & 0x07);
-                data.extend_from_slice(&d[1..1 + n]);
-                let response = Frame::new(tx, &[0x20 | (u8::from(*toggle) << 4), 0, 0, 0, 0, 0, 0, 0]);
-                *toggle = !*toggle;
-                if d[0] & 0x01 != 0 {
-                    let data = std::mem::take(data);
-                    let size = *size;
-                    self.transfer = ServerTransfer::Idle;
-                    if size.is_some_and(|s| s != data.len()) {
-                        return Some(abort_frame(tx, index, sub, AbortCode::LENGTH_MISMATCH));
-                    }
-                    if let Err(code) = od.write(index, sub, &data) {
-                        return Some(abort_frame(tx, index, sub, code));
-                    }
-                }
-                Some(response)
-            }
-            2 => {
-                let data = match od.read(index, sub) {
-                    Ok(v) => v,
-                    Err(code) => return abort(&mut self.transfer, index, sub, code),
-                };
-                if (1..=4).contains(&data.len()) {
-                    self.transfer = ServerTransfer::Idle;
-                    let mut v = [0u8; 4];
-                    v[..data.len()].copy_from_slice(&data);
-                    let cmd = 0x40 | (((4 - data.len()) as u8) << 2) | 0x03;
-                    Some(frame8(tx, cmd, index, sub, v))
-                } else {
-                    let size = (data.len() as u32).to_le_bytes();
-                    self.transfer = ServerTransfer::Upload {
-                        index,
-                        sub,
-                        data,
-                        pos: 0,
-                        toggle: false,
-                    };
-                    Some(frame8(tx, 0x41, index, sub, size))
-                }
-            }
-            3 => {
-                let ServerTransfer::Upload {
-                    index,
-                    sub,
-                    data,
-                    pos,
-                    toggle,
-                } = &mut self.transfer
-                else {
-                    return abort(&mut self.transfer, index, sub, AbortCode::BAD_COMMAND);
-                };
-                let (index, sub) = (*index, *sub);
-                if (d[0] & 0x10 != 0) != *toggle {
-                    return abort(&mut self.transfer, index, sub, AbortCode::TOGGLE);
-                }
-                let n = (data.len() - *pos).min(7);
-                let last = *pos + n == data.len();
-                let mut out = [0u8; 8];
-                out[0] = (u8::from(*toggle) << 4) | (((7 - n) as u8) << 1) | u8::from(last);
-                out[1..1 + n].copy_from_slice(&data[*pos..*pos + n]);
-                *pos += n;
-                *toggle = !*toggle;
-                if last {
-                    self.transfer = ServerTransfer::Idle;
-                }
-                Some(Frame::new(tx, &out))
-            }
-            _ => abort(&mut self.transfer, index, sub, AbortCode::BAD_COMMAND),
+            1 => self.initiate_download(&d, index, sub, od),
+            0 => self.download_segment(&d, index, sub, od),
+            2 => self.initiate_upload(index, sub, od),
+            3 => self.upload_segment(&d, index, sub),
+            _ => self.abort(index, sub, AbortCode::BAD_COMMAND),
         }
+    }
+
+    /// The server's response channel.
+    fn tx(&self) -> u16 {
+        sdo_tx_id(self.node)
+    }
+
+    /// Ends the transfer with the abort frame for `index:sub`.
+    fn abort(&mut self, index: u16, sub: u8, code: AbortCode) -> Option<Frame> {
+        self.transfer = ServerTransfer::Idle;
+        Some(abort_frame(self.tx(), index, sub, code))
+    }
+
+    /// Initiate download: an expedited write done at once, or a segmented one begun.
+    fn initiate_download(
+        &mut self,
+        d: &[u8; 8],
+        index: u16,
+        sub: u8,
+        od: &mut dyn ObjectDictionary,
+    ) -> Option<Frame> {
+        let tx = self.tx();
+        let expedited = d[0] & 0x02 != 0;
+        let sized = d[0] & 0x01 != 0;
+        if expedited {
+            let n = if sized {
+                4 - usize::from((d[0] >> 2) & 0x03)
+            } else {
+                4
+            };
+            self.transfer = ServerTransfer::Idle;
+            return match od.write(index, sub, &d[4..4 + n]) {
+                Ok(()) => Some(frame8(tx, 0x60, index, sub, [0; 4])),
+                Err(code) => Some(abort_frame(tx, index, sub, code)),
+            };
+        }
+        let size = sized.then(|| u32::from_le_bytes([d[4], d[5], d[6], d[7]]) as usize);
+        self.transfer = ServerTransfer::Download {
+            index,
+            sub,
+            size,
+            data: Vec::new(),
+            toggle: false,
+        };
+        Some(frame8(tx, 0x60, index, sub, [0; 4]))
+    }
+
+    /// A download segment: its data kept; after the last, the whole written (its size
+    /// checked when the client gave one).
+    fn download_segment(
+        &mut self,
+        d: &[u8; 8],
+        index: u16,
+        sub: u8,
+        od: &mut dyn ObjectDictionary,
+    ) -> Option<Frame> {
+        let tx = self.tx();
+        let ServerTransfer::Download {
+            index,
+            sub,
+            size,
+            data,
+            toggle,
+        } = &mut self.transfer
+        else {
+            return self.abort(index, sub, AbortCode::BAD_COMMAND);
+        };
+        let (index, sub) = (*index, *sub);
+        if (d[0] & 0x10 != 0) != *toggle {
+            return self.abort(index, sub, AbortCode::TOGGLE);
+        }
+        let n = 7 - usize::from((d[0] >> 1) & 0x07);
+        data.extend_from_slice(&d[1..1 + n]);
+        let response = Frame::new(tx, &[0x20 | (u8::from(*toggle) << 4), 0, 0, 0, 0, 0, 0, 0]);
+        *toggle = !*toggle;
+        if d[0] & 0x01 != 0 {
+            let data = std::mem::take(data);
+            let size = *size;
+            self.transfer = ServerTransfer::Idle;
+            if size.is_some_and(|s| s != data.len()) {
+                return Some(abort_frame(tx, index, sub, AbortCode::LENGTH_MISMATCH));
+            }
+            if let Err(code) = od.write(index, sub, &data) {
+                return Some(abort_frame(tx, index, sub, code));
+            }
+        }
+        Some(response)
+    }
+
+    /// Initiate upload: the value read, answered expedited up to 4 bytes, else a
+    /// segmented upload begun.
+    fn initiate_upload(&mut self, index: u16, sub: u8, od: &mut dyn ObjectDictionary) -> Option<Frame> {
+        let tx = self.tx();
+        let data = match od.read(index, sub) {
+            Ok(v) => v,
+            Err(code) => return self.abort(index, sub, code),
+        };
+        if (1..=4).contains(&data.len()) {
+            self.transfer = ServerTransfer::Idle;
+            let mut v = [0u8; 4];
+            v[..data.len()].copy_from_slice(&data);
+            let cmd = 0x40 | (((4 - data.len()) as u8) << 2) | 0x03;
+            Some(frame8(tx, cmd, index, sub, v))
+        } else {
+            let size = (data.len() as u32).to_le_bytes();
+            self.transfer = ServerTransfer::Upload {
+                index,
+                sub,
+                data,
+                pos: 0,
+                toggle: false,
+            };
+            Some(frame8(tx, 0x41, index, sub, size))
+        }
+    }
+
+    /// An upload segment's request: the next up to 7 bytes.
+    fn upload_segment(&mut self, d: &[u8; 8], index: u16, sub: u8) -> Option<Frame> {
+        let tx = self.tx();
+        let ServerTransfer::Upload {
+            index,
+            sub,
+            data,
+            pos,
+            toggle,
+        } = &mut self.transfer
+        else {
+            return self.abort(index, sub, AbortCode::BAD_COMMAND);
+        };
+        let (index, sub) = (*index, *sub);
+        if (d[0] & 0x10 != 0) != *toggle {
+            return self.abort(index, sub, AbortCode::TOGGLE);
+        }
+        let n = (data.len() - *pos).min(7);
+        let last = *pos + n == data.len();
+        let mut out = [0u8; 8];
+        out[0] = (u8::from(*toggle) << 4) | (((7 - n) as u8) << 1) | u8::from(last);
+        out[1..1 + n].copy_from_slice(&data[*pos..*pos + n]);
+        *pos += n;
+        *toggle = !*toggle;
+        if last {
+            self.transfer = ServerTransfer::Idle;
+        }
+        Some(Frame::new(tx, &out))
     }
 }
 

@@ -139,13 +139,46 @@ pub fn design(gear: Gear, arcs_per_flank: u32, outside_radius_mm: f64) -> Result
     }
     let arcs = flank_arcs(&space, arcs_per_flank);
     let deviation_um = arcs.iter().map(|a| a.deviation_um).fold(0.0, f64::max);
+    let (mut right_half, root_fillet_radius_mm) = below_form(&space, gear.normal_module_mm)?;
+    for a in &arcs {
+        let (s, e) = (
+            space.flank_point(a.from_gear_radius_mm),
+            space.flank_point(a.to_gear_radius_mm),
+        );
+        right_half.push((s, e, Some(a.centre)));
+    }
+    let axial = AxialPlane {
+        offset_mm: outside_radius_mm + space.root_radius_mm,
+    };
+    let mut profile = axial.profile(&right_half);
+    // Tangent where the construction makes it so: the fillet on its two lines.
+    if root_fillet_radius_mm > 0.0 {
+        mark_fillets_tangent(&mut profile, root_fillet_radius_mm);
+        mark_tangent_after_fillets(&mut profile, root_fillet_radius_mm);
+    }
+    Ok(CutterDesign {
+        space,
+        arcs,
+        deviation_um,
+        root_fillet_radius_mm,
+        depth_mm,
+        outside_radius_mm,
+        profile,
+    })
+}
 
-    // Below the form point: along the involute's tangent there, down to the root's fillet.
+/// A piece of the right half of the space's outline in the gear's coordinates: start, end
+/// and, for an arc, its centre.
+type Piece = (Point, Point, Option<Point>);
+
+/// The right flank below the form point, from the root's centre up: along the involute's
+/// tangent at the form point, down to the root's fillet (ISO 53: `0.38 m`, less where the
+/// space is narrower), with the fillet's radius.
+fn below_form(space: &Space, module_mm: f64) -> Result<(Vec<Piece>, f64), DesignError> {
     let form = space.active_point(0.0);
     let down = space.active_point(1e-6).minus(form).unit().scale(-1.0);
     let root = Point::new(0.0, space.root_radius_mm);
     let inward = Point::new(-1.0, 0.0);
-    let m = gear.normal_module_mm;
     // The corner of tangent and root, and the largest fillet that fits between the form
     // point and the centre line: its tangent points lie r / tan(half the corner's angle)
     // from the corner.
@@ -155,29 +188,35 @@ pub fn design(gear: Gear, arcs_per_flank: u32, outside_radius_mm: f64) -> Result
     }
     let half = 0.5 * down.scale(-1.0).dot(inward).clamp(-1.0, 1.0).acos();
     let room_mm = corner.dist(form).min(corner.x);
-    let root_fillet_radius_mm = (0.38 * m).min(0.999 * room_mm * half.tan()).max(0.0);
-    let mut right_half: Vec<(Point, Point, Option<Point>)> = Vec::new();
+    let root_fillet_radius_mm = (0.38 * module_mm).min(0.999 * room_mm * half.tan()).max(0.0);
+    let mut pieces: Vec<Piece> = Vec::new();
     if root_fillet_radius_mm > 0.0 {
         if let Some((c, t1, t2)) = fillet(form, down, root, inward, root_fillet_radius_mm) {
-            right_half.push((root, t2, None));
-            right_half.push((t2, t1, Some(c)));
-            right_half.push((t1, form, None));
+            pieces.push((root, t2, None));
+            pieces.push((t2, t1, Some(c)));
+            pieces.push((t1, form, None));
         }
     } else {
-        right_half.push((root, corner, None));
-        right_half.push((corner, form, None));
+        pieces.push((root, corner, None));
+        pieces.push((corner, form, None));
     }
-    for a in &arcs {
-        let (s, e) = (
-            space.flank_point(a.from_gear_radius_mm),
-            space.flank_point(a.to_gear_radius_mm),
-        );
-        right_half.push((s, e, Some(a.centre)));
+    Ok((pieces, root_fillet_radius_mm))
+}
+
+/// The cutter's axial plane: gear coordinates to it are `u = x`, `r = R_a + r_f - y`
+/// (`offset_mm` = `R_a + r_f`).
+struct AxialPlane {
+    offset_mm: f64,
+}
+
+impl AxialPlane {
+    fn point(&self, q: Point) -> Point {
+        Point::new(q.x, self.offset_mm - q.y)
     }
-    // Gear coordinates to the cutter's axial plane: u = x, r = R_a + r_f - y.
-    let to_cutter = |q: Point| Point::new(q.x, outside_radius_mm + space.root_radius_mm - q.y);
-    let piece = |s: Point, e: Point, centre: Option<Point>| {
-        let (s, e) = (to_cutter(s), to_cutter(e));
+
+    /// A piece as a primitive of the cutter's profile.
+    fn primitive(&self, s: Point, e: Point, centre: Option<Point>) -> Primitive {
+        let (s, e) = (self.point(s), self.point(e));
         match centre {
             None => Primitive::Line {
                 start_mm: [s.x, s.y],
@@ -185,7 +224,7 @@ pub fn design(gear: Gear, arcs_per_flank: u32, outside_radius_mm: f64) -> Result
                 tangent: false,
             },
             Some(c) => {
-                let c = to_cutter(c);
+                let c = self.point(c);
                 let sense = if s.minus(c).cross(e.minus(c)) > 0.0 {
                     ArcSense::CounterClockwise
                 } else {
@@ -200,46 +239,45 @@ pub fn design(gear: Gear, arcs_per_flank: u32, outside_radius_mm: f64) -> Result
                 }
             }
         }
-    };
-    let mut profile: Vec<Primitive> = right_half
-        .iter()
-        .rev()
-        .map(|&(s, e, c)| piece(e.mirror_x(), s.mirror_x(), c.map(Point::mirror_x)))
-        .collect();
-    // The two root half-lines are one line across the centre.
-    let right: Vec<Primitive> = right_half.iter().map(|&(s, e, c)| piece(s, e, c)).collect();
-    if let (Some(Primitive::Line { start_mm, .. }), Some(Primitive::Line { end_mm, .. })) =
-        (profile.pop(), right.first())
-    {
-        profile.push(Primitive::Line {
-            start_mm,
-            end_mm: *end_mm,
-            tangent: false,
-        });
     }
-    profile.extend(right.into_iter().skip(1));
-    // Tangent where the construction makes it so: the fillet on its two lines.
-    if root_fillet_radius_mm > 0.0 {
-        for p in profile.iter_mut() {
-            if let Primitive::Arc {
-                radius_mm, tangent, ..
-            } = p
-                && (*radius_mm - root_fillet_radius_mm).abs() < 1e-9
-            {
-                *tangent = true;
-            }
+
+    /// The whole profile from the right half: the left half mirrored and reversed, the two
+    /// root half-lines joined into one line across the centre, then the right half.
+    fn profile(&self, right_half: &[Piece]) -> Vec<Primitive> {
+        let mut profile: Vec<Primitive> = right_half
+            .iter()
+            .rev()
+            .map(|&(s, e, c)| self.primitive(e.mirror_x(), s.mirror_x(), c.map(Point::mirror_x)))
+            .collect();
+        let right: Vec<Primitive> = right_half
+            .iter()
+            .map(|&(s, e, c)| self.primitive(s, e, c))
+            .collect();
+        if let (Some(Primitive::Line { start_mm, .. }), Some(Primitive::Line { end_mm, .. })) =
+            (profile.pop(), right.first())
+        {
+            profile.push(Primitive::Line {
+                start_mm,
+                end_mm: *end_mm,
+                tangent: false,
+            });
         }
-        mark_tangent_after_fillets(&mut profile, root_fillet_radius_mm);
+        profile.extend(right.into_iter().skip(1));
+        profile
     }
-    Ok(CutterDesign {
-        space,
-        arcs,
-        deviation_um,
-        root_fillet_radius_mm,
-        depth_mm,
-        outside_radius_mm,
-        profile,
-    })
+}
+
+/// The fillet arcs (of radius `fillet_mm`) are tangent to their lines.
+fn mark_fillets_tangent(profile: &mut [Primitive], fillet_mm: f64) {
+    for p in profile.iter_mut() {
+        if let Primitive::Arc {
+            radius_mm, tangent, ..
+        } = p
+            && (*radius_mm - fillet_mm).abs() < 1e-9
+        {
+            *tangent = true;
+        }
+    }
 }
 
 /// The corner where the line through `p1` along `d1` meets the line through `p2` along `d2`.

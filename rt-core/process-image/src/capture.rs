@@ -5,7 +5,7 @@
 //! synchronous position (8), X and Y in 8 or homing (6), controlword bit 4 (homing start)
 //! only in homing).
 
-use crate::plan::BusPlan;
+use crate::plan::{BusPlan, DrivePdos};
 use hob_canopen::cia402;
 use hob_canopen::frame::{Cob, Frame};
 
@@ -71,92 +71,62 @@ pub struct ScheduleReport {
 
 /// Checks a capture against the bus plan.
 pub fn check_schedule(frames: &[Captured], plan: &BusPlan) -> ScheduleReport {
-    let mut r = ScheduleReport {
-        frames: frames.len(),
-        ..ScheduleReport::default()
-    };
-    let nodes = plan.nodes();
-    let mut in_cycle = false;
-    let mut counts: Option<[[u32; 2]; 3]> = None;
-    // Per drive: position TPDOs seen minus intervals (-1: one is late).
-    let mut backlog = [0i64; 3];
-    let mut sync_times = Vec::new();
+    let mut check = ScheduleCheck::new(plan, frames.len());
     for (i, c) in frames.iter().enumerate() {
+        check.frame(i, c);
+    }
+    check.finish()
+}
+
+/// [`check_schedule`]'s state along the capture.
+struct ScheduleCheck<'a> {
+    plan: &'a BusPlan,
+    nodes: [u8; 4],
+    r: ScheduleReport,
+    /// Whether a SYNC was seen: the cycle runs.
+    in_cycle: bool,
+    /// Per drive since the last SYNC: target RPDOs and position TPDOs.
+    counts: Option<[[u32; 2]; 3]>,
+    /// Per drive: position TPDOs seen minus intervals (-1: one is late).
+    backlog: [i64; 3],
+    sync_times: Vec<f64>,
+}
+
+impl<'a> ScheduleCheck<'a> {
+    fn new(plan: &'a BusPlan, frames: usize) -> Self {
+        Self {
+            plan,
+            nodes: plan.nodes(),
+            r: ScheduleReport {
+                frames,
+                ..ScheduleReport::default()
+            },
+            in_cycle: false,
+            counts: None,
+            backlog: [0; 3],
+            sync_times: Vec::new(),
+        }
+    }
+
+    /// Frame `i`: in the schedule, a control RPDO's mode and controlword, the cycle's counts.
+    fn frame(&mut self, i: usize, c: &Captured) {
         let f = &c.frame;
         let cob = Cob::of(f.id);
-        let known = match cob {
-            Cob::Nmt | Cob::Sync => true,
-            Cob::Emcy(n) | Cob::Heartbeat(n) => nodes.contains(&n) || n == crate::plan::MASTER_NODE,
-            Cob::SdoRx(n) | Cob::SdoTx(n) => {
-                if in_cycle {
-                    r.violations
-                        .push(format!("frame {i}: SDO to node {n} while the cycle runs"));
-                }
-                nodes.contains(&n)
-            }
-            Cob::Tpdo(_, _) | Cob::Rpdo(_, _) => plan
-                .drives
-                .iter()
-                .flat_map(|d| [d.target, d.control, d.actual, d.status])
-                .chain([plan.io.inputs, plan.io.outputs, plan.io.analog])
-                .any(|p| p.cob_id == f.id && usize::from(f.len) == p.len_bytes()),
-            _ => false,
-        };
-        if !known {
-            r.violations
+        if !self.known(i, f, cob) {
+            self.r
+                .violations
                 .push(format!("frame {i}: {} is not in the schedule", f.to_candump()));
-        } else if let Some(d) = plan.drives.iter().find(|d| d.control.cob_id == f.id)
+        } else if let Some(d) = self.plan.drives.iter().find(|d| d.control.cob_id == f.id)
             && let Some(v) = d.control.unpack(f)
         {
-            let (mode, cw) = (v[0] as u8 as i8, v[1] as u16);
-            let allowed: &[i8] = if d.homing.is_some() {
-                &[cia402::MODE_CSP, cia402::MODE_HOMING]
-            } else {
-                &[cia402::MODE_CSP]
-            };
-            if !allowed.contains(&mode) {
-                r.violations.push(format!(
-                    "frame {i}: {}: drive {} ({}) asked for mode {mode} (allowed: {allowed:?})",
-                    f.to_candump(),
-                    d.node,
-                    d.axis.name()
-                ));
-            } else if cw & cia402::CW_HOMING_START != 0 && mode != cia402::MODE_HOMING {
-                r.violations.push(format!(
-                    "frame {i}: {}: controlword bit 4 (homing start) to drive {} in mode {mode}",
-                    f.to_candump(),
-                    d.node
-                ));
-            }
+            check_control(&mut self.r, i, f, d, &v);
         }
         if cob == Cob::Sync {
-            r.syncs += 1;
-            in_cycle = true;
-            if let Some(t) = c.t_s {
-                sync_times.push(t);
-            }
-            if let Some(k) = counts.take() {
-                r.cycles_checked += 1;
-                for (j, (d, [rpdo, tpdo])) in plan.drives.iter().zip(k).enumerate() {
-                    // A TPDO may come one SYNC late: it then stands in the next interval.
-                    backlog[j] += i64::from(tpdo) - 1;
-                    if tpdo == 0 && backlog[j] >= -1 {
-                        r.late_tpdos += 1;
-                    }
-                    if rpdo != 1 || !(-1..=0).contains(&backlog[j]) {
-                        r.count_anomalies.push(format!(
-                            "frame {i}: before this SYNC drive {} had {rpdo} target RPDOs and {tpdo} position TPDOs (1 each expected, one may be late)",
-                            d.node
-                        ));
-                        backlog[j] = 0;
-                    }
-                }
-            }
-            counts = Some([[0; 2]; 3]);
-            continue;
+            self.sync(i, c.t_s);
+            return;
         }
-        if let Some(k) = counts.as_mut() {
-            for (j, d) in plan.drives.iter().enumerate() {
+        if let Some(k) = self.counts.as_mut() {
+            for (j, d) in self.plan.drives.iter().enumerate() {
                 if f.id == d.target.cob_id {
                     k[j][0] += 1;
                 } else if f.id == d.actual.cob_id {
@@ -165,11 +135,95 @@ pub fn check_schedule(frames: &[Captured], plan: &BusPlan) -> ScheduleReport {
             }
         }
     }
-    let mut gaps: Vec<f64> = sync_times.windows(2).map(|w| w[1] - w[0]).collect();
-    gaps.sort_by(f64::total_cmp);
-    r.sync_interval_median_s = gaps.get(gaps.len() / 2).copied();
-    r.sync_interval_max_s = gaps.last().copied();
-    r
+
+    /// Whether the frame is in the schedule (an SDO is, to a planned node, but a violation
+    /// once the cycle runs).
+    fn known(&mut self, i: usize, f: &Frame, cob: Cob) -> bool {
+        let plan = self.plan;
+        match cob {
+            Cob::Nmt | Cob::Sync => true,
+            Cob::Emcy(n) | Cob::Heartbeat(n) => self.nodes.contains(&n) || n == crate::plan::MASTER_NODE,
+            Cob::SdoRx(n) | Cob::SdoTx(n) => {
+                if self.in_cycle {
+                    self.r
+                        .violations
+                        .push(format!("frame {i}: SDO to node {n} while the cycle runs"));
+                }
+                self.nodes.contains(&n)
+            }
+            Cob::Tpdo(_, _) | Cob::Rpdo(_, _) => plan
+                .drives
+                .iter()
+                .flat_map(|d| [d.target, d.control, d.actual, d.status])
+                .chain([plan.io.inputs, plan.io.outputs, plan.io.analog])
+                .any(|p| p.cob_id == f.id && usize::from(f.len) == p.len_bytes()),
+            _ => false,
+        }
+    }
+
+    /// A SYNC at frame `i`: the interval before it checked for one target RPDO and one
+    /// position TPDO per drive (a TPDO may be one SYNC late), and a new interval begun.
+    fn sync(&mut self, i: usize, t_s: Option<f64>) {
+        let r = &mut self.r;
+        r.syncs += 1;
+        self.in_cycle = true;
+        if let Some(t) = t_s {
+            self.sync_times.push(t);
+        }
+        if let Some(k) = self.counts.take() {
+            r.cycles_checked += 1;
+            for (j, (d, [rpdo, tpdo])) in self.plan.drives.iter().zip(k).enumerate() {
+                // A TPDO may come one SYNC late: it then stands in the next interval.
+                self.backlog[j] += i64::from(tpdo) - 1;
+                if tpdo == 0 && self.backlog[j] >= -1 {
+                    r.late_tpdos += 1;
+                }
+                if rpdo != 1 || !(-1..=0).contains(&self.backlog[j]) {
+                    r.count_anomalies.push(format!(
+                        "frame {i}: before this SYNC drive {} had {rpdo} target RPDOs and {tpdo} position TPDOs (1 each expected, one may be late)",
+                        d.node
+                    ));
+                    self.backlog[j] = 0;
+                }
+            }
+        }
+        self.counts = Some([[0; 2]; 3]);
+    }
+
+    /// The report, with the SYNC intervals' median and maximum.
+    fn finish(self) -> ScheduleReport {
+        let mut r = self.r;
+        let mut gaps: Vec<f64> = self.sync_times.windows(2).map(|w| w[1] - w[0]).collect();
+        gaps.sort_by(f64::total_cmp);
+        r.sync_interval_median_s = gaps.get(gaps.len() / 2).copied();
+        r.sync_interval_max_s = gaps.last().copied();
+        r
+    }
+}
+
+/// A drive's RPDO2 (`v`: mode of operation, controlword) at frame `i`: the mode one the
+/// drive may run in, controlword bit 4 (homing start) only in homing.
+fn check_control(r: &mut ScheduleReport, i: usize, f: &Frame, d: &DrivePdos, v: &[u64]) {
+    let (mode, cw) = (v[0] as u8 as i8, v[1] as u16);
+    let allowed: &[i8] = if d.homing.is_some() {
+        &[cia402::MODE_CSP, cia402::MODE_HOMING]
+    } else {
+        &[cia402::MODE_CSP]
+    };
+    if !allowed.contains(&mode) {
+        r.violations.push(format!(
+            "frame {i}: {}: drive {} ({}) asked for mode {mode} (allowed: {allowed:?})",
+            f.to_candump(),
+            d.node,
+            d.axis.name()
+        ));
+    } else if cw & cia402::CW_HOMING_START != 0 && mode != cia402::MODE_HOMING {
+        r.violations.push(format!(
+            "frame {i}: {}: controlword bit 4 (homing start) to drive {} in mode {mode}",
+            f.to_candump(),
+            d.node
+        ));
+    }
 }
 
 /// What the frames show about the gearbox in the cut.

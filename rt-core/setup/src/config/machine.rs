@@ -605,6 +605,27 @@ impl MachineConfig {
         p.require(!self.machine.name.trim().is_empty(), "machine.name", || {
             "must not be empty".into()
         });
+        self.validate_control(p);
+        self.validate_gearbox(p);
+        self.validate_can(p);
+        self.validate_service(p);
+        self.validate_spindle(p);
+        self.validate_table(p);
+        self.x.validate("x", p);
+        self.y.validate("y", p);
+        self.validate_process(p);
+        self.validate_jog_and_overrides(p);
+        p.positive("lube.interval_travel_m", self.lube.interval_travel_m);
+        p.positive("lube.pressure_timeout_s", self.lube.pressure_timeout_s);
+        p.positive("lube.pump_run_s", self.lube.pump_run_s);
+        self.validate_io(p);
+        self.validate_node_ids(p);
+        absolute_path(p, "library.dir", &self.library.dir);
+        absolute_path(p, "state.file", &self.state.file);
+    }
+
+    /// `[control]`: the cycle, the drive delay, the spindle observer and the timeouts.
+    fn validate_control(&self, p: &mut Problems) {
         p.require(
             (250..=100_000).contains(&self.control.cycle_period_us),
             "control.cycle_period_us",
@@ -653,6 +674,10 @@ impl MachineConfig {
         );
         p.positive("control.spindle_start_timeout_s", c.spindle_start_timeout_s);
         p.positive("control.x_clamp_timeout_s", c.x_clamp_timeout_s);
+    }
+
+    /// `[gearbox]`: the engagement, its windows and the cross-coupling correction.
+    fn validate_gearbox(&self, p: &mut Problems) {
         let g = &self.gearbox;
         p.positive("gearbox.engage_time_s", g.engage_time_s);
         p.positive("gearbox.fine_window_arcsec", g.fine_window_arcsec);
@@ -673,6 +698,10 @@ impl MachineConfig {
         p.non_negative("gearbox.ccc_ki_per_s", g.ccc_ki_per_s);
         p.non_negative("gearbox.ccc_limit_arcsec", g.ccc_limit_arcsec);
         p.positive("gearbox.phase_sync_speed_deg_s", g.phase_sync_speed_deg_s);
+    }
+
+    /// `[can]`: the interface, heartbeats, the encoder object, bus load and bit rate.
+    fn validate_can(&self, p: &mut Problems) {
         p.require(!self.can.interface.trim().is_empty(), "can.interface", || {
             "must not be empty".into()
         });
@@ -719,6 +748,10 @@ impl MachineConfig {
                 )
             },
         );
+    }
+
+    /// `[service]`: priorities, the loop's core, the watchdog deadline and DMA latency.
+    fn validate_service(&self, p: &mut Problems) {
         let sv = &self.service;
         p.require(
             (1..=98).contains(&sv.loop_priority),
@@ -761,19 +794,6 @@ impl MachineConfig {
                 )
             },
         );
-        self.validate_spindle(p);
-        self.validate_table(p);
-        self.x.validate("x", p);
-        self.y.validate("y", p);
-        self.validate_process(p);
-        self.validate_jog_and_overrides(p);
-        p.positive("lube.interval_travel_m", self.lube.interval_travel_m);
-        p.positive("lube.pressure_timeout_s", self.lube.pressure_timeout_s);
-        p.positive("lube.pump_run_s", self.lube.pump_run_s);
-        self.validate_io(p);
-        self.validate_node_ids(p);
-        absolute_path(p, "library.dir", &self.library.dir);
-        absolute_path(p, "state.file", &self.state.file);
     }
 
     fn validate_spindle(&self, p: &mut Problems) {

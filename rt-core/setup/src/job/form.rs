@@ -11,6 +11,7 @@ use crate::config::{Problem, Problems};
 use crate::planner::{self, Plan};
 use serde::Serialize;
 use serde::de::DeserializeOwned;
+use std::fmt;
 
 /// The program's tables, in the order of the sub-menus.
 pub const SECTIONS: [&str; 4] = ["workpiece", "tool", "cycle", "strategy"];
@@ -77,28 +78,56 @@ fn read_section<T: DeserializeOwned>(section: &str, table: &toml::Table) -> Resu
 }
 
 /// Checks `src` table by table on `machine`. `resolve_tool` gives a library tool's table
-/// for `[tool] library = "NAME"` (or why not).
-pub fn check_sections(
+/// for `[tool] library = "NAME"`, or its own error, shown as the problem of `tool.library`.
+pub fn check_sections<E: fmt::Display>(
     src: &str,
     machine: &MachineConfig,
-    resolve_tool: &dyn Fn(&str) -> Result<toml::Table, String>,
+    resolve_tool: &dyn Fn(&str) -> Result<toml::Table, E>,
 ) -> SectionCheck {
     let root: toml::Table = match src.parse() {
         Ok(t) => t,
-        Err(e) => {
-            let e: toml::de::Error = e;
-            return SectionCheck {
-                sections: SECTIONS.iter().map(|s| (*s, SectionState::Invalid)).collect(),
-                problems: vec![problem(
-                    String::new(),
-                    format!("not TOML: {}", e.message().trim()),
-                )],
-                plan: None,
-            };
-        }
+        Err(e) => return not_toml(&e),
     };
-    let mut problems: Vec<Problem> = root
-        .keys()
+    let mut problems = unknown_tables(&root);
+    let table = |s: &str| root.get(s).and_then(toml::Value::as_table);
+    let tool_table = tool_table(table("tool"), resolve_tool, &mut problems);
+    let sections = Sections {
+        workpiece: table("workpiece").map(|t| read_section::<Workpiece>("workpiece", t)),
+        tool: tool_table.as_ref().map(|t| read_section::<Tool>("tool", t)),
+        cycle: table("cycle").map(|t| read_section::<Cycle>("cycle", t)),
+        strategy: table("strategy").map(|t| read_section::<Strategy>("strategy", t)),
+    };
+    // The tool alone can be checked without the gear.
+    if let Some(Ok(t)) = &sections.tool {
+        let mut p = Problems::new();
+        t.check(&mut p);
+        problems.extend(p.as_slice().iter().cloned());
+    }
+    let plan = sections.plan(machine, &mut problems);
+    let sections = section_states(&root, &problems);
+    let plan = if problems.is_empty() { plan } else { None };
+    SectionCheck {
+        sections,
+        problems,
+        plan,
+    }
+}
+
+/// The check of a text that is not TOML: every table invalid.
+fn not_toml(e: &toml::de::Error) -> SectionCheck {
+    SectionCheck {
+        sections: SECTIONS.iter().map(|s| (*s, SectionState::Invalid)).collect(),
+        problems: vec![problem(
+            String::new(),
+            format!("not TOML: {}", e.message().trim()),
+        )],
+        plan: None,
+    }
+}
+
+/// A problem for each top-level key that is not one of the program's tables.
+fn unknown_tables(root: &toml::Table) -> Vec<Problem> {
+    root.keys()
         .filter(|k| !SECTIONS.contains(&k.as_str()))
         .map(|k| {
             problem(
@@ -106,69 +135,86 @@ pub fn check_sections(
                 format!("a program has no table {k:?}: only {}", SECTIONS.join(", ")),
             )
         })
-        .collect();
-    let table = |s: &str| root.get(s).and_then(toml::Value::as_table);
-    let mut tool_table = table("tool").cloned();
-    if let Some(t) = &tool_table
-        && let Some(name) = t.get("library").and_then(toml::Value::as_str)
-    {
-        if t.len() > 1 {
-            problems.push(problem(
-                "tool.library".into(),
-                "a library tool or the tool's own fields, not both",
-            ));
-            tool_table = None;
-        } else {
-            match resolve_tool(name) {
-                Ok(resolved) => tool_table = Some(resolved),
-                Err(why) => {
-                    problems.push(problem("tool.library".into(), why));
-                    tool_table = None;
+        .collect()
+}
+
+/// The `[tool]` table to read: as written, or the library tool it names; None (with the
+/// problem of `tool.library`) when it names one with other fields too or one that does not
+/// resolve.
+fn tool_table<E: fmt::Display>(
+    written: Option<&toml::Table>,
+    resolve_tool: &dyn Fn(&str) -> Result<toml::Table, E>,
+    problems: &mut Vec<Problem>,
+) -> Option<toml::Table> {
+    let t = written?;
+    let Some(name) = t.get("library").and_then(toml::Value::as_str) else {
+        return Some(t.clone());
+    };
+    if t.len() > 1 {
+        problems.push(problem(
+            "tool.library".into(),
+            "a library tool or the tool's own fields, not both",
+        ));
+        return None;
+    }
+    match resolve_tool(name) {
+        Ok(resolved) => Some(resolved),
+        Err(why) => {
+            problems.push(problem("tool.library".into(), why.to_string()));
+            None
+        }
+    }
+}
+
+/// The four tables, each read alone (None: not there).
+struct Sections {
+    workpiece: Option<Result<Workpiece, Vec<Problem>>>,
+    tool: Option<Result<Tool, Vec<Problem>>>,
+    cycle: Option<Result<Cycle, Vec<Problem>>>,
+    strategy: Option<Result<Strategy, Vec<Problem>>>,
+}
+
+impl Sections {
+    /// With every table read, the whole program checked and planned on `machine` (its
+    /// problems added unless already there); otherwise the tables' reading problems added.
+    fn plan(self, machine: &MachineConfig, problems: &mut Vec<Problem>) -> Option<Plan> {
+        match (&self.workpiece, &self.tool, &self.cycle, &self.strategy) {
+            (Some(Ok(w)), Some(Ok(t)), Some(Ok(c)), Some(Ok(s))) => {
+                let program = Program {
+                    workpiece: w.clone(),
+                    tool: t.clone(),
+                    cycle: c.clone(),
+                    strategy: s.clone(),
+                };
+                let mut p = Problems::new();
+                let plan = planner::plan(&program, machine, &mut p);
+                for q in p.as_slice() {
+                    if !problems.iter().any(|x| x.key == q.key && x.message == q.message) {
+                        problems.push(q.clone());
+                    }
                 }
+                plan
+            }
+            _ => {
+                let errors = [
+                    self.workpiece.and_then(Result::err),
+                    self.tool.and_then(Result::err),
+                    self.cycle.and_then(Result::err),
+                    self.strategy.and_then(Result::err),
+                ];
+                problems.extend(errors.into_iter().flatten().flatten());
+                None
             }
         }
     }
-    let workpiece = table("workpiece").map(|t| read_section::<Workpiece>("workpiece", t));
-    let tool = tool_table.as_ref().map(|t| read_section::<Tool>("tool", t));
-    let cycle = table("cycle").map(|t| read_section::<Cycle>("cycle", t));
-    let strategy = table("strategy").map(|t| read_section::<Strategy>("strategy", t));
-    // The tool alone can be checked without the gear.
-    if let Some(Ok(t)) = &tool {
-        let mut p = Problems::new();
-        t.check(&mut p);
-        problems.extend(p.as_slice().iter().cloned());
-    }
-    let mut plan = None;
-    match (&workpiece, &tool, &cycle, &strategy) {
-        (Some(Ok(w)), Some(Ok(t)), Some(Ok(c)), Some(Ok(s))) => {
-            let program = Program {
-                workpiece: w.clone(),
-                tool: t.clone(),
-                cycle: c.clone(),
-                strategy: s.clone(),
-            };
-            let mut p = Problems::new();
-            plan = planner::plan(&program, machine, &mut p);
-            for q in p.as_slice() {
-                if !problems.iter().any(|x| x.key == q.key && x.message == q.message) {
-                    problems.push(q.clone());
-                }
-            }
-        }
-        _ => {
-            let errors = [
-                workpiece.and_then(Result::err),
-                tool.and_then(Result::err),
-                cycle.and_then(Result::err),
-                strategy.and_then(Result::err),
-            ];
-            problems.extend(errors.into_iter().flatten().flatten());
-        }
-    }
-    let sections = SECTIONS
+}
+
+/// Each table's state: missing, or invalid when a problem's key is in it.
+fn section_states(root: &toml::Table, problems: &[Problem]) -> Vec<(&'static str, SectionState)> {
+    SECTIONS
         .iter()
         .map(|s| {
-            let present = table(s).is_some();
+            let present = root.get(*s).and_then(toml::Value::as_table).is_some();
             let mine = problems
                 .iter()
                 .any(|p| p.key == *s || p.key.starts_with(&format!("{s}.")));
@@ -179,13 +225,7 @@ pub fn check_sections(
             };
             (*s, state)
         })
-        .collect();
-    let plan = if problems.is_empty() { plan } else { None };
-    SectionCheck {
-        sections,
-        problems,
-        plan,
-    }
+        .collect()
 }
 
 #[cfg(test)]
@@ -194,8 +234,17 @@ mod tests {
     use crate::config::machine::shipped_for_tests;
     use std::path::Path;
 
-    fn no_library(name: &str) -> Result<toml::Table, String> {
-        Err(format!("no library tool {name:?}"))
+    /// A library without tools: its refusal.
+    struct NoTool(String);
+
+    impl fmt::Display for NoTool {
+        fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+            write!(f, "no library tool {:?}", self.0)
+        }
+    }
+
+    fn no_library(name: &str) -> Result<toml::Table, NoTool> {
+        Err(NoTool(name.to_string()))
     }
 
     fn programs() -> Vec<(std::path::PathBuf, String)> {
@@ -288,7 +337,7 @@ mod tests {
             .as_table()
             .expect("table")
             .clone();
-        let c = check_sections(&library_src, &m, &|_| Ok(tool.clone()));
+        let c = check_sections(&library_src, &m, &|_| Ok::<_, NoTool>(tool.clone()));
         assert!(c.problems.is_empty() && c.plan.is_some(), "{:?}", c.problems);
     }
 

@@ -455,11 +455,31 @@ impl Program {
 
     /// The machine-independent checks. Problems are named by key.
     pub fn check(&self, p: &mut Problems) -> Option<CheckedProgram> {
-        let w = &self.workpiece;
-        let t = &self.tool;
-        let c = &self.cycle;
-        let s = &self.strategy;
+        let teeth = self.check_workpiece(p);
+        let x_shape = self.check_shape(p);
+        self.check_tool_module(p);
+        let (gashes, starts, lead_angle_deg, hob_hand) = self.tool.check_own(p);
+        self.check_cycle_fits_tool(p);
+        let rough_passes = self.check_strategy(p);
+        self.check_single_depth(p);
+        if !p.is_empty() {
+            return None;
+        }
+        Some(CheckedProgram {
+            program: self.clone(),
+            teeth: teeth?,
+            starts: starts?,
+            gashes: gashes?,
+            rough_passes: rough_passes?,
+            hob_hand: hob_hand?,
+            lead_angle_deg: lead_angle_deg?,
+            x_shape: x_shape?,
+        })
+    }
 
+    /// `[workpiece]`'s own values (the shape apart); the number of teeth when valid.
+    fn check_workpiece(&self, p: &mut Problems) -> Option<u32> {
+        let w = &self.workpiece;
         let teeth = count(p, "workpiece.teeth", w.teeth, 1, 10_000);
         p.positive("workpiece.module_mm", w.module_mm);
         p.within("workpiece.helix_deg", w.helix_deg, 0.0, 89.0, "deg");
@@ -480,8 +500,12 @@ impl Program {
             );
             p.within("workpiece.material.mc", m.mc, 0.0, 0.6, "");
         }
-        let x_shape = self.check_shape(p);
+        teeth
+    }
 
+    /// The tool's module, and that it is the gear's.
+    fn check_tool_module(&self, p: &mut Problems) {
+        let (w, t) = (&self.workpiece, &self.tool);
         p.positive("tool.module_mm", t.module_mm);
         p.require(
             !(t.module_mm > 0.0 && w.module_mm > 0.0) || (t.module_mm - w.module_mm).abs() <= 1e-9,
@@ -493,8 +517,12 @@ impl Program {
                 )
             },
         );
-        let (gashes, starts, lead_angle_deg, hob_hand) = t.check_own(p);
+    }
 
+    /// The cycle and the kind of tool go together: tooth-by-tooth with a disk cutter, the
+    /// other cycles with a hob.
+    fn check_cycle_fits_tool(&self, p: &mut Problems) {
+        let (c, t) = (&self.cycle, &self.tool);
         p.require(
             !(c.kind == CycleKind::ToothByTooth && t.kind == ToolKind::Hob),
             "cycle.kind",
@@ -505,7 +533,12 @@ impl Program {
             "tool.kind",
             || "a disk cutter cuts one tooth space at a time: set cycle.kind = \"tooth-by-tooth\"".into(),
         );
+    }
 
+    /// `[strategy]`: depths, passes, retract, cutting data and the plunge feed; the number
+    /// of rough passes when valid.
+    fn check_strategy(&self, p: &mut Problems) -> Option<u32> {
+        let s = &self.strategy;
         p.positive("strategy.total_depth_mm", s.total_depth_mm);
         p.non_negative("strategy.finish_allowance_mm", s.finish_allowance_mm);
         p.require(
@@ -523,23 +556,34 @@ impl Program {
         p.positive("strategy.retract_mm", s.retract_mm);
         self.check_cutting_data(p, "strategy.rough", &s.rough);
         self.check_cutting_data(p, "strategy.finish", &s.finish);
-        if c.kind == CycleKind::RadialPlunge {
-            match s.plunge_feed_mm_min {
-                Some(f) => p.positive("strategy.plunge_feed_mm_min", f),
-                None => p.push(
-                    "strategy.plunge_feed_mm_min",
-                    "the radial-plunge cycle needs a plunge feed",
-                ),
-            }
-            p.require(s.retract_mm > 1.0, "strategy.retract_mm", || {
-                format!(
-                    "the radial-plunge cycle rapids to 1 mm from the blank: retract must be more than 1 mm (is {})",
-                    s.retract_mm
-                )
-            });
+        if self.cycle.kind == CycleKind::RadialPlunge {
+            self.check_plunge(p);
         }
-        // The single-mode depth is checked whenever it is given: the same program may be
-        // started in single mode from the HMI.
+        rough_passes
+    }
+
+    /// The radial-plunge cycle's plunge feed and retract.
+    fn check_plunge(&self, p: &mut Problems) {
+        let s = &self.strategy;
+        match s.plunge_feed_mm_min {
+            Some(f) => p.positive("strategy.plunge_feed_mm_min", f),
+            None => p.push(
+                "strategy.plunge_feed_mm_min",
+                "the radial-plunge cycle needs a plunge feed",
+            ),
+        }
+        p.require(s.retract_mm > 1.0, "strategy.retract_mm", || {
+            format!(
+                "the radial-plunge cycle rapids to 1 mm from the blank: retract must be more than 1 mm (is {})",
+                s.retract_mm
+            )
+        });
+    }
+
+    /// The single-mode depth, checked whenever it is given: the same program may be
+    /// started in single mode from the HMI.
+    fn check_single_depth(&self, p: &mut Problems) {
+        let (c, s) = (&self.cycle, &self.strategy);
         match c.single_depth_mm {
             None if c.mode == Mode::Single => {
                 p.push("cycle.single_depth_mm", "single mode needs the depth of its pass")
@@ -552,19 +596,6 @@ impl Program {
                 )
             }),
         }
-        if !p.is_empty() {
-            return None;
-        }
-        Some(CheckedProgram {
-            program: self.clone(),
-            teeth: teeth?,
-            starts: starts?,
-            gashes: gashes?,
-            rough_passes: rough_passes?,
-            hob_hand: hob_hand?,
-            lead_angle_deg: lead_angle_deg?,
-            x_shape: x_shape?,
-        })
     }
 
     fn check_shape(&self, p: &mut Problems) -> Option<XShape> {

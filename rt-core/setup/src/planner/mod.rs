@@ -173,6 +173,23 @@ struct PassSpec {
     data_key: &'static str,
 }
 
+/// A pass's speeds: cutting speed (m/min), spindle rpm, the table's base rotation and its
+/// speed with the differential (rpm), axial feed (mm/min).
+struct PassSpeeds {
+    v_c: f64,
+    n_c: f64,
+    n_b_base: f64,
+    v_f: f64,
+    n_b: f64,
+}
+
+/// A pass's stroke in Y: the approach and the ends, mm.
+struct Stroke {
+    approach: f64,
+    y_start: f64,
+    y_end: f64,
+}
+
 impl<'a> Planner<'a> {
     fn new(c: &'a CheckedProgram, m: &'a MachineConfig) -> Self {
         let w = &c.program.workpiece;
@@ -393,8 +410,50 @@ impl<'a> Planner<'a> {
     }
 
     fn pass(&self, spec: &PassSpec, p: &mut Problems) -> Pass {
-        let prog = self.program();
-        let (w, t, m) = (&prog.workpiece, &prog.tool, self.m);
+        let m = self.m;
+        let sp = self.pass_speeds(spec, p);
+        let x_mm = self.x_at_depth_mm(spec.depth_mm);
+        self.check_deepest_x(spec, x_mm, p);
+        let st = self.stroke(spec, p);
+        let drive = m.spindle.drive();
+        let stroke_s = if sp.v_f > 0.0 {
+            (st.y_end - st.y_start).abs() / sp.v_f * 60.0
+        } else {
+            0.0
+        };
+        let strokes = if self.is_indexing() {
+            f64::from(self.c.teeth)
+        } else {
+            1.0
+        };
+        let cut_time_s = stroke_s * strokes;
+        let mut pass = Pass {
+            kind: spec.kind,
+            depth_mm: spec.depth_mm,
+            x_mm,
+            cutting_speed_m_min: sp.v_c,
+            feed_mm_per_rev: spec.data.feed_mm_per_rev,
+            spindle_rpm: sp.n_c,
+            spindle_motor_rpm: drive.motor_rpm(sp.n_c),
+            table_rpm: sp.n_b,
+            table_motor_rpm: sp.n_b * m.table.worm_ratio,
+            axial_feed_mm_min: sp.v_f,
+            vfd_hz: drive.vfd_hz(sp.n_c),
+            analog_out_v: drive.analog_out_v(sp.n_c),
+            approach_mm: st.approach,
+            y_start_mm: st.y_start,
+            y_end_mm: st.y_end,
+            cut_time_s,
+            pass_time_s: 0.0,
+        };
+        pass.pass_time_s = self.pass_time_s(&pass, sp.n_b_base);
+        pass
+    }
+
+    /// A pass's cutting speed, spindle and table speeds and axial feed, each checked
+    /// against the machine's limits.
+    fn pass_speeds(&self, spec: &PassSpec, p: &mut Problems) -> PassSpeeds {
+        let (t, m) = (&self.program().tool, self.m);
         let key_vc = format!("{}.cutting_speed_m_min", spec.data_key);
         let key_f = format!("{}.feed_mm_per_rev", spec.data_key);
         let v_c = spec.data.cutting_speed_m_min;
@@ -434,8 +493,18 @@ impl<'a> Planner<'a> {
                 m.y.max_feed_mm_min
             )
         });
+        PassSpeeds {
+            v_c,
+            n_c,
+            n_b_base,
+            v_f,
+            n_b,
+        }
+    }
 
-        let x_mm = self.x_at_depth_mm(spec.depth_mm);
+    /// The deepest X of a pass at `x_mm` (with the X shape's offsets) within the soft limit.
+    fn check_deepest_x(&self, spec: &PassSpec, x_mm: f64, p: &mut Problems) {
+        let m = self.m;
         let deepest = x_mm + self.c.x_shape.min_offset_mm();
         p.require(
             deepest >= m.x.soft_limit_min_mm,
@@ -447,7 +516,13 @@ impl<'a> Planner<'a> {
                 )
             },
         );
+    }
 
+    /// A pass's stroke in Y (the approach, then the face width, with the allowances), its
+    /// ends checked against Y's soft limits.
+    fn stroke(&self, spec: &PassSpec, p: &mut Problems) -> Stroke {
+        let prog = self.program();
+        let (w, t, m) = (&prog.workpiece, &prog.tool, self.m);
         let approach = match prog.cycle.kind {
             CycleKind::RadialPlunge => 0.0,
             _ => approach_mm(
@@ -471,40 +546,11 @@ impl<'a> Planner<'a> {
                 )
             });
         }
-
-        let drive = m.spindle.drive();
-        let stroke_s = if v_f > 0.0 {
-            (y_end - y_start).abs() / v_f * 60.0
-        } else {
-            0.0
-        };
-        let strokes = if self.is_indexing() {
-            f64::from(self.c.teeth)
-        } else {
-            1.0
-        };
-        let cut_time_s = stroke_s * strokes;
-        let mut pass = Pass {
-            kind: spec.kind,
-            depth_mm: spec.depth_mm,
-            x_mm,
-            cutting_speed_m_min: v_c,
-            feed_mm_per_rev: spec.data.feed_mm_per_rev,
-            spindle_rpm: n_c,
-            spindle_motor_rpm: drive.motor_rpm(n_c),
-            table_rpm: n_b,
-            table_motor_rpm: n_b * m.table.worm_ratio,
-            axial_feed_mm_min: v_f,
-            vfd_hz: drive.vfd_hz(n_c),
-            analog_out_v: drive.analog_out_v(n_c),
-            approach_mm: approach,
-            y_start_mm: y_start,
-            y_end_mm: y_end,
-            cut_time_s,
-            pass_time_s: 0.0,
-        };
-        pass.pass_time_s = self.pass_time_s(&pass, n_b_base);
-        pass
+        Stroke {
+            approach,
+            y_start,
+            y_end,
+        }
     }
 
     fn x_rapid_s(&self, distance_mm: f64) -> f64 {

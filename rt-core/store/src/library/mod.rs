@@ -11,7 +11,7 @@
 pub mod name;
 mod tool;
 
-pub use name::check_name;
+pub use name::{NameError, check_name};
 pub use tool::{FORMAT_VERSION as TOOL_FORMAT_VERSION, ToolRecord, Usage};
 
 use crate::atomic;
@@ -55,7 +55,7 @@ pub enum Refusal {
     BadName {
         kind: Kind,
         name: String,
-        why: String,
+        why: NameError,
     },
     Missing {
         kind: Kind,
