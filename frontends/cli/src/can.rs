@@ -1,5 +1,6 @@
 //! `hob bus-load` and the commissioning tools `hob can ...` (in the style of can-utils).
 
+use crate::Error;
 use hob_canopen::nmt::NmtState;
 
 use hob_can_transport::SystemClock;
@@ -30,7 +31,7 @@ pub enum SdoType {
 }
 
 /// `hob bus-load`: the worst-case bits per cycle; `Err` (refused) above the limit.
-pub fn bus_load(machine: &MachineConfig) -> Result<String, String> {
+pub fn bus_load(machine: &MachineConfig) -> Result<String, Error> {
     let plan = BusPlan::from_machine(machine);
     let load = plan.load();
     let mut o = String::new();
@@ -64,17 +65,23 @@ pub fn bus_load(machine: &MachineConfig) -> Result<String, String> {
         plan.bus_load_limit * 100.0
     );
     if load.load > plan.bus_load_limit {
-        return Err(format!(
-            "{o}bus load {:.1} % is above can.bus_load_limit = {:.0} %: lengthen inhibit times or take 0x60B1 out of the RPDO",
-            load.load * 100.0,
-            plan.bus_load_limit * 100.0
-        ));
+        return Err(Error::BusOverloaded {
+            report: o,
+            load: load.load,
+            limit: plan.bus_load_limit,
+        });
     }
     Ok(o)
 }
 
+/// Opens the SocketCAN interface `iface`.
+pub fn open_socket(iface: &str) -> Result<hob_can_transport::SocketCan, Error> {
+    hob_can_transport::SocketCan::open(iface).map_err(Error::CanOpen)
+}
+
+/// [`open_socket`] with the error in words: `hob-lab can run` (bench/lab) takes it so.
 pub fn open(iface: &str) -> Result<hob_can_transport::SocketCan, String> {
-    hob_can_transport::SocketCan::open(iface).map_err(|e| e.to_string())
+    open_socket(iface).map_err(|e| e.to_string())
 }
 
 fn profile_name(device_type: u32) -> &'static str {
@@ -87,8 +94,8 @@ fn profile_name(device_type: u32) -> &'static str {
 }
 
 /// `hob can scan`.
-pub fn scan(iface: &str, timeout: Duration) -> Result<String, String> {
-    let mut bus = open(iface)?;
+pub fn scan(iface: &str, timeout: Duration) -> Result<String, Error> {
+    let mut bus = open_socket(iface)?;
     let mut states = [None; 128];
     let listen_until = Instant::now() + timeout * 4;
     while Instant::now() < listen_until {
@@ -138,7 +145,7 @@ pub fn scan(iface: &str, timeout: Duration) -> Result<String, String> {
     Ok(o)
 }
 
-fn parse_number(s: &str) -> Result<i64, String> {
+fn parse_number(s: &str) -> Result<i64, Error> {
     let t = s.trim();
     let (neg, t) = t.strip_prefix('-').map_or((false, t), |r| (true, r));
     let v = if let Some(h) = t.strip_prefix("0x").or_else(|| t.strip_prefix("0X")) {
@@ -146,23 +153,31 @@ fn parse_number(s: &str) -> Result<i64, String> {
     } else {
         t.parse()
     }
-    .map_err(|e| format!("{s:?}: {e}"))?;
+    .map_err(|error| Error::Number {
+        text: s.to_string(),
+        error,
+    })?;
     Ok(if neg { -v } else { v })
 }
 
 /// Parses an object index or sub-index (hex with 0x, or decimal).
-pub fn parse_u16(s: &str) -> Result<u16, String> {
-    u16::try_from(parse_number(s)?).map_err(|_| format!("{s}: out of range 0 .. 0xFFFF"))
+pub fn parse_u16(s: &str) -> Result<u16, Error> {
+    u16::try_from(parse_number(s)?).map_err(|_| Error::IndexRange { text: s.to_string() })
 }
 
-fn encode(value: &str, ty: SdoType) -> Result<Vec<u8>, String> {
+fn encode(value: &str, ty: SdoType) -> Result<Vec<u8>, Error> {
     let n = || parse_number(value);
-    let range = |lo: i64, hi: i64| -> Result<i64, String> {
+    let range = |lo: i64, hi: i64| {
         let v = n()?;
         if (lo..=hi).contains(&v) {
             Ok(v)
         } else {
-            Err(format!("{value} is out of range {lo} .. {hi} for {ty:?}"))
+            Err(Error::ValueRange {
+                value: value.to_string(),
+                lo,
+                hi,
+                ty,
+            })
         }
     };
     Ok(match ty {
@@ -178,10 +193,12 @@ fn encode(value: &str, ty: SdoType) -> Result<Vec<u8>, String> {
         SdoType::Hex => {
             let t: String = value.chars().filter(|c| !c.is_whitespace()).collect();
             if !t.len().is_multiple_of(2) {
-                return Err(format!("{value:?}: hex needs an even number of digits"));
+                return Err(Error::HexOdd {
+                    value: value.to_string(),
+                });
             }
             (0..t.len() / 2)
-                .map(|i| u8::from_str_radix(&t[2 * i..2 * i + 2], 16).map_err(|e| e.to_string()))
+                .map(|i| u8::from_str_radix(&t[2 * i..2 * i + 2], 16).map_err(Error::HexDigit))
                 .collect::<Result<_, _>>()?
         }
     })
@@ -210,10 +227,10 @@ pub fn sdo_read_cmd(
     sub: u8,
     ty: SdoType,
     timeout: Duration,
-) -> Result<String, String> {
-    let mut bus = open(iface)?;
+) -> Result<String, Error> {
+    let mut bus = open_socket(iface)?;
     let b = sdo_read(&mut bus, &mut SystemClock::new(), node, index, sub, timeout)
-        .map_err(|e| format!("node {node}: {e}"))?;
+        .map_err(|error| Error::Sdo { node, error })?;
     Ok(format!("{}\n", decode(&b, ty)))
 }
 
@@ -226,9 +243,9 @@ pub fn sdo_write_cmd(
     value: &str,
     ty: SdoType,
     timeout: Duration,
-) -> Result<String, String> {
+) -> Result<String, Error> {
     let data = encode(value, ty)?;
-    let mut bus = open(iface)?;
+    let mut bus = open_socket(iface)?;
     sdo_write(
         &mut bus,
         &mut SystemClock::new(),
@@ -238,7 +255,7 @@ pub fn sdo_write_cmd(
         &data,
         timeout,
     )
-    .map_err(|e| format!("node {node}: {e}"))?;
+    .map_err(|error| Error::Sdo { node, error })?;
     Ok(format!(
         "node {node} 0x{index:04X}:{sub:02X} <- {} ({} bytes)\n",
         decode(&data, ty),
@@ -252,10 +269,13 @@ pub fn dump(
     iface: Option<&str>,
     file: Option<&Path>,
     count: Option<usize>,
-) -> Result<String, String> {
+) -> Result<String, Error> {
     let plan = BusPlan::from_machine(machine);
     if let Some(path) = file {
-        let text = std::fs::read_to_string(path).map_err(|e| format!("{}: {e}", path.display()))?;
+        let text = std::fs::read_to_string(path).map_err(|error| Error::Io {
+            path: path.to_path_buf(),
+            error,
+        })?;
         let mut o = String::new();
         for c in parse_candump(&text).iter().take(count.unwrap_or(usize::MAX)) {
             let t = c.t_s.map_or(String::new(), |t| format!("({t:.6}) "));
@@ -268,8 +288,8 @@ pub fn dump(
         }
         return Ok(o);
     }
-    let iface = iface.ok_or("give --iface or --file")?;
-    let mut bus = open(iface)?;
+    let iface = iface.ok_or(Error::NoIfaceOrFile)?;
+    let mut bus = open_socket(iface)?;
     let start = Instant::now();
     let mut n = 0;
     use std::io::Write;
@@ -291,41 +311,51 @@ pub fn dump(
     Ok(String::new())
 }
 
+/// The gearbox law of `program` on `machine`, as the capture's check takes it: the signed
+/// ratio, each axis's counts per unit (with its sign), the X of each pass's cut.
+fn gearbox_law(machine: &MachineConfig, program: &Path) -> Result<(f64, [f64; 4], Vec<f64>), Error> {
+    let (job, src) = Program::read(program).map_err(Error::Program)?;
+    let mut problems = Problems::new();
+    let cycle = CycleProgram::build(&job, machine, &mut problems).ok_or_else(|| {
+        problems
+            .into_result(program, &src)
+            .err()
+            .map_or(Error::ProgramRefused, Error::Program)
+    })?;
+    let params = ControlParams::from_machine(machine);
+    let cut_x: Vec<f64> = cycle
+        .passes()
+        .iter()
+        .chain(cycle.single().iter())
+        .map(|p| p.x_mm)
+        .collect();
+    // Counts per unit with each axis's sign (a machine with an inverted axis counts
+    // the other way; `AxisScale::to_units`).
+    let scales = [
+        params.spindle.counts_per_unit * params.spindle.sign,
+        params.table.counts_per_unit * params.table.sign,
+        params.x.counts_per_unit * params.x.sign,
+        params.y.counts_per_unit * params.y.sign,
+    ];
+    Ok((cycle.ratio_signed, scales, cut_x))
+}
+
 /// `hob can check-capture`; with a program, also the gearbox law in its cut.
-pub fn check_capture(machine: &MachineConfig, file: &Path, program: Option<&Path>) -> Result<String, String> {
+pub fn check_capture(machine: &MachineConfig, file: &Path, program: Option<&Path>) -> Result<String, Error> {
     let plan = BusPlan::from_machine(machine);
-    let text = std::fs::read_to_string(file).map_err(|e| format!("{}: {e}", file.display()))?;
+    let text = std::fs::read_to_string(file).map_err(|error| Error::Io {
+        path: file.to_path_buf(),
+        error,
+    })?;
     let frames = parse_candump(&text);
     let gearbox = match program {
         None => None,
         Some(p) => {
-            let (job, src) = Program::read(p).map_err(|e| e.to_string())?;
-            let mut problems = Problems::new();
-            let cycle = CycleProgram::build(&job, machine, &mut problems).ok_or_else(|| {
-                problems
-                    .into_result(p, &src)
-                    .err()
-                    .map_or_else(|| "refused".into(), |e| e.to_string())
-            })?;
-            let params = ControlParams::from_machine(machine);
-            let cut_x: Vec<f64> = cycle
-                .passes()
-                .iter()
-                .chain(cycle.single().iter())
-                .map(|p| p.x_mm)
-                .collect();
-            // Counts per unit with each axis's sign (a machine with an inverted axis counts
-            // the other way; `AxisScale::to_units`).
-            let scales = [
-                params.spindle.counts_per_unit * params.spindle.sign,
-                params.table.counts_per_unit * params.table.sign,
-                params.x.counts_per_unit * params.x.sign,
-                params.y.counts_per_unit * params.y.sign,
-            ];
+            let (ratio_signed, scales, cut_x) = gearbox_law(machine, p)?;
             Some(hob_process_image::capture::check_gearbox(
                 &frames,
                 &plan,
-                cycle.ratio_signed,
+                ratio_signed,
                 scales,
                 &cut_x,
                 1000,
@@ -365,7 +395,7 @@ pub fn check_capture(machine: &MachineConfig, file: &Path, program: Option<&Path
         );
     }
     if r.syncs == 0 || !r.violations.is_empty() || r.count_anomalies.len() > tolerated {
-        return Err(format!("{o}the capture does not keep to the schedule"));
+        return Err(Error::OffSchedule { report: o });
     }
     if let Some(g) = gearbox {
         let _ = writeln!(
@@ -374,9 +404,7 @@ pub fn check_capture(machine: &MachineConfig, file: &Path, program: Option<&Path
             g.windows, g.worst_relative_error
         );
         if g.windows < 5 || g.worst_relative_error > 1e-4 {
-            return Err(format!(
-                "{o}the table targets do not follow the gearbox law closely enough (bound 1e-4, at least 5 stretches)"
-            ));
+            return Err(Error::OffGearboxLaw { report: o });
         }
     }
     Ok(o)

@@ -2,6 +2,7 @@
 //! ([`hob_cutters::design`]), its deviation against the grade, its primitives as TOML and a
 //! plot to look at.
 
+use crate::Error;
 use hob_cutters::design::{CutterDesign, design, design_within};
 use hob_cutters::profile::{Primitive, discretise, validate};
 use hob_cutters::space::Gear;
@@ -19,12 +20,9 @@ pub struct DesignArgs {
 }
 
 /// Designs the cutter; the report, the design. Refusals (exit 2) name the argument.
-pub fn design_cutter(a: &DesignArgs) -> Result<(String, CutterDesign), String> {
+pub fn design_cutter(a: &DesignArgs) -> Result<(String, CutterDesign), Error> {
     if !(1..=11).contains(&a.grade) {
-        return Err(format!(
-            "--grade: an ISO 1328-1 grade is 1 to 11 (is {})",
-            a.grade
-        ));
+        return Err(Error::Grade(a.grade));
     }
     let radius = 0.5 * a.outside_diameter_mm;
     let tol = hob_gearing::iso1328::profile_form_tolerance_um(a.gear.normal_module_mm, a.grade);
@@ -32,8 +30,8 @@ pub fn design_cutter(a: &DesignArgs) -> Result<(String, CutterDesign), String> {
         Some(n) => design(a.gear, n, radius),
         None => design_within(a.gear, tol, radius),
     }
-    .map_err(|e| e.to_string())?;
-    validate(&d.profile, radius).map_err(|e| format!("the designed profile is invalid (a bug): {e}"))?;
+    .map_err(Error::Design)?;
+    validate(&d.profile, radius).map_err(Error::DesignInvalid)?;
     let s = &d.space;
     let mut o = String::new();
     let _ = writeln!(
@@ -88,12 +86,12 @@ pub fn design_cutter(a: &DesignArgs) -> Result<(String, CutterDesign), String> {
 }
 
 /// The profile's primitives as the tool library's TOML (`[[profile]]` tables).
-pub fn profile_toml(profile: &[Primitive]) -> Result<String, String> {
+pub fn profile_toml(profile: &[Primitive]) -> Result<String, Error> {
     #[derive(serde::Serialize)]
     struct File<'a> {
         profile: &'a [Primitive],
     }
-    toml::to_string(&File { profile }).map_err(|e| e.to_string())
+    toml::to_string(&File { profile }).map_err(Error::ProfileToml)
 }
 
 /// A plot of the design: the profile in the cutter's axial plane (left), and each flank
@@ -203,15 +201,13 @@ pub fn dynamics(
     cut: &hob_cutters::dynamics::SideCut,
     allowable_bending_mpa: f64,
     limit_um: Option<f64>,
-) -> Result<String, String> {
+) -> Result<String, Error> {
     use hob_cutters::dynamics::{deflection, speed_ranges};
-    let link = body
-        .link()
-        .map_err(|e| format!("--{}", e.to_string().replace('_', "-")))?;
-    let d = deflection(body, material, cut).map_err(|e| format!("--{}", e.to_string().replace('_', "-")))?;
+    let link = body.link().map_err(Error::OutOfRange)?;
+    let d = deflection(body, material, cut).map_err(Error::OutOfRange)?;
     let load_limit_n = body
         .load_limit_n(allowable_bending_mpa)
-        .map_err(|e| format!("--{}", e.to_string().replace('_', "-")))?;
+        .map_err(Error::OutOfRange)?;
     let mut o = String::new();
     let _ = writeln!(
         o,
@@ -257,12 +253,10 @@ pub fn dynamics(
     }
     if let Some(limit) = limit_um {
         if !(limit.is_finite() && limit > 0.0) {
-            return Err(format!(
-                "--limit-um: must be a positive number of um (is {limit})"
-            ));
+            return Err(Error::LimitUm(limit));
         }
         let ranges =
-            speed_ranges(body, material, cut, (5.0, 200.0, 0.5), limit).map_err(|e| e.to_string())?;
+            speed_ranges(body, material, cut, (5.0, 200.0, 0.5), limit).map_err(Error::SpeedRanges)?;
         let text: Vec<String> = ranges.iter().map(|(a, b)| format!("{a:.1}-{b:.1}")).collect();
         let verdict = if d.profile_error_um <= limit {
             "within"
@@ -285,15 +279,24 @@ pub fn dynamics(
 
 /// Reads a profile file (`[[profile]]` primitives) and validates it for a cutter of
 /// `outside_radius_mm`; errors name the file and the primitive.
-pub fn read_profile(path: &Path, outside_radius_mm: f64) -> Result<Vec<Primitive>, String> {
+pub fn read_profile(path: &Path, outside_radius_mm: f64) -> Result<Vec<Primitive>, Error> {
     #[derive(serde::Deserialize)]
     #[serde(deny_unknown_fields)]
     struct File {
         profile: Vec<Primitive>,
     }
-    let src = std::fs::read_to_string(path).map_err(|e| format!("{}: {e}", path.display()))?;
-    let f: File = toml::from_str(&src).map_err(|e| format!("{}: {e}", path.display()))?;
-    validate(&f.profile, outside_radius_mm).map_err(|e| format!("{}: {e}", path.display()))?;
+    let src = std::fs::read_to_string(path).map_err(|error| Error::Io {
+        path: path.to_path_buf(),
+        error,
+    })?;
+    let f: File = toml::from_str(&src).map_err(|error| Error::ProfileFile {
+        path: path.to_path_buf(),
+        error,
+    })?;
+    validate(&f.profile, outside_radius_mm).map_err(|error| Error::ProfileInvalid {
+        path: path.to_path_buf(),
+        error,
+    })?;
     Ok(f.profile)
 }
 
@@ -304,7 +307,7 @@ pub fn grind(
     feed_mm_min: f64,
     out: &Path,
     svg_path: Option<&Path>,
-) -> Result<String, String> {
+) -> Result<String, Error> {
     let profile = read_profile(profile_path, g.outside_radius_mm)?;
     let name = profile_path
         .file_stem()
@@ -320,12 +323,12 @@ pub fn grind_profile(
     feed_mm_min: f64,
     out: &Path,
     svg_path: Option<&Path>,
-) -> Result<String, String> {
+) -> Result<String, Error> {
     use hob_cutters::grind::{gcode, path};
     if !(feed_mm_min.is_finite() && feed_mm_min > 0.0) {
-        return Err(format!("--feed-mm-min: must be positive (is {feed_mm_min})"));
+        return Err(Error::FeedMmMin(feed_mm_min));
     }
-    let p = path(profile, g).map_err(|e| format!("--{}", e.to_string().replace('_', "-")))?;
+    let p = path(profile, g).map_err(Error::Grind)?;
     write(out, &gcode(name, &p, g, feed_mm_min))?;
     let mut o = format!(
         "{name}: {} points per tooth ({} at nodes and corners), {} teeth, {} linear moves; written to {}\n",
@@ -406,6 +409,9 @@ fn grind_svg(p: &[hob_cutters::grind::PathPoint]) -> String {
 
 /// Writes `text` to `path` whole or not at all (a grinding program cut off by a crash
 /// must not reach the machining centre), naming it in the error.
-pub fn write(path: &Path, text: &str) -> Result<(), String> {
-    hob_store::atomic::write_atomic(path, text.as_bytes()).map_err(|e| format!("{}: {e}", path.display()))
+pub fn write(path: &Path, text: &str) -> Result<(), Error> {
+    hob_store::atomic::write_atomic(path, text.as_bytes()).map_err(|error| Error::Io {
+        path: path.to_path_buf(),
+        error,
+    })
 }

@@ -9,9 +9,12 @@
 pub mod can;
 pub mod cutter;
 pub mod doctor;
+pub mod error;
 pub mod lab;
 pub mod library;
 pub mod render;
 pub mod replay;
 pub mod service;
 pub mod util;
+
+pub use error::Error;

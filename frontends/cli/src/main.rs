@@ -510,6 +510,7 @@ fn main() -> ExitCode {
     }
 }
 
+/// Each command to the function that does it.
 fn run(command: Command) -> Result<(), Failure> {
     use hob_ipc::command as code;
     match command {
@@ -517,110 +518,25 @@ fn run(command: Command) -> Result<(), Failure> {
             machine,
             cyclictest_seconds,
             json,
-        } => {
-            let machine = load_machine(machine.as_deref())?;
-            let findings = doctor::run(&machine, cyclictest_seconds);
-            if json {
-                emit(
-                    &(serde_json::to_string_pretty(&findings).map_err(|e| Failure::Other(e.to_string()))?
-                        + "\n"),
-                )?;
-            } else {
-                emit(&doctor::text(&findings))?;
-            }
-            if findings.iter().any(|f| f.level == doctor::Level::Fail) {
-                Err(Failure::Exit(1))
-            } else {
-                Ok(())
-            }
-        }
+        } => doctor(machine, cyclictest_seconds, json),
         Command::Status { watch, json } => service_result(service::status(watch, json)),
         Command::Load {
             program,
             lib,
             library,
             machine,
-        } => {
-            let place = Place { library, machine };
-            let (name, text) = library::load_text(program.as_deref(), lib.as_deref(), &place)?;
-            service_result(service::load_text(&name, &text))
-        }
+        } => load(program, lib, Place { library, machine }),
         Command::Lib {
             command,
-            library: dir,
+            library,
             machine,
-        } => {
-            let place = Place {
-                library: dir,
-                machine,
-            };
-            match command {
-                LibCommand::Programs { action } => library::run(Kind::Program, action.action(), &place),
-                LibCommand::Tools { action } => match action {
-                    ToolAction::Entry(a) => library::run(Kind::Tool, a.action(), &place),
-                    ToolAction::RecordUsage { name, log, when } => library::run(
-                        Kind::Tool,
-                        Action::RecordUsage {
-                            name,
-                            log,
-                            when_utc: when,
-                        },
-                        &place,
-                    ),
-                    ToolAction::Grind {
-                        name,
-                        wheel_radius_mm,
-                        wheel_edge_radius_mm,
-                        spacing_mm,
-                        chord_tolerance_mm,
-                        feed_mm_min,
-                        out,
-                        svg,
-                    } => {
-                        let record = place.open(None)?.tool(&name).map_err(library::refused)?;
-                        let t = &record.tool;
-                        let Some(disk) = &t.disk else {
-                            eprintln!(
-                                "hob: refused: tool {name:?} has no disk cutter's profile ([tool.disk])"
-                            );
-                            return Err(Failure::Exit(2));
-                        };
-                        let g = hob_cutters::grind::Grinding {
-                            outside_radius_mm: 0.5 * t.outside_diameter_mm,
-                            rake_deg: disk.rake_deg,
-                            clearance_deg: disk.clearance_deg,
-                            wheel_radius_mm,
-                            wheel_edge_radius_mm,
-                            cutter_teeth: u32::try_from(t.gashes).unwrap_or(0),
-                            spacing_mm,
-                            chord_tolerance_mm,
-                        };
-                        match cutter::grind_profile(
-                            &name,
-                            &disk.profile,
-                            &g,
-                            feed_mm_min,
-                            &out,
-                            svg.as_deref(),
-                        ) {
-                            Ok(text) => emit(&text),
-                            Err(e) => {
-                                eprintln!("hob: refused: {e}");
-                                Err(Failure::Exit(2))
-                            }
-                        }
-                    }
-                },
-            }
-        }
-        Command::Start { single } => service_result(service::request(&service::start(single))),
-        Command::Hold => service_result(service::request(&service::simple(code::FEED_HOLD))),
-        Command::Resume => service_result(service::request(&service::simple(code::RESUME))),
-        Command::Stop => service_result(service::request(&service::simple(code::STOP))),
-        Command::Reset => service_result(service::request(&service::simple(code::RESET))),
-        Command::Jog { axis, distance } => {
-            service_result(service::jog(&axis, distance).and_then(|r| service::request(&r)))
-        }
+        } => lib(command, &Place { library, machine }),
+        Command::Start { single } => send(&service::start(single)),
+        Command::Hold => send(&service::simple(code::FEED_HOLD)),
+        Command::Resume => send(&service::simple(code::RESUME)),
+        Command::Stop => send(&service::simple(code::STOP)),
+        Command::Reset => send(&service::simple(code::RESET)),
+        Command::Jog { axis, distance } => send_built(service::jog(&axis, distance)),
         Command::JogHold {
             axis,
             direction,
@@ -628,93 +544,232 @@ fn run(command: Command) -> Result<(), Failure> {
             seconds,
             no_release,
         } => service_result(service::jog_hold(&axis, &direction, speed, seconds, !no_release)),
-        Command::Home { axes } => service_result(service::home(&axes).and_then(|r| service::request(&r))),
-        Command::Override { what, percent } => {
-            service_result(service::override_request(&what, percent).and_then(|r| service::request(&r)))
-        }
+        Command::Home { axes } => send_built(service::home(&axes)),
+        Command::Override { what, percent } => send_built(service::override_request(&what, percent)),
         Command::TouchOff {
             axis,
             diameter,
             height,
-        } => service_result(service::touch_off(&axis, diameter, height).and_then(|r| service::request(&r))),
-        Command::Continue => service_result(service::request(&service::simple(code::CONTINUE))),
-        Command::Record => service_result(service::request(&service::simple(code::FLIGHT_RECORD))),
+        } => send_built(service::touch_off(&axis, diameter, height)),
+        Command::Continue => send(&service::simple(code::CONTINUE)),
+        Command::Record => send(&service::simple(code::FLIGHT_RECORD)),
         Command::Replay {
             file,
             observer_bandwidth_hz,
-        } => match hob_cli::replay::replay(&file, observer_bandwidth_hz) {
-            Ok(text) => emit(&text),
-            Err(text) => {
-                eprint!("{text}");
-                Err(Failure::Exit(1))
-            }
-        },
-        Command::NewBlank => service_result(service::request(&service::simple(code::NEW_BLANK))),
-        Command::TouchFlank { turned } => {
-            service_result(service::touch_flank(&turned).and_then(|r| service::request(&r)))
-        }
-        Command::Log { command } => match command {
-            LogCommand::Export { dir, csv, out } => {
-                if !csv {
-                    eprintln!("hob: refused: log export: give --csv (the only format)");
-                    return Err(Failure::Exit(2));
-                }
-                let text = hob_logger::export::export_csv(&dir).map_err(Failure::Other)?;
-                match out {
-                    Some(f) => cutter::write(&f, &text).map_err(Failure::Other),
-                    None => emit(&text),
-                }
-            }
-            LogCommand::Report { dir } => {
-                let r = hob_logger::export::report(&dir).map_err(Failure::Other)?;
-                emit(&hob_logger::export::report_text(&dir, &r))
-            }
-            LogCommand::Delay { dir, machine } => {
-                let machine = load_machine(machine.as_deref())?;
-                let assumed_s = f64::from(machine.control.drive_delay_us) * 1e-6;
-                let (samples, period_s) = hob_logger::delay::from_log(&dir).map_err(Failure::Other)?;
-                let d = hob_logger::delay::identify(&samples, period_s, assumed_s).ok_or_else(|| {
-                    Failure::Other(format!(
-                        "{}: less than a second of synchronised cut recorded: no delay to identify",
-                        dir.display()
-                    ))
-                })?;
-                emit(&hob_logger::delay::text(&d, assumed_s))
-            }
-        },
+        } => replay(&file, observer_bandwidth_hz),
+        Command::NewBlank => send(&service::simple(code::NEW_BLANK)),
+        Command::TouchFlank { turned } => send_built(service::touch_flank(&turned)),
+        Command::Log { command } => log(command),
         Command::Plan {
             program,
             machine,
             json,
-            library: dir,
-        } => {
-            let place = Place {
-                library: dir,
-                machine,
-            };
-            let machine = load_machine(place.machine.as_deref())?;
-            let plan = library::plan_file(&program, &place, &machine)?;
-            if json {
-                let text = serde_json::to_string_pretty(&plan).map_err(|e| Failure::Other(e.to_string()))?;
-                emit(&format!("{text}\n"))
-            } else {
-                emit(&render::plan_text(&program, &plan))
+            library,
+        } => plan(&program, &Place { library, machine }, json),
+        Command::Cutter { command } => cutter(command),
+        Command::BusLoad { machine } => bus_load(machine),
+        Command::Can {
+            command,
+            iface,
+            machine,
+            timeout_ms,
+        } => can(command, iface, machine, timeout_ms),
+        Command::Check {
+            program,
+            machine,
+            library,
+        } => check(program, machine, library),
+    }
+}
+
+/// A request to the running service, and its answer.
+fn send(req: &hob_ipc::CommandRequest) -> Result<(), Failure> {
+    service_result(service::request(req))
+}
+
+/// A request built from the arguments (refused when they are wrong), and its answer.
+fn send_built(req: Result<hob_ipc::CommandRequest, (u8, String)>) -> Result<(), Failure> {
+    service_result(req.and_then(|r| service::request(&r)))
+}
+
+/// Prints a refusal of a command's arguments (exit 2).
+fn refused(e: impl std::fmt::Display) -> Failure {
+    eprintln!("hob: refused: {e}");
+    Failure::Exit(2)
+}
+
+/// `hob doctor`: exit 1 when a check fails.
+fn doctor(machine: Option<PathBuf>, cyclictest_seconds: u32, json: bool) -> Result<(), Failure> {
+    let machine = load_machine(machine.as_deref())?;
+    let findings = doctor::run(&machine, cyclictest_seconds);
+    if json {
+        emit(&(serde_json::to_string_pretty(&findings).map_err(Failure::other)? + "\n"))?;
+    } else {
+        emit(&doctor::text(&findings))?;
+    }
+    if findings.iter().any(|f| f.level == doctor::Level::Fail) {
+        Err(Failure::Exit(1))
+    } else {
+        Ok(())
+    }
+}
+
+/// `hob load PROGRAM` or `hob load --lib NAME`.
+fn load(program: Option<PathBuf>, lib: Option<String>, place: Place) -> Result<(), Failure> {
+    let (name, text) = library::load_text(program.as_deref(), lib.as_deref(), &place)?;
+    service_result(service::load_text(&name, &text))
+}
+
+/// `hob lib programs|tools ...`.
+fn lib(command: LibCommand, place: &Place) -> Result<(), Failure> {
+    match command {
+        LibCommand::Programs { action } => library::run(Kind::Program, action.action(), place),
+        LibCommand::Tools { action } => match action {
+            ToolAction::Entry(a) => library::run(Kind::Tool, a.action(), place),
+            ToolAction::RecordUsage { name, log, when } => library::run(
+                Kind::Tool,
+                Action::RecordUsage {
+                    name,
+                    log,
+                    when_utc: when,
+                },
+                place,
+            ),
+            ToolAction::Grind {
+                name,
+                wheel_radius_mm,
+                wheel_edge_radius_mm,
+                spacing_mm,
+                chord_tolerance_mm,
+                feed_mm_min,
+                out,
+                svg,
+            } => {
+                let wheel = Wheel {
+                    wheel_radius_mm,
+                    wheel_edge_radius_mm,
+                    spacing_mm,
+                    chord_tolerance_mm,
+                    feed_mm_min,
+                };
+                grind_tool(&name, &wheel, &out, svg.as_deref(), place)
+            }
+        },
+    }
+}
+
+/// The grinding wheel and how it is moved (`hob lib tools grind`, `hob cutter grind`).
+#[derive(Debug, Clone, Copy)]
+struct Wheel {
+    wheel_radius_mm: f64,
+    wheel_edge_radius_mm: f64,
+    spacing_mm: f64,
+    chord_tolerance_mm: f64,
+    feed_mm_min: f64,
+}
+
+/// `hob lib tools grind NAME`: a library disk cutter ground to its profile.
+fn grind_tool(
+    name: &str,
+    wheel: &Wheel,
+    out: &std::path::Path,
+    svg: Option<&std::path::Path>,
+    place: &Place,
+) -> Result<(), Failure> {
+    let record = place.open(None)?.tool(name).map_err(library::refused)?;
+    let t = &record.tool;
+    let Some(disk) = &t.disk else {
+        return Err(refused(format!(
+            "tool {name:?} has no disk cutter's profile ([tool.disk])"
+        )));
+    };
+    let g = hob_cutters::grind::Grinding {
+        outside_radius_mm: 0.5 * t.outside_diameter_mm,
+        rake_deg: disk.rake_deg,
+        clearance_deg: disk.clearance_deg,
+        wheel_radius_mm: wheel.wheel_radius_mm,
+        wheel_edge_radius_mm: wheel.wheel_edge_radius_mm,
+        cutter_teeth: u32::try_from(t.gashes).unwrap_or(0),
+        spacing_mm: wheel.spacing_mm,
+        chord_tolerance_mm: wheel.chord_tolerance_mm,
+    };
+    let text =
+        cutter::grind_profile(name, &disk.profile, &g, wheel.feed_mm_min, out, svg).map_err(refused)?;
+    emit(&text)
+}
+
+/// `hob replay FILE`: exit 1 when the outputs part (the report on stderr).
+fn replay(file: &std::path::Path, observer_bandwidth_hz: Option<f64>) -> Result<(), Failure> {
+    match hob_cli::replay::replay(file, observer_bandwidth_hz) {
+        Ok(text) => emit(&text),
+        Err(e) => {
+            eprint!("{e}");
+            Err(Failure::Exit(1))
+        }
+    }
+}
+
+/// `hob log export|report|delay`.
+fn log(command: LogCommand) -> Result<(), Failure> {
+    match command {
+        LogCommand::Export { dir, csv, out } => {
+            if !csv {
+                return Err(refused("log export: give --csv (the only format)"));
+            }
+            let text = hob_logger::export::export_csv(&dir).map_err(Failure::other)?;
+            match out {
+                Some(f) => cutter::write(&f, &text).map_err(Failure::other),
+                None => emit(&text),
             }
         }
-        Command::Cutter {
-            command:
-                CutterCommand::Design {
-                    teeth,
-                    module_mm,
-                    pressure_angle_deg,
-                    shift,
-                    helix_deg,
-                    outside_diameter_mm,
-                    grade,
-                    arcs,
-                    toml,
-                    svg,
-                },
+        LogCommand::Report { dir } => {
+            let r = hob_logger::export::report(&dir).map_err(Failure::other)?;
+            emit(&hob_logger::export::report_text(&dir, &r))
+        }
+        LogCommand::Delay { dir, machine } => log_delay(&dir, machine),
+    }
+}
+
+/// `hob log delay DIR`: the table drive's delay against the machine file's.
+fn log_delay(dir: &std::path::Path, machine: Option<PathBuf>) -> Result<(), Failure> {
+    let machine = load_machine(machine.as_deref())?;
+    let assumed_s = f64::from(machine.control.drive_delay_us) * 1e-6;
+    let (samples, period_s) = hob_logger::delay::from_log(dir).map_err(Failure::other)?;
+    let d = hob_logger::delay::identify(&samples, period_s, assumed_s).ok_or_else(|| {
+        Failure::Other(format!(
+            "{}: less than a second of synchronised cut recorded: no delay to identify",
+            dir.display()
+        ))
+    })?;
+    emit(&hob_logger::delay::text(&d, assumed_s))
+}
+
+/// `hob plan PROGRAM`.
+fn plan(program: &std::path::Path, place: &Place, json: bool) -> Result<(), Failure> {
+    let machine = load_machine(place.machine.as_deref())?;
+    let plan = library::plan_file(program, place, &machine)?;
+    if json {
+        let text = serde_json::to_string_pretty(&plan).map_err(Failure::other)?;
+        emit(&format!("{text}\n"))
+    } else {
+        emit(&render::plan_text(program, &plan))
+    }
+}
+
+/// `hob cutter design|dynamics|grind`: a wrong argument is refused (exit 2).
+fn cutter(command: CutterCommand) -> Result<(), Failure> {
+    match command {
+        CutterCommand::Design {
+            teeth,
+            module_mm,
+            pressure_angle_deg,
+            shift,
+            helix_deg,
+            outside_diameter_mm,
+            grade,
+            arcs,
+            toml,
+            svg,
         } => {
             let args = cutter::DesignArgs {
                 gear: hob_cutters::space::Gear {
@@ -728,44 +783,22 @@ fn run(command: Command) -> Result<(), Failure> {
                 grade,
                 arcs,
             };
-            let (mut text, design) = match cutter::design_cutter(&args) {
-                Ok(r) => r,
-                Err(e) => {
-                    eprintln!("hob: refused: {e}");
-                    return Err(Failure::Exit(2));
-                }
-            };
-            if let Some(path) = toml {
-                cutter::write(
-                    &path,
-                    &cutter::profile_toml(&design.profile).map_err(Failure::Other)?,
-                )
-                .map_err(Failure::Other)?;
-                text.push_str(&format!("profile written to {}\n", path.display()));
-            }
-            if let Some(path) = svg {
-                cutter::write(&path, &cutter::svg(&design)).map_err(Failure::Other)?;
-                text.push_str(&format!("plot written to {}\n", path.display()));
-            }
-            emit(&text)
+            cutter_design(&args, toml, svg)
         }
-        Command::Cutter {
-            command:
-                CutterCommand::Dynamics {
-                    width_mm,
-                    outside_diameter_mm,
-                    mass_kg,
-                    teeth,
-                    youngs_modulus_mpa,
-                    log_decrement,
-                    allowable_bending_mpa,
-                    kc11_n_mm2,
-                    mc,
-                    chip_thickness_mm,
-                    chip_width_mm,
-                    cutting_speed_m_min,
-                    limit_um,
-                },
+        CutterCommand::Dynamics {
+            width_mm,
+            outside_diameter_mm,
+            mass_kg,
+            teeth,
+            youngs_modulus_mpa,
+            log_decrement,
+            allowable_bending_mpa,
+            kc11_n_mm2,
+            mc,
+            chip_thickness_mm,
+            chip_width_mm,
+            cutting_speed_m_min,
+            limit_um,
         } => {
             use hob_cutters::dynamics::{CutterBody, Material, SideCut};
             let body = CutterBody {
@@ -782,30 +815,23 @@ fn run(command: Command) -> Result<(), Failure> {
                 chip_width_mm,
                 cutting_speed_m_min,
             };
-            match cutter::dynamics(&body, &material, &cut, allowable_bending_mpa, limit_um) {
-                Ok(text) => emit(&text),
-                Err(e) => {
-                    eprintln!("hob: refused: {e}");
-                    Err(Failure::Exit(2))
-                }
-            }
+            let text =
+                cutter::dynamics(&body, &material, &cut, allowable_bending_mpa, limit_um).map_err(refused)?;
+            emit(&text)
         }
-        Command::Cutter {
-            command:
-                CutterCommand::Grind {
-                    profile,
-                    outside_diameter_mm,
-                    teeth,
-                    rake_deg,
-                    clearance_deg,
-                    wheel_radius_mm,
-                    wheel_edge_radius_mm,
-                    spacing_mm,
-                    chord_tolerance_mm,
-                    feed_mm_min,
-                    out,
-                    svg,
-                },
+        CutterCommand::Grind {
+            profile,
+            outside_diameter_mm,
+            teeth,
+            rake_deg,
+            clearance_deg,
+            wheel_radius_mm,
+            wheel_edge_radius_mm,
+            spacing_mm,
+            chord_tolerance_mm,
+            feed_mm_min,
+            out,
+            svg,
         } => {
             let g = hob_cutters::grind::Grinding {
                 outside_radius_mm: 0.5 * outside_diameter_mm,
@@ -817,99 +843,118 @@ fn run(command: Command) -> Result<(), Failure> {
                 spacing_mm,
                 chord_tolerance_mm,
             };
-            match cutter::grind(&profile, &g, feed_mm_min, &out, svg.as_deref()) {
-                Ok(text) => emit(&text),
-                Err(e) => {
-                    eprintln!("hob: refused: {e}");
-                    Err(Failure::Exit(2))
-                }
-            }
-        }
-        Command::BusLoad { machine } => {
-            let machine = load_machine(machine.as_deref())?;
-            match can::bus_load(&machine) {
-                Ok(text) => emit(&text),
-                Err(text) => {
-                    eprintln!("hob: refused: {text}");
-                    Err(Failure::Exit(2))
-                }
-            }
-        }
-        Command::Can {
-            command,
-            iface,
-            machine,
-            timeout_ms,
-        } => {
-            let machine = load_machine(machine.as_deref())?;
-            let iface = iface.unwrap_or_else(|| machine.can.interface.clone());
-            let timeout = std::time::Duration::from_millis(timeout_ms);
-            let result = match command {
-                CanCommand::Scan => can::scan(&iface, timeout).map_err(|e| (1, e)),
-                CanCommand::Sdo { op } => sdo(&iface, op, timeout),
-                CanCommand::Dump { file, count } => {
-                    let live = file.is_none().then_some(iface.as_str());
-                    can::dump(&machine, live, file.as_deref(), count).map_err(|e| (1, e))
-                }
-                CanCommand::CheckCapture { file, program } => {
-                    can::check_capture(&machine, &file, program.as_deref()).map_err(|e| (1, e))
-                }
-            };
-            match result {
-                Ok(text) => emit(&text),
-                Err((code, text)) => {
-                    let _ = emit(&text);
-                    eprintln!("hob: {}", text.lines().last().unwrap_or("failed"));
-                    Err(Failure::Exit(code))
-                }
-            }
-        }
-        Command::Check {
-            program,
-            machine,
-            library: dir,
-        } => {
-            let machine_file = machine_path(machine.as_deref())?;
-            let place = Place {
-                library: dir,
-                machine: Some(machine_file.clone()),
-            };
-            let machine = MachineConfig::load(&machine_file).map_err(Failure::Refused)?;
-            match program {
-                None => emit(&format!(
-                    "{}: ok ({})\n",
-                    machine_file.display(),
-                    machine.machine.name
-                )),
-                Some(program) => {
-                    let plan = library::plan_file(&program, &place, &machine)?;
-                    let mut text = format!(
-                        "{}: ok on {}: {} pass{}, {:.0} s\n",
-                        program.display(),
-                        machine_file.display(),
-                        plan.passes.len(),
-                        if plan.passes.len() == 1 { "" } else { "es" },
-                        plan.total_time_s
-                    );
-                    for w in &plan.warnings {
-                        text.push_str(&format!("  note: {w}\n"));
-                    }
-                    emit(&text)
-                }
-            }
+            let text = cutter::grind(&profile, &g, feed_mm_min, &out, svg.as_deref()).map_err(refused)?;
+            emit(&text)
         }
     }
 }
 
+/// `hob cutter design`: the report, the profile (`--toml`) and the plot (`--svg`) written.
+fn cutter_design(
+    args: &cutter::DesignArgs,
+    toml: Option<PathBuf>,
+    svg: Option<PathBuf>,
+) -> Result<(), Failure> {
+    let (mut text, design) = cutter::design_cutter(args).map_err(refused)?;
+    if let Some(path) = toml {
+        cutter::write(
+            &path,
+            &cutter::profile_toml(&design.profile).map_err(Failure::other)?,
+        )
+        .map_err(Failure::other)?;
+        text.push_str(&format!("profile written to {}\n", path.display()));
+    }
+    if let Some(path) = svg {
+        cutter::write(&path, &cutter::svg(&design)).map_err(Failure::other)?;
+        text.push_str(&format!("plot written to {}\n", path.display()));
+    }
+    emit(&text)
+}
+
+/// `hob bus-load`: refused above the limit.
+fn bus_load(machine: Option<PathBuf>) -> Result<(), Failure> {
+    let machine = load_machine(machine.as_deref())?;
+    let text = can::bus_load(&machine).map_err(refused)?;
+    emit(&text)
+}
+
+/// `hob can scan|sdo|dump|check-capture`: what was found on stdout, the reason of a failure
+/// (the report's last line) on stderr.
+fn can(
+    command: CanCommand,
+    iface: Option<String>,
+    machine: Option<PathBuf>,
+    timeout_ms: u64,
+) -> Result<(), Failure> {
+    let machine = load_machine(machine.as_deref())?;
+    let iface = iface.unwrap_or_else(|| machine.can.interface.clone());
+    let timeout = std::time::Duration::from_millis(timeout_ms);
+    let failed = |e: hob_cli::Error| (1, e.to_string());
+    let result = match command {
+        CanCommand::Scan => can::scan(&iface, timeout).map_err(failed),
+        CanCommand::Sdo { op } => sdo(&iface, op, timeout),
+        CanCommand::Dump { file, count } => {
+            let live = file.is_none().then_some(iface.as_str());
+            can::dump(&machine, live, file.as_deref(), count).map_err(failed)
+        }
+        CanCommand::CheckCapture { file, program } => {
+            can::check_capture(&machine, &file, program.as_deref()).map_err(failed)
+        }
+    };
+    match result {
+        Ok(text) => emit(&text),
+        Err((code, text)) => {
+            let _ = emit(&text);
+            eprintln!("hob: {}", text.lines().last().unwrap_or("failed"));
+            Err(Failure::Exit(code))
+        }
+    }
+}
+
+/// `hob check [PROGRAM]`: the machine file, and the program on it.
+fn check(
+    program: Option<PathBuf>,
+    machine: Option<PathBuf>,
+    library: Option<PathBuf>,
+) -> Result<(), Failure> {
+    let machine_file = machine_path(machine.as_deref())?;
+    let place = Place {
+        library,
+        machine: Some(machine_file.clone()),
+    };
+    let machine = MachineConfig::load(&machine_file).map_err(Failure::Refused)?;
+    let Some(program) = program else {
+        return emit(&format!(
+            "{}: ok ({})\n",
+            machine_file.display(),
+            machine.machine.name
+        ));
+    };
+    let plan = library::plan_file(&program, &place, &machine)?;
+    let mut text = format!(
+        "{}: ok on {}: {} pass{}, {:.0} s\n",
+        program.display(),
+        machine_file.display(),
+        plan.passes.len(),
+        if plan.passes.len() == 1 { "" } else { "es" },
+        plan.total_time_s
+    );
+    for w in &plan.warnings {
+        text.push_str(&format!("  note: {w}\n"));
+    }
+    emit(&text)
+}
+
 fn sdo(iface: &str, op: SdoOp, timeout: std::time::Duration) -> Result<String, (u8, String)> {
-    let bad = |e: String| (2, e);
+    let bad = |e: hob_cli::Error| (2, e.to_string());
+    let failed = |e: hob_cli::Error| (1, e.to_string());
     match op {
         SdoOp::Read { node, index, sub, ty } => {
             let (index, sub) = (
                 can::parse_u16(&index).map_err(bad)?,
                 can::parse_u16(&sub).map_err(bad)?,
             );
-            can::sdo_read_cmd(iface, node, index, sub as u8, ty, timeout).map_err(|e| (1, e))
+            can::sdo_read_cmd(iface, node, index, sub as u8, ty, timeout).map_err(failed)
         }
         SdoOp::Write {
             node,
@@ -922,7 +967,7 @@ fn sdo(iface: &str, op: SdoOp, timeout: std::time::Duration) -> Result<String, (
                 can::parse_u16(&index).map_err(bad)?,
                 can::parse_u16(&sub).map_err(bad)?,
             );
-            can::sdo_write_cmd(iface, node, index, sub as u8, &value, ty, timeout).map_err(|e| (1, e))
+            can::sdo_write_cmd(iface, node, index, sub as u8, &value, ty, timeout).map_err(failed)
         }
     }
 }

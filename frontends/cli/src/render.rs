@@ -2,6 +2,7 @@
 
 use hob_gearing::signs::{Hand, Rotation, Vertical};
 use hob_setup::job::{CycleKind, Mode};
+use hob_setup::planner::cutter::CutterPlan;
 use hob_setup::planner::{PassKind, Plan};
 use std::fmt::Write;
 use std::path::Path;
@@ -58,6 +59,21 @@ pub fn plan_text(program: &Path, plan: &Plan) -> String {
 
 fn write_plan(o: &mut String, program: &Path, p: &Plan) -> std::fmt::Result {
     writeln!(o, "hob plan: {}  (machine: {})", program.display(), p.machine)?;
+    write_gear(o, p)?;
+    write_set_up(o, p)?;
+    writeln!(o)?;
+    write_passes(o, p)?;
+    if let Some(c) = &p.cutter {
+        write_cutter(o, c)?;
+    }
+    for w in &p.warnings {
+        writeln!(o, "note: {w}")?;
+    }
+    Ok(())
+}
+
+/// The gear, its tolerance, the cycle, the gearbox and the differential.
+fn write_gear(o: &mut String, p: &Plan) -> std::fmt::Result {
     let gear = match (p.helix_hand, p.helix_lead_mm) {
         (Some(h), Some(lead)) => format!(
             "helical {} hand, beta {} deg, lead {lead:.3} mm",
@@ -97,7 +113,11 @@ fn write_plan(o: &mut String, program: &Path, p: &Plan) -> std::fmt::Result {
         o,
         "          differential {:.6} deg of table per mm of Y",
         p.differential_deg_per_mm
-    )?;
+    )
+}
+
+/// The hob's swivel, the signs, X's shape in the cut and its safe position.
+fn write_set_up(o: &mut String, p: &Plan) -> std::fmt::Result {
     let sense = p.hob_swivel_sense.map_or(String::new(), |h| {
         format!(", in the sense of a {}-hand helix", hand(h))
     });
@@ -136,8 +156,11 @@ fn write_plan(o: &mut String, program: &Path, p: &Plan) -> std::fmt::Result {
             " (X clamped in the cut)"
         }
     )?;
-    writeln!(o, "X safe    {:.3} mm", p.x_safe_mm)?;
-    writeln!(o)?;
+    writeln!(o, "X safe    {:.3} mm", p.x_safe_mm)
+}
+
+/// The passes as a table, and the total cycle time.
+fn write_passes(o: &mut String, p: &Plan) -> std::fmt::Result {
     writeln!(
         o,
         "{:>4} {:<6} {:>7} {:>8} {:>8} {:>7} {:>6} {:>7} {:>8} {:>8} {:>8} {:>8} {:>8}",
@@ -185,71 +208,70 @@ fn write_plan(o: &mut String, program: &Path, p: &Plan) -> std::fmt::Result {
         "total cycle time {:.1} s ({})",
         p.total_time_s,
         minutes(p.total_time_s)
+    )
+}
+
+/// A disk cutter's profile against the involute, its dynamics and each pass's side force.
+fn write_cutter(o: &mut String, c: &CutterPlan) -> std::fmt::Result {
+    write!(
+        o,
+        "disk cutter's profile: {:.2} um from the gear's involute at most (radius {:.3} mm)",
+        c.profile_deviation_um, c.at_gear_radius_mm
     )?;
-    if let Some(c) = &p.cutter {
-        write!(
+    match (c.grade, c.profile_form_tolerance_um) {
+        (Some(g), Some(tol)) => writeln!(
             o,
-            "disk cutter's profile: {:.2} um from the gear's involute at most (radius {:.3} mm)",
-            c.profile_deviation_um, c.at_gear_radius_mm
-        )?;
-        match (c.grade, c.profile_form_tolerance_um) {
-            (Some(g), Some(tol)) => writeln!(
-                o,
-                ", {:.0} % of f_falpha {tol:.2} um at grade {g}",
-                100.0 * c.profile_deviation_um / tol
-            )?,
-            _ => writeln!(o, " (workpiece.grade not given: not judged)")?,
-        }
-        match (c.natural_frequency_hz, c.damping_ratio) {
-            (Some(f), Some(z)) => {
-                let passes: Vec<String> = c
-                    .tooth_passing_hz
-                    .iter()
-                    .map(|fz| format!("{fz:.1} Hz ({:.2})", fz / f))
-                    .collect();
-                writeln!(
-                    o,
-                    "disk cutter's natural frequency {f:.1} Hz, damping ratio {z:.4} (seed 003); teeth pass at {}",
-                    passes.join(", ")
-                )?;
-            }
-            _ => writeln!(o, "disk cutter's dynamics: tool.disk.mass_kg not given")?,
-        }
-        for (k, cp) in c.passes.iter().enumerate() {
-            let ranges: Vec<String> = cp
-                .speed_ranges_m_min
+            ", {:.0} % of f_falpha {tol:.2} um at grade {g}",
+            100.0 * c.profile_deviation_um / tol
+        )?,
+        _ => writeln!(o, " (workpiece.grade not given: not judged)")?,
+    }
+    match (c.natural_frequency_hz, c.damping_ratio) {
+        (Some(f), Some(z)) => {
+            let passes: Vec<String> = c
+                .tooth_passing_hz
                 .iter()
-                .map(|(a, b)| format!("{a:.1}-{b:.1}"))
+                .map(|fz| format!("{fz:.1} Hz ({:.2})", fz / f))
                 .collect();
             writeln!(
                 o,
-                "  pass {}: one flank's side force {:.0} N (chip {:.3} x {:.2} mm), amplification {:.2}, predicted profile error {:.2} um, peak load {:.0} N{}{}",
-                k + 1,
-                cp.side_force_n,
-                cp.side_chip_thickness_mm,
-                cp.side_chip_width_mm,
-                cp.amplification,
-                cp.profile_error_um,
-                cp.peak_load_n,
-                cp.load_limit_n
-                    .map(|l| format!(" of {l:.0} N the body takes"))
-                    .unwrap_or_default(),
-                if ranges.is_empty() {
-                    String::new()
-                } else {
-                    format!("; within f_falpha at {} m/min", ranges.join(", "))
-                }
+                "disk cutter's natural frequency {f:.1} Hz, damping ratio {z:.4} (seed 003); teeth pass at {}",
+                passes.join(", ")
             )?;
         }
-        if c.passes.is_empty() && c.natural_frequency_hz.is_some() {
-            writeln!(
-                o,
-                "  (workpiece.material not given: no side force or profile error predicted)"
-            )?;
-        }
+        _ => writeln!(o, "disk cutter's dynamics: tool.disk.mass_kg not given")?,
     }
-    for w in &p.warnings {
-        writeln!(o, "note: {w}")?;
+    for (k, cp) in c.passes.iter().enumerate() {
+        let ranges: Vec<String> = cp
+            .speed_ranges_m_min
+            .iter()
+            .map(|(a, b)| format!("{a:.1}-{b:.1}"))
+            .collect();
+        writeln!(
+            o,
+            "  pass {}: one flank's side force {:.0} N (chip {:.3} x {:.2} mm), amplification {:.2}, predicted profile error {:.2} um, peak load {:.0} N{}{}",
+            k + 1,
+            cp.side_force_n,
+            cp.side_chip_thickness_mm,
+            cp.side_chip_width_mm,
+            cp.amplification,
+            cp.profile_error_um,
+            cp.peak_load_n,
+            cp.load_limit_n
+                .map(|l| format!(" of {l:.0} N the body takes"))
+                .unwrap_or_default(),
+            if ranges.is_empty() {
+                String::new()
+            } else {
+                format!("; within f_falpha at {} m/min", ranges.join(", "))
+            }
+        )?;
+    }
+    if c.passes.is_empty() && c.natural_frequency_hz.is_some() {
+        writeln!(
+            o,
+            "  (workpiece.material not given: no side force or profile error predicted)"
+        )?;
     }
     Ok(())
 }

@@ -3,6 +3,7 @@
 //! `events` and `stats` streams, and the `command` request-response service; through
 //! `hob-gateway` when `HOB_GATEWAY` names its socket (a user who is not the bus's).
 
+use crate::Error;
 use hob_ipc::codec;
 use hob_ipc::{CommandRequest, CommandResponse, EventSample, Feed, StateSample, StatsSample};
 use std::fmt::Write as _;
@@ -145,13 +146,12 @@ fn monotonic_ns() -> u64 {
 }
 
 /// Reads the newest state, the loop's stats and the recent events.
-pub fn snapshot(ports: &mut dyn Feed) -> Result<Snapshot, String> {
-    let state = ports.wait_state(Duration::from_secs(2)).ok_or_else(|| {
-        format!(
-            "no state from hob-rt within 2 s (is it running? HOB_INSTANCE={})",
-            hob_ipc::instance()
-        )
-    })?;
+pub fn snapshot(ports: &mut dyn Feed) -> Result<Snapshot, Error> {
+    let state = ports
+        .wait_state(Duration::from_secs(2))
+        .ok_or_else(|| Error::NoState {
+            instance: hob_ipc::instance(),
+        })?;
     // Stats come twice a second (the newest is kept for late subscribers).
     let end = Instant::now() + Duration::from_millis(1200);
     let mut stats = ports.latest_stats();
@@ -183,9 +183,33 @@ fn us(ns: u64) -> f64 {
     ns as f64 / 1e3
 }
 
+/// `hob status`'s text: the state and alarm, the axes and set-up, the drives, the loop's
+/// timing, the recorder and the recent events.
 pub fn status_text(s: &Snapshot) -> String {
     let st = &s.state;
     let mut o = String::new();
+    state_lines(&mut o, st);
+    axes_lines(&mut o, st);
+    drive_lines(&mut o, st);
+    match &s.stats {
+        Some(x) => loop_lines(&mut o, x),
+        None => {
+            let _ = writeln!(o, "loop     no stats from hob-rt yet");
+        }
+    }
+    let _ = writeln!(o, "recorder {}", s.recorder.text);
+    if !s.events.is_empty() {
+        let _ = writeln!(o, "events   (newest last)");
+        for e in s.events.iter().rev().take(10).rev() {
+            let _ = writeln!(o, "  #{:<6} cycle {:<9} {}", e.seq, e.cycle, codec::event_text(e));
+        }
+    }
+    o
+}
+
+/// The state, pass and program; the alarm with the machine's reaction, the remedy and how
+/// to continue.
+fn state_lines(o: &mut String, st: &StateSample) {
     let hold = if st.hold != 0 { " (feed hold)" } else { "" };
     let _ = writeln!(
         o,
@@ -207,6 +231,10 @@ pub fn status_text(s: &Snapshot) -> String {
         let _ = writeln!(o, "         remedy: {}", f.remedy());
         let _ = writeln!(o, "         to continue: {}", f.how_to_continue());
     }
+}
+
+/// The axes, the set-up (references, offsets, overrides) and the spindle.
+fn axes_lines(o: &mut String, st: &StateSample) {
     let _ = writeln!(
         o,
         "axes     X {:9.3} mm (cmd {:9.3})  Y {:9.3} mm (cmd {:9.3})  B {:10.4} deg",
@@ -244,6 +272,10 @@ pub fn status_text(s: &Snapshot) -> String {
         st.sync_error_arcsec,
         st.ccc_arcsec
     );
+}
+
+/// The drives enabled, the I/O, and each CAN node's state.
+fn drive_lines(o: &mut String, st: &StateSample) {
     let drives: Vec<&str> = ["B", "X", "Y"]
         .iter()
         .enumerate()
@@ -271,77 +303,66 @@ pub fn status_text(s: &Snapshot) -> String {
         })
         .collect();
     let _ = writeln!(o, "nodes    {}", nodes.join("   "));
-    match &s.stats {
-        Some(x) => {
-            let _ = writeln!(
-                o,
-                "loop     {}   {}   {}   {}   bus {}   period {} us",
-                if x.fifo_priority > 0 {
-                    format!("SCHED_FIFO {}", x.fifo_priority)
-                } else {
-                    "NOT SCHED_FIFO".into()
-                },
-                if x.core >= 0 {
-                    format!("core {}", x.core)
-                } else {
-                    "not pinned".into()
-                },
-                if x.memory_locked != 0 {
-                    "memory locked"
-                } else {
-                    "memory NOT locked"
-                },
-                if x.cpu_dma_latency_us >= 0 {
-                    format!("idle exit <= {} us", x.cpu_dma_latency_us)
-                } else {
-                    "idle states NOT limited".into()
-                },
-                if x.bus_kind == hob_ipc::bus_kind::SHARED_MEMORY {
-                    "shared-memory virtual CAN"
-                } else {
-                    "SocketCAN"
-                },
-                x.period_ns / 1000
-            );
-            for (name, p) in [("wake us ", &x.wake_latency), ("compute ", &x.compute)] {
-                let _ = writeln!(
-                    o,
-                    "{name} min {:7.1}  p50 {:7.1}  p90 {:7.1}  p99 {:7.1}  p99.9 {:7.1}  p99.99 {:7.1}  max {:8.1}  ({} cycles)",
-                    us(p.min_ns),
-                    us(p.p50_ns),
-                    us(p.p90_ns),
-                    us(p.p99_ns),
-                    us(p.p999_ns),
-                    us(p.p9999_ns),
-                    us(p.max_ns),
-                    p.count
-                );
-            }
-            let _ = writeln!(
-                o,
-                "         overruns {}   CAN send errors {}   in cycles: system heap allocations {}, pool blocks {}",
-                x.overruns,
-                x.tx_errors,
-                if x.system_allocations_in_cycle == u64::MAX {
-                    "not counted".into()
-                } else {
-                    x.system_allocations_in_cycle.to_string()
-                },
-                x.pool_allocations_in_cycle
-            );
-        }
-        None => {
-            let _ = writeln!(o, "loop     no stats from hob-rt yet");
-        }
+}
+
+/// The loop's real-time set-up, its timing and its counters.
+fn loop_lines(o: &mut String, x: &StatsSample) {
+    let _ = writeln!(
+        o,
+        "loop     {}   {}   {}   {}   bus {}   period {} us",
+        if x.fifo_priority > 0 {
+            format!("SCHED_FIFO {}", x.fifo_priority)
+        } else {
+            "NOT SCHED_FIFO".into()
+        },
+        if x.core >= 0 {
+            format!("core {}", x.core)
+        } else {
+            "not pinned".into()
+        },
+        if x.memory_locked != 0 {
+            "memory locked"
+        } else {
+            "memory NOT locked"
+        },
+        if x.cpu_dma_latency_us >= 0 {
+            format!("idle exit <= {} us", x.cpu_dma_latency_us)
+        } else {
+            "idle states NOT limited".into()
+        },
+        if x.bus_kind == hob_ipc::bus_kind::SHARED_MEMORY {
+            "shared-memory virtual CAN"
+        } else {
+            "SocketCAN"
+        },
+        x.period_ns / 1000
+    );
+    for (name, p) in [("wake us ", &x.wake_latency), ("compute ", &x.compute)] {
+        let _ = writeln!(
+            o,
+            "{name} min {:7.1}  p50 {:7.1}  p90 {:7.1}  p99 {:7.1}  p99.9 {:7.1}  p99.99 {:7.1}  max {:8.1}  ({} cycles)",
+            us(p.min_ns),
+            us(p.p50_ns),
+            us(p.p90_ns),
+            us(p.p99_ns),
+            us(p.p999_ns),
+            us(p.p9999_ns),
+            us(p.max_ns),
+            p.count
+        );
     }
-    let _ = writeln!(o, "recorder {}", s.recorder.text);
-    if !s.events.is_empty() {
-        let _ = writeln!(o, "events   (newest last)");
-        for e in s.events.iter().rev().take(10).rev() {
-            let _ = writeln!(o, "  #{:<6} cycle {:<9} {}", e.seq, e.cycle, codec::event_text(e));
-        }
-    }
-    o
+    let _ = writeln!(
+        o,
+        "         overruns {}   CAN send errors {}   in cycles: system heap allocations {}, pool blocks {}",
+        x.overruns,
+        x.tx_errors,
+        if x.system_allocations_in_cycle == u64::MAX {
+            "not counted".into()
+        } else {
+            x.system_allocations_in_cycle.to_string()
+        },
+        x.pool_allocations_in_cycle
+    );
 }
 
 /// The CAN nodes as the loop sees them: each drive's CiA 402 state and statusword, each
@@ -435,7 +456,7 @@ pub fn status_json(s: &Snapshot) -> String {
 pub fn status(watch: bool, json: bool) -> Result<String, (u8, String)> {
     let mut ports =
         hob_ipc::follow(&format!("hob-status-{}", std::process::id())).map_err(|e| (1, e.to_string()))?;
-    let snap = snapshot(ports.as_mut()).map_err(|e| (1, e))?;
+    let snap = snapshot(ports.as_mut()).map_err(|e| (1, e.to_string()))?;
     if !watch {
         return Ok(if json {
             status_json(&snap)

@@ -17,6 +17,11 @@ pub enum Failure {
 }
 
 impl Failure {
+    /// Any other failure (exit 1), in its words.
+    pub fn other(e: impl std::fmt::Display) -> Self {
+        Failure::Other(e.to_string())
+    }
+
     /// The exit status, after printing the reason as every `hob` command does.
     pub fn report(self) -> std::process::ExitCode {
         match self {
@@ -47,6 +52,7 @@ pub fn service_result(r: Result<String, (u8, String)>) -> Result<(), Failure> {
     }
 }
 
+/// `--jog AXIS=DISTANCE` of `hob-lab can run` (bench/lab, whose errors are text).
 pub fn parse_jog(s: &str) -> Result<(hob_control::fault::Axis, f64), String> {
     use hob_control::fault::Axis;
     let (axis, d) = s

@@ -330,23 +330,11 @@ fn a_program_naming_a_missing_tool_is_refused_with_the_tool_name_everywhere() {
     );
 }
 
-#[test]
-fn usage_of_a_recorded_cut_is_added_to_the_tool() {
+/// A recording of two passes: Y feeds 40 mm down in the cut of each, rapids back up.
+fn two_passes_recorded(name: &str) -> PathBuf {
     use hob_ipc::StateSample;
     use hob_ipc::codec::State;
-    let dir = library_dir("usage");
-    ok(
-        &dir,
-        &[
-            "lib",
-            "tools",
-            "create",
-            "hob-m5-a",
-            tool_file("u.toml").to_str().unwrap(),
-        ],
-    );
-    // A recording of two passes: Y feeds 40 mm down in the cut of each, rapids back up.
-    let log = library_dir("usage-log");
+    let log = library_dir(name);
     std::fs::create_dir_all(&log).unwrap();
     let mut w = hob_logger::LogWriter::open(&log, "test").unwrap();
     let mut cycle = 0;
@@ -378,34 +366,32 @@ fn usage_of_a_recorded_cut_is_added_to_the_tool() {
         }
     }
     w.flush().unwrap();
-    let log = log.to_str().unwrap();
-    let s = ok(
-        &dir,
-        &[
-            "lib",
-            "tools",
-            "record-usage",
-            "hob-m5-a",
-            "--log",
-            log,
-            "--when",
-            "2025-03-01T08:15:00Z",
-        ],
-    );
-    assert!(s.contains("+2 passes and 0.0800 m of Y in the cut"), "{s}");
+    log
+}
+
+/// `hob lib tools record-usage NAME --log LOG --when WHEN`.
+fn record_usage<'a>(name: &'a str, log: &'a str, when: &'a str) -> [&'a str; 8] {
+    ["lib", "tools", "record-usage", name, "--log", log, "--when", when]
+}
+
+#[test]
+fn usage_of_a_recorded_cut_is_added_to_the_tool() {
+    let dir = library_dir("usage");
     ok(
         &dir,
         &[
             "lib",
             "tools",
-            "record-usage",
+            "create",
             "hob-m5-a",
-            "--log",
-            log,
-            "--when",
-            "2025-03-02T08:15:00Z",
+            tool_file("u.toml").to_str().unwrap(),
         ],
     );
+    let log = two_passes_recorded("usage-log");
+    let log = log.to_str().unwrap();
+    let s = ok(&dir, &record_usage("hob-m5-a", log, "2025-03-01T08:15:00Z"));
+    assert!(s.contains("+2 passes and 0.0800 m of Y in the cut"), "{s}");
+    ok(&dir, &record_usage("hob-m5-a", log, "2025-03-02T08:15:00Z"));
     let shown = ok(&dir, &["lib", "tools", "show", "hob-m5-a"]);
     let t: toml::Table = shown.parse().unwrap();
     let usage = t["usage"].as_table().unwrap();
@@ -417,16 +403,7 @@ fn usage_of_a_recorded_cut_is_added_to_the_tool() {
     assert_eq!(usage["last_used_utc"].as_str(), Some("2025-03-02T08:15:00Z"));
     refused(
         &dir,
-        &[
-            "lib",
-            "tools",
-            "record-usage",
-            "hob-m5-a",
-            "--log",
-            log,
-            "--when",
-            "later",
-        ],
+        &record_usage("hob-m5-a", log, "later"),
         &["usage.last_used_utc"],
     );
     refused(

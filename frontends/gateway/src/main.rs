@@ -52,40 +52,96 @@ struct Args {
     viewers: Option<Group>,
 }
 
+/// Why the gateway cannot start, or a peer cannot be served: the facts, worded as the
+/// gateway prints them.
+#[derive(Debug)]
+enum Error {
+    /// `-h` or `--help`: the usage is the answer.
+    Usage,
+    NeedsValue(&'static str),
+    UnknownArgument(String),
+    Required(&'static str),
+    /// The viewers' group is the operators' (its name).
+    SameGroup(String),
+    NoSuchGroup {
+        option: &'static str,
+        value: String,
+    },
+    Group {
+        option: &'static str,
+        value: String,
+        error: nix::errno::Errno,
+    },
+    /// The socket's path (`--socket`) could not be made.
+    Socket {
+        path: PathBuf,
+        error: std::io::Error,
+    },
+    AnotherGate {
+        path: PathBuf,
+    },
+    PeerCredentials(nix::errno::Errno),
+}
+
+impl std::fmt::Display for Error {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Error::Usage => f.write_str(USAGE),
+            Error::NeedsValue(name) => write!(f, "{name} needs a value\n{USAGE}"),
+            Error::UnknownArgument(other) => write!(f, "unknown argument {other}\n{USAGE}"),
+            Error::Required(option) => write!(f, "{option} is required\n{USAGE}"),
+            Error::SameGroup(name) => write!(f, "--viewers {name}: the same group as --operators {name}"),
+            Error::NoSuchGroup { option, value } => write!(f, "{option} {value}: no such group on this PC"),
+            Error::Group { option, value, error } => write!(f, "{option} {value}: {error}"),
+            Error::Socket { path, error } => write!(f, "--socket {}: {error}", path.display()),
+            Error::AnotherGate { path } => {
+                write!(f, "--socket {}: another gate answers on it", path.display())
+            }
+            Error::PeerCredentials(e) => write!(f, "SO_PEERCRED: {e}"),
+        }
+    }
+}
+
+impl std::error::Error for Error {}
+
 /// A group by name or number, or an error naming the option.
-fn group(option: &str, v: &str) -> Result<Group, String> {
+fn group(option: &'static str, v: &str) -> Result<Group, Error> {
     let found = match v.parse::<u32>() {
         Ok(n) => Group::from_gid(Gid::from_raw(n)),
         Err(_) => Group::from_name(v),
     };
     match found {
         Ok(Some(g)) => Ok(g),
-        Ok(None) => Err(format!("{option} {v}: no such group on this PC")),
-        Err(e) => Err(format!("{option} {v}: {e}")),
+        Ok(None) => Err(Error::NoSuchGroup {
+            option,
+            value: v.to_string(),
+        }),
+        Err(error) => Err(Error::Group {
+            option,
+            value: v.to_string(),
+            error,
+        }),
     }
 }
 
-fn parse(mut it: impl Iterator<Item = String>) -> Result<Args, String> {
+fn parse(mut it: impl Iterator<Item = String>) -> Result<Args, Error> {
     let (mut socket, mut operators, mut viewers) = (None, None, None);
     while let Some(a) = it.next() {
-        let mut value = |name: &str| it.next().ok_or_else(|| format!("{name} needs a value\n{USAGE}"));
+        let mut value = |name: &'static str| it.next().ok_or(Error::NeedsValue(name));
         match a.as_str() {
             "--socket" => socket = Some(PathBuf::from(value("--socket")?)),
             "--operators" => operators = Some(group("--operators", &value("--operators")?)?),
             "--viewers" => viewers = Some(group("--viewers", &value("--viewers")?)?),
-            "-h" | "--help" => return Err(USAGE.into()),
-            other => return Err(format!("unknown argument {other}\n{USAGE}")),
+            "-h" | "--help" => return Err(Error::Usage),
+            other => return Err(Error::UnknownArgument(other.to_string())),
         }
     }
-    let operators = operators.ok_or_else(|| format!("--operators is required\n{USAGE}"))?;
+    let operators = operators.ok_or(Error::Required("--operators"))?;
     if viewers.as_ref().is_some_and(|v: &Group| v.gid == operators.gid) {
-        return Err(format!(
-            "--viewers {0}: the same group as --operators {0}",
-            operators.name
-        ));
+        return Err(Error::SameGroup(operators.name));
     }
     Ok(Args {
-        socket: socket.ok_or_else(|| format!("--socket is required\n{USAGE}"))?,
+        socket: socket.ok_or(Error::Required("--socket"))?,
         operators,
         viewers,
     })
@@ -229,8 +285,8 @@ fn commander(jobs: Receiver<Job>) {
 }
 
 /// Who is on the other end: user name, uid, pid and every group it is in.
-fn peer(stream: &UnixStream) -> Result<(String, u32, i32, Vec<u32>), String> {
-    let cred = getsockopt(stream, PeerCredentials).map_err(|e| format!("SO_PEERCRED: {e}"))?;
+fn peer(stream: &UnixStream) -> Result<(String, u32, i32, Vec<u32>), Error> {
+    let cred = getsockopt(stream, PeerCredentials).map_err(Error::PeerCredentials)?;
     let uid = cred.uid();
     let mut groups = vec![cred.gid()];
     let name = match User::from_uid(Uid::from_raw(uid)) {
@@ -252,6 +308,153 @@ fn write(stream: &mut UnixStream, msg: &FromGateway) -> std::io::Result<()> {
     stream.write_all(&bytes)
 }
 
+/// A peer let in: its user name, how it is named in the journal, what it may do.
+#[derive(Debug)]
+struct Peer {
+    user: String,
+    who: String,
+    role: Role,
+}
+
+/// Who is on the other end and what it may do; a peer refused is told why (none).
+fn admit(stream: &mut UnixStream, policy: &Policy, groups_named: &str) -> Option<Peer> {
+    let (user, uid, pid, groups) = match peer(stream) {
+        Ok(p) => p,
+        Err(e) => {
+            let _ = write(stream, &FromGateway::Refused(e.to_string()));
+            return None;
+        }
+    };
+    let who = format!("{user} (uid {uid}, pid {pid})");
+    let Some(role) = policy.role(uid, &groups) else {
+        println!("hob-gateway: {who} refused: in none of the groups {groups_named}");
+        let _ = write(
+            stream,
+            &FromGateway::Refused(format!("{who} is in none of the groups {groups_named}")),
+        );
+        return None;
+    };
+    Some(Peer { user, who, role })
+}
+
+/// The connection's writer: it ends when every sender of its queue is gone (the reading
+/// thread's at the end, the watchers' copy removed then) or a write fails (the peer gone,
+/// or blocked past WRITE_TIMEOUT).
+fn spawn_writer(
+    mut out: UnixStream,
+    frames: Receiver<Arc<FromGateway>>,
+) -> std::io::Result<std::thread::JoinHandle<()>> {
+    std::thread::Builder::new().spawn(move || {
+        off_the_loops_core();
+        for f in frames {
+            if write(&mut out, &f).is_err() {
+                break;
+            }
+        }
+        let _ = out.shutdown(std::net::Shutdown::Both);
+    })
+}
+
+/// The reading side of one connection (number `id`): the peer's requests, answered through
+/// its queue.
+struct Connection<'a> {
+    id: u64,
+    peer: Peer,
+    queue: SyncSender<Arc<FromGateway>>,
+    watching: bool,
+    watchers: &'a Arc<Mutex<Watchers>>,
+    jobs: &'a Sender<Job>,
+}
+
+impl Connection<'_> {
+    /// Reads requests until the peer is gone or sends what cannot be read.
+    fn read(&mut self, stream: &mut UnixStream) {
+        let mut buf = Vec::new();
+        let mut chunk = [0u8; 16 * 1024];
+        loop {
+            let n = match stream.read(&mut chunk) {
+                Ok(0) | Err(_) => return,
+                Ok(n) => n,
+            };
+            buf.extend_from_slice(&chunk[..n]);
+            if !self.handle_whole_messages(&mut buf) {
+                return;
+            }
+        }
+    }
+
+    /// Handles every whole message at the start of `buf` (taken out of it); false when one
+    /// cannot be read (the peer is told why; the connection ends).
+    fn handle_whole_messages(&mut self, buf: &mut Vec<u8>) -> bool {
+        loop {
+            let (msg, used) = match gw::decode::<ToGateway>(buf) {
+                Ok(Some(x)) => x,
+                Ok(None) => return true,
+                Err(e) => {
+                    println!("hob-gateway: {}: {e}; connection closed", self.peer.who);
+                    let _ = self.queue.send(Arc::new(FromGateway::Refused(e)));
+                    return false;
+                }
+            };
+            buf.drain(..used);
+            match msg {
+                ToGateway::Watch => self.watch(),
+                ToGateway::Request(req) => self.request(req),
+            }
+        }
+    }
+
+    /// The peer watches from now on (a second Watch is ignored): the recent events, stats
+    /// and recorder report first.
+    fn watch(&mut self) {
+        if self.watching {
+            return;
+        }
+        self.watching = true;
+        let mut w = self
+            .watchers
+            .lock()
+            .unwrap_or_else(std::sync::PoisonError::into_inner);
+        let first = w
+            .events
+            .iter()
+            .map(|e| Arc::new(FromGateway::Event(Box::new(*e))))
+            .chain(w.stats.clone())
+            .chain(w.recorder.clone());
+        for m in first {
+            let _ = self.queue.try_send(m);
+        }
+        w.queues.push((self.id, self.queue.clone()));
+    }
+
+    /// A command: to the loop from an operator, refused to a viewer; journalled either way.
+    fn request(&self, req: Box<CommandRequest>) {
+        let who = &self.peer.who;
+        let what = hob_ipc::codec::command_name(req.command);
+        if self.peer.role != Role::Operate {
+            println!("hob-gateway: {who}: {what} refused: may watch, not command");
+            let _ = self.queue.send(Arc::new(FromGateway::Refused(format!(
+                "{} may watch, not command (not in the operators' group)",
+                self.peer.user
+            ))));
+            return;
+        }
+        let (reply, answer) = mpsc::sync_channel(1);
+        let a = if self.jobs.send((req, Instant::now() + EXPIRES, reply)).is_ok() {
+            answer.recv().ok()
+        } else {
+            None
+        }
+        .unwrap_or_else(|| CommandResponse::new(false, 0, "the gateway's command thread has stopped"));
+        println!(
+            "hob-gateway: {who}: {what} -> {}: {}",
+            if a.accepted != 0 { "accepted" } else { "refused" },
+            a.text()
+        );
+        let _ = self.queue.send(Arc::new(FromGateway::Answer(Box::new(a))));
+    }
+}
+
 /// One connection (number `id`): its writer drains the connection's queue; this thread
 /// reads requests. Returns when the peer is gone and the writer has ended.
 fn serve(
@@ -264,136 +467,64 @@ fn serve(
 ) {
     off_the_loops_core();
     let _ = stream.set_write_timeout(Some(WRITE_TIMEOUT));
-    let (user, uid, pid, groups) = match peer(&stream) {
-        Ok(p) => p,
-        Err(e) => {
-            let _ = write(&mut stream, &FromGateway::Refused(e));
-            return;
-        }
+    let Some(peer) = admit(&mut stream, policy, groups_named) else {
+        return;
     };
-    let who = format!("{user} (uid {uid}, pid {pid})");
-    let Some(role) = policy.role(uid, &groups) else {
-        println!("hob-gateway: {who} refused: in none of the groups {groups_named}");
-        let _ = write(
-            &mut stream,
-            &FromGateway::Refused(format!("{who} is in none of the groups {groups_named}")),
+    println!("hob-gateway: {} connected, may {}", peer.who, peer.role.name());
+    let (queue, frames) = mpsc::sync_channel::<Arc<FromGateway>>(WATCH_QUEUE);
+    let _ = queue.send(Arc::new(FromGateway::Welcome {
+        user: peer.user.clone(),
+        role: peer.role,
+    }));
+    let Ok(out) = stream.try_clone() else {
+        return;
+    };
+    let Ok(writer) = spawn_writer(out, frames) else {
+        println!(
+            "hob-gateway: {}: no thread for its writing; connection closed",
+            peer.who
         );
         return;
     };
-    println!("hob-gateway: {who} connected, may {}", role.name());
-    let (queue, frames) = mpsc::sync_channel::<Arc<FromGateway>>(WATCH_QUEUE);
-    let _ = queue.send(Arc::new(FromGateway::Welcome {
-        user: user.clone(),
-        role,
-    }));
-    let Ok(mut out) = stream.try_clone() else {
-        return;
+    let mut c = Connection {
+        id,
+        peer,
+        queue,
+        watching: false,
+        watchers,
+        jobs,
     };
-    // It ends when every sender of its queue is gone (this thread's at the end, the
-    // watchers' copy removed then) or a write fails (the peer gone, or blocked past
-    // WRITE_TIMEOUT).
-    let writer = std::thread::Builder::new().spawn(move || {
-        off_the_loops_core();
-        for f in frames {
-            if write(&mut out, &f).is_err() {
-                break;
-            }
-        }
-        let _ = out.shutdown(std::net::Shutdown::Both);
-    });
-    let Ok(writer) = writer else {
-        println!("hob-gateway: {who}: no thread for its writing; connection closed");
-        return;
-    };
-    let mut watching = false;
-    let mut buf = Vec::new();
-    let mut chunk = [0u8; 16 * 1024];
-    'conn: loop {
-        let n = match stream.read(&mut chunk) {
-            Ok(0) | Err(_) => break,
-            Ok(n) => n,
-        };
-        buf.extend_from_slice(&chunk[..n]);
-        loop {
-            let (msg, used) = match gw::decode::<ToGateway>(&buf) {
-                Ok(Some(x)) => x,
-                Ok(None) => break,
-                Err(e) => {
-                    println!("hob-gateway: {who}: {e}; connection closed");
-                    let _ = queue.send(Arc::new(FromGateway::Refused(e)));
-                    break 'conn;
-                }
-            };
-            buf.drain(..used);
-            match msg {
-                ToGateway::Watch if watching => {}
-                ToGateway::Watch => {
-                    watching = true;
-                    let mut w = watchers.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
-                    let first = w
-                        .events
-                        .iter()
-                        .map(|e| Arc::new(FromGateway::Event(Box::new(*e))))
-                        .chain(w.stats.clone())
-                        .chain(w.recorder.clone());
-                    for m in first {
-                        let _ = queue.try_send(m);
-                    }
-                    w.queues.push((id, queue.clone()));
-                }
-                ToGateway::Request(req) => {
-                    let what = hob_ipc::codec::command_name(req.command);
-                    if role != Role::Operate {
-                        println!("hob-gateway: {who}: {what} refused: may watch, not command");
-                        let _ = queue.send(Arc::new(FromGateway::Refused(format!(
-                            "{user} may watch, not command (not in the operators' group)"
-                        ))));
-                        continue;
-                    }
-                    let (reply, answer) = mpsc::sync_channel(1);
-                    let a = if jobs.send((req, Instant::now() + EXPIRES, reply)).is_ok() {
-                        answer.recv().ok()
-                    } else {
-                        None
-                    }
-                    .unwrap_or_else(|| {
-                        CommandResponse::new(false, 0, "the gateway's command thread has stopped")
-                    });
-                    println!(
-                        "hob-gateway: {who}: {what} -> {}: {}",
-                        if a.accepted != 0 { "accepted" } else { "refused" },
-                        a.text()
-                    );
-                    let _ = queue.send(Arc::new(FromGateway::Answer(Box::new(a))));
-                }
-            }
-        }
-    }
+    c.read(&mut stream);
     // The writer sends what is queued (a refusal's reason included) and ends.
     watchers
         .lock()
         .unwrap_or_else(std::sync::PoisonError::into_inner)
         .remove(id);
-    drop(queue);
+    drop(c);
     let _ = writer.join();
     let _ = stream.shutdown(std::net::Shutdown::Both);
 }
 
-fn bind(path: &Path) -> Result<UnixListener, String> {
+fn bind(path: &Path) -> Result<UnixListener, Error> {
+    let socket = |error| Error::Socket {
+        path: path.to_path_buf(),
+        error,
+    };
     if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
-        std::fs::create_dir_all(dir).map_err(|e| format!("--socket {}: {e}", path.display()))?;
+        std::fs::create_dir_all(dir).map_err(socket)?;
     }
     // A socket left by a gate that was killed: nobody answers on it.
     if path.exists() {
         if UnixStream::connect(path).is_ok() {
-            return Err(format!("--socket {}: another gate answers on it", path.display()));
+            return Err(Error::AnotherGate {
+                path: path.to_path_buf(),
+            });
         }
-        std::fs::remove_file(path).map_err(|e| format!("--socket {}: {e}", path.display()))?;
+        std::fs::remove_file(path).map_err(socket)?;
     }
-    let l = UnixListener::bind(path).map_err(|e| format!("--socket {}: {e}", path.display()))?;
+    let l = UnixListener::bind(path).map_err(socket)?;
     // Anyone may connect: who may do what is the gateway's check, with an answer that says why.
-    std::fs::set_permissions(path, std::fs::Permissions::from_mode(0o666))
-        .map_err(|e| format!("--socket {}: {e}", path.display()))?;
+    std::fs::set_permissions(path, std::fs::Permissions::from_mode(0o666)).map_err(socket)?;
     Ok(l)
 }
 

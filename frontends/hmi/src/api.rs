@@ -209,7 +209,7 @@ fn logged_before(
     dir: &std::path::Path,
     seq: u64,
     count: usize,
-) -> Result<Vec<hob_logger::export::LoggedEvent>, String> {
+) -> Result<Vec<hob_logger::export::LoggedEvent>, hob_logger::Error> {
     let mut events = hob_logger::export::read_events(dir)?;
     if let Some(newest) = events.last().map(|e| e.run) {
         events.retain(|e| e.run == newest && (seq == 0 || e.seq < seq));
@@ -266,7 +266,7 @@ pub async fn report(State(app): Shared, Query(q): Query<Range>) -> Response {
             "truth_refused": r.truth_refused,
         }))
         .into_response(),
-        Ok(Err(e)) => (StatusCode::NOT_FOUND, Json(json!({"refused": e}))).into_response(),
+        Ok(Err(e)) => (StatusCode::NOT_FOUND, Json(json!({"refused": e.to_string()}))).into_response(),
         Err(e) => (
             StatusCode::INTERNAL_SERVER_ERROR,
             Json(json!({"refused": e.to_string()})),

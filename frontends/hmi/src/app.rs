@@ -2,6 +2,7 @@
 //! thread, the machine file, the program and tool library, and the machine's description
 //! for the page.
 
+use crate::Error;
 use crate::bridge::Hub;
 use crate::commander::Commander;
 use hob_ipc::CommandRequest;
@@ -57,20 +58,16 @@ impl App {
     /// A library program as `hob load --lib NAME` sends it: its text with the library tool
     /// filled in (the loop parses and checks it again and answers), and what to remember
     /// once the loop accepts it.
-    pub fn load_request(&self, name: &str) -> Result<(CommandRequest, Loaded), String> {
-        let text = self
-            .library
-            .text(Kind::Program, name)
-            .map_err(|e| e.to_string())?;
-        let origin = self
-            .library
-            .path(Kind::Program, name)
-            .map_err(|e| e.to_string())?;
-        let resolved = self.library.resolve(&origin, &text).map_err(|e| e.to_string())?;
+    pub fn load_request(&self, name: &str) -> Result<(CommandRequest, Loaded), Error> {
+        let text = self.library.text(Kind::Program, name).map_err(Error::Library)?;
+        let origin = self.library.path(Kind::Program, name).map_err(Error::Library)?;
+        let resolved = self.library.resolve(&origin, &text).map_err(Error::Library)?;
         let plan =
-            hob_setup::planner::plan_source(&origin, &resolved, &self.machine).map_err(|e| e.to_string())?;
+            hob_setup::planner::plan_source(&origin, &resolved, &self.machine).map_err(Error::Program)?;
+        let request = CommandRequest::load_program(&format!("library program {name}"), &resolved)
+            .map_err(|e| Error::Request(e.to_string()))?;
         Ok((
-            CommandRequest::load_program(&format!("library program {name}"), &resolved)?,
+            request,
             Loaded {
                 name: name.to_string(),
                 plan,

@@ -218,7 +218,7 @@ pub fn utc_ms() -> u64 {
 /// The bridge thread: subscribes as `hob-hmi-PID` (or follows through `hob-gateway` when
 /// `HOB_GATEWAY` names it), drains every [`DRAIN_EVERY`], publishes
 /// a frame every [`FRAME_EVERY`], until `stop`.
-pub fn run(mut bridge: Bridge, stop: &AtomicBool) -> Result<(), String> {
+pub fn run(mut bridge: Bridge, stop: &AtomicBool) {
     // The bus or the gateway may not be there yet (the HMI started first, the gateway
     // restarting): the frames say the loop is silent meanwhile, and this tries again.
     let name = format!("hob-hmi-{}", std::process::id());
@@ -232,7 +232,7 @@ pub fn run(mut bridge: Bridge, stop: &AtomicBool) -> Result<(), String> {
                     said = true;
                 }
                 if stop.load(Ordering::Relaxed) {
-                    return Ok(());
+                    return;
                 }
                 let now = Instant::now();
                 bridge.frame(now, hob_rt_os::now_ns(), utc_ms());
@@ -264,7 +264,6 @@ pub fn run(mut bridge: Bridge, stop: &AtomicBool) -> Result<(), String> {
         }
         std::thread::sleep(DRAIN_EVERY);
     }
-    Ok(())
 }
 
 #[cfg(test)]

@@ -2,6 +2,7 @@
 //! web server hands it requests and awaits the loop's answers, so drawing never waits on a
 //! command and a command never waits on drawing. Requests are sent one at a time, in order.
 
+use crate::Error;
 use hob_ipc::{CommandRequest, CommandResponse};
 use std::sync::mpsc;
 use std::time::Duration;
@@ -11,7 +12,7 @@ use tokio::sync::oneshot;
 pub const ANSWER: Duration = Duration::from_secs(3);
 
 /// The loop's answer, or why none came.
-pub type Reply = Result<CommandResponse, String>;
+pub type Reply = Result<CommandResponse, Error>;
 
 #[derive(Debug)]
 pub struct Job {
@@ -39,7 +40,7 @@ impl Commander {
             request: Box::new(request),
             reply,
         }) {
-            let _ = job.reply.send(Err("the HMI's command thread has stopped".into()));
+            let _ = job.reply.send(Err(Error::CommandThreadStopped));
         }
         rx
     }
@@ -56,13 +57,8 @@ pub fn run(jobs: mpsc::Receiver<Job>) {
             client = hob_ipc::commands(&name).ok();
         }
         let reply = match &mut client {
-            Some(c) => c.request(&job.request, ANSWER).map_err(|e| {
-                format!(
-                    "no answer from the loop (hob-rt) within {} s: {e}",
-                    ANSWER.as_secs()
-                )
-            }),
-            None => Err("cannot reach the loop's command service (is hob-rt running?)".into()),
+            Some(c) => c.request(&job.request, ANSWER).map_err(Error::NoAnswer),
+            None => Err(Error::Unreachable),
         };
         if reply.is_err() {
             client = None;

@@ -17,10 +17,10 @@ use std::sync::Arc;
 
 type Shared = State<Arc<App>>;
 
-fn bad_request(text: String) -> Response {
+fn bad_request(text: impl std::fmt::Display) -> Response {
     (
         StatusCode::UNPROCESSABLE_ENTITY,
-        Json(json!({"refused": text, "problems": []})),
+        Json(json!({"refused": text.to_string(), "problems": []})),
     )
         .into_response()
 }

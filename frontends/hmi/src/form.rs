@@ -5,6 +5,7 @@
 //! syntax error) lands on its field. Nothing here checks a value: a field the operator
 //! typed wrong goes into the TOML as text and the program's parser refuses it by key.
 
+use crate::Error;
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 use std::fmt::Write as _;
@@ -37,13 +38,13 @@ enum Part {
     Index(usize),
 }
 
-fn parts(key: &str) -> Result<Vec<Part>, String> {
+fn parts(key: &str) -> Result<Vec<Part>, Error> {
     let mut out = Vec::new();
     for seg in key.split('.') {
         let (name, rest) = seg.split_once('[').map_or((seg, ""), |(n, r)| (n, r));
         let name_ok = !name.is_empty() && name.chars().all(|c| c.is_ascii_alphanumeric() || c == '_');
         if !name_ok {
-            return Err(format!("{key}: not a key path of a program"));
+            return Err(Error::KeyPath { key: key.to_string() });
         }
         out.push(Part::Name(name.to_string()));
         if !rest.is_empty() {
@@ -52,7 +53,7 @@ fn parts(key: &str) -> Result<Vec<Part>, String> {
                     .strip_suffix(']')
                     .and_then(|n| n.parse::<usize>().ok())
                     .filter(|i| *i < 1000)
-                    .ok_or_else(|| format!("{key}: not a key path of a program"))?;
+                    .ok_or_else(|| Error::KeyPath { key: key.to_string() })?;
                 out.push(Part::Index(i));
             }
         }
@@ -80,7 +81,7 @@ fn literal(f: &Field) -> Option<Value> {
     })
 }
 
-fn insert(slot: &mut Value, path: &[Part], v: Value) -> Result<(), String> {
+fn insert(slot: &mut Value, path: &[Part], v: Value) -> Result<(), Error> {
     let Some((first, rest)) = path.split_first() else {
         *slot = v;
         return Ok(());
@@ -90,7 +91,7 @@ fn insert(slot: &mut Value, path: &[Part], v: Value) -> Result<(), String> {
             if !slot.is_table() {
                 *slot = Value::Table(toml::Table::new());
             }
-            let t = slot.as_table_mut().ok_or("not a table")?;
+            let t = slot.as_table_mut().ok_or(Error::NotATable)?;
             let child = t.entry(n.clone()).or_insert(Value::Table(toml::Table::new()));
             insert(child, rest, v)
         }
@@ -98,7 +99,7 @@ fn insert(slot: &mut Value, path: &[Part], v: Value) -> Result<(), String> {
             if !slot.is_array() {
                 *slot = Value::Array(Vec::new());
             }
-            let a = slot.as_array_mut().ok_or("not an array")?;
+            let a = slot.as_array_mut().ok_or(Error::NotAnArray)?;
             while a.len() <= *i {
                 a.push(Value::Table(toml::Table::new()));
             }
@@ -128,15 +129,12 @@ fn prune(v: &mut Value) {
 
 /// The form as a program file. Top-level tables in the program's order, then one
 /// `key = value` line per field (dotted keys for nested tables, arrays whole).
-pub fn to_toml(fields: &[Field]) -> Result<String, String> {
+pub fn to_toml(fields: &[Field]) -> Result<String, Error> {
     let mut root = Value::Table(toml::Table::new());
     for f in fields {
         let p = parts(&f.key)?;
         if p.len() < 2 {
-            return Err(format!(
-                "{}: a program's fields live in its tables ([workpiece] ...)",
-                f.key
-            ));
+            return Err(Error::OutsideTables { key: f.key.clone() });
         }
         if let Some(v) = literal(f) {
             insert(&mut root, &p, v)?;
@@ -144,7 +142,7 @@ pub fn to_toml(fields: &[Field]) -> Result<String, String> {
     }
     prune(&mut root);
     let Value::Table(top) = root else {
-        return Err("not a table".into());
+        return Err(Error::NotATable);
     };
     let mut out = String::new();
     let order = ["workpiece", "tool", "cycle", "strategy"];
@@ -172,10 +170,8 @@ fn write_table(out: &mut String, prefix: &str, t: &toml::Table) {
 }
 
 /// A program file as the form's fields (kinds from the values).
-pub fn fields(src: &str) -> Result<Vec<Field>, String> {
-    let t: toml::Table = src
-        .parse()
-        .map_err(|e: toml::de::Error| e.message().to_string())?;
+pub fn fields(src: &str) -> Result<Vec<Field>, Error> {
+    let t: toml::Table = src.parse().map_err(Error::Toml)?;
     let mut out = Vec::new();
     for (k, v) in &t {
         flatten(&mut out, k, v);

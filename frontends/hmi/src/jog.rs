@@ -5,6 +5,7 @@
 //! finger, hiding the page, an error or the socket closing releases it at once (also when
 //! the session is dropped for any reason).
 
+use crate::Error;
 use crate::commander::{Commander, Reply};
 use hob_ipc::{CommandRequest, command, request};
 use std::sync::Arc;
@@ -54,9 +55,7 @@ impl JogSession {
         let counter = self.in_flight.clone();
         // The counter drops when the answer comes, whoever waits for it.
         tokio::spawn(async move {
-            let r = inner
-                .await
-                .unwrap_or_else(|_| Err("the HMI's command thread has stopped".into()));
+            let r = inner.await.unwrap_or(Err(Error::CommandThreadStopped));
             counter.fetch_sub(1, Ordering::SeqCst);
             let _ = tx.send(r);
         });
@@ -65,16 +64,14 @@ impl JogSession {
 
     /// Finger down: starts a continuous jog, or for axis `c` turns the hob spindle at
     /// `speed` rpm (a running hold of this socket is replaced).
-    pub fn hold(&mut self, id: u64, axis: &str, dir: &str, speed: f64, now: Instant) -> Result<Sent, String> {
+    pub fn hold(&mut self, id: u64, axis: &str, dir: &str, speed: f64, now: Instant) -> Result<Sent, Error> {
         let req = if axis.eq_ignore_ascii_case("c") {
             if dir != "+" {
-                return Err(format!(
-                    "spindle hold: the hob spindle turns one way only, not {dir}"
-                ));
+                return Err(Error::SpindleOneWay { dir: dir.to_string() });
             }
             request::spindle_hold(speed)
         } else {
-            request::jog_continuous(axis, dir, speed)?
+            request::jog_continuous(axis, dir, speed).map_err(|e| Error::Request(e.to_string()))?
         };
         self.active = Some((id, req));
         Ok(Sent {

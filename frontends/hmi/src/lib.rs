@@ -9,6 +9,7 @@ pub mod app;
 pub mod bridge;
 pub mod commander;
 pub mod definition;
+pub mod error;
 pub mod form;
 pub mod jog;
 pub mod protocol;
@@ -16,3 +17,5 @@ pub mod reduce;
 pub mod sections;
 pub mod web;
 pub mod ws;
+
+pub use error::Error;

@@ -93,7 +93,7 @@ fn run(a: Args) -> Result<(), String> {
         .clone()
         .unwrap_or_else(|| PathBuf::from(&machine.library.dir));
     let library = Library::open(&library_dir).map_err(|e| e.to_string())?;
-    let vendor = Arc::new(web::Vendor::load(&vendor_dir(a.vendor.clone()))?);
+    let vendor = Arc::new(web::Vendor::load(&vendor_dir(a.vendor.clone())).map_err(|e| e.to_string())?);
     // Off the loop's core, like every frontend.
     hob_rt_os::keep_off_core(machine.service.loop_core);
 
@@ -146,6 +146,6 @@ fn run(a: Args) -> Result<(), String> {
     })?;
     bridge_thread
         .join()
-        .map_err(|_| "the bridge thread panicked".to_string())??;
+        .map_err(|_| "the bridge thread panicked".to_string())?;
     Ok(())
 }

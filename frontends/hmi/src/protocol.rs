@@ -470,7 +470,8 @@ pub enum ClientMsg {
 
 impl Op {
     /// The loop command, encoded by the same builders as the CLI's (`hob_ipc::request`);
-    /// `Load` is read from the library by the caller.
+    /// `Load` is read from the library by the caller. A refusal in the builders' words (the
+    /// page shows it; the fuzz harness, `bench/fuzz-harness`, checks it as text).
     pub fn request(&self) -> Result<CommandRequest, String> {
         use hob_ipc::command as c;
         match self {

@@ -3,21 +3,17 @@
 //! own, then the whole program checked and planned as `hob check` does; a library tool
 //! filled in from the library.
 
+use crate::Error;
 use crate::app::App;
 use hob_setup::job::form::{SECTIONS, check_sections};
 use serde_json::{Value, json};
 
 /// Checks a program file made from the form: `{sections, problems, plan}`.
 pub fn check(app: &App, text: &str) -> Value {
-    let resolve = |name: &str| -> Result<toml::Table, String> {
-        let record = app.library.tool(name).map_err(|e| e.to_string())?;
-        match toml::Value::try_from(&record.tool) {
-            Ok(toml::Value::Table(t)) => Ok(t),
-            Ok(_) => Err(format!("the library tool {name:?} is not a table")),
-            Err(e) => Err(format!("the library tool {name:?}: {e}")),
-        }
-    };
-    let c = check_sections(text, &app.machine, &resolve);
+    // `check_sections` takes the tool's refusal in words.
+    let c = check_sections(text, &app.machine, &|name| {
+        library_tool(app, name).map_err(|e| e.to_string())
+    });
     let sections: serde_json::Map<String, Value> = SECTIONS
         .iter()
         .map(|s| ((*s).to_string(), json!(c.state(s))))
@@ -28,4 +24,19 @@ pub fn check(app: &App, text: &str) -> Value {
         .map(|p| json!({"key": p.key, "message": p.message}))
         .collect();
     json!({"ok": true, "sections": sections, "problems": problems, "plan": c.plan, "toml": text})
+}
+
+/// A library tool's fields as a TOML table, as a program's `[tool]` would hold them.
+fn library_tool(app: &App, name: &str) -> Result<toml::Table, Error> {
+    let record = app.library.tool(name).map_err(Error::Library)?;
+    match toml::Value::try_from(&record.tool) {
+        Ok(toml::Value::Table(t)) => Ok(t),
+        Ok(_) => Err(Error::ToolNotATable {
+            name: name.to_string(),
+        }),
+        Err(error) => Err(Error::ToolToml {
+            name: name.to_string(),
+            error,
+        }),
+    }
 }

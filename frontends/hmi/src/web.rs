@@ -2,6 +2,7 @@
 //! modules) is built into the binary; the third-party view library (Preact and htm) is read
 //! once at start-up from an npm install (`--vendor`), never copied into the repository.
 
+use crate::Error;
 use crate::app::App;
 use crate::{api, definition, ws};
 use axum::Router;
@@ -42,17 +43,12 @@ pub struct Vendor(pub BTreeMap<&'static str, String>);
 
 impl Vendor {
     /// Reads [`VENDOR`] from `dir` (a `node_modules`); names the missing file and the fix.
-    pub fn load(dir: &std::path::Path) -> Result<Self, String> {
+    pub fn load(dir: &std::path::Path) -> Result<Self, Error> {
         let mut m = BTreeMap::new();
         for (name, rel) in VENDOR {
-            let p = dir.join(rel);
-            let text = std::fs::read_to_string(&p).map_err(|e| {
-                format!(
-                    "the HMI's front-end libraries are missing: {}: {e}. Install them with \
-                     `npm ci --omit=dev --prefix frontends/hmi` (README, Deploying) or give --vendor DIR",
-                    p.display()
-                )
-            })?;
+            let path = dir.join(rel);
+            let text =
+                std::fs::read_to_string(&path).map_err(|error| Error::VendorMissing { path, error })?;
             m.insert(*name, text);
         }
         Ok(Self(m))
@@ -193,20 +189,16 @@ pub const VIEW_TOKEN_MIN_CHARS: usize = 16;
 
 impl ViewToken {
     /// A token as read from its file (`--view-token-file`), checked.
-    pub fn new(text: &str) -> Result<Self, String> {
+    pub fn new(text: &str) -> Result<Self, Error> {
         let t = text.trim();
         if t.len() < VIEW_TOKEN_MIN_CHARS {
-            return Err(format!(
-                "the view token is {} characters, at least {VIEW_TOKEN_MIN_CHARS} are needed \
-                 (e.g. `head -c 24 /dev/urandom | base64 > FILE`)",
-                t.len()
-            ));
+            return Err(Error::ViewTokenShort { chars: t.len() });
         }
         if !t
             .bytes()
             .all(|b| b.is_ascii_graphic() && b != b';' && b != b'=' && b != b'&')
         {
-            return Err("the view token holds a character other than printable ASCII (or ; = &)".into());
+            return Err(Error::ViewTokenCharacters);
         }
         Ok(Self(t.to_string()))
     }

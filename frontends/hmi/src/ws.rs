@@ -4,6 +4,7 @@
 //! and the answers to its commands. A panel socket may command and jog; a view socket only
 //! reads (any command closes it).
 
+use crate::Error;
 use crate::app::App;
 use crate::commander::Reply;
 use crate::jog::{JogSession, Sent};
@@ -12,7 +13,7 @@ use axum::extract::ws::{Message, Utf8Bytes, WebSocket};
 use serde::Serialize;
 use std::sync::Arc;
 use std::time::{Duration, Instant};
-use tokio::sync::mpsc;
+use tokio::sync::{mpsc, watch};
 
 /// A send that takes longer closes the socket (the browser is gone or stuck).
 pub const SEND_TIMEOUT: Duration = Duration::from_secs(2);
@@ -72,6 +73,15 @@ struct Waiting {
     tx: mpsc::UnboundedSender<(Answer, bool)>,
 }
 
+/// The loop's answer to `id`, or why none came.
+async fn answer_of(id: u64, reply: tokio::sync::oneshot::Receiver<Reply>) -> Answer {
+    match reply.await {
+        Ok(Ok(r)) => Answer::of(id, &r),
+        Ok(Err(e)) => Answer::refused(id, e.to_string()),
+        Err(_) => Answer::refused(id, Error::CommandThreadStopped.to_string()),
+    }
+}
+
 impl Waiting {
     /// As [`Waiting::answer`], running `accepted` first when the loop accepts.
     fn answer_then(
@@ -82,11 +92,7 @@ impl Waiting {
     ) {
         let tx = self.tx.clone();
         tokio::spawn(async move {
-            let a = match reply.await {
-                Ok(Ok(r)) => Answer::of(id, &r),
-                Ok(Err(e)) => Answer::refused(id, e),
-                Err(_) => Answer::refused(id, "the HMI's command thread has stopped"),
-            };
+            let a = answer_of(id, reply).await;
             if a.ok {
                 accepted();
             }
@@ -99,11 +105,7 @@ impl Waiting {
     fn answer(&self, id: u64, reply: tokio::sync::oneshot::Receiver<Reply>, jog: bool) {
         let tx = self.tx.clone();
         tokio::spawn(async move {
-            let a = match reply.await {
-                Ok(Ok(r)) => Answer::of(id, &r),
-                Ok(Err(e)) => Answer::refused(id, e),
-                Err(_) => Answer::refused(id, "the HMI's command thread has stopped"),
-            };
+            let a = answer_of(id, reply).await;
             let _ = tx.send((a, jog));
         });
     }
@@ -117,143 +119,197 @@ fn loaded_here(app: &App, f: &Frame) -> Option<String> {
     app.loaded_here(f.state.as_ref()?.program_hash).map(|l| l.name)
 }
 
+/// One browser's socket: what it may do, its jog, what it was sent. Each handler says
+/// whether the socket stays open.
+struct Session {
+    s: Socket,
+    app: Arc<App>,
+    panel: bool,
+    waiting: Waiting,
+    jog: JogSession,
+    /// The newest event the page has; none until it says hello (it gets nothing before).
+    last_event: Option<u64>,
+    /// The event log's generation (a restarted loop starts a new one).
+    generation: u64,
+    last_frame: u64,
+}
+
+impl Session {
+    /// A message from the page.
+    async fn message(&mut self, text: &str, frames: &mut watch::Receiver<Arc<Frame>>) -> bool {
+        let msg = match serde_json::from_str::<ClientMsg>(text) {
+            Ok(m) => m,
+            Err(e) => {
+                let id = serde_json::from_str::<serde_json::Value>(text)
+                    .ok()
+                    .and_then(|v| v.get("id").and_then(serde_json::Value::as_u64))
+                    .unwrap_or(0);
+                return self
+                    .refuse(id, format!("the HMI server cannot read this message: {e}"))
+                    .await;
+            }
+        };
+        match msg {
+            ClientMsg::Hello { last_event: seen } => self.hello(seen, frames).await,
+            _ if !self.panel => false,
+            ClientMsg::Cmd {
+                id,
+                op: Op::Load { program },
+            } => self.load(id, &program).await,
+            ClientMsg::Cmd { id, op } => match op.request() {
+                Ok(r) => {
+                    self.waiting.answer(id, self.app.commands.submit(r), false);
+                    true
+                }
+                Err(e) => self.refuse(id, e).await,
+            },
+            ClientMsg::JogHold { id, axis, dir, speed } => self.jog_hold(id, &axis, &dir, speed).await,
+            ClientMsg::JogRenew => {
+                if let Some(Sent { id, reply }) = self.jog.renew(Instant::now()) {
+                    self.waiting.answer(id, reply, true);
+                }
+                true
+            }
+            ClientMsg::JogRelease | ClientMsg::Visibility { visible: false } => {
+                let _ = self.jog.release();
+                true
+            }
+            ClientMsg::Visibility { visible: true } => true,
+        }
+    }
+
+    /// A refusal before the loop was asked.
+    async fn refuse(&mut self, id: u64, text: impl Into<String>) -> bool {
+        self.s.send(&Out::Answer(&Answer::refused(id, text))).await
+    }
+
+    /// The page's hello: the machine's description, the newest frame, the events it missed.
+    async fn hello(&mut self, seen: u64, frames: &mut watch::Receiver<Arc<Frame>>) -> bool {
+        let hello = Out::Hello {
+            info: &self.app.hello,
+            panel: self.panel,
+        };
+        if !self.s.send(&hello).await {
+            return false;
+        }
+        let f = frames.borrow_and_update().clone();
+        self.last_frame = f.seq;
+        if !self.send_frame(0, &f).await {
+            return false;
+        }
+        self.last_event = Some(seen);
+        send_events(&mut self.s, &self.app, &mut self.last_event, &mut self.generation).await
+    }
+
+    async fn send_frame(&mut self, skipped: u64, f: &Frame) -> bool {
+        let frame = Out::Frame {
+            skipped,
+            time_left_s: time_left(&self.app, f),
+            loaded_here: loaded_here(&self.app, f),
+            frame: f,
+        };
+        self.s.send(&frame).await
+    }
+
+    /// A library program to load: read and resolved here, remembered once the loop accepts.
+    async fn load(&mut self, id: u64, program: &str) -> bool {
+        match self.app.load_request(program) {
+            Ok((r, loaded)) => {
+                let app = self.app.clone();
+                self.waiting
+                    .answer_then(id, self.app.commands.submit(r), move || app.loaded(loaded));
+                true
+            }
+            Err(e) => self.refuse(id, e.to_string()).await,
+        }
+    }
+
+    async fn jog_hold(&mut self, id: u64, axis: &str, dir: &str, speed: f64) -> bool {
+        match self.jog.hold(id, axis, dir, speed, Instant::now()) {
+            Ok(Sent { id, reply }) => {
+                self.waiting.answer(id, reply, true);
+                true
+            }
+            Err(e) => self.refuse(id, e.to_string()).await,
+        }
+    }
+
+    /// A new frame from the bridge (none before the hello), with the frames skipped since.
+    async fn frame(&mut self, frames: &mut watch::Receiver<Arc<Frame>>) -> bool {
+        let f = frames.borrow_and_update().clone();
+        if self.last_event.is_none() {
+            return true;
+        }
+        let skipped = f.seq.saturating_sub(self.last_frame + 1);
+        self.last_frame = f.seq;
+        self.send_frame(skipped, &f).await
+    }
+
+    /// The loop's answer to a command (a jog's only when refused: it ends the hold).
+    async fn answer(&mut self, a: Answer, is_jog: bool) -> bool {
+        if is_jog && a.ok {
+            return true;
+        }
+        if is_jog {
+            self.jog.refused(a.id);
+        }
+        self.s.send(&Out::Answer(&a)).await
+    }
+
+    /// The loop's stats, once a second after the hello.
+    async fn stats(&mut self, stats: &mut watch::Receiver<Option<Arc<crate::protocol::StatsView>>>) -> bool {
+        let st = stats.borrow_and_update().clone();
+        match (st, self.last_event) {
+            (Some(st), Some(_)) => self.s.send(&Out::Stats { stats: &st }).await,
+            _ => true,
+        }
+    }
+}
+
 /// Serves one browser until it goes.
 pub async fn serve(ws: WebSocket, app: Arc<App>, panel: bool) {
-    let mut s = Socket { ws };
     let mut frames = app.hub.frames.clone();
     let mut events_head = app.hub.events_head.clone();
     let mut stats = app.hub.stats.clone();
     let (tx, mut answers) = mpsc::unbounded_channel();
-    let waiting = Waiting { tx };
-    let mut jog = JogSession::new(app.commands.clone());
-    // Until the page says hello, it gets nothing.
-    let mut last_event: Option<u64> = None;
-    let mut generation = app.hub.book().log.generation;
-    let mut last_frame = 0u64;
+    let jog = JogSession::new(app.commands.clone());
+    let generation = app.hub.book().log.generation;
+    let mut c = Session {
+        s: Socket { ws },
+        jog,
+        generation,
+        app,
+        panel,
+        waiting: Waiting { tx },
+        last_event: None,
+        last_frame: 0,
+    };
     let mut tick = tokio::time::interval(Duration::from_secs(1));
     loop {
-        tokio::select! {
-            msg = s.ws.recv() => {
-                let text = match msg {
-                    Some(Ok(Message::Text(t))) => t,
-                    Some(Ok(Message::Ping(_) | Message::Pong(_) | Message::Binary(_))) => continue,
-                    _ => break,
-                };
-                let msg = match serde_json::from_str::<ClientMsg>(text.as_str()) {
-                    Ok(m) => m,
-                    Err(e) => {
-                        let id = serde_json::from_str::<serde_json::Value>(text.as_str()).ok()
-                            .and_then(|v| v.get("id").and_then(serde_json::Value::as_u64)).unwrap_or(0);
-                        if !s.send(&Out::Answer(&Answer::refused(id, format!("the HMI server cannot read this message: {e}")))).await {
-                            break;
-                        }
-                        continue;
-                    }
-                };
-                match msg {
-                    ClientMsg::Hello { last_event: seen } => {
-                        if !s.send(&Out::Hello { info: &app.hello, panel }).await {
-                            break;
-                        }
-                        let f = frames.borrow_and_update().clone();
-                        last_frame = f.seq;
-                        if !s.send(&Out::Frame { skipped: 0, time_left_s: time_left(&app, &f), loaded_here: loaded_here(&app, &f), frame: &f }).await {
-                            break;
-                        }
-                        last_event = Some(seen);
-                        if !send_events(&mut s, &app, &mut last_event, &mut generation).await {
-                            break;
-                        }
-                    }
-                    _ if !panel => break,
-                    ClientMsg::Cmd { id, op: Op::Load { program } } => match app.load_request(&program) {
-                        Ok((r, loaded)) => {
-                            let app2 = app.clone();
-                            waiting.answer_then(id, app.commands.submit(r), move || app2.loaded(loaded));
-                        }
-                        Err(e) => {
-                            if !s.send(&Out::Answer(&Answer::refused(id, e))).await {
-                                break;
-                            }
-                        }
-                    },
-                    ClientMsg::Cmd { id, op } => {
-                        match op.request() {
-                            Ok(r) => waiting.answer(id, app.commands.submit(r), false),
-                            Err(e) => {
-                                if !s.send(&Out::Answer(&Answer::refused(id, e))).await {
-                                    break;
-                                }
-                            }
-                        }
-                    }
-                    ClientMsg::JogHold { id, axis, dir, speed } => {
-                        match jog.hold(id, &axis, &dir, speed, Instant::now()) {
-                            Ok(Sent { id, reply }) => waiting.answer(id, reply, true),
-                            Err(e) => {
-                                if !s.send(&Out::Answer(&Answer::refused(id, e))).await {
-                                    break;
-                                }
-                            }
-                        }
-                    }
-                    ClientMsg::JogRenew => {
-                        if let Some(Sent { id, reply }) = jog.renew(Instant::now()) {
-                            waiting.answer(id, reply, true);
-                        }
-                    }
-                    ClientMsg::JogRelease | ClientMsg::Visibility { visible: false } => {
-                        let _ = jog.release();
-                    }
-                    ClientMsg::Visibility { visible: true } => {}
-                }
-            }
-            r = frames.changed() => {
-                if r.is_err() {
-                    break;
-                }
-                let f = frames.borrow_and_update().clone();
-                if last_event.is_none() {
-                    continue;
-                }
-                let skipped = f.seq.saturating_sub(last_frame + 1);
-                last_frame = f.seq;
-                if !s.send(&Out::Frame { skipped, time_left_s: time_left(&app, &f), loaded_here: loaded_here(&app, &f), frame: &f }).await {
-                    break;
-                }
-            }
+        let open = tokio::select! {
+            msg = c.s.ws.recv() => match msg {
+                Some(Ok(Message::Text(t))) => c.message(t.as_str(), &mut frames).await,
+                Some(Ok(Message::Ping(_) | Message::Pong(_) | Message::Binary(_))) => true,
+                _ => false,
+            },
+            r = frames.changed() => r.is_ok() && c.frame(&mut frames).await,
             r = events_head.changed() => {
-                if r.is_err() {
-                    break;
-                }
-                events_head.borrow_and_update();
-                if !send_events(&mut s, &app, &mut last_event, &mut generation).await {
-                    break;
-                }
-            }
-            Some((a, is_jog)) = answers.recv() => {
-                if is_jog && a.ok {
-                    continue;
-                }
-                if is_jog {
-                    jog.refused(a.id);
-                }
-                if !s.send(&Out::Answer(&a)).await {
-                    break;
+                if r.is_ok() {
+                    events_head.borrow_and_update();
+                    send_events(&mut c.s, &c.app, &mut c.last_event, &mut c.generation).await
+                } else {
+                    false
                 }
             }
-            _ = tick.tick() => {
-                let st = stats.borrow_and_update().clone();
-                if let (Some(st), Some(_)) = (st, last_event)
-                    && !s.send(&Out::Stats { stats: &st }).await
-                {
-                    break;
-                }
-            }
+            Some((a, is_jog)) = answers.recv() => c.answer(a, is_jog).await,
+            _ = tick.tick() => c.stats(&mut stats).await,
+        };
+        if !open {
+            break;
         }
     }
     // Whatever ended the socket, a running jog stops now (also by Drop).
-    let _ = jog.release();
+    let _ = c.jog.release();
 }
 
 /// Every event after `last` (nothing before the page's hello). A restarted HMI server

@@ -1,5 +1,6 @@
 //! `hob log export|report`: a recorded directory as CSV, and its per-pass statistics.
 
+use crate::Error;
 use crate::trace::{PassSummary, SummaryBuilder, TRACE_HEADER, TraceRow};
 use crate::truth;
 use hob_ipc::StateSample;
@@ -35,12 +36,12 @@ const EXTRA: &str =
     "cycle,spindle_rpm,ccc_arcsec,coupling,alarm,digital_inputs,digital_outputs,wake_latency_us,compute_us";
 
 /// The simulation trace's columns that end a log's CSV too, after [`EXTRA`].
-const LAST: [&str; 2] = ["feed_override_percent", "spindle_override_percent"];
+pub(crate) const LAST: [&str; 2] = ["feed_override_percent", "spindle_override_percent"];
 
 /// The CSV text of a log: the simulation trace's columns up to `sync_err_arcsec`, then
 /// the recorded extras (the cycle counter among them), then the overrides (the last
 /// columns of the simulation trace, empty in a log that did not record them).
-pub fn export_csv(dir: &Path) -> Result<String, String> {
+pub fn export_csv(dir: &Path) -> Result<String, Error> {
     let states = crate::read_dir_states(dir)?;
     let sim_cols: Vec<&str> = TRACE_HEADER.split(',').collect();
     let upto = sim_cols
@@ -49,7 +50,7 @@ pub fn export_csv(dir: &Path) -> Result<String, String> {
         .map_or(sim_cols.len(), |i| i + 1);
     let last = LAST.map(|name| sim_cols.iter().position(|c| *c == name));
     let [Some(feed_at), Some(spindle_at)] = last else {
-        return Err(format!("the trace has no {LAST:?} columns: {TRACE_HEADER}"));
+        return Err(Error::NoTraceColumns);
     };
     let mut out = String::with_capacity(states.len() * 176);
     let _ = writeln!(out, "{},{EXTRA},{}", sim_cols[..upto].join(","), LAST.join(","));
@@ -127,10 +128,12 @@ pub(crate) fn cycle_period_s(states: &[StateSample]) -> f64 {
 }
 
 /// The report of a whole recording (every run of `hob-rt` in it).
-pub fn report(dir: &Path) -> Result<Report, String> {
+pub fn report(dir: &Path) -> Result<Report, Error> {
     let states = crate::read_dir_states(dir)?;
     if states.is_empty() {
-        return Err(format!("{}: no sample recorded", dir.display()));
+        return Err(Error::NoSample {
+            dir: dir.to_path_buf(),
+        });
     }
     report_of(dir, &states)
 }
@@ -139,13 +142,14 @@ pub fn report(dir: &Path) -> Result<Report, String> {
 /// range from the loop's events: the accepted start, the cycle done). `hob-rt` counts its
 /// cycles from its start, so a recording over a restart holds the same cycle twice: the
 /// report is of the newest run holding any of the range ([`read_cycles`]).
-pub fn report_cycles(dir: &Path, first: u64, last: u64) -> Result<Report, String> {
+pub fn report_cycles(dir: &Path, first: u64, last: u64) -> Result<Report, Error> {
     let states = read_cycles(dir, first, last)?;
     if states.is_empty() {
-        return Err(format!(
-            "{}: no sample of cycles {first} .. {last} recorded",
-            dir.display()
-        ));
+        return Err(Error::NoSampleOfCycles {
+            dir: dir.to_path_buf(),
+            first,
+            last,
+        });
     }
     report_of(dir, &states)
 }
@@ -153,7 +157,7 @@ pub fn report_cycles(dir: &Path, first: u64, last: u64) -> Result<Report, String
 /// The samples of cycles `first ..= last` of the newest run of `hob-rt` that holds any
 /// (a run ends where the cycle counter goes back, as the logger's `gaps.log` says
 /// `restart`); only those samples are held while reading.
-pub fn read_cycles(dir: &Path, first: u64, last: u64) -> Result<Vec<StateSample>, String> {
+pub fn read_cycles(dir: &Path, first: u64, last: u64) -> Result<Vec<StateSample>, Error> {
     let mut out = Vec::new();
     let mut runs = Runs::default();
     let mut out_run = None;
@@ -189,13 +193,13 @@ impl Runs {
 }
 
 /// The per-pass report of recorded samples (not empty, in order).
-fn report_of(dir: &Path, states: &[StateSample]) -> Result<Report, String> {
-    let gear = states.iter().find(|s| s.pitch_radius_mm > 0.0).ok_or_else(|| {
-        format!(
-            "{}: no program was loaded while recording: nothing to report per pass",
-            dir.display()
-        )
-    })?;
+fn report_of(dir: &Path, states: &[StateSample]) -> Result<Report, Error> {
+    let gear = states
+        .iter()
+        .find(|s| s.pitch_radius_mm > 0.0)
+        .ok_or_else(|| Error::NoProgramLoaded {
+            dir: dir.to_path_buf(),
+        })?;
     let mut b = SummaryBuilder::for_gear(gear.pitch_radius_mm, gear.normal_module_mm);
     let t0 = states.first().map_or(0, |s| s.sync_time_ns);
     let period_s = cycle_period_s(states);
@@ -225,7 +229,7 @@ fn report_of(dir: &Path, states: &[StateSample]) -> Result<Report, String> {
                 period_s,
             ) {
                 Ok(t) => truth = Some(t),
-                Err(why) => truth_refused = Some(why),
+                Err(why) => truth_refused = Some(why.to_string()),
             }
         } else {
             truth_refused = Some(format!(
@@ -267,7 +271,7 @@ fn graded_by_truth(
     pitch_radius_mm: f64,
     normal_module_mm: f64,
     period_s: f64,
-) -> Result<TruthReport, String> {
+) -> Result<TruthReport, Error> {
     let join = |f: &mut dyn FnMut(&StateSample, Option<truth::TruthRow>)| {
         let mut from = 0;
         for (i, s) in states.iter().enumerate() {
@@ -298,13 +302,11 @@ fn graded_by_truth(
         .enumerate()
         .find(|(_, e)| e.1 > 0 && e.3 - e.2 > TRUTH_AGREES_WITHIN_ARCSEC)
     {
-        return Err(format!(
-            "{} is not of this cut: in pass {} it differs from the controller's estimate by {:.0} to {:.0} arcsec, more than the {TRUTH_AGREES_WITHIN_ARCSEC} arcsec a truth of the same program can; not used",
-            truth::FILE,
-            pass + 1,
-            lo,
-            hi
-        ));
+        return Err(Error::TruthNotOfThisCut {
+            pass: pass + 1,
+            lo: *lo,
+            hi: *hi,
+        });
     }
     let phase_arcsec: Vec<f64> = sums
         .iter()
@@ -348,7 +350,7 @@ fn graded_by_truth(
 /// How far the truth less the controller's estimate may range over a pass before the
 /// truth is taken to be of another program: far above what the estimate's own error can
 /// be (the coarse window is 200 arcsec), far below a wrong law's drift.
-const TRUTH_AGREES_WITHIN_ARCSEC: f64 = 1000.0;
+pub(crate) const TRUTH_AGREES_WITHIN_ARCSEC: f64 = 1000.0;
 
 /// An event as the logger recorded it (`events.log`).
 #[derive(Debug, Clone, PartialEq)]
@@ -381,20 +383,21 @@ impl LoggedEvent {
 /// Anything else numbered again is a restarted `hob-rt` (it numbers its events from 1): a new
 /// run. A last line without its line end (a logger killed while writing it) is left out; any
 /// other line that is not `seq cycle kind text` is refused with its line number.
-pub fn read_events(dir: &Path) -> Result<Vec<LoggedEvent>, String> {
+pub fn read_events(dir: &Path) -> Result<Vec<LoggedEvent>, Error> {
     let path = dir.join("events.log");
-    let text = std::fs::read_to_string(&path).map_err(|e| format!("{}: {e}", path.display()))?;
+    let text = std::fs::read_to_string(&path).map_err(|error| Error::Io {
+        path: path.clone(),
+        error,
+    })?;
     let whole = text.rsplit_once('\n').map_or("", |(lines, _partial)| lines);
     let lines = whole
         .lines()
         .enumerate()
         .map(|(i, line)| {
-            let l = crate::format::parse_event_line(line).ok_or_else(|| {
-                format!(
-                    "{}:{}: not an event line (seq cycle kind text): {line:?}",
-                    path.display(),
-                    i + 1
-                )
+            let l = crate::format::parse_event_line(line).ok_or_else(|| Error::NotAnEventLine {
+                path: path.clone(),
+                line: i + 1,
+                text: line.to_string(),
             })?;
             Ok(LoggedEvent {
                 run: 0,
@@ -405,7 +408,7 @@ pub fn read_events(dir: &Path) -> Result<Vec<LoggedEvent>, String> {
                 alarm: l.alarm,
             })
         })
-        .collect::<Result<Vec<_>, String>>()?;
+        .collect::<Result<Vec<_>, Error>>()?;
     let mut out: Vec<LoggedEvent> = Vec::with_capacity(lines.len());
     let (mut run, mut run_start) = (0u32, 0usize);
     let mut i = 0;
@@ -455,7 +458,7 @@ pub fn read_events(dir: &Path) -> Result<Vec<LoggedEvent>, String> {
 
 /// The events of cycles `first ..= last` (one cut: its alarms among them), of the newest run
 /// of `hob-rt` that holds any, as [`report_cycles`] takes its samples.
-pub fn events_in(dir: &Path, first: u64, last: u64) -> Result<Vec<LoggedEvent>, String> {
+pub fn events_in(dir: &Path, first: u64, last: u64) -> Result<Vec<LoggedEvent>, Error> {
     let mut events = read_events(dir)?;
     events.retain(|e| (first..=last).contains(&e.cycle));
     if let Some(newest) = events.last().map(|e| e.run) {
@@ -672,7 +675,11 @@ mod tests {
         );
         assert_eq!(r.passes.last().map(|p| p.pass), Some(2));
         assert_eq!((all.samples, all.passes.len()), (6, 2));
-        assert!(none.unwrap_err().contains("no sample of cycles 100 .. 200"));
+        assert!(
+            none.unwrap_err()
+                .to_string()
+                .contains("no sample of cycles 100 .. 200")
+        );
     }
 
     #[test]
@@ -683,41 +690,55 @@ mod tests {
         assert_eq!(percent_range(None, None), "-");
     }
 
-    /// A recorded cut with the simulated machine's truth beside it: the report grades it by
-    /// the truth (the phase put back per pass from the estimate), leaves a sample without its
-    /// truth row out rather than using the estimate, and says so.
-    #[test]
-    fn a_recording_with_the_truth_beside_it_is_graded_by_the_truth() {
-        let dir = recorded("truth");
-        // The estimate is 0.5 arcsec x cycle; the truth: a phase of 3600.25 arcsec, the
-        // estimate plus 2 arcsec in pass 1 (cycles 2..=4 in the cut), read 30 us after each
-        // SYNC; cycle 3's row is missing.
-        let mut truth_text = Vec::new();
-        let gear = truth::Gear {
+    /// The gear of the recorded cut ([`recorded`]).
+    fn truth_gear() -> truth::Gear {
+        truth::Gear {
             teeth: 17,
             face_width_mm: 40.0,
             pitch_radius_mm: 42.5,
             normal_module_mm: 5.0,
-        };
-        truth::write_head(&mut truth_text, gear).unwrap();
-        for cycle in [1u64, 2, 4, 5, 6] {
+        }
+    }
+
+    /// A truth file of `gear` with a row per cycle of `cycles` (its errors from the cycle).
+    fn truth_file(gear: truth::Gear, cycles: &[u64], errors: impl Fn(u64) -> (f64, f64)) -> Vec<u8> {
+        let mut text = Vec::new();
+        truth::write_head(&mut text, gear).unwrap();
+        for &cycle in cycles {
+            let (drive_err_arcsec, blank_err_arcsec) = errors(cycle);
+            let r = truth::TruthRow {
+                sync_ns: cycle * 1_000_000 + 30_000,
+                table_drive_deg: cycle as f64,
+                y_mm: 0.0,
+                drive_err_arcsec,
+                blank_err_arcsec,
+            };
+            text.extend_from_slice(format!("{}\n", r.csv()).as_bytes());
+        }
+        text
+    }
+
+    /// The estimate is 0.5 arcsec x cycle; the truth: a phase of 3600.25 arcsec, the
+    /// estimate plus 2 arcsec in pass 1 (cycles 2..=4 in the cut), read 30 us after each
+    /// SYNC; cycle 3's row is missing.
+    fn agreeing_truth() -> Vec<u8> {
+        truth_file(truth_gear(), &[1, 2, 4, 5, 6], |cycle| {
             let est = 0.5 * cycle as f64;
             let extra = if (2..=4).contains(&cycle) {
                 2.0 + 0.1 * cycle as f64
             } else {
                 0.0
             };
-            let r = truth::TruthRow {
-                sync_ns: cycle * 1_000_000 + 30_000,
-                table_drive_deg: cycle as f64,
-                y_mm: 0.0,
-                drive_err_arcsec: 3600.25 + est + extra,
-                blank_err_arcsec: 3600.25 + est + extra + 1.0,
-            };
-            truth_text.extend_from_slice(format!("{}\n", r.csv()).as_bytes());
-        }
-        std::fs::write(dir.join(truth::FILE), &truth_text).unwrap();
-        let r = report(&dir).unwrap();
+            (3600.25 + est + extra, 3600.25 + est + extra + 1.0)
+        })
+    }
+
+    /// The report grades the cut by the truth (the phase put back per pass from the
+    /// estimate), leaves a sample without its truth row out rather than using the estimate,
+    /// and says so.
+    fn graded_by_the_truth(dir: &Path) {
+        std::fs::write(dir.join(truth::FILE), agreeing_truth()).unwrap();
+        let r = report(dir).unwrap();
         let t = r.truth.as_ref().expect("graded by the truth");
         assert_eq!(t.joined, 5);
         // Pass 1's synchronised cut with truth: cycles 2 and 4 (extra 2.2 and 2.4): phase
@@ -731,7 +752,7 @@ mod tests {
         // without hold (cycle 3 has no truth but its estimate).
         assert!((r.passes[0].sync_err_max_arcsec - 1.5).abs() < 1e-9);
         assert!((p1.blank_err_max_arcsec.unwrap() - 1.9).abs() < 1e-6, "{p1:?}");
-        let text = report_text(&dir, &r);
+        let text = report_text(dir, &r);
         assert!(
             text.lines()
                 .nth(1)
@@ -739,14 +760,18 @@ mod tests {
             "{text}"
         );
         assert!(text.contains("the controller's estimate, pass 1: rms"), "{text}");
-        // The truth of another gear is not used, and the report says why.
+    }
+
+    /// The truth of another gear is not used, and the report says why.
+    fn another_gears_truth_is_not_used(dir: &Path) {
+        let truth_text = agreeing_truth();
         let mut other = Vec::new();
         truth::write_head(
             &mut other,
             truth::Gear {
                 pitch_radius_mm: 49.485,
                 normal_module_mm: 3.0,
-                ..gear
+                ..truth_gear()
             },
         )
         .unwrap();
@@ -760,39 +785,47 @@ mod tests {
             .unwrap();
         other.extend_from_slice(&truth_text[rows_at..]);
         std::fs::write(dir.join(truth::FILE), &other).unwrap();
-        let r2 = report(&dir).unwrap();
+        let r2 = report(dir).unwrap();
         assert!(r2.truth.is_none());
-        let t2 = report_text(&dir, &r2);
+        let t2 = report_text(dir, &r2);
         assert!(
             t2.contains("truth.csv is of another gear (pitch radius 49.485 mm"),
             "{t2}"
         );
-        // A truth whose law is another program's drifts against the estimate: not used.
-        let mut drifting = Vec::new();
-        truth::write_head(&mut drifting, gear).unwrap();
-        for cycle in [1u64, 2, 3, 4, 5, 6] {
-            let r = truth::TruthRow {
-                sync_ns: cycle * 1_000_000 + 30_000,
-                table_drive_deg: cycle as f64,
-                y_mm: 0.0,
-                drive_err_arcsec: 5000.0 * cycle as f64,
-                blank_err_arcsec: 5000.0 * cycle as f64,
-            };
-            drifting.extend_from_slice(format!("{}\n", r.csv()).as_bytes());
-        }
+    }
+
+    /// A truth whose law is another program's drifts against the estimate: not used.
+    fn a_drifting_truth_is_not_used(dir: &Path) {
+        let drifting = truth_file(truth_gear(), &[1, 2, 3, 4, 5, 6], |cycle| {
+            (5000.0 * cycle as f64, 5000.0 * cycle as f64)
+        });
         std::fs::write(dir.join(truth::FILE), &drifting).unwrap();
-        let r3 = report(&dir).unwrap();
+        let r3 = report(dir).unwrap();
         assert!(r3.truth.is_none());
-        let t3 = report_text(&dir, &r3);
+        let t3 = report_text(dir, &r3);
         assert!(t3.contains("truth.csv is not of this cut: in pass 1"), "{t3}");
-        // Without the file: the estimate, said so.
+    }
+
+    /// Without the file: the estimate, said so; a broken truth file is refused with its
+    /// name, not silently ignored.
+    fn a_missing_truth_is_said_and_a_broken_one_refused(dir: &Path) {
         std::fs::remove_file(dir.join(truth::FILE)).unwrap();
-        let r = report(&dir).unwrap();
+        let r = report(dir).unwrap();
         assert!(r.truth.is_none());
-        assert!(report_text(&dir, &r).contains("no truth recorded beside the log"));
-        // A broken truth file is refused with its name, not silently ignored.
+        assert!(report_text(dir, &r).contains("no truth recorded beside the log"));
         std::fs::write(dir.join(truth::FILE), "garbage\n").unwrap();
-        assert!(report(&dir).unwrap_err().contains("truth.csv:1"));
+        assert!(report(dir).unwrap_err().to_string().contains("truth.csv:1"));
+    }
+
+    /// A recorded cut with the simulated machine's truth beside it, of this cut, of another
+    /// gear, of another program, none, and a broken one.
+    #[test]
+    fn a_recording_with_the_truth_beside_it_is_graded_by_the_truth() {
+        let dir = recorded("truth");
+        graded_by_the_truth(&dir);
+        another_gears_truth_is_not_used(&dir);
+        a_drifting_truth_is_not_used(&dir);
+        a_missing_truth_is_said_and_a_broken_one_refused(&dir);
         let _ = std::fs::remove_dir_all(&dir);
     }
 }

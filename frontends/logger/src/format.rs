@@ -1,6 +1,7 @@
 //! State records: the field list (names and types, written into every file's header) and
 //! the encoder and decoder, which must follow it.
 
+use crate::Error;
 use hob_ipc::{AlarmCode, AxisSample, EventSample, StateSample};
 use std::path::{Path, PathBuf};
 
@@ -255,7 +256,7 @@ pub fn state_files(dir: &Path) -> std::io::Result<Vec<PathBuf>> {
 /// describe this reader's records. A file written before the overrides were recorded
 /// (its header names their words `reserved0` and `reserved1`) gives its samples NaN
 /// overrides: not recorded, never 0 %.
-pub fn read_dir_states(dir: &Path) -> Result<Vec<StateSample>, String> {
+pub fn read_dir_states(dir: &Path) -> Result<Vec<StateSample>, Error> {
     let mut out = Vec::new();
     for_each_state(dir, |s| out.push(s))?;
     Ok(out)
@@ -263,46 +264,54 @@ pub fn read_dir_states(dir: &Path) -> Result<Vec<StateSample>, String> {
 
 /// Every state sample of a log directory, in order, handed to `f` one by one (a reader of
 /// a part of a long log holds only that part), read as [`read_dir_states`] reads them.
-pub fn for_each_state(dir: &Path, mut f: impl FnMut(StateSample)) -> Result<(), String> {
-    let files = state_files(dir).map_err(|e| format!("{}: {e}", dir.display()))?;
+pub fn for_each_state(dir: &Path, mut f: impl FnMut(StateSample)) -> Result<(), Error> {
+    let files = state_files(dir).map_err(|error| Error::Io {
+        path: dir.to_path_buf(),
+        error,
+    })?;
     if files.is_empty() {
-        return Err(format!(
-            "{}: no state-*.hoblog files: not a hob log",
-            dir.display()
-        ));
+        return Err(Error::NotALog {
+            dir: dir.to_path_buf(),
+        });
     }
     for path in files {
-        let bytes = std::fs::read(&path).map_err(|e| format!("{}: {e}", path.display()))?;
-        states_in_file(&bytes, &path.display().to_string(), &mut f)?;
+        let bytes = std::fs::read(&path).map_err(|error| Error::Io {
+            path: path.clone(),
+            error,
+        })?;
+        read_states(&bytes, &path.display().to_string(), &mut f)?;
     }
     Ok(())
+}
+
+/// [`read_states`] with its error as text: the form the fuzz harness
+/// (`bench/fuzz-harness`) checks the reasons in.
+pub fn states_in_file(bytes: &[u8], name: &str, f: &mut impl FnMut(StateSample)) -> Result<(), String> {
+    read_states(bytes, name, f).map_err(|e| e.to_string())
 }
 
 /// The state samples of one state file's bytes (`name` for the messages), handed to `f`:
 /// refused when its header does not describe this reader's records; a partial last record
 /// (a file cut short) is dropped.
-pub fn states_in_file(bytes: &[u8], name: &str, f: &mut impl FnMut(StateSample)) -> Result<(), String> {
+pub fn read_states(bytes: &[u8], name: &str, f: &mut impl FnMut(StateSample)) -> Result<(), Error> {
+    let file = || name.to_string();
     let nl = bytes
         .iter()
         .position(|&b| b == b'\n')
-        .ok_or_else(|| format!("{}: no header line", name))?;
+        .ok_or_else(|| Error::NoHeaderLine { file: file() })?;
     let h: serde_json::Value =
-        serde_json::from_slice(&bytes[..nl]).map_err(|e| format!("{}: header is not JSON: {e}", name))?;
+        serde_json::from_slice(&bytes[..nl]).map_err(|error| Error::HeaderNotJson { file: file(), error })?;
     if h["format"] != "hob-state-log" || h["version"] != 1 || h["record_bytes"] != record_bytes() {
-        return Err(format!(
-            "{}: header says {} version {} with {} bytes per record; this reader knows hob-state-log version 1 with {}",
-            name,
-            h["format"],
-            h["version"],
-            h["record_bytes"],
-            record_bytes()
-        ));
+        return Err(Error::OtherFormat {
+            file: file(),
+            format: h["format"].clone(),
+            version: h["version"].clone(),
+            record_bytes: h["record_bytes"].clone(),
+        });
     }
-    let recorded = overrides_recorded(&h["fields"]).ok_or_else(|| {
-        format!(
-            "{}: header's fields are not those of hob-state-log version 1 this reader knows: {}",
-            name, h["fields"]
-        )
+    let recorded = overrides_recorded(&h["fields"]).ok_or_else(|| Error::OtherFields {
+        file: file(),
+        fields: h["fields"].clone(),
     })?;
     // A file cut short by a killed logger ends in a partial record: dropped.
     for rec in bytes[nl + 1..].chunks_exact(record_bytes()) {
@@ -460,7 +469,7 @@ mod tests {
         // Any other field list is refused.
         let other = now.replace(r#"["spindle_override_percent","f64"]"#, r#"["reserved1","u64"]"#);
         let dir = log_dir("other", &other, &[s]);
-        let e = read_dir_states(&dir).unwrap_err();
+        let e = read_dir_states(&dir).unwrap_err().to_string();
         assert!(e.contains("fields"), "{e}");
         let _ = std::fs::remove_dir_all(&dir);
     }

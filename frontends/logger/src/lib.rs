@@ -16,6 +16,7 @@
 //!   events recorded, events lost, files.
 
 pub mod delay;
+pub mod error;
 pub mod export;
 pub mod format;
 pub mod predicted;
@@ -24,5 +25,6 @@ pub mod trace;
 pub mod truth;
 pub mod writer;
 
+pub use error::{Error, TruthProblem};
 pub use format::{FIELDS, decode, encode, read_dir_states, record_bytes};
 pub use writer::{LogStats, LogWriter};

@@ -10,6 +10,7 @@
 //! (which only the controller knows): the report puts each pass's phase back
 //! ([`crate::export`]).
 
+use crate::{Error, TruthProblem};
 use std::io::{BufRead, Write};
 use std::path::Path;
 
@@ -77,17 +78,46 @@ pub fn write_head(w: &mut dyn Write, gear: Gear) -> std::io::Result<()> {
 /// Reads a truth file: the gear and the rows in the order written. A last line cut short
 /// (the simulator stopped while writing) is left out; any other bad line is an error that
 /// names it.
-pub fn read(path: &Path) -> Result<(Gear, Vec<TruthRow>), String> {
-    let f = std::fs::File::open(path).map_err(|e| format!("{}: {e}", path.display()))?;
+pub fn read(path: &Path) -> Result<(Gear, Vec<TruthRow>), Error> {
+    let f = std::fs::File::open(path).map_err(|error| Error::Io {
+        path: path.to_path_buf(),
+        error,
+    })?;
     let mut lines = std::io::BufReader::new(f).lines();
-    let at = |n: usize, e: &str| format!("{}:{n}: {e}", path.display());
+    let at = |line: usize, problem: TruthProblem| Error::Truth {
+        path: path.to_path_buf(),
+        line,
+        problem,
+    };
     let first = lines
         .next()
         .transpose()
-        .map_err(|e| at(1, &e.to_string()))?
+        .map_err(|e| at(1, TruthProblem::Io(e)))?
         .unwrap_or_default();
+    let gear = parse_gear(&first).ok_or_else(|| at(1, TruthProblem::NotATruthFile))?;
+    let header = lines.next().transpose().map_err(|e| at(2, TruthProblem::Io(e)))?;
+    if header.as_deref() != Some(HEADER) {
+        return Err(at(2, TruthProblem::Header));
+    }
+    let mut rows = Vec::new();
+    let mut pending: Option<(usize, String)> = None;
+    for (i, line) in lines.enumerate() {
+        let line = line.map_err(|e| at(i + 3, TruthProblem::Io(e)))?;
+        if let Some((n, bad)) = pending.take() {
+            return Err(at(n, TruthProblem::NotARow(bad)));
+        }
+        match parse_row(&line) {
+            Some(r) => rows.push(r),
+            None => pending = Some((i + 3, line)),
+        }
+    }
+    Ok((gear, rows))
+}
+
+/// The gear of a truth file's first line.
+fn parse_gear(first: &str) -> Option<Gear> {
     let words: Vec<&str> = first.split_whitespace().collect();
-    let gear = match words.as_slice() {
+    match words.as_slice() {
         [
             "#",
             "hob-sim",
@@ -111,24 +141,6 @@ pub fn read(path: &Path) -> Result<(Gear, Vec<TruthRow>), String> {
         },
         _ => None,
     }
-    .ok_or_else(|| at(1, "not a hob-sim truth file (its first line names the gear)"))?;
-    let header = lines.next().transpose().map_err(|e| at(2, &e.to_string()))?;
-    if header.as_deref() != Some(HEADER) {
-        return Err(at(2, &format!("the header must be {HEADER}")));
-    }
-    let mut rows = Vec::new();
-    let mut pending: Option<(usize, String)> = None;
-    for (i, line) in lines.enumerate() {
-        let line = line.map_err(|e| at(i + 3, &e.to_string()))?;
-        if let Some((n, bad)) = pending.take() {
-            return Err(at(n, &format!("not a truth row: {bad}")));
-        }
-        match parse_row(&line) {
-            Some(r) => rows.push(r),
-            None => pending = Some((i + 3, line)),
-        }
-    }
-    Ok((gear, rows))
 }
 
 fn parse_row(line: &str) -> Option<TruthRow> {
@@ -213,10 +225,15 @@ mod tests {
         let mut bad = text.clone();
         bad.extend_from_slice(b"\n4000,1,2,3,4\n");
         std::fs::write(&path, &bad).unwrap();
-        let e = read(&path).unwrap_err();
+        let e = read(&path).unwrap_err().to_string();
         assert!(e.contains(":5: not a truth row"), "{e}");
         std::fs::write(&path, "t_s,state\n1,2\n").unwrap();
-        assert!(read(&path).unwrap_err().contains(":1: not a hob-sim truth file"));
+        assert!(
+            read(&path)
+                .unwrap_err()
+                .to_string()
+                .contains(":1: not a hob-sim truth file")
+        );
         let _ = std::fs::remove_file(&path);
     }
 

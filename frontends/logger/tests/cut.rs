@@ -177,7 +177,7 @@ fn a_line_cut_short_is_left_out_and_a_foreign_line_is_refused_with_its_number() 
     std::fs::write(&path, &text).unwrap();
     let read = read_events(&dir).unwrap();
     std::fs::write(&path, format!("{text}M\nnot an event\n")).unwrap();
-    let foreign = read_events(&dir).unwrap_err();
+    let foreign = read_events(&dir).unwrap_err().to_string();
     let _ = std::fs::remove_dir_all(&dir);
     assert_eq!(seqs(&read), [(0, 1)]);
     assert!(foreign.contains("events.log:3: not an event line"), "{foreign}");
@@ -204,12 +204,12 @@ fn a_range_without_samples_and_an_empty_log_are_refused_in_words() {
     let dir = log_dir("empty");
     write(&dir, &[], &[]);
     // The logger opens a state file only for its first sample.
-    let no_file = report(&dir).unwrap_err();
+    let no_file = report(&dir).unwrap_err().to_string();
     // A logger killed before its first record reached the file.
     std::fs::write(dir.join("state-000001.hoblog"), header("t", 0)).unwrap();
-    let empty = report(&dir).unwrap_err();
+    let empty = report(&dir).unwrap_err().to_string();
     write(&dir, &[sample(7, 1, 0.1)], &[]);
-    let none = report_cycles(&dir, 100, 200).unwrap_err();
+    let none = report_cycles(&dir, 100, 200).unwrap_err().to_string();
     let _ = std::fs::remove_dir_all(&dir);
     assert!(no_file.contains("not a hob log"), "{no_file}");
     assert!(empty.ends_with(": no sample recorded"), "{empty}");

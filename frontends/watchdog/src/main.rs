@@ -42,7 +42,29 @@ struct Args {
     deadline_ms: Option<u32>,
 }
 
-fn parse_args() -> Result<Args, String> {
+/// A command line the watchdog cannot take.
+#[derive(Debug)]
+enum ArgError {
+    /// An option (named) given last, without its value.
+    NeedsValue(String),
+    /// `--deadline-ms` with what is not a number of milliseconds.
+    DeadlineNotANumber(String),
+    Unknown(String),
+}
+
+impl std::fmt::Display for ArgError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            ArgError::NeedsValue(option) => write!(f, "{option} needs a value"),
+            ArgError::DeadlineNotANumber(v) => write!(f, "--deadline-ms: not a number: {v}"),
+            ArgError::Unknown(arg) => write!(f, "unknown argument {arg}"),
+        }
+    }
+}
+
+impl std::error::Error for ArgError {}
+
+fn parse_args() -> Result<Args, ArgError> {
     let mut a = Args {
         machine: PathBuf::from("config/machine.toml"),
         iface: None,
@@ -50,18 +72,15 @@ fn parse_args() -> Result<Args, String> {
     };
     let mut it = std::env::args().skip(1);
     while let Some(arg) = it.next() {
-        let mut value = || it.next().ok_or_else(|| format!("{arg} needs a value"));
+        let mut value = || it.next().ok_or_else(|| ArgError::NeedsValue(arg.clone()));
         match arg.as_str() {
             "--machine" => a.machine = value()?.into(),
             "--iface" => a.iface = Some(value()?),
             "--deadline-ms" => {
                 let v = value()?;
-                a.deadline_ms = Some(
-                    v.parse()
-                        .map_err(|_| format!("--deadline-ms: not a number: {v}"))?,
-                );
+                a.deadline_ms = Some(v.parse().map_err(|_| ArgError::DeadlineNotANumber(v))?);
             }
-            other => return Err(format!("unknown argument {other}")),
+            other => return Err(ArgError::Unknown(other.to_string())),
         }
     }
     Ok(a)
