@@ -9,7 +9,6 @@ use hob_master::boot;
 use hob_process_image::plan::BusPlan;
 use hob_setup::config::Problems;
 use hob_setup::config::machine::MachineConfig;
-use hob_setup::job::Program;
 use std::fmt::Write as _;
 use std::path::Path;
 use std::time::Duration;
@@ -28,7 +27,7 @@ pub struct RunArgs<'a> {
 pub fn run(machine: &MachineConfig, a: &RunArgs<'_>) -> Result<String, (u8, String)> {
     let program = match a.program {
         Some(p) => {
-            let (job, src) = Program::read(p).map_err(|e| (2, e.to_string()))?;
+            let (job, src) = hob_store::files::read_program(p).map_err(|e| (2, e.to_string()))?;
             let mut problems = Problems::new();
             match CycleProgram::build(&job, machine, &mut problems) {
                 Some(c) => Some(c),

@@ -122,7 +122,7 @@ fn build_siblings(say: &dyn Fn(&str)) -> Result<(), String> {
 
 pub fn run(machine: &MachineConfig, a: &DemoArgs<'_>) -> Result<String, (u8, String)> {
     let fail = |e: String| (1, e);
-    let plan = hob_setup::planner::plan_file(a.program, machine).map_err(|e| (2, e.to_string()))?;
+    let plan = hob_store::files::plan_file(a.program, machine).map_err(|e| (2, e.to_string()))?;
     let iface = a.iface.map_or_else(
         || hob_can_transport::shm::default_iface().to_string(),
         str::to_string,

@@ -10,7 +10,6 @@ mod simulate;
 
 use clap::{Parser, Subcommand};
 use hob_cli::util::{Failure, emit, load_machine, machine_path, parse_jog};
-use hob_setup::config::machine::MachineConfig;
 use std::path::PathBuf;
 use std::process::ExitCode;
 
@@ -140,7 +139,7 @@ fn run(command: Command) -> Result<(), Failure> {
             tolerance_ms,
         } => {
             let machine_file = machine_path(machine.as_deref())?;
-            let machine = MachineConfig::load(&machine_file).map_err(Failure::Refused)?;
+            let machine = hob_store::files::load_machine(&machine_file).map_err(Failure::Refused)?;
             let program = program.unwrap_or_else(|| PathBuf::from(demo::DEMO_PROGRAM));
             let args = demo::DemoArgs {
                 program: &program,

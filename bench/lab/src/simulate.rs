@@ -6,7 +6,6 @@ use hob_plant::config::PlantConfig;
 use hob_plant::sim::{SimOptions, TRACE_HEADER, run_program};
 use hob_setup::config::Problems;
 use hob_setup::config::machine::MachineConfig;
-use hob_setup::job::Program;
 use hob_setup::planner;
 use std::io::{BufWriter, Write};
 use std::path::Path;
@@ -22,7 +21,7 @@ pub struct Args<'a> {
 /// Runs the simulation; `Err((refused, message))`.
 pub fn run(machine: &MachineConfig, a: &Args<'_>) -> Result<String, (bool, String)> {
     let plant = PlantConfig::load(a.plant).map_err(|e| (true, e.to_string()))?;
-    let (job, src) = Program::read(a.program).map_err(|e| (true, e.to_string()))?;
+    let (job, src) = hob_store::files::read_program(a.program).map_err(|e| (true, e.to_string()))?;
     let mut p = Problems::new();
     let built = CycleProgram::build(&job, machine, &mut p);
     let plan = planner::plan(&job, machine, &mut p);

@@ -1,6 +1,7 @@
 //! The plant's parameters (`config/plant.toml`), validated like every configuration.
 
-use hob_setup::config::{LoadError, Problems, read_toml};
+use hob_setup::config::{LoadError, Problems};
+use hob_store::files::read_toml;
 use serde::{Deserialize, Serialize};
 use std::path::Path;
 

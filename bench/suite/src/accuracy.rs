@@ -148,7 +148,7 @@ pub struct Args {
 
 /// A program built for a machine: the job, its cycle and its plan, or the refusal.
 fn job_on(machine: &MachineConfig, path: &std::path::Path) -> Result<(Program, CycleProgram, Plan), String> {
-    let (job, src) = Program::read(path).map_err(|e| e.to_string())?;
+    let (job, src) = hob_store::files::read_program(path).map_err(|e| e.to_string())?;
     let mut p = Problems::new();
     let cycle = CycleProgram::build(&job, machine, &mut p);
     let plan = planner::plan(&job, machine, &mut p);
@@ -170,7 +170,7 @@ fn gear_name(path: &std::path::Path) -> String {
 /// The output directory made, the machine and the plant loaded.
 fn prepare(a: &Args) -> Result<(MachineConfig, PlantConfig), String> {
     std::fs::create_dir_all(&a.out).map_err(|e| format!("{}: {e}", a.out.display()))?;
-    let machine = MachineConfig::load(&a.machine).map_err(|e| e.to_string())?;
+    let machine = hob_store::files::load_machine(&a.machine).map_err(|e| e.to_string())?;
     let plant = PlantConfig::load(&a.plant).map_err(|e| e.to_string())?;
     Ok((machine, plant))
 }

@@ -15,7 +15,7 @@ use hob_ipc::StateSample;
 use hob_ipc::iceoryx2::port::update_connections::UpdateConnections as _;
 use hob_rt_os as rt;
 use hob_rt_os::RtReport;
-use hob_setup::config::machine::{MachineConfig, ServiceConfig};
+use hob_setup::config::machine::ServiceConfig;
 use serde::{Deserialize, Serialize};
 use std::os::unix::net::UnixDatagram;
 use std::path::{Path, PathBuf};
@@ -308,7 +308,7 @@ fn case(a: &Args, t: Transport, p: Pace, sv: &ServiceConfig) -> Result<Case, Str
 
 pub fn run(a: &Args) -> Result<BusBench, String> {
     std::fs::create_dir_all(&a.out).map_err(|e| format!("{}: {e}", a.out.display()))?;
-    let machine = MachineConfig::load(&a.machine).map_err(|e| e.to_string())?;
+    let machine = hob_store::files::load_machine(&a.machine).map_err(|e| e.to_string())?;
     let mut cases = Vec::new();
     for p in [Pace::Khz, Pace::Flat] {
         for t in [Transport::Iceoryx2, Transport::Unix] {

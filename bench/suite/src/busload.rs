@@ -2,7 +2,6 @@
 //! `hob bus-load` figures), as JSON.
 
 use hob_process_image::plan::BusPlan;
-use hob_setup::config::machine::MachineConfig;
 use serde::{Deserialize, Serialize};
 use std::path::Path;
 
@@ -26,7 +25,7 @@ pub struct BusLoadBench {
 }
 
 pub fn run(machine: &Path, out: &Path) -> Result<BusLoadBench, String> {
-    let m = MachineConfig::load(machine).map_err(|e| e.to_string())?;
+    let m = hob_store::files::load_machine(machine).map_err(|e| e.to_string())?;
     let plan = BusPlan::from_machine(&m);
     let load = plan.load();
     let r = BusLoadBench {

@@ -11,7 +11,6 @@ use crate::system::{self, SystemInfo};
 use hob_ipc::codec::State;
 use hob_ipc::{CommandRequest, Ports, command};
 use hob_service::stats;
-use hob_setup::config::machine::MachineConfig;
 use hob_virtual_machine::procs::{Processes, relaxed_machine, sibling};
 use serde::{Deserialize, Serialize};
 use std::os::unix::process::CommandExt as _;
@@ -315,7 +314,7 @@ fn run_loop(
 
 pub fn run(a: &Args) -> Result<LoopBench, String> {
     std::fs::create_dir_all(&a.out).map_err(|e| format!("{}: {e}", a.out.display()))?;
-    let machine = MachineConfig::load(&a.machine).map_err(|e| e.to_string())?;
+    let machine = hob_store::files::load_machine(&a.machine).map_err(|e| e.to_string())?;
     let period_us = u64::from(machine.control.cycle_period_us);
     let prio = machine.service.loop_priority;
     let core = machine.service.loop_core;

@@ -154,12 +154,12 @@ struct Loaded {
 }
 
 fn load(a: &Args) -> Result<Loaded, String> {
-    let machine = MachineConfig::load(&a.machine).map_err(|e| e.to_string())?;
+    let machine = hob_store::files::load_machine(&a.machine).map_err(|e| e.to_string())?;
     let plant = PlantConfig::load(&a.plant).map_err(|e| e.to_string())?;
     let mut jobs = Vec::new();
     for s in SCENARIOS {
         let path = a.programs.join(s.program);
-        let (job, src) = Program::read(&path).map_err(|e| e.to_string())?;
+        let (job, src) = hob_store::files::read_program(&path).map_err(|e| e.to_string())?;
         let mut p = Problems::new();
         let cycle = CycleProgram::build(&job, &machine, &mut p);
         let plan = planner::plan(&job, &machine, &mut p);

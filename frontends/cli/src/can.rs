@@ -12,7 +12,6 @@ use hob_process_image::describe::describe;
 use hob_process_image::plan::BusPlan;
 use hob_setup::config::Problems;
 use hob_setup::config::machine::MachineConfig;
-use hob_setup::job::Program;
 use std::fmt::Write as _;
 use std::path::Path;
 use std::time::{Duration, Instant};
@@ -314,7 +313,7 @@ pub fn dump(
 /// The gearbox law of `program` on `machine`, as the capture's check takes it: the signed
 /// ratio, each axis's counts per unit (with its sign), the X of each pass's cut.
 fn gearbox_law(machine: &MachineConfig, program: &Path) -> Result<(f64, [f64; 4], Vec<f64>), Error> {
-    let (job, src) = Program::read(program).map_err(Error::Program)?;
+    let (job, src) = hob_store::files::read_program(program).map_err(Error::Program)?;
     let mut problems = Problems::new();
     let cycle = CycleProgram::build(&job, machine, &mut problems).ok_or_else(|| {
         problems

@@ -7,7 +7,6 @@ use clap::{Parser, Subcommand};
 use hob_cli::library::{Action, Place};
 use hob_cli::util::{Failure, emit, load_machine, machine_path, service_result};
 use hob_cli::{can, cutter, doctor, lab, library, render, service};
-use hob_setup::config::machine::MachineConfig;
 use hob_store::library::Kind;
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -922,7 +921,7 @@ fn check(
         library,
         machine: Some(machine_file.clone()),
     };
-    let machine = MachineConfig::load(&machine_file).map_err(Failure::Refused)?;
+    let machine = hob_store::files::load_machine(&machine_file).map_err(Failure::Refused)?;
     let Some(program) = program else {
         return emit(&format!(
             "{}: ok ({})\n",

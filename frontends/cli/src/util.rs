@@ -90,5 +90,5 @@ pub fn machine_path(given: Option<&Path>) -> Result<PathBuf, Failure> {
 }
 
 pub fn load_machine(given: Option<&Path>) -> Result<MachineConfig, Failure> {
-    MachineConfig::load(&machine_path(given)?).map_err(Failure::Refused)
+    hob_store::files::load_machine(&machine_path(given)?).map_err(Failure::Refused)
 }

@@ -271,7 +271,7 @@ mod tests {
     use super::*;
 
     fn io() -> IoMap {
-        hob_setup::config::machine::MachineConfig::load(std::path::Path::new(concat!(
+        hob_store::files::load_machine(std::path::Path::new(concat!(
             env!("CARGO_MANIFEST_DIR"),
             "/../../config/machine.toml"
         )))

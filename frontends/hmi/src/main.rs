@@ -2,7 +2,6 @@
 
 use clap::Parser;
 use hob_hmi::{app::App, bridge, commander, web};
-use hob_setup::config::machine::MachineConfig;
 use hob_store::library::Library;
 use std::net::SocketAddr;
 use std::path::PathBuf;
@@ -87,7 +86,7 @@ fn run(a: Args) -> Result<(), String> {
         ),
         None => None,
     };
-    let machine = MachineConfig::load(&a.machine).map_err(|e| e.to_string())?;
+    let machine = hob_store::files::load_machine(&a.machine).map_err(|e| e.to_string())?;
     let library_dir = a
         .library
         .clone()

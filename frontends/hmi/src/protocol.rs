@@ -619,7 +619,7 @@ mod tests {
             },
             ..Default::default()
         };
-        let io: IoMap = hob_setup::config::machine::MachineConfig::load(std::path::Path::new(concat!(
+        let io: IoMap = hob_store::files::load_machine(std::path::Path::new(concat!(
             env!("CARGO_MANIFEST_DIR"),
             "/../../config/machine.toml"
         )))

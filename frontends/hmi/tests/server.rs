@@ -31,7 +31,8 @@ impl Drop for TempDir {
 }
 
 fn machine() -> MachineConfig {
-    MachineConfig::load(&Path::new(env!("CARGO_MANIFEST_DIR")).join("../../config/machine.toml")).unwrap()
+    hob_store::files::load_machine(&Path::new(env!("CARGO_MANIFEST_DIR")).join("../../config/machine.toml"))
+        .unwrap()
 }
 
 /// A fake loop that accepts every command and records its code.

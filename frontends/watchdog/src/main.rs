@@ -138,7 +138,7 @@ fn main() -> ExitCode {
             return ExitCode::from(2);
         }
     };
-    let machine = match MachineConfig::load(&args.machine) {
+    let machine = match hob_store::files::load_machine(&args.machine) {
         Ok(m) => m,
         Err(e) => {
             eprintln!("hob-watchdog: refused: {e}");

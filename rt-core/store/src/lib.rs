@@ -11,9 +11,12 @@
 //! - [`library`]: the operator's program and tool library (`programs/`, `tools/`), the
 //!   names it accepts, and [`library::Library::resolve`], which fills a program's library
 //!   tool in.
+//! - [`files`]: the machine file and programs read from disk (`hob-setup` parses and
+//!   checks their texts; it reads no file itself).
 //! - [`utc`]: UTC timestamps as text (`2025-01-31T12:00:00Z`), without a clock crate.
 
 pub use hob_rt_os::durable as atomic;
+pub mod files;
 pub mod library;
 pub mod machine_state;
 pub mod utc;

@@ -18,7 +18,7 @@ pub fn root() -> PathBuf {
 }
 
 pub fn machine() -> MachineConfig {
-    MachineConfig::load(&root().join("config/machine.toml")).unwrap()
+    hob_store::files::load_machine(&root().join("config/machine.toml")).unwrap()
 }
 
 pub fn plant() -> PlantConfig {

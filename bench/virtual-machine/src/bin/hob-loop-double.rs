@@ -21,7 +21,6 @@ use hob_ipc::StateSample;
 use hob_ipc::codec::State;
 use hob_process_image::plan::{BusPlan, DIGITAL_OUTPUTS};
 use hob_rt_os::{now_ns, sleep_until_ns};
-use hob_setup::config::machine::MachineConfig;
 use std::path::PathBuf;
 use std::process::ExitCode;
 use std::sync::atomic::Ordering;
@@ -85,7 +84,7 @@ fn outputs_off(f: &Frame, io_node: u8) -> bool {
 }
 
 fn run(args: &Args) -> Result<(), String> {
-    let machine = MachineConfig::load(&args.machine).map_err(|e| e.to_string())?;
+    let machine = hob_store::files::load_machine(&args.machine).map_err(|e| e.to_string())?;
     let io_node = BusPlan::from_machine(&machine).io.node;
     let node = hob_ipc::node("hob-loop-double").map_err(|e| e.to_string())?;
     let stop = hob_rt_os::termination_flag();

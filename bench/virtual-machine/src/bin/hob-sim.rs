@@ -14,8 +14,6 @@ use hob_control::program::CycleProgram;
 use hob_plant::config::PlantConfig;
 use hob_plant::plant::Start;
 use hob_setup::config::Problems;
-use hob_setup::config::machine::MachineConfig;
-use hob_setup::job::Program;
 use hob_setup::planner;
 use hob_virtual_machine::runner::{SYNC_SILENCE, serve_waiting};
 use hob_virtual_machine::virtual_machine::{VirtualMachine, VmFault};
@@ -99,7 +97,7 @@ fn main() -> ExitCode {
 }
 
 fn run(a: Args) -> Result<(), String> {
-    let machine = MachineConfig::load(&a.machine).map_err(|e| e.to_string())?;
+    let machine = hob_store::files::load_machine(&a.machine).map_err(|e| e.to_string())?;
     let mut plant = PlantConfig::load(&a.plant).map_err(|e| e.to_string())?;
     if a.incremental {
         plant.simulation.drive_counters = hob_plant::config::DriveCounters::Incremental;
@@ -133,7 +131,7 @@ fn run(a: Args) -> Result<(), String> {
     // The gearbox law of the program (without its phase) and its gear, for the truth.
     let mut law = None;
     if let Some(p) = &a.program {
-        let (job, src) = Program::read(p).map_err(|e| e.to_string())?;
+        let (job, src) = hob_store::files::read_program(p).map_err(|e| e.to_string())?;
         let mut problems = Problems::new();
         let cycle = CycleProgram::build(&job, &machine, &mut problems);
         let plan = planner::plan(&job, &machine, &mut problems);

@@ -19,7 +19,7 @@ fn root() -> PathBuf {
 }
 
 fn machine() -> MachineConfig {
-    MachineConfig::load(&root().join("config/machine.toml")).unwrap()
+    hob_store::files::load_machine(&root().join("config/machine.toml")).unwrap()
 }
 
 fn plant_config() -> PlantConfig {

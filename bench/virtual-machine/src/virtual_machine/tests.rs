@@ -11,7 +11,7 @@ fn root() -> PathBuf {
 
 /// A virtual machine with every node operational and TPDO1 sent on every SYNC.
 fn operational_vm() -> VirtualMachine {
-    let m = MachineConfig::load(&root().join("config/machine.toml")).unwrap();
+    let m = hob_store::files::load_machine(&root().join("config/machine.toml")).unwrap();
     let p = PlantConfig::load(&root().join("config/plant.toml")).unwrap();
     let start = Start {
         x_mm: 150.0,

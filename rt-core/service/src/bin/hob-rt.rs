@@ -90,7 +90,7 @@ fn main() -> ExitCode {
         }
     };
     let path = machine_path(&args);
-    let machine = match MachineConfig::load(&path) {
+    let machine = match hob_store::files::load_machine(&path) {
         Ok(m) => m,
         Err(e) => {
             eprintln!("hob-rt: refused: {e}");

@@ -2,7 +2,7 @@
 //! machine builder at commissioning. Loaded with serde (unknown keys refused) and validated
 //! completely before anything runs.
 
-use super::{LoadError, Problems, parse_toml, read_toml};
+use super::{LoadError, Problems, parse_toml};
 use hob_gearing::cutting::SpindleDrive;
 use serde::{Deserialize, Serialize};
 use std::path::Path;
@@ -582,12 +582,6 @@ pub struct AnalogOutputs {
 }
 
 impl MachineConfig {
-    /// Loads and validates `file`.
-    pub fn load(file: &Path) -> Result<Self, LoadError> {
-        let (config, src): (Self, String) = read_toml(file)?;
-        Self::validated(config, file, &src)
-    }
-
     /// Parses and validates `src`, a machine file's text (`origin` names it in errors).
     pub fn parse(origin: &Path, src: &str) -> Result<Self, LoadError> {
         Self::validated(parse_toml(origin, src)?, origin, src)
@@ -1002,11 +996,13 @@ fn check_bits(p: &mut Problems, table: &str, bindings: &[(&str, DigitalBinding)]
 }
 
 /// The shipped `config/machine.toml`, for the tests of this crate and the crates above it
-/// (feature `test-support`, enabled only by dev-dependencies).
+/// (feature `test-support`, enabled only by dev-dependencies). Its text is compiled in: no
+/// file is read here.
 #[cfg(any(test, feature = "test-support"))]
 pub fn shipped_for_tests() -> MachineConfig {
     let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../config/machine.toml");
-    MachineConfig::load(&path).unwrap_or_else(|e| panic!("{e}"))
+    let src = include_str!("../../../../config/machine.toml");
+    MachineConfig::parse(&path, src).unwrap_or_else(|e| panic!("{e}"))
 }
 
 #[cfg(test)]

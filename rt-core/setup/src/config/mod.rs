@@ -158,17 +158,6 @@ impl fmt::Display for LoadError {
 
 impl std::error::Error for LoadError {}
 
-/// Reads `file` and deserialises it; returns the value and the source text (kept to
-/// locate later validation problems).
-pub fn read_toml<T: DeserializeOwned>(file: &Path) -> Result<(T, String), LoadError> {
-    let src = std::fs::read_to_string(file).map_err(|error| LoadError::Io {
-        file: file.to_path_buf(),
-        error,
-    })?;
-    let value = parse_toml(file, &src)?;
-    Ok((value, src))
-}
-
 /// Deserialises `src` (the contents of `file`, named in errors).
 pub fn parse_toml<T: DeserializeOwned>(file: &Path, src: &str) -> Result<T, LoadError> {
     toml::from_str(src).map_err(|e| LoadError::Syntax {

@@ -411,17 +411,6 @@ pub struct CheckedProgram {
 }
 
 impl Program {
-    /// Reads and deserialises `file` (unknown keys refused, a library tool not resolved
-    /// refused: [`Program::parse`]); returns the source text too.
-    pub fn read(file: &Path) -> Result<(Self, String), LoadError> {
-        let src = std::fs::read_to_string(file).map_err(|error| LoadError::Io {
-            file: file.to_path_buf(),
-            error,
-        })?;
-        let program = Self::parse(file, &src)?;
-        Ok((program, src))
-    }
-
     /// Deserialises a self-contained program's text (`origin` names it in errors). A
     /// `[tool]` that names a library tool (`library = "NAME"`) is refused: such a program
     /// is planned, checked and loaded only once the library has filled in the tool

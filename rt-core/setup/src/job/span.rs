@@ -122,7 +122,7 @@ mod tests {
     fn demo() -> Program {
         let p =
             Path::new(env!("CARGO_MANIFEST_DIR")).join("../../config/programs/demo-short-spur-z17-m5.toml");
-        Program::read(&p).expect("the demo program").0
+        Program::parse(&p, &std::fs::read_to_string(&p).expect("the demo program")).expect("the demo program")
     }
 
     #[test]

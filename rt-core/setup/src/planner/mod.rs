@@ -4,11 +4,13 @@
 //! machine cannot cut is refused here, each problem named by the key to change.
 //!
 //! ```
-//! use hob_setup::{config::machine::MachineConfig, planner::plan_file};
+//! use hob_setup::{config::machine::MachineConfig, planner::plan_source};
 //! use std::path::Path;
+//! // The texts are read by the caller (hob_store::files reads them from disk).
 //! let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("../..");
-//! let machine = MachineConfig::load(&root.join("config/machine.toml")).unwrap();
-//! let plan = plan_file(&root.join("config/programs/spur-z17-m5.toml"), &machine).unwrap();
+//! let (m, p) = (root.join("config/machine.toml"), root.join("config/programs/spur-z17-m5.toml"));
+//! let machine = MachineConfig::parse(&m, &std::fs::read_to_string(&m).unwrap()).unwrap();
+//! let plan = plan_source(&p, &std::fs::read_to_string(&p).unwrap(), &machine).unwrap();
 //! assert!((plan.passes[0].spindle_rpm - 119.366).abs() < 1e-3);
 //! ```
 
@@ -124,15 +126,6 @@ pub struct Plan {
     pub warnings: Vec<String>,
     /// A tooth-by-tooth program's disk cutter with a profile: its fit and dynamics.
     pub cutter: Option<cutter::CutterPlan>,
-}
-
-/// Reads, checks and plans the program in `file` on `machine`.
-pub fn plan_file(file: &Path, machine: &MachineConfig) -> Result<Plan, LoadError> {
-    let src = std::fs::read_to_string(file).map_err(|error| LoadError::Io {
-        file: file.to_path_buf(),
-        error,
-    })?;
-    plan_source(file, &src, machine)
 }
 
 /// Parses, checks and plans a program's text on `machine` (`origin` names it in errors):

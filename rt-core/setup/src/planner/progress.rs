@@ -53,7 +53,12 @@ mod tests {
 
     fn plan() -> Plan {
         let p = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../config/programs/spur-z17-m5.toml");
-        crate::planner::plan_file(&p, &shipped_for_tests()).expect("the shipped program")
+        crate::planner::plan_source(
+            &p,
+            &std::fs::read_to_string(&p).expect("read"),
+            &shipped_for_tests(),
+        )
+        .expect("the shipped program")
     }
 
     #[test]

@@ -9,7 +9,7 @@ fn root() -> PathBuf {
 }
 
 fn machine() -> MachineConfig {
-    MachineConfig::load(&root().join("config/machine.toml")).expect("shipped machine")
+    crate::config::machine::shipped_for_tests()
 }
 
 fn program_src(name: &str) -> String {
@@ -422,7 +422,8 @@ fn every_example_program_plans() {
     let m = machine();
     for entry in std::fs::read_dir(root().join("config/programs")).expect("programs") {
         let path = entry.expect("entry").path();
-        let plan = plan_file(&path, &m).unwrap_or_else(|e| panic!("{e}"));
+        let plan = plan_source(&path, &std::fs::read_to_string(&path).expect("read"), &m)
+            .unwrap_or_else(|e| panic!("{e}"));
         assert!(
             !plan.passes.is_empty() && plan.total_time_s > 0.0,
             "{}",

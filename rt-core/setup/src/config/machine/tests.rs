@@ -36,7 +36,12 @@ fn load_src(src: &str) -> Result<MachineConfig, LoadError> {
 
 #[test]
 fn the_shipped_configuration_is_the_thesis_machine() {
-    let m = MachineConfig::load(&shipped_path()).expect("valid");
+    let m = MachineConfig::parse(
+        &shipped_path(),
+        &std::fs::read_to_string(shipped_path()).expect("read"),
+    )
+    .map_err(|e| e.to_string())
+    .expect("valid");
     assert_eq!(m.spindle.encoder_counts_per_rev, 10_000);
     assert!((m.y.counts_per_mm() - 3000.0).abs() < 1e-12);
     assert!((m.x.counts_per_mm() - 3000.0).abs() < 1e-12);
@@ -48,7 +53,12 @@ fn the_shipped_configuration_is_the_thesis_machine() {
 
 #[test]
 fn thesis_servo_motor_speeds() {
-    let m = MachineConfig::load(&shipped_path()).expect("valid");
+    let m = MachineConfig::parse(
+        &shipped_path(),
+        &std::fs::read_to_string(shipped_path()).expect("read"),
+    )
+    .map_err(|e| e.to_string())
+    .expect("valid");
     // Table at 14.1 rpm needs 1057.5 motor rpm (thesis eq. 4.16).
     assert!((m.table.max_table_rpm * m.table.worm_ratio - 1057.5).abs() < 1e-9);
     // X/Y rapid 3 m/min: screw 300 rpm, motor 900 rpm (thesis eq. 4.5).
