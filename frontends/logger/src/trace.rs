@@ -26,7 +26,7 @@ pub const TRACE_HEADER: &str = "t_s,state,pass,spindle_deg,table_deg,table_cmd_d
 pub struct TraceRow {
     pub t_s: f64,
     /// The sequencer state, as its code in the contract between processes (the simulated
-    /// machine encodes the control core's state with `hob_service::encode::state`).
+    /// machine writes the control core's state, the wire's own `State`).
     pub state: State,
     pub hold: bool,
     pub pass: u32,

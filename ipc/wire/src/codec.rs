@@ -515,98 +515,20 @@ pub fn coupling_name(c: u32) -> &'static str {
     Coupling::from_code(c).map_or("?", Coupling::name)
 }
 
-/// Every [`command`] code, in code order.
-pub const COMMANDS: [u32; 20] = [
-    command::LOAD_PROGRAM,
-    command::START,
-    command::FEED_HOLD,
-    command::RESUME,
-    command::STOP,
-    command::RESET,
-    command::JOG,
-    command::SPINDLE_ON,
-    command::SPINDLE_OFF,
-    command::NEW_BLANK,
-    command::HOME,
-    command::JOG_CONTINUOUS,
-    command::JOG_RELEASE,
-    command::FEED_OVERRIDE,
-    command::SPINDLE_OVERRIDE,
-    command::TOUCH_OFF,
-    command::CONTINUE,
-    command::SPINDLE_HOLD,
-    command::FLIGHT_RECORD,
-    command::TOUCH_FLANK,
-];
+/// Every [`command`] code, in code order (declared once, with its word, in [`command`]).
+pub const COMMANDS: [u32; command::ALL.len()] = command::ALL;
 
 /// The command's name as the CLI spells it (`?` for a code this build does not know).
 pub fn command_name(code: u32) -> &'static str {
-    match code {
-        command::LOAD_PROGRAM => "load",
-        command::START => "start",
-        command::FEED_HOLD => "hold",
-        command::RESUME => "resume",
-        command::STOP => "stop",
-        command::RESET => "reset",
-        command::JOG => "jog",
-        command::SPINDLE_ON => "spindle on",
-        command::SPINDLE_OFF => "spindle off",
-        command::NEW_BLANK => "new blank",
-        command::HOME => "home",
-        command::JOG_CONTINUOUS => "jog continuous",
-        command::JOG_RELEASE => "jog release",
-        command::FEED_OVERRIDE => "feed override",
-        command::SPINDLE_OVERRIDE => "spindle override",
-        command::TOUCH_OFF => "touch-off",
-        command::CONTINUE => "continue",
-        command::SPINDLE_HOLD => "spindle hold",
-        command::FLIGHT_RECORD => "record",
-        command::TOUCH_FLANK => "touch flank",
-        _ => "?",
-    }
+    command::name(code).unwrap_or("?")
 }
 
-/// Every [`event_kind`] code, in code order.
-pub const EVENT_KINDS: [u32; 16] = [
-    event_kind::STATE_CHANGED,
-    event_kind::ALARM,
-    event_kind::ALARM_CLEARED,
-    event_kind::PASS_STARTED,
-    event_kind::PHASE_RECORDED,
-    event_kind::ACCEPTED,
-    event_kind::REFUSED,
-    event_kind::PROGRAM_LOADED,
-    event_kind::CYCLE_DONE,
-    event_kind::MESSAGE,
-    event_kind::BUS,
-    event_kind::REFERENCED,
-    event_kind::DEAD_MAN_STOP,
-    event_kind::OFFSET_CHANGED,
-    event_kind::FLANK_TOUCHED,
-    event_kind::PHASE_ALIGNED,
-];
+/// Every [`event_kind`] code, in code order (declared once, with its word, in [`event_kind`]).
+pub const EVENT_KINDS: [u32; event_kind::ALL.len()] = event_kind::ALL;
 
 /// The name of an [`event_kind`] code (`None` for one this build does not know).
 pub fn event_kind_name(k: u32) -> Option<&'static str> {
-    Some(match k {
-        event_kind::STATE_CHANGED => "state-changed",
-        event_kind::ALARM => "alarm",
-        event_kind::ALARM_CLEARED => "alarm-cleared",
-        event_kind::PASS_STARTED => "pass-started",
-        event_kind::PHASE_RECORDED => "phase-recorded",
-        event_kind::ACCEPTED => "accepted",
-        event_kind::REFUSED => "refused",
-        event_kind::PROGRAM_LOADED => "program-loaded",
-        event_kind::CYCLE_DONE => "cycle-done",
-        event_kind::MESSAGE => "message",
-        event_kind::BUS => "bus",
-        event_kind::REFERENCED => "referenced",
-        event_kind::DEAD_MAN_STOP => "dead-man-stop",
-        event_kind::OFFSET_CHANGED => "offset-changed",
-        event_kind::FLANK_TOUCHED => "flank-touched",
-        event_kind::PHASE_ALIGNED => "phase-aligned",
-        _ => return None,
-    })
+    event_kind::name(k)
 }
 
 /// One line for an event (logger, `hob status --watch`, HMI).
@@ -660,23 +582,12 @@ fn axis_name(code: u32) -> &'static str {
         .map_or("?", Axis::name)
 }
 
-/// Every [`bus_event`] code, in code order.
-pub const BUS_EVENTS: [u32; 4] = [
-    bus_event::EMCY,
-    bus_event::HEARTBEAT_LOST,
-    bus_event::TPDO_MISSING,
-    bus_event::SEND_FAILED,
-];
+/// Every [`bus_event`] code, in code order (declared once, with its word, in [`bus_event`]).
+pub const BUS_EVENTS: [u32; bus_event::ALL.len()] = bus_event::ALL;
 
 /// The name of a [`bus_event`] code (`None` for one this build does not know).
 pub fn bus_event_name(b: u32) -> Option<&'static str> {
-    Some(match b {
-        bus_event::EMCY => "emcy",
-        bus_event::HEARTBEAT_LOST => "heartbeat-lost",
-        bus_event::TPDO_MISSING => "tpdo-missing",
-        bus_event::SEND_FAILED => "send-failed",
-        _ => return None,
-    })
+    bus_event::name(b)
 }
 
 /// The operator's words for a bus event ([`event_kind::BUS`]).

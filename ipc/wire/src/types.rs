@@ -12,6 +12,33 @@ pub const RESPONSE_TEXT_BYTES: usize = 4 * 1024;
 /// Capacity of an event's message text.
 pub const EVENT_TEXT_BYTES: usize = 120;
 
+/// A table of codes declared once: each code's constant, its word, and every code in
+/// order (`ALL`); `name` gives the word of a code (`None`: one this build does not know).
+macro_rules! code_table {
+    (
+        $(#[$doc:meta])*
+        pub mod $table:ident: $ty:ty {
+            $( $(#[$cdoc:meta])* $name:ident = $code:literal, $word:literal; )*
+        }
+    ) => {
+        $(#[$doc])*
+        pub mod $table {
+            $( $(#[$cdoc])* pub const $name: $ty = $code; )*
+
+            /// Every code, in code order.
+            pub const ALL: [$ty; [$(stringify!($name)),*].len()] = [$($name),*];
+
+            /// The code's word (`None`: a code this build does not know).
+            pub const fn name(code: $ty) -> Option<&'static str> {
+                match code {
+                    $( $code => Some($word), )*
+                    _ => None,
+                }
+            }
+        }
+    };
+}
+
 /// Copies `s` into `buf` (cut at a character boundary if too long); returns the length.
 pub fn write_text(buf: &mut [u8], s: &str) -> u32 {
     let mut n = s.len().min(buf.len());
@@ -142,47 +169,51 @@ pub fn program_hash(text: &str) -> u64 {
     h.max(1)
 }
 
-/// Event kinds ([`EventSample::kind`]).
-pub mod event_kind {
-    pub const STATE_CHANGED: u32 = 1;
-    pub const ALARM: u32 = 2;
-    pub const ALARM_CLEARED: u32 = 3;
-    pub const PASS_STARTED: u32 = 4;
-    pub const PHASE_RECORDED: u32 = 5;
-    pub const ACCEPTED: u32 = 6;
-    pub const REFUSED: u32 = 7;
-    pub const PROGRAM_LOADED: u32 = 8;
-    pub const CYCLE_DONE: u32 = 9;
-    /// A message of the service (start-up, privileges, shutdown).
-    pub const MESSAGE: u32 = 10;
-    /// The service's CANopen master saw something: `b` is a [`super::bus_event`] code.
-    pub const BUS: u32 = 11;
-    /// An axis is referenced: `a` its axis code.
-    pub const REFERENCED: u32 = 12;
-    /// A continuous jog was stopped by its dead-man: `a` the axis code (0: the hob spindle
-    /// C of a `SPINDLE_HOLD`).
-    pub const DEAD_MAN_STOP: u32 = 13;
-    /// A touch-off set a work offset: `a` the axis code, `value` the offset (mm).
-    pub const OFFSET_CHANGED: u32 = 14;
-    /// A flank of a cut gap touched: `a` the [`super::direction`] the table turned,
-    /// `value` the tooth phase there (deg).
-    pub const FLANK_TOUCHED: u32 = 15;
-    /// Both flanks touched: `value` the part's tooth phase (deg), `a` the play between
-    /// the flanks in micro-degrees.
-    pub const PHASE_ALIGNED: u32 = 16;
+code_table! {
+    /// Event kinds ([`EventSample::kind`]).
+    pub mod event_kind: u32 {
+        STATE_CHANGED = 1, "state-changed";
+        ALARM = 2, "alarm";
+        ALARM_CLEARED = 3, "alarm-cleared";
+        PASS_STARTED = 4, "pass-started";
+        PHASE_RECORDED = 5, "phase-recorded";
+        ACCEPTED = 6, "accepted";
+        REFUSED = 7, "refused";
+        PROGRAM_LOADED = 8, "program-loaded";
+        CYCLE_DONE = 9, "cycle-done";
+        /// A message of the service (start-up, privileges, shutdown).
+        MESSAGE = 10, "message";
+        /// The service's CANopen master saw something: `b` is a [`super::bus_event`] code.
+        BUS = 11, "bus";
+        /// An axis is referenced: `a` its axis code.
+        REFERENCED = 12, "referenced";
+        /// A continuous jog was stopped by its dead-man: `a` the axis code (0: the hob spindle
+        /// C of a `SPINDLE_HOLD`).
+        DEAD_MAN_STOP = 13, "dead-man-stop";
+        /// A touch-off set a work offset: `a` the axis code, `value` the offset (mm).
+        OFFSET_CHANGED = 14, "offset-changed";
+        /// A flank of a cut gap touched: `a` the [`super::direction`] the table turned,
+        /// `value` the tooth phase there (deg).
+        FLANK_TOUCHED = 15, "flank-touched";
+        /// Both flanks touched: `value` the part's tooth phase (deg), `a` the play between
+        /// the flanks in micro-degrees.
+        PHASE_ALIGNED = 16, "phase-aligned";
+    }
 }
 
-/// What a [`event_kind::BUS`] event's `b` says happened; `a` is the node (in its low byte
-/// for [`bus_event::TPDO_MISSING`]), `value` the code, count or OS error that goes with it.
-pub mod bus_event {
-    /// An emergency message: `value` is its error code.
-    pub const EMCY: u32 = 1;
-    pub const HEARTBEAT_LOST: u32 = 2;
-    /// The node's synchronous TPDO late or lost in `value` cycles since its last report;
-    /// `a`: the node in its low byte, the longest run of them in a row above it.
-    pub const TPDO_MISSING: u32 = 3;
-    /// A frame could not be sent: `a` is a [`super::send_error`] code, `value` the errno.
-    pub const SEND_FAILED: u32 = 4;
+code_table! {
+    /// What a [`event_kind::BUS`] event's `b` says happened; `a` is the node (in its low byte
+    /// for [`bus_event::TPDO_MISSING`]), `value` the code, count or OS error that goes with it.
+    pub mod bus_event: u32 {
+        /// An emergency message: `value` is its error code.
+        EMCY = 1, "emcy";
+        HEARTBEAT_LOST = 2, "heartbeat-lost";
+        /// The node's synchronous TPDO late or lost in `value` cycles since its last report;
+        /// `a`: the node in its low byte, the longest run of them in a row above it.
+        TPDO_MISSING = 3, "tpdo-missing";
+        /// A frame could not be sent: `a` is a [`super::send_error`] code, `value` the errno.
+        SEND_FAILED = 4, "send-failed";
+    }
 }
 
 /// Why a frame could not be sent ([`bus_event::SEND_FAILED`]).
@@ -341,39 +372,41 @@ pub struct StatsSample {
     pub compute_histogram: Log2Histogram,
 }
 
-/// Command codes ([`CommandRequest::command`]).
-pub mod command {
-    pub const LOAD_PROGRAM: u32 = 1;
-    pub const START: u32 = 2;
-    pub const FEED_HOLD: u32 = 3;
-    pub const RESUME: u32 = 4;
-    pub const STOP: u32 = 5;
-    pub const RESET: u32 = 6;
-    pub const JOG: u32 = 7;
-    pub const SPINDLE_ON: u32 = 8;
-    pub const SPINDLE_OFF: u32 = 9;
-    pub const NEW_BLANK: u32 = 10;
-    /// `axis`: 0 X then Y, 2 X, 3 Y.
-    pub const HOME: u32 = 11;
-    /// `axis`, `direction`, `value`: speed (mm/min, deg/min for B); renews a running one.
-    pub const JOG_CONTINUOUS: u32 = 12;
-    pub const JOG_RELEASE: u32 = 13;
-    /// `value`: percent.
-    pub const FEED_OVERRIDE: u32 = 14;
-    /// `value`: percent.
-    pub const SPINDLE_OVERRIDE: u32 = 15;
-    /// `axis` (X or Y), `value`: the gauge's diameter (X) or height (Y), mm.
-    pub const TOUCH_OFF: u32 = 16;
-    /// Continue the interrupted program from its interrupted pass.
-    pub const CONTINUE: u32 = 17;
-    /// `value`: rpm. The hob spindle turns while this is renewed (a press-and-hold with a
-    /// dead-man, as `JOG_CONTINUOUS`); `SPINDLE_OFF` stops it at once.
-    pub const SPINDLE_HOLD: u32 = 18;
-    /// Write the flight recorder's last seconds to disk (`hob record`).
-    pub const FLIGHT_RECORD: u32 = 19;
-    /// `direction`: the way the table was turned until a flank of the cut gap touched the
-    /// hob's tooth (aligning to a part whose gaps are cut).
-    pub const TOUCH_FLANK: u32 = 20;
+code_table! {
+    /// Command codes ([`CommandRequest::command`]).
+    pub mod command: u32 {
+        LOAD_PROGRAM = 1, "load";
+        START = 2, "start";
+        FEED_HOLD = 3, "hold";
+        RESUME = 4, "resume";
+        STOP = 5, "stop";
+        RESET = 6, "reset";
+        JOG = 7, "jog";
+        SPINDLE_ON = 8, "spindle on";
+        SPINDLE_OFF = 9, "spindle off";
+        NEW_BLANK = 10, "new blank";
+        /// `axis`: 0 X then Y, 2 X, 3 Y.
+        HOME = 11, "home";
+        /// `axis`, `direction`, `value`: speed (mm/min, deg/min for B); renews a running one.
+        JOG_CONTINUOUS = 12, "jog continuous";
+        JOG_RELEASE = 13, "jog release";
+        /// `value`: percent.
+        FEED_OVERRIDE = 14, "feed override";
+        /// `value`: percent.
+        SPINDLE_OVERRIDE = 15, "spindle override";
+        /// `axis` (X or Y), `value`: the gauge's diameter (X) or height (Y), mm.
+        TOUCH_OFF = 16, "touch-off";
+        /// Continue the interrupted program from its interrupted pass.
+        CONTINUE = 17, "continue";
+        /// `value`: rpm. The hob spindle turns while this is renewed (a press-and-hold with a
+        /// dead-man, as `JOG_CONTINUOUS`); `SPINDLE_OFF` stops it at once.
+        SPINDLE_HOLD = 18, "spindle hold";
+        /// Write the flight recorder's last seconds to disk (`hob record`).
+        FLIGHT_RECORD = 19, "record";
+        /// `direction`: the way the table was turned until a flank of the cut gap touched the
+        /// hob's tooth (aligning to a part whose gaps are cut).
+        TOUCH_FLANK = 20, "touch flank";
+    }
 }
 
 /// Directions of a continuous jog ([`CommandRequest::direction`]).

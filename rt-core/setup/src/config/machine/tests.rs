@@ -24,7 +24,7 @@ fn shipped_src() -> String {
     std::fs::read_to_string(shipped_path()).expect("shipped machine.toml")
 }
 
-/// Loads `src` with its validation, as `MachineConfig::load` does.
+/// Loads `src` with its validation, as `hob_store::files::load_machine` does.
 fn load_src(src: &str) -> Result<MachineConfig, LoadError> {
     let file = Path::new("machine.toml");
     let config: MachineConfig = parse_toml(file, src)?;
