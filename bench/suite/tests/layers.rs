@@ -17,12 +17,15 @@ const ALLOWED: &[(&str, &[&str])] = &[
     ("hob-gearing", &[]),
     // Profile disk cutters: their profile, the tooth space they cut, their design.
     ("hob-cutters", &["hob-gearing"]),
-    ("hob-setup", &["hob-gearing", "hob-cutters"]),
+    // The machine file and the problems of any TOML file; the set-up (programs, planner)
+    // above it.
+    ("hob-config", &["hob-gearing"]),
+    ("hob-setup", &["hob-gearing", "hob-cutters", "hob-config"]),
     ("hob-control", &["hob-gearing", "hob-setup", "hob-wire"]),
     ("hob-canopen", &["hob-wire"]),
     (
         "hob-process-image",
-        &["hob-canopen", "hob-gearing", "hob-setup", "hob-wire"],
+        &["hob-canopen", "hob-gearing", "hob-config", "hob-wire"],
     ),
     ("hob-master", &["hob-canopen", "hob-process-image", "hob-control"]),
     // I/O edges: the shared-memory services and the gateway's socket, the CAN transports
@@ -56,8 +59,7 @@ const ALLOWED: &[(&str, &[&str])] = &[
         &[
             "hob-canopen",
             "hob-can-transport",
-            "hob-setup",
-            "hob-store",
+            "hob-config",
             "hob-process-image",
             "hob-ipc",
             "hob-rt-os",
@@ -182,8 +184,19 @@ const ALLOWED: &[(&str, &[&str])] = &[
 /// What a crate must not link, directly or through any other (transitive closures): the
 /// independent watchdog, the frontends that add no control logic, the contract.
 const MUST_NOT_LINK: &[(&str, &[&str])] = &[
-    // The safety watchdog is a second channel: it must not share the control core's faults.
-    ("hob-watchdog", &["hob-control", "hob-master", "hob-service"]),
+    // The safety watchdog is a second channel: it must not share the control core's faults
+    // nor the set-up's code (it needs the machine file and its bus plan only).
+    (
+        "hob-watchdog",
+        &[
+            "hob-control",
+            "hob-master",
+            "hob-service",
+            "hob-setup",
+            "hob-cutters",
+            "hob-store",
+        ],
+    ),
     ("hob-logger", &["hob-control", "hob-setup", "hob-master"]),
     (
         "hob-hmi",
@@ -198,7 +211,7 @@ const MUST_NOT_LINK: &[(&str, &[&str])] = &[
     // CANopen knows no control core and no machine.
     ("hob-canopen", &["hob-control", "hob-setup", "hob-process-image"]),
     // The bus plan borrows nothing from the control core.
-    ("hob-process-image", &["hob-control", "hob-master"]),
+    ("hob-process-image", &["hob-control", "hob-master", "hob-setup"]),
     // The CAN transports carry frames: no machine, no control core.
     (
         "hob-can-transport",
@@ -221,6 +234,7 @@ const PURE: &[(&str, &[&str])] = &[
     ),
     ("hob-gearing", &["serde"]),
     ("hob-cutters", &["serde"]),
+    ("hob-config", &["serde", "toml"]),
     ("hob-setup", &["serde", "toml"]),
     ("hob-control", &["serde", "nalgebra", "postcard"]),
     ("hob-canopen", &[]),

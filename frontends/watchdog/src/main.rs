@@ -22,12 +22,12 @@ use hob_canopen::bus::CanBus;
 use hob_canopen::cia402::{command, object};
 use hob_canopen::frame::{Cob, Frame};
 use hob_canopen::sdo::SdoClient;
+use hob_config::machine::MachineConfig;
 use hob_ipc::codec::{self, Fault, State};
 use hob_ipc::{AlarmCode, StateSample};
 use hob_process_image::plan::{ANALOG_OUTPUTS, BusPlan, DIGITAL_OUTPUTS};
 use hob_rt_os as rt;
 use hob_rt_os::{RtReport, now_ns, sleep_until_ns};
-use hob_setup::config::machine::MachineConfig;
 use liveness::{Channel, Liveness, Silence};
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -138,7 +138,7 @@ fn main() -> ExitCode {
             return ExitCode::from(2);
         }
     };
-    let machine = match hob_store::files::load_machine(&args.machine) {
+    let machine = match load_machine(&args.machine) {
         Ok(m) => m,
         Err(e) => {
             eprintln!("hob-watchdog: refused: {e}");
@@ -324,4 +324,14 @@ fn act(bus: &mut Box<dyn CanBus>, frames: &[Frame], why: Trip, cycle: u64, iface
             "errors": errors.len(),
         })
     );
+}
+
+/// The machine file, read here (the watchdog links no set-up code and no store): its text
+/// parsed and validated by `hob-config`, as every process reads it.
+fn load_machine(file: &std::path::Path) -> Result<MachineConfig, hob_config::LoadError> {
+    let src = std::fs::read_to_string(file).map_err(|error| hob_config::LoadError::Io {
+        file: file.to_path_buf(),
+        error,
+    })?;
+    MachineConfig::parse(file, &src)
 }

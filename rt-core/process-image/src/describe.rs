@@ -192,7 +192,7 @@ mod tests {
     use super::*;
 
     fn plan() -> BusPlan {
-        BusPlan::from_machine(&hob_setup::config::machine::shipped_for_tests())
+        BusPlan::from_machine(&hob_config::machine::shipped_for_tests())
     }
 
     #[test]

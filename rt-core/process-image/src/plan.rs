@@ -17,8 +17,8 @@ use hob_canopen::busload::{BusLoad, Traffic, bus_load};
 use hob_canopen::cia402::{MODE_CSP, object};
 use hob_canopen::frame::{rpdo_id, tpdo_id};
 use hob_canopen::pdo::{Direction, MapEntry, Pdo, SdoWrite};
+use hob_config::machine::{LinearAxisConfig, MachineConfig, Polarity};
 use hob_gearing::units::AxisScale;
-use hob_setup::config::machine::{LinearAxisConfig, MachineConfig, Polarity};
 use hob_wire::vocab::Axis;
 
 /// Node-ID of the master (its heartbeat COB-ID is 0x700 + this).
@@ -394,7 +394,7 @@ mod tests {
     fn the_machine_file_accepts_exactly_the_homing_methods_the_protocol_names() {
         // hob-setup keeps its own copy (it depends on no protocol crate).
         assert_eq!(
-            hob_setup::config::machine::HOMING_METHODS,
+            hob_config::machine::HOMING_METHODS,
             hob_canopen::cia402::HOMING_METHODS_SWITCH_AND_INDEX
         );
     }
@@ -403,7 +403,7 @@ mod tests {
     use hob_control::ControlParams as ControlScale;
 
     fn shipped() -> MachineConfig {
-        hob_setup::config::machine::shipped_for_tests()
+        hob_config::machine::shipped_for_tests()
     }
 
     /// Worst-case bits of a CAN 2.0A data frame with `n` data bytes, counted field by
@@ -606,7 +606,7 @@ mod tests {
     #[test]
     fn the_machine_files_homing_methods_are_the_protocols() {
         assert_eq!(
-            hob_setup::config::machine::HOMING_METHODS,
+            hob_config::machine::HOMING_METHODS,
             hob_canopen::cia402::HOMING_METHODS_SWITCH_AND_INDEX
         );
         for m in hob_canopen::cia402::HOMING_METHODS_SWITCH_AND_INDEX {

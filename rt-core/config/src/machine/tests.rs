@@ -1,5 +1,5 @@
 use super::*;
-use crate::config::parse_toml;
+use crate::parse_toml;
 use std::path::PathBuf;
 
 fn shipped_path() -> PathBuf {

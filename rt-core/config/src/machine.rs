@@ -2,7 +2,7 @@
 //! machine builder at commissioning. Loaded with serde (unknown keys refused) and validated
 //! completely before anything runs.
 
-use super::{LoadError, Problems, parse_toml};
+use crate::{LoadError, Problems, parse_toml};
 use hob_gearing::cutting::SpindleDrive;
 use serde::{Deserialize, Serialize};
 use std::path::Path;
@@ -1001,7 +1001,7 @@ fn check_bits(p: &mut Problems, table: &str, bindings: &[(&str, DigitalBinding)]
 #[cfg(any(test, feature = "test-support"))]
 pub fn shipped_for_tests() -> MachineConfig {
     let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../config/machine.toml");
-    let src = include_str!("../../../../config/machine.toml");
+    let src = include_str!("../../../config/machine.toml");
     MachineConfig::parse(&path, src).unwrap_or_else(|e| panic!("{e}"))
 }
 

@@ -1,4 +1,11 @@
-//! Loading and validating TOML files (machine configuration, plant, programs).
+//! # hob-config: the machine file and how every TOML file is checked
+//!
+//! The machine configuration (`config/machine.toml`, [`machine::MachineConfig`]) parsed
+//! and validated completely, and what every TOML file of hob shares: problems named by key
+//! and position ([`Problems`], [`LoadError`]). Pure: texts in, values or refusals out (the
+//! files are read by `hob_store::files`). Apart from the set-up (`hob-setup`: programs and
+//! the planner), so that a process that needs only the machine, the safety watchdog, links
+//! no set-up code.
 //!
 //! Start-up code: it may allocate and fail. Every refusal names the file, the line and
 //! column, the key, and the limit that was broken; all problems of a file are reported at
