@@ -376,7 +376,7 @@ pub fn hmi(data: &[u8]) {
     };
     if let ClientMsg::Cmd { op, .. } = msg {
         match op.request() {
-            Err(why) => assert!(!why.is_empty()),
+            Err(why) => assert!(!why.to_string().is_empty()),
             Ok(req) => {
                 if let Err(why) = to_mail(&req, shipped()) {
                     panic!("the HMI built {op:?} that the loop refuses to decode: {why}");
@@ -400,7 +400,7 @@ pub fn gateway(data: &[u8]) {
     {
         match decode::<T>(data) {
             Err(why) => {
-                assert!(!why.is_empty());
+                assert!(!why.to_string().is_empty());
                 None
             }
             Ok(None) => {

@@ -261,7 +261,8 @@ pub fn run(machine: &MachineConfig, a: &DemoArgs<'_>) -> Result<String, (u8, Str
         .resolve(&origin, &stored)
         .map_err(|e| (2, format!("library: {e}")))?;
     say(&format!("program from the library {}: {name}", library.display()));
-    let req = CommandRequest::load_program(&format!("library program {name}"), &text).map_err(|e| (2, e))?;
+    let req = CommandRequest::load_program(&format!("library program {name}"), &text)
+        .map_err(|e| (2, e.to_string()))?;
     say(&service::request(&req).map_err(|(c, e)| (c, format!("load: {e}")))?);
     say(&service::request(&service::start(false)).map_err(|(c, e)| (c, format!("start: {e}")))?);
 

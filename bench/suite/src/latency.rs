@@ -253,8 +253,9 @@ fn run_loop(
     let client = hob_ipc::Client::connect(&format!("hob-bench-cmd-{}", std::process::id()))
         .map_err(|e| e.to_string())?;
     let text = std::fs::read_to_string(&a.program).map_err(|e| format!("{}: {e}", a.program.display()))?;
-    let load = CommandRequest::load_program(&a.program.display().to_string(), &text)?;
-    let home_all = hob_ipc::request::home("all")?;
+    let load =
+        CommandRequest::load_program(&a.program.display().to_string(), &text).map_err(|e| e.to_string())?;
+    let home_all = hob_ipc::request::home("all").map_err(|e| e.to_string())?;
     let mut start = CommandRequest::new(command::START);
     start.single = 0;
     let mut loaded = false;

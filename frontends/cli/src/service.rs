@@ -34,7 +34,7 @@ pub fn load(program: &Path) -> Result<String, (u8, String)> {
 /// Sends a self-contained program's text (a library tool already resolved:
 /// [`crate::library::load_text`]) under `name`.
 pub fn load_text(name: &str, text: &str) -> Result<String, (u8, String)> {
-    let req = CommandRequest::load_program(name, text).map_err(|e| (2, e))?;
+    let req = CommandRequest::load_program(name, text).map_err(refused)?;
     request(&req)
 }
 
@@ -46,8 +46,8 @@ pub fn start(single: bool) -> CommandRequest {
     hob_ipc::request::start(single)
 }
 
-fn refused(text: String) -> (u8, String) {
-    (2, text)
+fn refused(e: hob_ipc::Error) -> (u8, String) {
+    (2, e.to_string())
 }
 
 pub fn jog(axis: &str, distance: f64) -> Result<CommandRequest, (u8, String)> {

@@ -392,7 +392,7 @@ impl Connection<'_> {
                 Ok(None) => return true,
                 Err(e) => {
                     println!("hob-gateway: {}: {e}; connection closed", self.peer.who);
-                    let _ = self.queue.send(Arc::new(FromGateway::Refused(e)));
+                    let _ = self.queue.send(Arc::new(FromGateway::Refused(e.to_string())));
                     return false;
                 }
             };

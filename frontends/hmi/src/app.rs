@@ -65,7 +65,7 @@ impl App {
         let plan =
             hob_setup::planner::plan_source(&origin, &resolved, &self.machine).map_err(Error::Program)?;
         let request = CommandRequest::load_program(&format!("library program {name}"), &resolved)
-            .map_err(|e| Error::Request(e.to_string()))?;
+            .map_err(Error::Request)?;
         Ok((
             request,
             Loaded {

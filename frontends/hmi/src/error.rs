@@ -13,7 +13,11 @@ pub enum Error {
     /// A library program that does not check on this machine.
     Program(hob_setup::config::LoadError),
     /// A loop command its builder refused (`hob_ipc::request`, in its words).
-    Request(String),
+    Request(hob_ipc::Error),
+    /// A program's load asked of the command path: the server reads it from the library.
+    LoadFromLibrary {
+        program: String,
+    },
     /// The command thread is gone: no request can reach the loop.
     CommandThreadStopped,
     /// The loop did not answer in time ([`crate::commander::ANSWER`]).
@@ -63,7 +67,10 @@ impl fmt::Display for Error {
         match self {
             Error::Library(r) => write!(f, "{r}"),
             Error::Program(e) => write!(f, "{e}"),
-            Error::Request(text) => f.write_str(text),
+            Error::Request(e) => write!(f, "{e}"),
+            Error::LoadFromLibrary { program } => {
+                write!(f, "load {program}: read from the library by the server")
+            }
             Error::CommandThreadStopped => f.write_str("the HMI's command thread has stopped"),
             Error::NoAnswer(e) => write!(
                 f,

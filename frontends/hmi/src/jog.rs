@@ -71,7 +71,7 @@ impl JogSession {
             }
             request::spindle_hold(speed)
         } else {
-            request::jog_continuous(axis, dir, speed).map_err(|e| Error::Request(e.to_string()))?
+            request::jog_continuous(axis, dir, speed).map_err(Error::Request)?
         };
         self.active = Some((id, req));
         Ok(Sent {

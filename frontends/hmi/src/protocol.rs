@@ -2,6 +2,7 @@
 //! names the message), and the loop's samples turned into named values: every name and
 //! text comes from `hob_ipc::codec` and the machine file, the page only shows them.
 
+use crate::Error;
 use crate::reduce::PlotPoint;
 use hob_gearing::iso1328::single_pitch_tolerance_um;
 use hob_gearing::units::um_to_arcsec_at_radius;
@@ -471,10 +472,10 @@ pub enum ClientMsg {
 impl Op {
     /// The loop command, encoded by the same builders as the CLI's (`hob_ipc::request`);
     /// `Load` is read from the library by the caller. A refusal in the builders' words (the
-    /// page shows it; the fuzz harness, `bench/fuzz-harness`, checks it as text).
-    pub fn request(&self) -> Result<CommandRequest, String> {
+    /// page shows it; the fuzz harness, `bench/fuzz-harness`, checks it has words).
+    pub fn request(&self) -> Result<CommandRequest, Error> {
         use hob_ipc::command as c;
-        match self {
+        let built = match self {
             Op::Reset {} => Ok(request::simple(c::RESET)),
             Op::Home { axis } => request::home(axis),
             Op::Jog { axis, distance } => request::jog(axis, *distance),
@@ -489,8 +490,13 @@ impl Op {
             Op::TouchFlank { turned } => request::touch_flank(turned),
             Op::Spindle { rpm } if *rpm == 0.0 => Ok(request::simple(c::SPINDLE_OFF)),
             Op::Spindle { rpm } => Ok(request::spindle_on(*rpm)),
-            Op::Load { program } => Err(format!("load {program}: read from the library by the server")),
-        }
+            Op::Load { program } => {
+                return Err(Error::LoadFromLibrary {
+                    program: program.clone(),
+                });
+            }
+        };
+        built.map_err(Error::Request)
     }
 }
 
@@ -582,7 +588,7 @@ mod tests {
             let ClientMsg::Cmd { op, .. } = parse(json) else {
                 panic!("{json}: not a command")
             };
-            assert_eq!(op.request().as_ref(), Ok(want), "{json}");
+            assert_eq!(op.request().ok().as_ref(), Some(want), "{json}");
         }
     }
 

@@ -161,7 +161,7 @@ impl Session {
                     self.waiting.answer(id, self.app.commands.submit(r), false);
                     true
                 }
-                Err(e) => self.refuse(id, e).await,
+                Err(e) => self.refuse(id, e.to_string()).await,
             },
             ClientMsg::JogHold { id, axis, dir, speed } => self.jog_hold(id, &axis, &dir, speed).await,
             ClientMsg::JogRenew => {

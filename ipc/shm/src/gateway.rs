@@ -177,7 +177,7 @@ impl GatewayClient {
     }
 
     fn send(&mut self, msg: &ToGateway) -> Result<(), IpcError> {
-        let bytes = encode(msg).map_err(IpcError)?;
+        let bytes = encode(msg).map_err(|e| IpcError(e.to_string()))?;
         // Reading may have left the socket non-blocking; a gateway that stopped reading
         // does not hold a frontend for ever.
         let _ = self.stream.set_nonblocking(false);

@@ -55,10 +55,13 @@ pub enum FromGateway {
 }
 
 /// One frame: length and postcard bytes.
-pub fn encode<T: Serialize>(msg: &T) -> Result<Vec<u8>, String> {
-    let body = postcard::to_stdvec(msg).map_err(|e| format!("encode: {e}"))?;
+pub fn encode<T: Serialize>(msg: &T) -> Result<Vec<u8>, crate::Error> {
+    let body = postcard::to_stdvec(msg).map_err(|e| crate::Error::Encode(e.to_string()))?;
     if body.len() > MAX_FRAME {
-        return Err(format!("a frame of {} bytes (at most {MAX_FRAME})", body.len()));
+        return Err(crate::Error::FrameTooLong {
+            bytes: body.len(),
+            max: MAX_FRAME,
+        });
     }
     let mut out = Vec::with_capacity(4 + body.len());
     out.extend_from_slice(&(body.len() as u32).to_le_bytes());
@@ -69,18 +72,21 @@ pub fn encode<T: Serialize>(msg: &T) -> Result<Vec<u8>, String> {
 /// The first whole frame at the start of `buf`: `Ok(None)` when it is not all there yet,
 /// else the message and the bytes it took. A length over [`MAX_FRAME`] or bytes that do
 /// not decode are an error (the connection is closed: nothing after it can be trusted).
-pub fn decode<T: for<'de> Deserialize<'de>>(buf: &[u8]) -> Result<Option<(T, usize)>, String> {
+pub fn decode<T: for<'de> Deserialize<'de>>(buf: &[u8]) -> Result<Option<(T, usize)>, crate::Error> {
     let Some(len) = buf.get(..4) else {
         return Ok(None);
     };
     let len = u32::from_le_bytes([len[0], len[1], len[2], len[3]]) as usize;
     if len > MAX_FRAME {
-        return Err(format!("a frame of {len} bytes (at most {MAX_FRAME})"));
+        return Err(crate::Error::FrameTooLong {
+            bytes: len,
+            max: MAX_FRAME,
+        });
     }
     let Some(body) = buf.get(4..4 + len) else {
         return Ok(None);
     };
-    let msg = postcard::from_bytes(body).map_err(|e| format!("a frame that does not decode: {e}"))?;
+    let msg = postcard::from_bytes(body).map_err(|e| crate::Error::Decode(e.to_string()))?;
     Ok(Some((msg, 4 + len)))
 }
 
@@ -167,7 +173,12 @@ mod tests {
     fn a_length_over_the_limit_is_refused_before_anything_is_read() {
         let mut b = ((MAX_FRAME + 1) as u32).to_le_bytes().to_vec();
         b.extend_from_slice(&[0; 16]);
-        assert!(decode::<ToGateway>(&b).unwrap_err().contains("at most"));
+        assert!(
+            decode::<ToGateway>(&b)
+                .unwrap_err()
+                .to_string()
+                .contains("at most")
+        );
         // A fixed array of the wrong length does not decode.
         let mut bad = encode(&FromGateway::Answer(Box::new(CommandResponse::new(
             true, 0, "ok",

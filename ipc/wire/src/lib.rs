@@ -19,9 +19,11 @@
 
 pub mod bus;
 pub mod codec;
+mod error;
 pub mod frame;
 pub mod request;
 mod types;
 pub mod vocab;
 
+pub use error::Error;
 pub use types::*;

@@ -3,6 +3,7 @@
 //! the command's is refused here with the text the operator sees; the values themselves
 //! (ranges, limits, the machine's state) are the loop's to check.
 
+use crate::Error;
 use crate::codec::Axis;
 use crate::types::{CommandRequest, command, direction};
 
@@ -18,12 +19,15 @@ pub fn start(single: bool) -> CommandRequest {
     r
 }
 
-fn axis_of(what: &str, axis: &str) -> Result<Axis, String> {
-    Axis::parse(axis).ok_or_else(|| format!("{what}: axis {axis} is not x, y or b"))
+fn axis_of(command: &'static str, axis: &str) -> Result<Axis, Error> {
+    Axis::parse(axis).ok_or_else(|| Error::NotAnAxis {
+        command,
+        word: axis.to_string(),
+    })
 }
 
 /// `JOG`: a distance, mm (deg for B).
-pub fn jog(axis: &str, distance: f64) -> Result<CommandRequest, String> {
+pub fn jog(axis: &str, distance: f64) -> Result<CommandRequest, Error> {
     let a = axis_of("jog", axis)?;
     let mut r = CommandRequest::new(command::JOG);
     r.axis = a.code();
@@ -32,16 +36,16 @@ pub fn jog(axis: &str, distance: f64) -> Result<CommandRequest, String> {
 }
 
 /// `HOME`: `x`, `y`, or `all` (X then Y).
-pub fn home(axes: &str) -> Result<CommandRequest, String> {
+pub fn home(axes: &str) -> Result<CommandRequest, Error> {
     let mut r = CommandRequest::new(command::HOME);
     r.axis = match axes.to_ascii_lowercase().as_str() {
         "all" | "xy" => 0,
         other => match Axis::parse(other) {
             Some(a @ (Axis::X | Axis::Y)) => a.code(),
             _ => {
-                return Err(format!(
-                    "home: {axes} is not x, y or all (the table needs no reference for hobbing)"
-                ));
+                return Err(Error::NotHomeAxes {
+                    word: axes.to_string(),
+                });
             }
         },
     };
@@ -49,7 +53,7 @@ pub fn home(axes: &str) -> Result<CommandRequest, String> {
 }
 
 /// `JOG_CONTINUOUS`: `+` or `-` at `speed` (mm/min, deg/min for B), renewed by sending it again.
-pub fn jog_continuous(axis: &str, dir: &str, speed: f64) -> Result<CommandRequest, String> {
+pub fn jog_continuous(axis: &str, dir: &str, speed: f64) -> Result<CommandRequest, Error> {
     let a = axis_of("jog-hold", axis)?;
     let d = direction_of("jog-hold", dir)?;
     let mut r = CommandRequest::new(command::JOG_CONTINUOUS);
@@ -59,17 +63,20 @@ pub fn jog_continuous(axis: &str, dir: &str, speed: f64) -> Result<CommandReques
     Ok(r)
 }
 
-fn direction_of(what: &str, dir: &str) -> Result<u8, String> {
+fn direction_of(command: &'static str, dir: &str) -> Result<u8, Error> {
     match dir {
         "+" | "plus" | "positive" => Ok(direction::POSITIVE),
         "-" | "minus" | "negative" => Ok(direction::NEGATIVE),
-        _ => Err(format!("{what}: direction {dir} is not + or -")),
+        _ => Err(Error::NotADirection {
+            command,
+            word: dir.to_string(),
+        }),
     }
 }
 
 /// `TOUCH_FLANK`: a flank of the cut gap touches the hob's tooth, the table having been
 /// turned `+` or `-` to it.
-pub fn touch_flank(dir: &str) -> Result<CommandRequest, String> {
+pub fn touch_flank(dir: &str) -> Result<CommandRequest, Error> {
     let mut r = CommandRequest::new(command::TOUCH_FLANK);
     r.direction = direction_of("touch-flank", dir)?;
     Ok(r)
@@ -81,11 +88,15 @@ pub fn jog_release() -> CommandRequest {
 }
 
 /// `FEED_OVERRIDE` or `SPINDLE_OVERRIDE` (`feed`, `spindle`), percent.
-pub fn override_request(what: &str, percent: f64) -> Result<CommandRequest, String> {
+pub fn override_request(what: &str, percent: f64) -> Result<CommandRequest, Error> {
     let code = match what {
         "feed" => command::FEED_OVERRIDE,
         "spindle" => command::SPINDLE_OVERRIDE,
-        _ => return Err(format!("override: {what} is not feed or spindle")),
+        _ => {
+            return Err(Error::NotAnOverride {
+                word: what.to_string(),
+            });
+        }
     };
     let mut r = CommandRequest::new(code);
     r.value = percent;
@@ -93,19 +104,23 @@ pub fn override_request(what: &str, percent: f64) -> Result<CommandRequest, Stri
 }
 
 /// `TOUCH_OFF` as the CLI takes it: X with the gauge's diameter, or Y with its height.
-pub fn touch_off(axis: &str, diameter: Option<f64>, height: Option<f64>) -> Result<CommandRequest, String> {
+pub fn touch_off(axis: &str, diameter: Option<f64>, height: Option<f64>) -> Result<CommandRequest, Error> {
     match (Axis::parse(axis), diameter, height) {
         (Some(Axis::X), Some(d), None) => touch_off_value("x", d),
         (Some(Axis::Y), None, Some(h)) => touch_off_value("y", h),
-        _ => Err("touch-off: give x --diameter MM (the gauge's diameter) or y --height MM (its top face above the table face)".into()),
+        _ => Err(Error::TouchOffGauge),
     }
 }
 
 /// `TOUCH_OFF` of an axis with its gauge's size: X its diameter, Y its height, mm.
-pub fn touch_off_value(axis: &str, value_mm: f64) -> Result<CommandRequest, String> {
+pub fn touch_off_value(axis: &str, value_mm: f64) -> Result<CommandRequest, Error> {
     let a = match Axis::parse(axis) {
         Some(a @ (Axis::X | Axis::Y)) => a,
-        _ => return Err(format!("touch-off: axis {axis} is not x or y")),
+        _ => {
+            return Err(Error::NotATouchOffAxis {
+                word: axis.to_string(),
+            });
+        }
     };
     let mut r = CommandRequest::new(command::TOUCH_OFF);
     r.axis = a.code();
@@ -172,20 +187,32 @@ mod tests {
     #[test]
     fn a_word_that_is_not_the_commands_is_refused_with_the_operators_text() {
         assert_eq!(
-            home("b").unwrap_err(),
+            home("b").unwrap_err().to_string(),
             "home: b is not x, y or all (the table needs no reference for hobbing)"
         );
-        assert_eq!(jog("z", 1.0).unwrap_err(), "jog: axis z is not x, y or b");
         assert_eq!(
-            jog_continuous("x", "up", 1.0).unwrap_err(),
+            jog("z", 1.0).unwrap_err().to_string(),
+            "jog: axis z is not x, y or b"
+        );
+        assert_eq!(
+            jog_continuous("x", "up", 1.0).unwrap_err().to_string(),
             "jog-hold: direction up is not + or -"
         );
         assert_eq!(
-            override_request("rapid", 50.0).unwrap_err(),
+            override_request("rapid", 50.0).unwrap_err().to_string(),
             "override: rapid is not feed or spindle"
         );
         assert!(touch_off("x", None, Some(1.0)).is_err());
         assert!(touch_off("x", Some(1.0), Some(1.0)).is_err());
-        assert!(touch_off_value("b", 1.0).is_err());
+        assert_eq!(
+            touch_off_value("b", 1.0).unwrap_err().to_string(),
+            "touch-off: axis b is not x or y"
+        );
+        assert!(
+            touch_off("y", None, None)
+                .unwrap_err()
+                .to_string()
+                .contains("--height MM")
+        );
     }
 }

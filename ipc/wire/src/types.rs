@@ -455,12 +455,13 @@ impl CommandRequest {
     }
 
     /// A LOAD_PROGRAM request; refuses a text that does not fit.
-    pub fn load_program(name: &str, toml: &str) -> Result<Self, String> {
+    pub fn load_program(name: &str, toml: &str) -> Result<Self, crate::Error> {
         if toml.len() > REQUEST_TEXT_BYTES {
-            return Err(format!(
-                "{name}: {} bytes, a program file may have at most {REQUEST_TEXT_BYTES}",
-                toml.len()
-            ));
+            return Err(crate::Error::ProgramTooLong {
+                name: name.to_string(),
+                bytes: toml.len(),
+                max: REQUEST_TEXT_BYTES,
+            });
         }
         let mut r = Self::new(command::LOAD_PROGRAM);
         r.name_len = write_text(&mut r.name, name);
