@@ -787,96 +787,136 @@ impl Cyclic {
     pub fn transmit(&mut self, out: &CycleOutputs, bus: &mut dyn CanBus) -> Result<(), BusError> {
         let spacing = (f64::from(self.plan.event_rpdo_spacing_ms) / 1000.0 / self.plan.cycle_s).ceil() as u32;
         let mut first_error = None;
-        let send = |bus: &mut dyn CanBus, f: &Frame, err: &mut Option<BusError>| {
-            if let Err(e) = bus.send(f)
-                && err.is_none()
-            {
-                *err = Some(e);
-            }
-        };
         let targets = [
             (out.table_target_counts, out.table_velocity_counts_s),
             (out.x_target_counts, out.x_velocity_counts_s),
             (out.y_target_counts, out.y_velocity_counts_s),
         ];
-        for (i, (target, velocity)) in targets.into_iter().enumerate() {
-            let d = self.plan.drives[i];
-            let f = d
-                .target
-                .pack(&[target as u32 as u64, velocity.round() as i32 as u32 as u64]);
-            send(bus, &f, &mut first_error);
-            let state = PowerState::from_statusword(self.statusword[i]);
-            let base = if self.quick_stop && state == PowerState::OperationEnabled {
-                cia402::command::QUICK_STOP
-            } else {
-                cia402::next_controlword(state, out.drives_enabled && !self.quick_stop)
-            };
-            let mode = if d.homing.is_some() {
-                out.drive_modes[i].code()
-            } else {
-                cia402::MODE_CSP
-            };
-            let homing_start = mode == cia402::MODE_HOMING
-                && out.homing_start[i]
-                && base == cia402::command::ENABLE_OPERATION;
-            let cw = if homing_start {
-                base | cia402::CW_HOMING_START
-            } else {
-                base
-            };
-            self.controlword_age[i] = self.controlword_age[i].saturating_add(1);
-            let changed = self.last_control[i] != Some((mode, cw));
-            // Steps towards "enabled" and mode changes at most once per spacing (the
-            // bus-load figure counts on it); disabling and quick stop go at once. An
-            // unanswered step is repeated.
-            let stopping = base == cia402::command::DISABLE_VOLTAGE || base == cia402::command::QUICK_STOP;
-            let due = self.controlword_age[i] >= spacing;
-            if (changed && (due || stopping)) || self.controlword_age[i] >= spacing * 4 {
-                send(
-                    bus,
-                    &d.control.pack(&[u64::from(mode as u8), u64::from(cw)]),
-                    &mut first_error,
-                );
-                self.last_control[i] = Some((mode, cw));
-                self.controlword_age[i] = 0;
-            }
+        for (i, target) in targets.into_iter().enumerate() {
+            self.transmit_drive(i, target, out, spacing, bus, &mut first_error);
         }
+        self.transmit_outputs(out, spacing, bus, &mut first_error);
+        self.transmit_analog(out, spacing, bus, &mut first_error);
+        self.transmit_heartbeat(bus, &mut first_error);
+        self.transmit_sync(bus, &mut first_error);
+        match first_error {
+            Some(e) => {
+                self.event(BusEvent::SendFailed(e));
+                Err(e)
+            }
+            None => Ok(()),
+        }
+    }
+
+    /// Drive `i`'s target and velocity (RPDO1), and its mode with the controlword (RPDO2)
+    /// when due.
+    fn transmit_drive(
+        &mut self,
+        i: usize,
+        (target, velocity): (i32, f64),
+        out: &CycleOutputs,
+        spacing: u32,
+        bus: &mut dyn CanBus,
+        first_error: &mut Option<BusError>,
+    ) {
+        let d = self.plan.drives[i];
+        let f = d
+            .target
+            .pack(&[target as u32 as u64, velocity.round() as i32 as u32 as u64]);
+        send_noting(bus, &f, first_error);
+        let state = PowerState::from_statusword(self.statusword[i]);
+        let base = if self.quick_stop && state == PowerState::OperationEnabled {
+            cia402::command::QUICK_STOP
+        } else {
+            cia402::next_controlword(state, out.drives_enabled && !self.quick_stop)
+        };
+        let mode = if d.homing.is_some() {
+            out.drive_modes[i].code()
+        } else {
+            cia402::MODE_CSP
+        };
+        let homing_start =
+            mode == cia402::MODE_HOMING && out.homing_start[i] && base == cia402::command::ENABLE_OPERATION;
+        let cw = if homing_start {
+            base | cia402::CW_HOMING_START
+        } else {
+            base
+        };
+        self.controlword_age[i] = self.controlword_age[i].saturating_add(1);
+        let changed = self.last_control[i] != Some((mode, cw));
+        // Steps towards "enabled" and mode changes at most once per spacing (the
+        // bus-load figure counts on it); disabling and quick stop go at once. An
+        // unanswered step is repeated.
+        let stopping = base == cia402::command::DISABLE_VOLTAGE || base == cia402::command::QUICK_STOP;
+        let due = self.controlword_age[i] >= spacing;
+        if (changed && (due || stopping)) || self.controlword_age[i] >= spacing * 4 {
+            send_noting(
+                bus,
+                &d.control.pack(&[u64::from(mode as u8), u64::from(cw)]),
+                first_error,
+            );
+            self.last_control[i] = Some((mode, cw));
+            self.controlword_age[i] = 0;
+        }
+    }
+
+    /// The I/O coupler's digital outputs: switching on waits for the spacing; switching
+    /// off (PC-OK, spindle, coolant) goes at once.
+    fn transmit_outputs(
+        &mut self,
+        out: &CycleOutputs,
+        spacing: u32,
+        bus: &mut dyn CanBus,
+        first_error: &mut Option<BusError>,
+    ) {
         let io = self.plan.io;
         let dout = [out.digital_outputs as u8, (out.digital_outputs >> 8) as u8];
         self.outputs_age = self.outputs_age.saturating_add(1);
-        // Outputs switching on wait for the spacing; switching off (PC-OK, spindle, coolant)
-        // goes at once.
         let only_off = self
             .last_outputs
             .is_some_and(|old| (dout[0] & !old[0]) | (dout[1] & !old[1]) == 0);
         if self.last_outputs != Some(dout) && (self.outputs_age >= spacing || only_off) {
-            send(
+            send_noting(
                 bus,
                 &io.outputs.pack(&[u64::from(dout[0]), u64::from(dout[1])]),
-                &mut first_error,
+                first_error,
             );
             self.last_outputs = Some(dout);
             self.outputs_age = 0;
         }
+    }
+
+    /// The spindle's speed reference on the coupler's analog output, when it changed.
+    fn transmit_analog(
+        &mut self,
+        out: &CycleOutputs,
+        spacing: u32,
+        bus: &mut dyn CanBus,
+        first_error: &mut Option<BusError>,
+    ) {
         let analog = self.plan.analog_counts(out.spindle_analog_v);
         self.analog_age = self.analog_age.saturating_add(1);
         if self.last_analog != Some(analog) && self.analog_age >= spacing {
             let mut values = [0u64; 2];
             values[usize::from(self.plan.spindle_analog_channel.min(1))] = analog as u16 as u64;
-            send(bus, &io.analog.pack(&values), &mut first_error);
+            send_noting(bus, &self.plan.io.analog.pack(&values), first_error);
             self.last_analog = Some(analog);
             self.analog_age = 0;
         }
+    }
+
+    /// The master's own heartbeat, when due.
+    fn transmit_heartbeat(&mut self, bus: &mut dyn CanBus, first_error: &mut Option<BusError>) {
         let hb_cycles = (f64::from(self.plan.heartbeat_ms) / 1000.0 / self.plan.cycle_s)
             .round()
             .max(1.0) as u64;
         if self.cycle.is_multiple_of(hb_cycles) {
-            send(
-                bus,
-                &NmtState::Operational.heartbeat(MASTER_NODE),
-                &mut first_error,
-            );
+            send_noting(bus, &NmtState::Operational.heartbeat(MASTER_NODE), first_error);
         }
+    }
+
+    /// The SYNC that applies this cycle's frames: each drive owes its TPDO from then on.
+    fn transmit_sync(&mut self, bus: &mut dyn CanBus, first_error: &mut Option<BusError>) {
         let sync = bus.send(&Frame::new(SYNC, &[]));
         if sync.is_ok() {
             self.syncs_sent += 1;
@@ -887,15 +927,18 @@ impl Cyclic {
         } else if let Err(e) = sync
             && first_error.is_none()
         {
-            first_error = Some(e);
+            *first_error = Some(e);
         }
-        match first_error {
-            Some(e) => {
-                self.event(BusEvent::SendFailed(e));
-                Err(e)
-            }
-            None => Ok(()),
-        }
+    }
+}
+
+/// Sends `f`, keeping the first error of the cycle (the rest of the cycle's frames still
+/// go out).
+fn send_noting(bus: &mut dyn CanBus, f: &Frame, first_error: &mut Option<BusError>) {
+    if let Err(e) = bus.send(f)
+        && first_error.is_none()
+    {
+        *first_error = Some(e);
     }
 }
 
