@@ -14,9 +14,9 @@
 //! crossed), else it is refused and nothing changes.
 
 use super::Controller;
+use super::command::Direction;
 use super::events::EventKind;
 use super::fault::Refusal;
-use super::jog::Direction;
 
 /// Spindle speed below which it counts as standing still, deg/s (0.1 rpm).
 pub const STANDSTILL_DEG_S: f64 = 0.6;

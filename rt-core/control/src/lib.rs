@@ -13,6 +13,7 @@
 //! a fixed ring ([`events::EventRing`]) that the caller drains.
 
 mod align;
+mod command;
 pub mod eccentricity;
 pub mod egb;
 pub mod events;
@@ -28,9 +29,7 @@ pub mod referencing;
 mod sequencer;
 pub mod setup_math;
 
-pub use jog::Direction;
-pub use referencing::HomeAxes;
-pub use sequencer::{Command, State};
+pub use command::{Command, Direction, HomeAxes, State};
 pub use setup_math::Offsets;
 
 use eccentricity::EccentricityIdentifier;
