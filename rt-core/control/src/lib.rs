@@ -14,6 +14,7 @@
 
 mod align;
 mod command;
+mod commands;
 pub mod eccentricity;
 pub mod egb;
 pub mod events;
