@@ -11,12 +11,8 @@
 //! phase's unit is the table's degree, as the gearbox's: the touches are taken within
 //! one gap, so their difference is taken within half a pitch either way; a touch with the
 //! table turned positive must lie above the one turned negative (the flanks are not
-//! crossed), else it is refused and nothing changes.
-
-use super::Controller;
-use super::events::EventKind;
-use super::fault::Refusal;
-use super::jog::Direction;
+//! crossed), else it is refused and nothing changes. The command's handler is
+//! `Controller::touch_flank` (module `commands`).
 
 /// Spindle speed below which it counts as standing still, deg/s (0.1 rpm).
 pub const STANDSTILL_DEG_S: f64 = 0.6;
@@ -28,42 +24,6 @@ pub fn gap_centre_deg(turned_negative: f64, turned_positive: f64, pitch_deg: f64
     let d = turned_positive - turned_negative;
     let play = d - (d / pitch_deg).round() * pitch_deg;
     (play.is_finite() && play > 0.0).then_some((turned_negative + play / 2.0, play))
-}
-
-impl Controller {
-    /// The flank touch of command `TouchFlank`, in idle with a program loaded (checked by
-    /// the caller).
-    pub(super) fn touch_flank(&mut self, turned: Direction) -> Result<(), Refusal> {
-        if self.measured.spindle_speed_deg_s.abs() > STANDSTILL_DEG_S || self.sequencer.spindle_set_rpm != 0.0
-        {
-            return Err(Refusal::SpindleTurning);
-        }
-        let law = *self.gearbox.params();
-        let phase_deg =
-            self.measured.table_deg - law.coupled_deg(self.measured.spindle_for_gearbox_deg, self.y.position);
-        let mut touches = self.sequencer.flank_touch;
-        touches[match turned {
-            Direction::Negative => 0,
-            Direction::Positive => 1,
-        }] = Some(phase_deg);
-        let centre = match touches {
-            [Some(neg), Some(pos)] => {
-                Some(gap_centre_deg(neg, pos, law.pitch_deg).ok_or(Refusal::FlanksCrossed)?)
-            }
-            _ => None,
-        };
-        self.event(EventKind::FlankTouched { turned, phase_deg });
-        match centre {
-            Some((phase_deg, play_deg)) => {
-                self.gearbox.restore_recorded_phase(phase_deg);
-                self.sequencer.phase_lost = false;
-                self.sequencer.flank_touch = [None; 2];
-                self.event(EventKind::PhaseAligned { phase_deg, play_deg });
-            }
-            None => self.sequencer.flank_touch = touches,
-        }
-        Ok(())
-    }
 }
 
 #[cfg(test)]

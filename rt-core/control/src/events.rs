@@ -1,8 +1,8 @@
 //! Events of the loop in a fixed ring: pushed in the cycle, drained by whoever publishes
 //! them. When full, the oldest event is overwritten and counted as lost.
 
+use super::command::{Command, Direction, State};
 use super::fault::{Axis, Fault, Refusal};
-use super::sequencer::{Command, State};
 
 /// Capacity of the ring.
 pub const EVENT_CAPACITY: usize = 256;
@@ -25,7 +25,7 @@ pub enum EventKind {
     },
     /// A flank touched with the table turned in `turned`: the tooth phase there, deg.
     FlankTouched {
-        turned: crate::jog::Direction,
+        turned: Direction,
         phase_deg: f64,
     },
     /// Both flanks touched: the part's tooth phase (their middle) and the play between

@@ -6,25 +6,10 @@
 //! soft limits.
 
 use super::Controller;
-use super::State;
+pub use super::command::Direction;
+use super::command::State;
 use super::events::EventKind;
 use super::fault::{Axis, Refusal};
-
-/// Which way a continuous jog runs, in the axis' own frame (docs/domain.md section 2).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
-pub enum Direction {
-    Positive,
-    Negative,
-}
-
-impl Direction {
-    pub fn sign(self) -> f64 {
-        match self {
-            Direction::Positive => 1.0,
-            Direction::Negative => -1.0,
-        }
-    }
-}
 
 /// The jog under way.
 #[derive(Debug, Clone, Copy, Default, PartialEq, serde::Serialize, serde::Deserialize)]

@@ -13,6 +13,8 @@
 //! a fixed ring ([`events::EventRing`]) that the caller drains.
 
 mod align;
+mod command;
+mod commands;
 pub mod eccentricity;
 pub mod egb;
 pub mod events;
@@ -26,11 +28,10 @@ pub mod profile;
 pub mod program;
 pub mod referencing;
 mod sequencer;
+mod sequencing;
 pub mod setup_math;
 
-pub use jog::Direction;
-pub use referencing::HomeAxes;
-pub use sequencer::{Command, State};
+pub use command::{Command, Direction, HomeAxes, State};
 pub use setup_math::Offsets;
 
 use eccentricity::EccentricityIdentifier;
@@ -640,10 +641,24 @@ impl Controller {
         }
     }
 
-    /// Supervision: safety chain, limits, drives, feedback, following errors.
+    /// Supervision: safety chain, limits, drives, feedback, following errors. What is
+    /// checked depends on whether the drives were to be enabled at the start of the cycle
+    /// (`active`), whatever a fault raised on the way changes.
     fn supervise(&mut self, input: &CycleInputs) {
-        let i = self.measured.inputs;
         let active = self.sequencer.drives_should_be_enabled();
+        self.supervise_inputs(input, active);
+        self.supervise_drives(input, active);
+        if active && self.enable_age_s > DRIVE_ENABLE_TIMEOUT_S {
+            self.supervise_enabled(input);
+        }
+        if active && self.cycle > 3 {
+            self.supervise_following_errors();
+        }
+    }
+
+    /// The I/O coupler and the inputs: e-stop, hardware limits, VFD, safety chain.
+    fn supervise_inputs(&mut self, input: &CycleInputs, active: bool) {
+        let i = self.measured.inputs;
         if !input.io_valid && active {
             self.raise(Fault::IoLost);
         }
@@ -668,6 +683,11 @@ impl Controller {
         if !i.safety_chain_closed && active {
             self.raise(Fault::SafetyChainOpen);
         }
+    }
+
+    /// Each drive: its position, its fault and its feedback; and the time the drives have
+    /// been asked to be enabled.
+    fn supervise_drives(&mut self, input: &CycleInputs, active: bool) {
         // After a reset (or at power-up) the drives are brought up from Init: a drive's
         // fault is cleared by the fault reset the master sends, a few cycles later. A drive
         // still in fault when the enable time is over has its fault again.
@@ -694,55 +714,59 @@ impl Controller {
         } else {
             0.0
         };
-        if active && self.enable_age_s > DRIVE_ENABLE_TIMEOUT_S {
-            let faulted = [input.table.fault, input.x.fault, input.y.fault];
-            for ((enabled, faulted), axis) in
-                self.measured
-                    .drives_enabled
-                    .into_iter()
-                    .zip(faulted)
-                    .zip([Axis::B, Axis::X, Axis::Y])
-            {
-                // A drive whose fault the reset did not clear: its fault is the cause.
-                if faulted {
-                    self.raise(Fault::DriveFault { axis });
-                } else if !enabled {
-                    self.raise(Fault::DriveNotEnabled { axis });
-                }
+    }
+
+    /// The drives' enable time is over: each drive must be enabled.
+    fn supervise_enabled(&mut self, input: &CycleInputs) {
+        let faulted = [input.table.fault, input.x.fault, input.y.fault];
+        for ((enabled, faulted), axis) in
+            self.measured
+                .drives_enabled
+                .into_iter()
+                .zip(faulted)
+                .zip([Axis::B, Axis::X, Axis::Y])
+        {
+            // A drive whose fault the reset did not clear: its fault is the cause.
+            if faulted {
+                self.raise(Fault::DriveFault { axis });
+            } else if !enabled {
+                self.raise(Fault::DriveNotEnabled { axis });
             }
         }
-        if active && self.cycle > 3 {
-            let [b, x, y] = self.history[0];
-            let errors = [
-                (
-                    self.measured.table_deg - b,
-                    self.params.table_max_following_error_deg,
-                    Axis::B,
-                ),
-                (
-                    self.measured.x_mm - x,
-                    self.params.x_limits.max_following_error_mm,
-                    Axis::X,
-                ),
-                (
-                    self.measured.y_mm - y,
-                    self.params.y_limits.max_following_error_mm,
-                    Axis::Y,
-                ),
-            ];
-            for (error, limit, axis) in errors {
-                // A drive out of cyclic synchronous position follows no target of ours.
-                let own = self.referencing.drive_on_its_own(axis)
-                    || self.measured.feedback[match axis {
-                        Axis::B => 0,
-                        Axis::X => 1,
-                        Axis::Y => 2,
-                    }]
-                    .mode_display
-                        != DriveMode::CyclicPosition.code();
-                if error.abs() > limit && !own {
-                    self.raise(Fault::FollowingError { axis, error });
-                }
+    }
+
+    /// The following error of each drive that follows the loop's targets.
+    fn supervise_following_errors(&mut self) {
+        let [b, x, y] = self.history[0];
+        let errors = [
+            (
+                self.measured.table_deg - b,
+                self.params.table_max_following_error_deg,
+                Axis::B,
+            ),
+            (
+                self.measured.x_mm - x,
+                self.params.x_limits.max_following_error_mm,
+                Axis::X,
+            ),
+            (
+                self.measured.y_mm - y,
+                self.params.y_limits.max_following_error_mm,
+                Axis::Y,
+            ),
+        ];
+        for (error, limit, axis) in errors {
+            // A drive out of cyclic synchronous position follows no target of ours.
+            let own = self.referencing.drive_on_its_own(axis)
+                || self.measured.feedback[match axis {
+                    Axis::B => 0,
+                    Axis::X => 1,
+                    Axis::Y => 2,
+                }]
+                .mode_display
+                    != DriveMode::CyclicPosition.code();
+            if error.abs() > limit && !own {
+                self.raise(Fault::FollowingError { axis, error });
             }
         }
     }

@@ -10,22 +10,15 @@
 //! at its outer end, away from the work.
 
 use super::Controller;
+use super::DriveMode;
+pub use super::command::HomeAxes;
+use super::command::State;
 use super::events::EventKind;
 use super::fault::{Axis, Fault, HomingFailure};
 use super::profile::Profile;
-use super::{DriveMode, State};
 
 /// Time a drive may take to confirm a mode change (0x6061) or to start homing.
 pub const MODE_CHANGE_TIMEOUT_S: f64 = 1.0;
-
-/// Which axes a "home" command references.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
-pub enum HomeAxes {
-    X,
-    Y,
-    /// X, then Y.
-    Both,
-}
 
 /// Where the referencing of one axis stands.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
