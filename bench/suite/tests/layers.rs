@@ -281,17 +281,30 @@ struct Workspace {
     sources: BTreeMap<String, Vec<(String, String)>>,
 }
 
-/// The code of a source file as the I/O check reads it: comments removed, and nothing
-/// from the first `#[cfg(test)]` on (the tests at a file's end may use the clock).
+/// The code of a source file as the I/O check reads it: comments removed, and each item
+/// under `#[cfg(test)]` left out (a test module may use the clock): a `mod x;` line, or a
+/// block to its matching brace.
 fn code_of(text: &str) -> String {
     let mut out = String::new();
-    for line in text.lines() {
-        if line.trim_start().starts_with("#[cfg(test)]") {
-            break;
-        }
+    let mut lines = text.lines();
+    while let Some(line) = lines.next() {
         let code = line.split("//").next().unwrap_or("");
-        out.push_str(code);
-        out.push('\n');
+        if !code.trim_start().starts_with("#[cfg(test)]") {
+            out.push_str(code);
+            out.push('\n');
+            continue;
+        }
+        // Skip the item the attribute applies to.
+        let mut depth = 0i32;
+        let mut opened = false;
+        for item in lines.by_ref() {
+            let item = item.split("//").next().unwrap_or("");
+            depth += item.matches('{').count() as i32 - item.matches('}').count() as i32;
+            opened |= item.contains('{');
+            if (opened && depth <= 0) || (!opened && item.trim_end().ends_with(';')) {
+                break;
+            }
+        }
     }
     out
 }
@@ -525,7 +538,9 @@ fn a_breach_of_each_kind_is_reported() {
     ));
     ws.sources.get_mut("hob-wire").unwrap().push((
         "ipc/wire/src/peer.rs".into(),
-        code_of("fn peer() { let s = std::os::unix::net::UnixStream::connect(p); std::thread::sleep(d); }\n#[cfg(test)]\nmod tests { fn t() { std::fs::read(p); } }\n"),
+        code_of(
+            "#[cfg(test)]\nmod tests {\n    fn t() { std::fs::read(p); }\n}\nfn peer() { let s = std::os::unix::net::UnixStream::connect(p); }\n#[cfg(test)]\nmod more;\nfn later() { std::thread::sleep(d); }\n",
+        ),
     ));
     let b = breaches(&ws).join("\n");
     assert!(
