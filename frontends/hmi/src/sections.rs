@@ -1,11 +1,11 @@
 //! The state of each sub-menu of the program definition (green: complete and valid; red:
-//! missing or invalid) from `hob_setup::job::form::check_sections`: each table read on its
+//! missing or invalid) from `hob_setup::form::check_sections`: each table read on its
 //! own, then the whole program checked and planned as `hob check` does; a library tool
 //! filled in from the library.
 
 use crate::Error;
 use crate::app::App;
-use hob_setup::job::form::{SECTIONS, check_sections};
+use hob_setup::form::{SECTIONS, check_sections};
 use serde_json::{Value, json};
 
 /// Checks a program file made from the form: `{sections, problems, plan}`.

@@ -4,14 +4,13 @@
 //! core's [`Fault`] with the alarm it travels as. The control core uses these types
 //! themselves (`hob_control` re-exports them); the frontends read the same codes from the
 //! wire with [`crate::codec`]. Adding a state or a refusal is one entry here; adding a
-//! fault is a variant of [`Fault`] plus its alarm code ([`codec::Fault`], with its words,
+//! fault is a variant of [`Fault`] plus its alarm code ([`FaultCode`], with its words,
 //! reaction and remedy) and the control core's handling.
 //!
 //! The numbers are the wire format: never renumber one, only add new ones
 //! (`tests/reference.rs` holds every code as it was).
 
 use crate::AlarmCode;
-use crate::codec;
 
 /// A sequencer state ([`crate::StateSample::state`], [`crate::event_kind::STATE_CHANGED`]'s `a` and `b`).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default, serde::Serialize, serde::Deserialize)]
@@ -454,25 +453,25 @@ impl Fault {
         )
     }
 
-    /// The alarm code of this fault ([`codec::Fault`]: its words, reaction and remedy).
-    pub const fn code(&self) -> codec::Fault {
+    /// The alarm code of this fault ([`FaultCode`]: its words, reaction and remedy).
+    pub const fn code(&self) -> FaultCode {
         match self {
-            Fault::SafetyChainOpen => codec::Fault::SafetyChainOpen,
-            Fault::EmergencyStop => codec::Fault::EmergencyStop,
-            Fault::HardwareLimit { .. } => codec::Fault::HardwareLimit,
-            Fault::SoftLimit { .. } => codec::Fault::SoftLimit,
-            Fault::FollowingError { .. } => codec::Fault::FollowingError,
-            Fault::DriveFault { .. } => codec::Fault::DriveFault,
-            Fault::VfdFault => codec::Fault::VfdFault,
-            Fault::SyncLost { .. } => codec::Fault::SyncLost,
-            Fault::SpindleSpeed { .. } => codec::Fault::SpindleSpeed,
-            Fault::LubeTimeout => codec::Fault::LubeTimeout,
-            Fault::ClampTimeout => codec::Fault::ClampTimeout,
-            Fault::FeedbackLost { .. } => codec::Fault::FeedbackLost,
-            Fault::IoLost => codec::Fault::IoLost,
-            Fault::DriveNotEnabled { .. } => codec::Fault::DriveNotEnabled,
-            Fault::HomingFailed { .. } => codec::Fault::HomingFailed,
-            Fault::PositionLost { .. } => codec::Fault::PositionLost,
+            Fault::SafetyChainOpen => FaultCode::SafetyChainOpen,
+            Fault::EmergencyStop => FaultCode::EmergencyStop,
+            Fault::HardwareLimit { .. } => FaultCode::HardwareLimit,
+            Fault::SoftLimit { .. } => FaultCode::SoftLimit,
+            Fault::FollowingError { .. } => FaultCode::FollowingError,
+            Fault::DriveFault { .. } => FaultCode::DriveFault,
+            Fault::VfdFault => FaultCode::VfdFault,
+            Fault::SyncLost { .. } => FaultCode::SyncLost,
+            Fault::SpindleSpeed { .. } => FaultCode::SpindleSpeed,
+            Fault::LubeTimeout => FaultCode::LubeTimeout,
+            Fault::ClampTimeout => FaultCode::ClampTimeout,
+            Fault::FeedbackLost { .. } => FaultCode::FeedbackLost,
+            Fault::IoLost => FaultCode::IoLost,
+            Fault::DriveNotEnabled { .. } => FaultCode::DriveNotEnabled,
+            Fault::HomingFailed { .. } => FaultCode::HomingFailed,
+            Fault::PositionLost { .. } => FaultCode::PositionLost,
         }
     }
 
@@ -510,12 +509,12 @@ impl Fault {
     /// The fault of an alarm (`None` for code 0, an unknown code, a missing axis or an
     /// unknown homing failure). A hardware limit whose end is not "min" reads as "max".
     pub fn of_alarm(a: &AlarmCode) -> Option<Fault> {
-        let f = codec::Fault::of(a)?;
+        let f = FaultCode::of(a)?;
         let ax = Axis::from_code(a.axis);
         Some(match f {
-            codec::Fault::SafetyChainOpen => Fault::SafetyChainOpen,
-            codec::Fault::EmergencyStop => Fault::EmergencyStop,
-            codec::Fault::HardwareLimit => Fault::HardwareLimit {
+            FaultCode::SafetyChainOpen => Fault::SafetyChainOpen,
+            FaultCode::EmergencyStop => Fault::EmergencyStop,
+            FaultCode::HardwareLimit => Fault::HardwareLimit {
                 axis: ax?,
                 end: if End::from_code(a.end) == Some(End::Min) {
                     End::Min
@@ -523,33 +522,448 @@ impl Fault {
                     End::Max
                 },
             },
-            codec::Fault::SoftLimit => Fault::SoftLimit {
+            FaultCode::SoftLimit => Fault::SoftLimit {
                 axis: ax?,
                 position: a.value_a,
             },
-            codec::Fault::FollowingError => Fault::FollowingError {
+            FaultCode::FollowingError => Fault::FollowingError {
                 axis: ax?,
                 error: a.value_a,
             },
-            codec::Fault::DriveFault => Fault::DriveFault { axis: ax? },
-            codec::Fault::VfdFault => Fault::VfdFault,
-            codec::Fault::SyncLost => Fault::SyncLost {
+            FaultCode::DriveFault => Fault::DriveFault { axis: ax? },
+            FaultCode::VfdFault => Fault::VfdFault,
+            FaultCode::SyncLost => Fault::SyncLost {
                 error_arcsec: a.value_a,
             },
-            codec::Fault::SpindleSpeed => Fault::SpindleSpeed {
+            FaultCode::SpindleSpeed => Fault::SpindleSpeed {
                 set_rpm: a.value_a,
                 actual_rpm: a.value_b,
             },
-            codec::Fault::LubeTimeout => Fault::LubeTimeout,
-            codec::Fault::ClampTimeout => Fault::ClampTimeout,
-            codec::Fault::FeedbackLost => Fault::FeedbackLost { axis: ax? },
-            codec::Fault::IoLost => Fault::IoLost,
-            codec::Fault::DriveNotEnabled => Fault::DriveNotEnabled { axis: ax? },
-            codec::Fault::HomingFailed => Fault::HomingFailed {
+            FaultCode::LubeTimeout => Fault::LubeTimeout,
+            FaultCode::ClampTimeout => Fault::ClampTimeout,
+            FaultCode::FeedbackLost => Fault::FeedbackLost { axis: ax? },
+            FaultCode::IoLost => Fault::IoLost,
+            FaultCode::DriveNotEnabled => Fault::DriveNotEnabled { axis: ax? },
+            FaultCode::HomingFailed => Fault::HomingFailed {
                 axis: ax?,
                 why: HomingFailure::from_code(a.end)?,
             },
-            codec::Fault::PositionLost => Fault::PositionLost { axis: ax? },
+            FaultCode::PositionLost => Fault::PositionLost { axis: ax? },
+        })
+    }
+}
+
+/// What stopped the machine ([`AlarmCode::code`]; 0: no alarm). Which of the alarm's
+/// `axis`, `end`, `value_a`, `value_b` it uses is in [`FaultCode::text`].
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+#[repr(u32)]
+pub enum FaultCode {
+    SafetyChainOpen = 1,
+    EmergencyStop = 2,
+    /// `axis`, `end`.
+    HardwareLimit = 3,
+    /// `axis`, `value_a`: the commanded position.
+    SoftLimit = 4,
+    /// `axis`, `value_a`: the error.
+    FollowingError = 5,
+    /// `axis`.
+    DriveFault = 6,
+    VfdFault = 7,
+    /// `value_a`: the error, arcsec.
+    SyncLost = 8,
+    /// `value_a`: set, `value_b`: actual, rpm.
+    SpindleSpeed = 9,
+    LubeTimeout = 10,
+    ClampTimeout = 11,
+    /// `axis`.
+    FeedbackLost = 12,
+    IoLost = 13,
+    /// `axis`.
+    DriveNotEnabled = 14,
+    /// `axis`, `end`: a [`HomingFailure`] code.
+    HomingFailed = 15,
+    /// `axis`.
+    PositionLost = 16,
+}
+
+// The pieces of the fault texts (literals, so that each text is one `&'static str`).
+
+/// A fault in a cycle when X and the table can both still move (`seq_on_fault`:
+/// `FaultRetract` from the cut or the infeed, else `FaultStop`).
+macro_rules! reaction_retract {
+    () => {
+        "in the cut (or the infeed) X retracted to its safe position with the gearbox still \
+         engaged, so the hob left its tooth gap (Y stopped, the X clamp opened); then the machine \
+         stopped (gearbox out, spindle and axes to rest, 15 s at most) and PC-OK dropped, which \
+         opens the safety chain; elsewhere in a cycle it stopped where it was, then PC-OK dropped"
+    };
+}
+
+/// A fault in a cycle that the table cannot follow.
+macro_rules! reaction_table_lost {
+    () => {
+        "in the cut the table could no longer follow: the spindle stopped and the gearbox \
+         disengaged at once, X pulled the hob out of the work (Y stopped), then the machine came \
+         to rest and PC-OK dropped, which opens the safety chain; elsewhere in a cycle the \
+         spindle stopped and the gearbox disengaged at once, the machine stopped where it was, \
+         then PC-OK dropped"
+    };
+}
+
+/// A fault in a cycle under which X cannot move.
+macro_rules! reaction_x_stuck {
+    () => {
+        "in a cycle X could not move: the machine stopped where it was, the hob in the work if \
+         it was there (gearbox out, spindle and axes to rest, 15 s at most), then PC-OK dropped, \
+         which opens the safety chain"
+    };
+}
+
+macro_rules! reaction_outside {
+    () => {
+        "; outside a cycle (idle, jogging, referencing) the spindle stopped and PC-OK dropped at once"
+    };
+}
+
+/// The watchdog's reaction to a loop faulted with a node lost (`hob-watchdog`).
+macro_rules! reaction_watchdog {
+    () => {
+        "; with the loop faulted, the watchdog switched every output of the I/O coupler off by \
+         SDO (spindle reference 0 V) and quick-stopped every drive"
+    };
+}
+
+/// PC-OK dropped on every fault: the chain closes again only once it is back.
+macro_rules! continue_reset {
+    () => {
+        "RESET (PC-OK comes back), then the reset button on the panel closes the safety chain \
+         and the machine powers up to idle"
+    };
+}
+
+macro_rules! continue_pass {
+    () => {
+        "CONTINUE re-enters the interrupted pass on the same tooth gaps (if a cycle was \
+         interrupted and the same program is loaded), or START"
+    };
+}
+
+/// What comes `before` the reset, the reset, what comes `between` it and the pass.
+macro_rules! continue_after {
+    ($before:literal, $between:literal) => {
+        concat!($before, continue_reset!(), $between, continue_pass!())
+    };
+}
+
+/// The table lost its position after the part's tooth phase was recorded.
+macro_rules! continue_phase_lost {
+    () => {
+        "the part on the table has lost its tooth phase and cannot be finished on the same \
+         gaps: CONTINUE is refused; NEW BLANK with a new part, then START"
+    };
+}
+
+impl FaultCode {
+    /// Every fault, in code order (`ALL[i].code() == i + 1`).
+    pub const ALL: [FaultCode; 16] = [
+        FaultCode::SafetyChainOpen,
+        FaultCode::EmergencyStop,
+        FaultCode::HardwareLimit,
+        FaultCode::SoftLimit,
+        FaultCode::FollowingError,
+        FaultCode::DriveFault,
+        FaultCode::VfdFault,
+        FaultCode::SyncLost,
+        FaultCode::SpindleSpeed,
+        FaultCode::LubeTimeout,
+        FaultCode::ClampTimeout,
+        FaultCode::FeedbackLost,
+        FaultCode::IoLost,
+        FaultCode::DriveNotEnabled,
+        FaultCode::HomingFailed,
+        FaultCode::PositionLost,
+    ];
+
+    pub const fn code(self) -> u32 {
+        self as u32
+    }
+
+    pub fn from_code(c: u32) -> Option<FaultCode> {
+        c.checked_sub(1).and_then(|i| Self::ALL.get(i as usize).copied())
+    }
+
+    pub const fn name(self) -> &'static str {
+        match self {
+            FaultCode::SafetyChainOpen => "safety-chain-open",
+            FaultCode::EmergencyStop => "emergency-stop",
+            FaultCode::HardwareLimit => "hardware-limit",
+            FaultCode::SoftLimit => "soft-limit",
+            FaultCode::FollowingError => "following-error",
+            FaultCode::DriveFault => "drive-fault",
+            FaultCode::VfdFault => "vfd-fault",
+            FaultCode::SyncLost => "sync-lost",
+            FaultCode::SpindleSpeed => "spindle-speed",
+            FaultCode::LubeTimeout => "lube-timeout",
+            FaultCode::ClampTimeout => "clamp-timeout",
+            FaultCode::FeedbackLost => "feedback-lost",
+            FaultCode::IoLost => "io-lost",
+            FaultCode::DriveNotEnabled => "drive-not-enabled",
+            FaultCode::HomingFailed => "homing-failed",
+            FaultCode::PositionLost => "position-lost",
+        }
+    }
+
+    /// Whether the fault names an axis (its alarm is incomplete without one).
+    pub const fn has_axis(self) -> bool {
+        matches!(
+            self,
+            FaultCode::HardwareLimit
+                | FaultCode::SoftLimit
+                | FaultCode::FollowingError
+                | FaultCode::DriveFault
+                | FaultCode::FeedbackLost
+                | FaultCode::DriveNotEnabled
+                | FaultCode::HomingFailed
+                | FaultCode::PositionLost
+        )
+    }
+
+    /// The fault of an alarm: `None` for code 0, an unknown code, or a fault that names an
+    /// axis without a valid one.
+    pub fn of(a: &AlarmCode) -> Option<FaultCode> {
+        let f = FaultCode::from_code(a.code)?;
+        (!f.has_axis() || Axis::from_code(a.axis).is_some()).then_some(f)
+    }
+
+    /// Whether X can still move under this fault on `axis` (else the machine stops where
+    /// it is instead of retracting): the control core's `FaultCode::x_can_move`, read from the
+    /// wire (hob-service's tests check the two agree for every fault).
+    pub fn x_can_move(self, a: &AlarmCode) -> bool {
+        let x = Axis::from_code(a.axis) == Some(Axis::X);
+        !match self {
+            FaultCode::DriveFault
+            | FaultCode::DriveNotEnabled
+            | FaultCode::FollowingError
+            | FaultCode::FeedbackLost
+            | FaultCode::SoftLimit
+            | FaultCode::PositionLost
+            | FaultCode::HomingFailed => x,
+            FaultCode::HardwareLimit => x && End::from_code(a.end) != Some(End::Min),
+            _ => false,
+        }
+    }
+
+    /// Whether the table can still follow the spindle under this fault (else the spindle
+    /// stops and the gearbox disengages at once): the control core's
+    /// `FaultCode::table_can_follow`, read from the wire.
+    pub fn table_can_follow(self, a: &AlarmCode) -> bool {
+        let b = Axis::from_code(a.axis) == Some(Axis::B);
+        !match self {
+            FaultCode::DriveFault
+            | FaultCode::DriveNotEnabled
+            | FaultCode::FollowingError
+            | FaultCode::FeedbackLost
+            | FaultCode::PositionLost => b,
+            FaultCode::SyncLost => true,
+            _ => false,
+        }
+    }
+
+    /// What the machine did on this fault, in the operator's words (docs: README, "What a
+    /// fault does"): the control core's fault reaction (`seq_on_fault`) for the alarm's
+    /// axis, in the cut, elsewhere in a cycle and outside one; for a lost node also what
+    /// the watchdog did once the loop stood faulted.
+    pub fn reaction(self, a: &AlarmCode) -> &'static str {
+        let watchdog = matches!(self, FaultCode::FeedbackLost | FaultCode::IoLost);
+        match (self.x_can_move(a), self.table_can_follow(a), watchdog) {
+            (false, _, false) => concat!(reaction_x_stuck!(), reaction_outside!()),
+            (false, _, true) => concat!(reaction_x_stuck!(), reaction_outside!(), reaction_watchdog!()),
+            (true, false, false) => concat!(reaction_table_lost!(), reaction_outside!()),
+            (true, false, true) => {
+                concat!(reaction_table_lost!(), reaction_outside!(), reaction_watchdog!())
+            }
+            (true, true, false) => concat!(reaction_retract!(), reaction_outside!()),
+            (true, true, true) => concat!(reaction_retract!(), reaction_outside!(), reaction_watchdog!()),
+        }
+    }
+
+    /// What the operator checks or repairs before RESET.
+    pub const fn remedy(self) -> &'static str {
+        match self {
+            FaultCode::SafetyChainOpen => {
+                "find what opened the chain: an e-stop button, a hardware limit switch, the VFD's \
+                 fault relay or PC-OK; POWER-UP shows what the chain's reset needs (VFD ready, PC \
+                 reset relay, lube and coolant pumps off, e-stop released, the reset button)"
+            }
+            FaultCode::EmergencyStop => {
+                "find why the e-stop was pressed and make the machine safe, then release the e-stop \
+                 button: while it is pressed the alarm comes back at once after RESET"
+            }
+            FaultCode::HardwareLimit => {
+                "the slide stands on its limit switch, which keeps the safety chain open (no drive \
+                 enable, so no jog) and the alarm back after RESET: move it off the switch by hand; \
+                 then find why it got there (soft limits guard only a referenced axis, the work \
+                 offsets, the program)"
+            }
+            FaultCode::SoftLimit => {
+                "a command went outside the soft limits (soft_limit_min_mm, soft_limit_max_mm of \
+                 [x] or [y] in the machine file): check the work offsets (touch-off) and the \
+                 program's positions against the axis's travel"
+            }
+            FaultCode::FollowingError => {
+                "the axis could not follow its command (max_following_error_mm of the axis, or of \
+                 the table): look for an obstruction, a collision, a seized slide, a brake not \
+                 released or a drive at its current limit"
+            }
+            FaultCode::DriveFault => {
+                "read the drive's EMCY in DIAGNOSTICS (over-current, over-temperature, encoder) and \
+                 repair the cause at the drive; RESET sends the drive a fault reset, and a fault \
+                 still there after the drives' 2 s enable time is this alarm again"
+            }
+            FaultCode::VfdFault => {
+                "read the fault code on the spindle VFD's display, repair its cause and reset the \
+                 VFD: until then its fault relay keeps the safety chain open and the alarm comes back \
+                 after RESET"
+            }
+            FaultCode::SyncLost => {
+                "the table left the coarse window: check the spindle encoder and its coupling, \
+                 the table drive's tuning and the cutting load (speeds, feed, worn hob)"
+            }
+            FaultCode::SpindleSpeed => {
+                "the spindle did not reach its speed: check the VFD (enable, its own fault), the \
+                 belt and the spindle encoder"
+            }
+            FaultCode::LubeTimeout => {
+                "the pressure switch did not confirm: check the lubricant level, the pump and its \
+                 fuse, the filter, the lines and the switch"
+            }
+            FaultCode::ClampTimeout => "check the X clamp's magnet, its supply and its feedback switch",
+            FaultCode::FeedbackLost => {
+                "the drive's position frames stopped: check its CAN cable and connectors, the bus \
+                 termination and the drive's supply (did it restart?); DIAGNOSTICS lists the \
+                 heartbeats and EMCYs"
+            }
+            FaultCode::IoLost => {
+                "the I/O coupler stopped answering: check its CAN cable, its supply, the bus \
+                 termination and its node id"
+            }
+            FaultCode::DriveNotEnabled => {
+                "the drive did not reach \"operation enabled\": check its enable input (safety \
+                 chain), its supply and its own fault"
+            }
+            FaultCode::HomingFailed => {
+                "the alarm says why (mode not confirmed, homing not started, the drive's homing \
+                 error, timeout): check the home switch and its cable, the homing method, speeds \
+                 and timeout ([x.homing], [y.homing] in the machine file) and the axis's travel"
+            }
+            FaultCode::PositionLost => {
+                "the drive restarted or its encoder jumped: check its supply and encoder cable; \
+                 its reference (or the part's tooth phase on the table) is gone"
+            }
+        }
+    }
+
+    /// How work goes on after the remedy (what the control core asks of `CONTINUE`: the
+    /// interrupted pass kept, X and Y referenced, the table's position kept since the
+    /// part's tooth phase was recorded).
+    pub const fn how_to_continue(self) -> &'static str {
+        match self {
+            FaultCode::EmergencyStop => continue_after!("with the e-stop released: ", "; then "),
+            FaultCode::HardwareLimit => continue_after!(
+                "with the slide off the switch: ",
+                "; HOME the axis if its reference is in doubt; then "
+            ),
+            FaultCode::VfdFault => continue_after!("with the VFD reset: ", "; then "),
+            FaultCode::LubeTimeout => continue_after!(
+                "",
+                " (RESET runs the lubrication again and the machine waits for its pressure); then "
+            ),
+            FaultCode::SoftLimit => concat!(
+                continue_reset!(),
+                "; START and CONTINUE check the program against the soft limits again: correct \
+                 the work offsets or load a corrected program (a changed program cannot be \
+                 continued: START it)"
+            ),
+            FaultCode::HomingFailed => concat!(
+                continue_reset!(),
+                "; HOME again: the axis that failed is not referenced (homing drops its reference \
+                 first), START and CONTINUE are refused until it is; a pass interrupted before is \
+                 still there for CONTINUE"
+            ),
+            FaultCode::PositionLost => concat!(
+                continue_reset!(),
+                "; X or Y: HOME it (its reference is gone), then CONTINUE re-enters the \
+                 interrupted pass; B: ",
+                continue_phase_lost!()
+            ),
+            FaultCode::FeedbackLost | FaultCode::IoLost => {
+                "once the node answers again, restart hob-rt: the watchdog acted and re-arms only \
+                 for a new loop, and a node that restarted is configured only by hob-rt's start-up; \
+                 the new loop has no reference, no interrupted pass and no tooth phase: the reset \
+                 button on the panel, HOME X and Y, then START; a part interrupted on the table \
+                 cannot be finished on the same gaps: NEW BLANK with a new part"
+            }
+            FaultCode::SafetyChainOpen
+            | FaultCode::FollowingError
+            | FaultCode::DriveFault
+            | FaultCode::SyncLost
+            | FaultCode::SpindleSpeed
+            | FaultCode::ClampTimeout
+            | FaultCode::DriveNotEnabled => continue_after!("", "; then "),
+        }
+    }
+
+    /// What the operator reads for an alarm of this fault (its axis, end and values
+    /// from `a`); `None` if the fault names an axis and `a` has none.
+    pub fn text(self, a: &AlarmCode) -> Option<String> {
+        let axis = Axis::from_code(a.axis);
+        let (va, vb) = (a.value_a, a.value_b);
+        Some(match self {
+            FaultCode::SafetyChainOpen => "safety chain open".into(),
+            FaultCode::EmergencyStop => "emergency stop pressed".into(),
+            FaultCode::HardwareLimit => {
+                // End 1 is min; anything else reads as max (as it always has).
+                let end = if End::from_code(a.end) == Some(End::Min) {
+                    End::Min
+                } else {
+                    End::Max
+                };
+                format!("hardware limit {} {}", axis?.name(), end.name())
+            }
+            FaultCode::SoftLimit => {
+                let axis = axis?;
+                format!("soft limit {}: {va:.3} {}", axis.name(), axis.unit())
+            }
+            FaultCode::FollowingError => {
+                let axis = axis?;
+                format!("following error {}: {va:.4} {}", axis.name(), axis.unit())
+            }
+            FaultCode::DriveFault => format!("drive fault {}", axis?.name()),
+            FaultCode::VfdFault => "spindle VFD fault".into(),
+            FaultCode::SyncLost => format!("synchronisation lost: {va:.1} arcsec outside the coarse window"),
+            FaultCode::SpindleSpeed => format!("spindle did not reach {va:.1} rpm (is {vb:.1} rpm)"),
+            FaultCode::LubeTimeout => "lubrication pressure not confirmed in time".into(),
+            FaultCode::ClampTimeout => "X clamp did not report in time".into(),
+            FaultCode::FeedbackLost => format!("feedback of drive {} lost (bus)", axis?.name()),
+            FaultCode::IoLost => "I/O coupler lost (bus)".into(),
+            FaultCode::DriveNotEnabled => format!("drive {} not in \"operation enabled\"", axis?.name()),
+            FaultCode::HomingFailed => format!(
+                "referencing {} failed: {}",
+                axis?.name(),
+                HomingFailure::from_code(a.end).map_or("?", HomingFailure::text)
+            ),
+            FaultCode::PositionLost => {
+                let axis = axis?;
+                let what = if axis == Axis::B {
+                    "the tooth phase of the part on the table is gone"
+                } else {
+                    "reference it again (hob home)"
+                };
+                format!(
+                    "drive {} lost its position (reboot or encoder): {what}",
+                    axis.name()
+                )
+            }
         })
     }
 }

@@ -232,7 +232,7 @@ fn range_of(name: &str) -> Option<(u32, u32)> {
     let t = match name {
         "State" => STATES,
         "Refusal" => REFUSALS,
-        "Fault" => FAULTS,
+        "Fault" | "FaultCode" => FAULTS,
         "Coupling" => COUPLINGS,
         "event_kind" => EVENT_KINDS,
         "bus_event" => BUS_EVENTS,

@@ -709,7 +709,6 @@ fn count(p: &mut Problems, key: &str, value: i64, lo: u32, hi: u32) -> Option<u3
     }
 }
 
-pub mod form;
 pub mod span;
 #[cfg(test)]
 mod tests;

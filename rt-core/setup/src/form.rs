@@ -4,10 +4,10 @@
 //! read, the whole program is checked and planned as `hob check` does, and every problem
 //! goes to its table by its key.
 
-use super::{Cycle, Program, Strategy, Tool, Workpiece};
 use crate::config::machine::MachineConfig;
 use crate::config::source::key_at;
 use crate::config::{Problem, Problems};
+use crate::job::{Cycle, Program, Strategy, Tool, Workpiece};
 use crate::planner::{self, Plan};
 use serde::Serialize;
 use serde::de::DeserializeOwned;
