@@ -1,8 +1,8 @@
 //! The fuzz targets (issue 18): each takes arbitrary bytes, feeds them to a decoder of outside
 //! data and asserts its properties, not just "no panic". libFuzzer drives them from
 //! `fuzz/fuzz_targets/` (`cargo +nightly fuzz run TARGET`, `ci/fuzz`); the test command
-//! replays `fuzz/corpus/TARGET/` and `fuzz/regressions/TARGET/` through them on stable
-//! (`tests/replay.rs`), so a past crash stays fixed.
+//! replays `fuzz/corpus/TARGET/`, `fuzz/seeds/TARGET/` and `fuzz/regressions/TARGET/` through
+//! them on stable (`tests/replay.rs`), so a past crash stays fixed.
 
 use hob_canopen::frame::{Frame, sdo_rx_id, sdo_tx_id};
 use hob_canopen::sdo::{AbortCode, ObjectDictionary, Progress, SDO_MAX, SdoClient, SdoServer};

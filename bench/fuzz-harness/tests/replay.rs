@@ -1,5 +1,5 @@
-//! Replays every committed corpus input and past crash of each fuzz target through its
-//! properties (`hob_fuzz_harness::TARGETS`): on stable, in the test command.
+//! Replays every committed corpus input, hand-written seed and past crash of each fuzz target
+//! through its properties (`hob_fuzz_harness::TARGETS`): on stable, in the test command.
 
 use hob_rt_os::alloc_guard::{CountingAllocator, counts};
 use std::path::Path;
@@ -20,7 +20,7 @@ fn every_corpus_input_and_past_crash_keeps_its_properties() {
     let mut replayed = 0;
     for (name, target) in hob_fuzz_harness::TARGETS {
         let mut seen = 0;
-        for kind in ["corpus", "regressions"] {
+        for kind in ["corpus", "seeds", "regressions"] {
             let dir = root.join(kind).join(name);
             let Ok(entries) = std::fs::read_dir(&dir) else {
                 continue;
