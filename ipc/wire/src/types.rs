@@ -455,9 +455,9 @@ impl CommandRequest {
     }
 
     /// A LOAD_PROGRAM request; refuses a text that does not fit.
-    pub fn load_program(name: &str, toml: &str) -> Result<Self, crate::Error> {
+    pub fn load_program(name: &str, toml: &str) -> Result<Self, crate::error::Error> {
         if toml.len() > REQUEST_TEXT_BYTES {
-            return Err(crate::Error::ProgramTooLong {
+            return Err(crate::error::Error::ProgramTooLong {
                 name: name.to_string(),
                 bytes: toml.len(),
                 max: REQUEST_TEXT_BYTES,
