@@ -189,15 +189,15 @@ impl Controller {
         match state {
             State::Idle => {
                 self.sequencer.spindle_set_rpm = 0.0;
-                self.sequencer.spindle_hold_renewed_s = None;
+                self.sequencer.jog.spindle_hold_renewed_s = None;
             }
             State::Jog => {
                 // Everything the operator set moving stops: the jog and the spindle.
                 self.sequencer.spindle_set_rpm = 0.0;
-                self.sequencer.spindle_hold_renewed_s = None;
+                self.sequencer.jog.spindle_hold_renewed_s = None;
                 self.jog_release()?;
             }
-            State::Referencing => self.stop_referencing(),
+            State::Referencing => self.referencing.stop(),
             s if s.tool_in_work() || s == State::Infeed => {
                 self.sequencer.stopping = true;
                 self.leave_cut()
@@ -247,7 +247,7 @@ impl Controller {
         self.enter(State::ToSafe);
     }
 
-    // Jog and referencing (the jogs' own checks are in module `jog`).
+    // Jog and referencing.
 
     /// Starts referencing X and/or Y.
     fn home(&mut self, axes: HomeAxes) -> Result<(), Refusal> {
@@ -255,11 +255,46 @@ impl Controller {
         if !self.drives_ready() {
             return Err(Refusal::DrivesNotEnabled);
         }
-        self.begin_referencing(axes);
+        self.referencing.begin(axes);
+        self.enter(State::Referencing);
         Ok(())
     }
 
-    // The spindle (the held spindle's checks are in module `jog`).
+    /// Jogs an axis by a distance, only when idle (module `jog`).
+    fn jog_by(&mut self, axis: Axis, distance: f64) -> Result<(), Refusal> {
+        let m = self.jog_context(axis);
+        self.sequencer.jog.by(&m, axis, distance)?;
+        if axis == Axis::B {
+            self.gearbox.move_table_by(distance);
+        }
+        self.enter(State::Jog);
+        Ok(())
+    }
+
+    /// Starts (or renews) a continuous jog (module `jog`).
+    fn jog_continuous(
+        &mut self,
+        axis: Axis,
+        direction: Direction,
+        speed_per_min: f64,
+    ) -> Result<(), Refusal> {
+        let m = self.jog_context(axis);
+        if self
+            .sequencer
+            .jog
+            .continuous(&m, axis, direction, speed_per_min)?
+        {
+            self.enter(State::Jog);
+        }
+        Ok(())
+    }
+
+    /// The operator let go of a jog: it brakes to a stop.
+    fn jog_release(&mut self) -> Result<(), Refusal> {
+        self.sequencer.jog.release(self.sequencer.state)
+    }
+
+    // The spindle.
 
     /// The spindle at a speed, latched, only when idle.
     fn spindle_on(&mut self, rpm: f64) -> Result<(), Refusal> {
@@ -275,7 +310,22 @@ impl Controller {
             return Err(Refusal::BadValue);
         }
         self.sequencer.spindle_set_rpm = rpm;
-        self.sequencer.spindle_hold_renewed_s = None;
+        self.sequencer.jog.spindle_hold_renewed_s = None;
+        Ok(())
+    }
+
+    /// The hob spindle at a speed while the operator holds it (module `jog`).
+    fn spindle_hold(&mut self, rpm: f64) -> Result<(), Refusal> {
+        let now_s = self.now_s();
+        let (state, max_rpm, set_rpm) = (
+            self.sequencer.state,
+            self.params.spindle_max_rpm,
+            self.sequencer.spindle_set_rpm,
+        );
+        self.sequencer
+            .jog
+            .hold_spindle(state, rpm, max_rpm, set_rpm, now_s)?;
+        self.sequencer.spindle_set_rpm = rpm;
         Ok(())
     }
 
@@ -285,7 +335,7 @@ impl Controller {
             return Err(Refusal::CycleRunning);
         }
         self.sequencer.spindle_set_rpm = 0.0;
-        self.sequencer.spindle_hold_renewed_s = None;
+        self.sequencer.jog.spindle_hold_renewed_s = None;
         Ok(())
     }
 

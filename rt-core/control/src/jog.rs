@@ -3,13 +3,17 @@
 //! released, a frontend killed, a network lost, it stops within the dead-man time plus
 //! the braking time). Until X and Y are referenced every X and Y jog is slow and only the
 //! hardware limit switches protect the ends; from the reference on, a jog stops at the
-//! soft limits.
+//! soft limits. The hob spindle held while the operator holds it has the same dead-man.
+//!
+//! [`Jog`] owns the jog under way and the held spindle. Its commands take the machine's
+//! state ([`JogContext`]); a cycle of it takes the axes' limits and speeds
+//! ([`JogCycle`]) and the X and Y commands it moves; what the table (the gearbox's) and
+//! the machine's state are to do is the controller's ([`JogStep`]).
 
-use super::Controller;
 pub use super::command::Direction;
 use super::command::State;
-use super::events::EventKind;
 use super::fault::{Axis, Refusal};
+use super::profile::Profile;
 
 /// The jog under way.
 #[derive(Debug, Clone, Copy, Default, PartialEq, serde::Serialize, serde::Deserialize)]
@@ -29,55 +33,90 @@ pub(super) enum JogMotion {
     Stopping { axis: Axis },
 }
 
-impl Controller {
-    fn now_s(&self) -> f64 {
-        self.cycle as f64 * self.params.period_s
-    }
+/// The operator's jogs: an axis' jog under way and a held hob spindle.
+#[derive(Debug, Clone, Copy, Default, PartialEq, serde::Serialize, serde::Deserialize)]
+pub(super) struct Jog {
+    pub motion: JogMotion,
+    /// A held spindle (`SpindleHold`): when it was last renewed, s.
+    pub spindle_hold_renewed_s: Option<f64>,
+}
 
-    /// The jog speed of a linear axis: half its rapid, or the slow unreferenced speed.
-    fn jog_speed_mm_s(&self, axis: Axis) -> f64 {
-        let rapid = match axis {
-            Axis::Y => self.params.y_limits.rapid_mm_s,
-            _ => self.params.x_limits.rapid_mm_s,
-        };
-        if self.referencing.is_referenced(axis) {
-            rapid / 2.0
-        } else {
-            (rapid / 2.0).min(self.params.unreferenced_jog_mm_s)
+/// One axis as a jog sees it.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(super) struct JogAxis {
+    /// The soft limits in the loop's (work) coordinates; none before the reference, and
+    /// none for the table.
+    pub limits: Option<(f64, f64)>,
+    /// The fastest jog (units/s): X and Y half their rapid, or the slow unreferenced
+    /// speed; the table its phase speed.
+    pub max_speed_per_s: f64,
+    /// Acceleration of a linear axis, mm/s^2.
+    pub accel: f64,
+}
+
+/// The machine as a jog command sees it.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(super) struct JogContext {
+    pub state: State,
+    /// Every drive reports "operation enabled".
+    pub drives_ready: bool,
+    pub now_s: f64,
+    /// The commanded positions of X and Y, mm.
+    pub x_mm: f64,
+    pub y_mm: f64,
+    /// The axis the command jogs.
+    pub axis: JogAxis,
+}
+
+/// What a cycle of jogging needs.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(super) struct JogCycle {
+    pub period_s: f64,
+    pub now_s: f64,
+    pub deadman_s: f64,
+    /// The table still moves (its jog is a move of the gearbox's).
+    pub table_moving: bool,
+    pub x: JogAxis,
+    pub y: JogAxis,
+}
+
+/// What came of a cycle of jogging.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub(super) struct JogStep {
+    /// The renewals of the continuous jog of this axis stopped: the dead-man let go.
+    pub dead_man: Option<Axis>,
+    /// The table is to move on by this much (deg): a continuous jog of B.
+    pub table_by: Option<f64>,
+    /// The jog is over: the machine is idle again.
+    pub done: bool,
+}
+
+impl Jog {
+    /// The axis of the jog under way.
+    pub fn axis(&self) -> Option<Axis> {
+        match self.motion {
+            JogMotion::None => None,
+            JogMotion::To { axis, .. }
+            | JogMotion::Continuous { axis, .. }
+            | JogMotion::Stopping { axis } => Some(axis),
         }
     }
 
-    /// The soft limits of a linear axis in the loop's (work) coordinates, or none before
-    /// the reference.
-    pub(super) fn work_limits(&self, axis: Axis) -> Option<(f64, f64)> {
-        if !self.referencing.is_referenced(axis) {
-            return None;
-        }
-        let (l, offset) = match axis {
-            Axis::X => (self.params.x_limits, self.offsets.x_mm),
-            Axis::Y => (self.params.y_limits, self.offsets.y_mm),
-            Axis::B => return None,
-        };
-        Some((l.soft_min_mm + offset, l.soft_max_mm + offset))
-    }
-
-    /// Checks and starts (or renews) a continuous jog.
-    pub(super) fn jog_continuous(
+    /// Checks and starts (or renews) a continuous jog; true for a new jog (the machine
+    /// is to enter `Jog`).
+    pub fn continuous(
         &mut self,
+        m: &JogContext,
         axis: Axis,
         direction: Direction,
         speed_per_min: f64,
-    ) -> Result<(), Refusal> {
+    ) -> Result<bool, Refusal> {
         if !(speed_per_min.is_finite() && speed_per_min > 0.0) {
             return Err(Refusal::BadValue);
         }
-        let max_per_s = match axis {
-            Axis::B => self.params.gearbox.phase_speed_deg_s,
-            _ => self.jog_speed_mm_s(axis),
-        };
-        let speed_per_s = (speed_per_min / 60.0).min(max_per_s);
-        let now = self.now_s();
-        match (self.sequencer.state, self.sequencer.jog) {
+        let speed_per_s = (speed_per_min / 60.0).min(m.axis.max_speed_per_s);
+        let now = m.now_s;
+        match (m.state, self.motion) {
             (
                 State::Jog,
                 JogMotion::Continuous {
@@ -86,25 +125,21 @@ impl Controller {
                     ..
                 },
             ) if a == axis && d == direction => {
-                self.sequencer.jog = JogMotion::Continuous {
+                self.motion = JogMotion::Continuous {
                     axis,
                     direction,
                     speed_per_s,
                     renewed_at_s: now,
                 };
-                Ok(())
+                Ok(false)
             }
             (State::Jog, _) => Err(Refusal::JogActive),
             (State::Idle, _) => {
-                if !self.drives_ready() {
+                if !m.drives_ready {
                     return Err(Refusal::DrivesNotEnabled);
                 }
-                if let Some((lo, hi)) = self.work_limits(axis) {
-                    let at = if axis == Axis::X {
-                        self.x.position
-                    } else {
-                        self.y.position
-                    };
+                if let Some((lo, hi)) = m.axis.limits {
+                    let at = if axis == Axis::X { m.x_mm } else { m.y_mm };
                     let blocked = match direction {
                         Direction::Positive => at >= hi,
                         Direction::Negative => at <= lo,
@@ -113,23 +148,23 @@ impl Controller {
                         return Err(Refusal::OutsideSoftLimits);
                     }
                 }
-                self.sequencer.jog = JogMotion::Continuous {
+                self.motion = JogMotion::Continuous {
                     axis,
                     direction,
                     speed_per_s,
                     renewed_at_s: now,
                 };
-                self.enter(State::Jog);
-                Ok(())
+                Ok(true)
             }
             (State::Init, _) => Err(Refusal::NotReady),
             _ => Err(Refusal::CycleRunning),
         }
     }
 
-    /// Checks and starts a jog by a distance (mm, or deg for the table).
-    pub(super) fn jog_by(&mut self, axis: Axis, distance: f64) -> Result<(), Refusal> {
-        match self.sequencer.state {
+    /// Checks and starts a jog by a distance (mm, or deg for the table: its move is the
+    /// caller's to start on the gearbox). The machine is to enter `Jog`.
+    pub fn by(&mut self, m: &JogContext, axis: Axis, distance: f64) -> Result<(), Refusal> {
+        match m.state {
             State::Idle => {}
             State::Init => return Err(Refusal::NotReady),
             State::Jog => return Err(Refusal::JogActive),
@@ -138,50 +173,44 @@ impl Controller {
         if !distance.is_finite() {
             return Err(Refusal::BadValue);
         }
-        if !self.drives_ready() {
+        if !m.drives_ready {
             return Err(Refusal::DrivesNotEnabled);
         }
         let target = match axis {
-            Axis::X => self.x.position + distance,
-            Axis::Y => self.y.position + distance,
+            Axis::X => m.x_mm + distance,
+            Axis::Y => m.y_mm + distance,
             Axis::B => distance,
         };
-        if let Some((lo, hi)) = self.work_limits(axis)
+        if let Some((lo, hi)) = m.axis.limits
             && !(lo..=hi).contains(&target)
         {
             return Err(Refusal::OutsideSoftLimits);
         }
-        if axis == Axis::B {
-            self.gearbox.move_table_by(distance);
-        }
-        self.sequencer.jog = JogMotion::To { axis, target };
-        self.enter(State::Jog);
+        self.motion = JogMotion::To { axis, target };
         Ok(())
     }
 
     /// The operator let go: brake the jog to a stop.
-    pub(super) fn jog_release(&mut self) -> Result<(), Refusal> {
-        match (self.sequencer.state, self.sequencer.jog) {
+    pub fn release(&mut self, state: State) -> Result<(), Refusal> {
+        match (state, self.motion) {
             (State::Jog, JogMotion::To { axis, .. } | JogMotion::Continuous { axis, .. }) => {
-                self.sequencer.jog = JogMotion::Stopping { axis };
+                self.motion = JogMotion::Stopping { axis };
                 Ok(())
             }
             _ => Err(Refusal::NothingToDo),
         }
     }
 
-    /// One cycle of the jog under way.
-    pub(super) fn sequence_jog(&mut self) {
-        let dt = self.params.period_s;
-        let now = self.now_s();
-        let deadman_s = self.params.deadman_s;
-        let done = match self.sequencer.jog {
+    /// One cycle of the jog under way: X or Y moved in `x`, `y`.
+    pub fn step(&mut self, c: &JogCycle, x: &mut Profile, y: &mut Profile) -> JogStep {
+        let dt = c.period_s;
+        let mut out = JogStep::default();
+        let done = match self.motion {
             JogMotion::None => true,
-            JogMotion::To { axis: Axis::B, .. } => !self.gearbox.table_moving(),
+            JogMotion::To { axis: Axis::B, .. } => !c.table_moving,
             JogMotion::To { axis, target } => {
-                let speed = self.jog_speed_mm_s(axis);
-                let (p, accel) = self.linear(axis);
-                p.step_towards(target, speed, accel, dt)
+                let (p, a) = linear(axis, c, x, y);
+                p.step_towards(target, a.max_speed_per_s, a.accel, dt)
             }
             JogMotion::Continuous {
                 axis,
@@ -189,86 +218,96 @@ impl Controller {
                 speed_per_s,
                 renewed_at_s,
             } => {
-                if now - renewed_at_s > deadman_s {
+                if c.now_s - renewed_at_s > c.deadman_s {
                     // The renewals stopped: the dead-man lets go.
-                    self.event(EventKind::DeadManStop { axis });
-                    self.sequencer.jog = JogMotion::Stopping { axis };
-                    return self.sequence_jog();
+                    self.motion = JogMotion::Stopping { axis };
+                    return JogStep {
+                        dead_man: Some(axis),
+                        ..self.step(c, x, y)
+                    };
                 }
                 if axis == Axis::B {
-                    self.gearbox.move_table_by(direction.sign() * speed_per_s * dt);
+                    out.table_by = Some(direction.sign() * speed_per_s * dt);
                 } else {
-                    let target = match (self.work_limits(axis), direction) {
+                    let (p, a) = linear(axis, c, x, y);
+                    let target = match (a.limits, direction) {
                         (Some((_, hi)), Direction::Positive) => hi,
                         (Some((lo, _)), Direction::Negative) => lo,
                         // Before the reference: far ahead, re-aimed every cycle.
-                        (None, d) => {
-                            let at = if axis == Axis::X {
-                                self.x.position
-                            } else {
-                                self.y.position
-                            };
-                            at + d.sign() * 1000.0
-                        }
+                        (None, d) => p.position + d.sign() * 1000.0,
                     };
-                    let (p, accel) = self.linear(axis);
-                    p.step_towards(target, speed_per_s, accel, dt);
+                    p.step_towards(target, speed_per_s, a.accel, dt);
                 }
                 false
             }
-            JogMotion::Stopping { axis: Axis::B } => !self.gearbox.table_moving(),
+            JogMotion::Stopping { axis: Axis::B } => !c.table_moving,
             JogMotion::Stopping { axis } => {
-                let (p, accel) = self.linear(axis);
-                p.step_stop(accel, dt)
+                let (p, a) = linear(axis, c, x, y);
+                p.step_stop(a.accel, dt)
             }
         };
         if done {
-            self.sequencer.jog = JogMotion::None;
-            self.enter(State::Idle);
+            self.motion = JogMotion::None;
         }
+        out.done = done;
+        out
     }
 
-    /// Checks and starts (or renews) a held hob spindle: only when idle (also while an axis
-    /// jogs), at most the machine's spindle speed.
-    pub(super) fn spindle_hold(&mut self, rpm: f64) -> Result<(), Refusal> {
-        match self.sequencer.state {
+    /// Checks and starts (or renews) a held hob spindle at `rpm` (the caller sets the
+    /// speed): only when idle (also while an axis jogs), at most the machine's spindle
+    /// speed, and not a spindle latched on (`set_rpm` without a hold).
+    pub fn hold_spindle(
+        &mut self,
+        state: State,
+        rpm: f64,
+        max_rpm: f64,
+        set_rpm: f64,
+        now_s: f64,
+    ) -> Result<(), Refusal> {
+        match state {
             State::Idle | State::Jog => {}
             State::Init => return Err(Refusal::NotReady),
             _ => return Err(Refusal::CycleRunning),
         }
-        if !(rpm.is_finite() && rpm > 0.0 && rpm <= self.params.spindle_max_rpm) {
+        if !(rpm.is_finite() && rpm > 0.0 && rpm <= max_rpm) {
             return Err(Refusal::BadValue);
         }
-        if self.sequencer.spindle_set_rpm > 0.0 && self.sequencer.spindle_hold_renewed_s.is_none() {
+        if set_rpm > 0.0 && self.spindle_hold_renewed_s.is_none() {
             // Latched by SPINDLE ON: holding it would make it stop on release.
             return Err(Refusal::NothingToDo);
         }
-        self.sequencer.spindle_set_rpm = rpm;
-        self.sequencer.spindle_hold_renewed_s = Some(self.now_s());
+        self.spindle_hold_renewed_s = Some(now_s);
         Ok(())
     }
 
-    /// One cycle of a held spindle: it stops when the renewals stop (the dead-man) and is
-    /// let go when the machine leaves idle and jog (a cycle or a fault owns the spindle).
-    pub(super) fn sequence_spindle_hold(&mut self) {
-        let Some(renewed_at_s) = self.sequencer.spindle_hold_renewed_s else {
-            return;
+    /// One cycle of a held spindle: it is let go when the machine leaves idle and jog (a
+    /// cycle or a fault owns the spindle); true when its renewals stopped (the dead-man:
+    /// the spindle is to stop).
+    pub fn spindle_dead_man(&mut self, state: State, now_s: f64, deadman_s: f64) -> bool {
+        let Some(renewed_at_s) = self.spindle_hold_renewed_s else {
+            return false;
         };
-        if !matches!(self.sequencer.state, State::Idle | State::Jog) {
-            self.sequencer.spindle_hold_renewed_s = None;
-            return;
+        if !matches!(state, State::Idle | State::Jog) {
+            self.spindle_hold_renewed_s = None;
+            return false;
         }
-        if self.now_s() - renewed_at_s > self.params.deadman_s {
-            self.sequencer.spindle_hold_renewed_s = None;
-            self.sequencer.spindle_set_rpm = 0.0;
-            self.event(EventKind::SpindleDeadManStop);
+        if now_s - renewed_at_s > deadman_s {
+            self.spindle_hold_renewed_s = None;
+            return true;
         }
+        false
     }
+}
 
-    fn linear(&mut self, axis: Axis) -> (&mut super::profile::Profile, f64) {
-        match axis {
-            Axis::Y => (&mut self.y, self.params.y_limits.accel_mm_s2),
-            _ => (&mut self.x, self.params.x_limits.accel_mm_s2),
-        }
+/// The command and the limits of a linear axis (X for any but Y).
+fn linear<'a>(
+    axis: Axis,
+    c: &'a JogCycle,
+    x: &'a mut Profile,
+    y: &'a mut Profile,
+) -> (&'a mut Profile, &'a JogAxis) {
+    match axis {
+        Axis::Y => (y, &c.y),
+        _ => (x, &c.x),
     }
 }

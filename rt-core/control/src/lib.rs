@@ -15,6 +15,7 @@
 mod align;
 mod command;
 mod commands;
+mod drive;
 pub mod eccentricity;
 pub mod egb;
 pub mod events;
@@ -32,6 +33,7 @@ mod sequencing;
 pub mod setup_math;
 
 pub use command::{Command, Direction, HomeAxes, State};
+pub use drive::{AxisFeedback, DriveMode, HomingBits};
 pub use setup_math::Offsets;
 
 use eccentricity::EccentricityIdentifier;
@@ -54,56 +56,6 @@ const SPINDLE_TRIM_RANGE: (f64, f64) = (0.8, 1.25);
 pub const DRIVE_ENABLE_TIMEOUT_S: f64 = 2.0;
 /// The spindle must hold its speed this long before the gearbox engages.
 pub const SPINDLE_SETTLE_S: f64 = 0.5;
-
-/// One drive's feedback, latched at SYNC.
-#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
-pub struct AxisFeedback {
-    /// Actual position (0x6064), counts, wrapping.
-    pub position_counts: i32,
-    /// CiA 402 "operation enabled".
-    pub enabled: bool,
-    /// CiA 402 "fault".
-    pub fault: bool,
-    /// The feedback arrived for this cycle (false: the last value is held).
-    pub fresh: bool,
-    /// The mode the drive reports it is in (0x6061, the raw code: 8 cyclic synchronous
-    /// position, 6 homing, anything else is neither).
-    pub mode_display: i8,
-    /// The statusword's bits 13, 12, 10 in homing mode (what they mean in another
-    /// mode is not looked at).
-    pub homing: HomingBits,
-}
-
-/// Homing progress reported by a drive in homing mode (statusword bits 13, 12, 10).
-#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
-pub struct HomingBits {
-    /// Bit 12: homing attained.
-    pub attained: bool,
-    /// Bit 13: homing error.
-    pub error: bool,
-    /// Bit 10: target reached (the drive stands still).
-    pub target_reached: bool,
-}
-
-/// A drive's mode of operation as the loop asks for it (0x6060).
-#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
-pub enum DriveMode {
-    /// Cyclic synchronous position: the loop's targets every cycle (normal).
-    #[default]
-    CyclicPosition,
-    /// Homing: the drive runs its homing method by itself.
-    Homing,
-}
-
-impl DriveMode {
-    /// The code of 0x6060/0x6061.
-    pub fn code(self) -> i8 {
-        match self {
-            DriveMode::CyclicPosition => 8,
-            DriveMode::Homing => 6,
-        }
-    }
-}
 
 /// Everything latched at this cycle's SYNC.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
@@ -882,7 +834,7 @@ impl Controller {
             table_position_whole: !self.sequencer.phase_lost,
             moving_axis: match self.sequencer.state {
                 State::Referencing => self.referencing.current_axis(),
-                State::Jog => self.sequencer.jog_axis(),
+                State::Jog => self.sequencer.jog.axis(),
                 _ => None,
             },
             continue_pass: self.sequencer.interrupted.map_or(0, |(p, _)| p as u32 + 1),

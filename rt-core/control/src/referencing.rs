@@ -8,14 +8,14 @@
 //! command follows the measured position, so that the return to cyclic synchronous
 //! position never jumps. Axes are referenced one after the other, X first: X's home is
 //! at its outer end, away from the work.
+//!
+//! [`Referencing`] owns the run's state and takes, each cycle, only the drives' feedback
+//! and its timeouts ([`HomingInputs`]); what came of the cycle ([`Progress`]) is the
+//! controller's to act on (its command follows the drive; the event, the fault, idle).
 
-use super::Controller;
-use super::DriveMode;
 pub use super::command::HomeAxes;
-use super::command::State;
-use super::events::EventKind;
-use super::fault::{Axis, Fault, HomingFailure};
-use super::profile::Profile;
+use super::drive::{AxisFeedback, DriveMode};
+use super::fault::{Axis, HomingFailure};
 
 /// Time a drive may take to confirm a mode change (0x6061) or to start homing.
 pub const MODE_CHANGE_TIMEOUT_S: f64 = 1.0;
@@ -33,6 +33,48 @@ pub enum HomingStep {
     /// Done (or stopped): asked for cyclic synchronous position again; waiting for the
     /// mode display.
     ToCyclicMode,
+}
+
+/// What a cycle of referencing needs.
+#[derive(Debug, Clone, Copy)]
+pub(super) struct HomingInputs {
+    pub period_s: f64,
+    /// The drives' feedback (B, X, Y) as latched this cycle.
+    pub feedback: [AxisFeedback; 3],
+    /// Referencing X (Y) that takes longer is a fault.
+    pub x_timeout_s: f64,
+    pub y_timeout_s: f64,
+}
+
+/// What came of a cycle of referencing.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(super) enum Progress {
+    /// Nothing (left) to reference: the run is over, every drive in cyclic synchronous
+    /// position.
+    Finished,
+    /// The axis under way (its drive moves by itself).
+    Running(Axis),
+    /// The axis under way was stopped and its drive is back in cyclic synchronous
+    /// position: the run is over, the axis not referenced.
+    Stopped(Axis),
+    /// The axis is referenced; the next one (if any) follows.
+    Referenced(Axis),
+    /// The axis' homing failed.
+    Failed(Axis, HomingFailure),
+}
+
+impl Progress {
+    /// The axis under way this cycle (its drive moved by itself: the loop's command
+    /// follows it).
+    pub fn axis(self) -> Option<Axis> {
+        match self {
+            Progress::Finished => None,
+            Progress::Running(axis)
+            | Progress::Stopped(axis)
+            | Progress::Referenced(axis)
+            | Progress::Failed(axis, _) => Some(axis),
+        }
+    }
 }
 
 /// The referencing state of the linear axes.
@@ -98,7 +140,9 @@ impl Referencing {
         self.start_bit = [false; 3];
     }
 
-    fn begin(&mut self, axes: HomeAxes) {
+    /// Starts a run (command "home", checked by its handler): the axes lose their
+    /// reference until it is found again.
+    pub fn begin(&mut self, axes: HomeAxes) {
         self.queue = match axes {
             HomeAxes::X => [Some(Axis::X), None],
             HomeAxes::Y => [Some(Axis::Y), None],
@@ -121,117 +165,92 @@ impl Referencing {
         self.step = step;
         self.step_time_s = 0.0;
     }
-}
 
-impl Controller {
-    /// Starts referencing (command "home"); checked by the sequencer's command handler.
-    pub(super) fn begin_referencing(&mut self, axes: HomeAxes) {
-        self.referencing.begin(axes);
-        self.enter(State::Referencing);
-    }
-
-    /// Stops a referencing run: the axis under way stays unreferenced.
-    pub(super) fn stop_referencing(&mut self) {
-        self.referencing.aborted = true;
-        if self.referencing.step != HomingStep::ToCyclicMode {
-            self.referencing.go(HomingStep::ToCyclicMode);
+    /// Stops a run: the axis under way stays unreferenced.
+    pub fn stop(&mut self) {
+        self.aborted = true;
+        if self.step != HomingStep::ToCyclicMode {
+            self.go(HomingStep::ToCyclicMode);
         }
     }
 
     /// One cycle of referencing.
-    pub(super) fn sequence_referencing(&mut self) {
-        let dt = self.params.period_s;
-        self.referencing.step_time_s += dt;
-        let Some(axis) = self.referencing.current_axis() else {
-            self.referencing.abandon();
-            self.enter(State::Idle);
-            return;
+    pub fn step(&mut self, input: &HomingInputs) -> Progress {
+        self.step_time_s += input.period_s;
+        let Some(axis) = self.current_axis() else {
+            self.abandon();
+            return Progress::Finished;
         };
         let k = slot(axis);
-        let feedback = self.measured.feedback[k];
-        // The drive moves by itself: the command follows it.
-        self.follow_measured(axis);
-        let t = self.referencing.step_time_s;
+        let feedback = input.feedback[k];
+        let t = self.step_time_s;
         let timeout_s = match axis {
-            Axis::Y => self.params.y_homing_timeout_s,
-            _ => self.params.x_homing_timeout_s,
+            Axis::Y => input.y_timeout_s,
+            _ => input.x_timeout_s,
         };
-        match self.referencing.step {
+        match self.step {
             HomingStep::ToHomingMode => {
-                self.referencing.modes[k] = DriveMode::Homing;
-                self.referencing.start_bit[k] = false;
+                self.modes[k] = DriveMode::Homing;
+                self.start_bit[k] = false;
                 if feedback.mode_display == DriveMode::Homing.code() {
-                    self.referencing.go(HomingStep::Start);
+                    self.go(HomingStep::Start);
                 } else if t > MODE_CHANGE_TIMEOUT_S {
-                    self.homing_failed(axis, HomingFailure::ModeNotConfirmed);
+                    return Progress::Failed(axis, HomingFailure::ModeNotConfirmed);
                 }
             }
             HomingStep::Start => {
-                self.referencing.start_bit[k] = true;
+                self.start_bit[k] = true;
                 let h = feedback.homing;
                 if h.error {
-                    self.homing_failed(axis, HomingFailure::DriveError);
+                    return Progress::Failed(axis, HomingFailure::DriveError);
                 } else if !h.target_reached && feedback.mode_display == DriveMode::Homing.code() {
                     // Bits 13, 12, 10 all clear: in progress (a previous run's "completed"
                     // is not taken for this one's).
-                    self.referencing.go(HomingStep::Running);
+                    self.go(HomingStep::Running);
                 } else if t > MODE_CHANGE_TIMEOUT_S {
-                    self.homing_failed(axis, HomingFailure::NotStarted);
+                    return Progress::Failed(axis, HomingFailure::NotStarted);
                 }
             }
             HomingStep::Running => {
                 let h = feedback.homing;
                 if feedback.mode_display != DriveMode::Homing.code() {
-                    self.homing_failed(axis, HomingFailure::ModeNotConfirmed);
+                    return Progress::Failed(axis, HomingFailure::ModeNotConfirmed);
                 } else if h.error {
-                    self.homing_failed(axis, HomingFailure::DriveError);
+                    return Progress::Failed(axis, HomingFailure::DriveError);
                 } else if h.attained && h.target_reached {
-                    self.referencing.go(HomingStep::ToCyclicMode);
+                    self.go(HomingStep::ToCyclicMode);
                 } else if t > timeout_s {
-                    self.homing_failed(axis, HomingFailure::Timeout);
+                    return Progress::Failed(axis, HomingFailure::Timeout);
                 }
             }
-            HomingStep::ToCyclicMode => {
-                self.referencing.start_bit[k] = false;
-                self.referencing.modes[k] = DriveMode::CyclicPosition;
-                if feedback.mode_display == DriveMode::CyclicPosition.code() {
-                    if self.referencing.aborted {
-                        self.referencing.abandon();
-                        self.enter(State::Idle);
-                        return;
-                    }
-                    match axis {
-                        Axis::X => self.referencing.referenced[0] = true,
-                        Axis::Y => self.referencing.referenced[1] = true,
-                        Axis::B => {}
-                    }
-                    self.event(EventKind::Referenced { axis });
-                    self.referencing.current += 1;
-                    self.referencing.go(HomingStep::ToHomingMode);
-                } else if t > MODE_CHANGE_TIMEOUT_S {
-                    self.homing_failed(axis, HomingFailure::ModeNotConfirmed);
-                }
+            HomingStep::ToCyclicMode => return self.back_to_cyclic_mode(axis, feedback),
+        }
+        Progress::Running(axis)
+    }
+
+    /// The axis under way is done (or stopped): once its drive is back in cyclic
+    /// synchronous position it is referenced (or the stopped run is over).
+    fn back_to_cyclic_mode(&mut self, axis: Axis, feedback: AxisFeedback) -> Progress {
+        let k = slot(axis);
+        self.start_bit[k] = false;
+        self.modes[k] = DriveMode::CyclicPosition;
+        if feedback.mode_display == DriveMode::CyclicPosition.code() {
+            if self.aborted {
+                self.abandon();
+                return Progress::Stopped(axis);
             }
+            match axis {
+                Axis::X => self.referenced[0] = true,
+                Axis::Y => self.referenced[1] = true,
+                Axis::B => {}
+            }
+            self.current += 1;
+            self.go(HomingStep::ToHomingMode);
+            Progress::Referenced(axis)
+        } else if self.step_time_s > MODE_CHANGE_TIMEOUT_S {
+            Progress::Failed(axis, HomingFailure::ModeNotConfirmed)
+        } else {
+            Progress::Running(axis)
         }
-    }
-
-    fn homing_failed(&mut self, axis: Axis, why: HomingFailure) {
-        self.raise(Fault::HomingFailed { axis, why });
-    }
-
-    /// The command of `axis` is where the axis is, at rest (and so are the last two
-    /// targets, against which the following error is measured).
-    fn follow_measured(&mut self, axis: Axis) {
-        let (k, at) = match axis {
-            Axis::X => (1, self.measured.x_mm),
-            Axis::Y => (2, self.measured.y_mm),
-            Axis::B => return,
-        };
-        match axis {
-            Axis::X => self.x = Profile::at(at),
-            _ => self.y = Profile::at(at),
-        }
-        self.history[0][k] = at;
-        self.history[1][k] = at;
     }
 }

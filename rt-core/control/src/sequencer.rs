@@ -4,8 +4,8 @@
 //! steps, one control cycle each, are `Controller::sequence` (module `sequencing`).
 
 use super::command::State;
-use super::fault::{Axis, Fault};
-use super::jog::JogMotion;
+use super::fault::Fault;
+use super::jog::Jog;
 
 /// The sequencer's own state.
 #[derive(Debug, Clone, Copy, Default, PartialEq, serde::Serialize, serde::Deserialize)]
@@ -22,9 +22,8 @@ pub(super) struct Sequencer {
     pub clamp: bool,
     pub feed_scale: f64,
     pub rev_start_deg: f64,
-    pub(super) jog: JogMotion,
-    /// A held spindle (`SpindleHold`): when it was last renewed, s.
-    pub(super) spindle_hold_renewed_s: Option<f64>,
+    /// The operator's jog under way and held spindle.
+    pub jog: Jog,
     /// The pass a fault or a stop interrupted (index, single mode), for "continue".
     pub interrupted: Option<(usize, bool)>,
     /// The table lost its position after the tooth phase of an interrupted part was
@@ -40,16 +39,6 @@ pub(super) struct Sequencer {
 }
 
 impl Sequencer {
-    /// The axis of the jog under way.
-    pub fn jog_axis(&self) -> Option<Axis> {
-        match self.jog {
-            JogMotion::None => None,
-            JogMotion::To { axis, .. }
-            | JogMotion::Continuous { axis, .. }
-            | JogMotion::Stopping { axis } => Some(axis),
-        }
-    }
-
     pub fn pass_number(&self) -> u32 {
         if self.state.in_cycle() {
             self.pass_index as u32 + 1

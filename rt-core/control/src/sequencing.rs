@@ -13,8 +13,10 @@ use super::command::State;
 use super::egb::Coupling;
 use super::events::EventKind;
 use super::fault::{Axis, Fault};
-use super::jog::JogMotion;
+use super::jog::{JogAxis, JogContext, JogCycle, JogMotion};
+use super::profile::Profile;
 use super::program::{CycleProgram, PassSetpoint};
+use super::referencing::{HomingInputs, Progress};
 use super::setup_math;
 use hob_setup::job::CycleKind;
 
@@ -393,7 +395,7 @@ impl Controller {
         if state == State::Referencing {
             self.referencing.abandon();
         }
-        self.sequencer.jog = JogMotion::None;
+        self.sequencer.jog.motion = JogMotion::None;
         if matches!(
             state,
             State::Init | State::Idle | State::Jog | State::Faulted | State::Referencing
@@ -489,8 +491,8 @@ impl Controller {
                 if !self.sequencer.drives_should_be_enabled() {
                     // Drives are off: the commands follow the machine, so enabling never
                     // jumps. Once they are being enabled the commands hold still.
-                    self.x = super::profile::Profile::at(self.measured.x_mm);
-                    self.y = super::profile::Profile::at(self.measured.y_mm);
+                    self.x = Profile::at(self.measured.x_mm);
+                    self.y = Profile::at(self.measured.y_mm);
                     let table = self.measured.table_deg;
                     let g = *self.gearbox.params();
                     let recorded = self.gearbox.recorded_phase_deg();
@@ -511,7 +513,80 @@ impl Controller {
         }
     }
 
-    // Helpers: the state's change, the pass, the moves, the spindle.
+    /// One cycle of the jog under way (module `jog`).
+    fn sequence_jog(&mut self) {
+        let cycle = JogCycle {
+            period_s: self.params.period_s,
+            now_s: self.now_s(),
+            deadman_s: self.params.deadman_s,
+            table_moving: self.gearbox.table_moving(),
+            x: self.jog_axis(Axis::X),
+            y: self.jog_axis(Axis::Y),
+        };
+        let step = self.sequencer.jog.step(&cycle, &mut self.x, &mut self.y);
+        if let Some(axis) = step.dead_man {
+            self.event(EventKind::DeadManStop { axis });
+        }
+        if let Some(deg) = step.table_by {
+            self.gearbox.move_table_by(deg);
+        }
+        if step.done {
+            self.enter(State::Idle);
+        }
+    }
+
+    /// One cycle of a held spindle (module `jog`): stopped by its dead-man.
+    fn sequence_spindle_hold(&mut self) {
+        let now_s = self.now_s();
+        if self
+            .sequencer
+            .jog
+            .spindle_dead_man(self.sequencer.state, now_s, self.params.deadman_s)
+        {
+            self.sequencer.spindle_set_rpm = 0.0;
+            self.event(EventKind::SpindleDeadManStop);
+        }
+    }
+
+    /// One cycle of referencing (module `referencing`): the command of the axis under way
+    /// follows its drive, and what came of the cycle is acted on.
+    fn sequence_referencing(&mut self) {
+        let input = HomingInputs {
+            period_s: self.params.period_s,
+            feedback: self.measured.feedback,
+            x_timeout_s: self.params.x_homing_timeout_s,
+            y_timeout_s: self.params.y_homing_timeout_s,
+        };
+        let progress = self.referencing.step(&input);
+        if let Some(axis) = progress.axis() {
+            // The drive moves by itself: the command follows it.
+            self.follow_measured(axis);
+        }
+        match progress {
+            Progress::Finished | Progress::Stopped(_) => self.enter(State::Idle),
+            Progress::Running(_) => {}
+            Progress::Referenced(axis) => self.event(EventKind::Referenced { axis }),
+            Progress::Failed(axis, why) => self.raise(Fault::HomingFailed { axis, why }),
+        }
+    }
+
+    /// The command of `axis` is where the axis is, at rest (and so are the last two
+    /// targets, against which the following error is measured).
+    fn follow_measured(&mut self, axis: Axis) {
+        let (k, at) = match axis {
+            Axis::X => (1, self.measured.x_mm),
+            Axis::Y => (2, self.measured.y_mm),
+            Axis::B => return,
+        };
+        match axis {
+            Axis::X => self.x = Profile::at(at),
+            _ => self.y = Profile::at(at),
+        }
+        self.history[0][k] = at;
+        self.history[1][k] = at;
+    }
+
+    // Helpers: the state's change, the pass, the moves, the spindle, the jog's view.
 
     pub(super) fn enter(&mut self, to: State) {
         let from = self.sequencer.state;
@@ -621,5 +696,65 @@ impl Controller {
 
     fn spindle_stopped(&self) -> bool {
         (self.measured.spindle_speed_deg_s / 6.0).abs() < SPINDLE_STOPPED_RPM
+    }
+
+    /// The loop's time, s.
+    pub(super) fn now_s(&self) -> f64 {
+        self.cycle as f64 * self.params.period_s
+    }
+
+    /// The jog speed of a linear axis: half its rapid, or the slow unreferenced speed.
+    fn jog_speed_mm_s(&self, axis: Axis) -> f64 {
+        let rapid = match axis {
+            Axis::Y => self.params.y_limits.rapid_mm_s,
+            _ => self.params.x_limits.rapid_mm_s,
+        };
+        if self.referencing.is_referenced(axis) {
+            rapid / 2.0
+        } else {
+            (rapid / 2.0).min(self.params.unreferenced_jog_mm_s)
+        }
+    }
+
+    /// The soft limits of a linear axis in the loop's (work) coordinates, or none before
+    /// the reference.
+    pub(super) fn work_limits(&self, axis: Axis) -> Option<(f64, f64)> {
+        if !self.referencing.is_referenced(axis) {
+            return None;
+        }
+        let (l, offset) = match axis {
+            Axis::X => (self.params.x_limits, self.offsets.x_mm),
+            Axis::Y => (self.params.y_limits, self.offsets.y_mm),
+            Axis::B => return None,
+        };
+        Some((l.soft_min_mm + offset, l.soft_max_mm + offset))
+    }
+
+    /// An axis as a jog sees it (module `jog`).
+    fn jog_axis(&self, axis: Axis) -> JogAxis {
+        JogAxis {
+            limits: self.work_limits(axis),
+            max_speed_per_s: match axis {
+                Axis::B => self.params.gearbox.phase_speed_deg_s,
+                _ => self.jog_speed_mm_s(axis),
+            },
+            accel: match axis {
+                Axis::X => self.params.x_limits.accel_mm_s2,
+                Axis::Y => self.params.y_limits.accel_mm_s2,
+                Axis::B => self.params.table_accel_deg_s2,
+            },
+        }
+    }
+
+    /// The machine as a jog command for `axis` sees it (module `jog`).
+    pub(super) fn jog_context(&self, axis: Axis) -> JogContext {
+        JogContext {
+            state: self.sequencer.state,
+            drives_ready: self.drives_ready(),
+            now_s: self.now_s(),
+            x_mm: self.x.position,
+            y_mm: self.y.position,
+            axis: self.jog_axis(axis),
+        }
     }
 }
