@@ -222,7 +222,7 @@ pub fn run(machine: &MachineConfig, a: &DemoArgs<'_>) -> Result<String, (u8, Str
     // their own homing before anything but a slow jog is accepted.
     say("referencing X and Y (the drives' homing: home switch, then index pulse)...");
     let home = service::home("all").and_then(|r| service::request(&r));
-    say(&home.map_err(|(c, e)| (c, format!("home: {e}")))?);
+    say(&home.map_err(|e| (e.exit_code(), format!("home: {e}")))?);
     let referenced = wait_for(
         &ports,
         &mut procs,
@@ -263,8 +263,8 @@ pub fn run(machine: &MachineConfig, a: &DemoArgs<'_>) -> Result<String, (u8, Str
     say(&format!("program from the library {}: {name}", library.display()));
     let req = CommandRequest::load_program(&format!("library program {name}"), &text)
         .map_err(|e| (2, e.to_string()))?;
-    say(&service::request(&req).map_err(|(c, e)| (c, format!("load: {e}")))?);
-    say(&service::request(&service::start(false)).map_err(|(c, e)| (c, format!("start: {e}")))?);
+    say(&service::request(&req).map_err(|e| (e.exit_code(), format!("load: {e}")))?);
+    say(&service::request(&service::start(false)).map_err(|e| (e.exit_code(), format!("start: {e}")))?);
 
     // Progress: pass, Y, time left, sync error.
     let total_s = plan.total_time_s;

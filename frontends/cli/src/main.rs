@@ -587,7 +587,7 @@ fn send(req: &hob_ipc::CommandRequest) -> Result<(), Failure> {
 }
 
 /// A request built from the arguments (refused when they are wrong), and its answer.
-fn send_built(req: Result<hob_ipc::CommandRequest, (u8, String)>) -> Result<(), Failure> {
+fn send_built(req: Result<hob_ipc::CommandRequest, service::ServiceError>) -> Result<(), Failure> {
     service_result(req.and_then(|r| service::request(&r)))
 }
 
@@ -888,7 +888,7 @@ fn can(
     let machine = load_machine(machine.as_deref())?;
     let iface = iface.unwrap_or_else(|| machine.can.interface.clone());
     let timeout = std::time::Duration::from_millis(timeout_ms);
-    let failed = |e: hob_cli::Error| (1, e.to_string());
+    let failed = service::ServiceError::Can;
     let result = match command {
         CanCommand::Scan => can::scan(&iface, timeout).map_err(failed),
         CanCommand::Sdo { op } => sdo(&iface, op, timeout),
@@ -902,10 +902,11 @@ fn can(
     };
     match result {
         Ok(text) => emit(&text),
-        Err((code, text)) => {
+        Err(e) => {
+            let text = e.to_string();
             let _ = emit(&text);
             eprintln!("hob: {}", text.lines().last().unwrap_or("failed"));
-            Err(Failure::Exit(code))
+            Err(Failure::Exit(e.exit_code()))
         }
     }
 }
@@ -944,9 +945,9 @@ fn check(
     emit(&text)
 }
 
-fn sdo(iface: &str, op: SdoOp, timeout: std::time::Duration) -> Result<String, (u8, String)> {
-    let bad = |e: hob_cli::Error| (2, e.to_string());
-    let failed = |e: hob_cli::Error| (1, e.to_string());
+fn sdo(iface: &str, op: SdoOp, timeout: std::time::Duration) -> Result<String, service::ServiceError> {
+    let bad = service::ServiceError::Usage;
+    let failed = service::ServiceError::Can;
     match op {
         SdoOp::Read { node, index, sub, ty } => {
             let (index, sub) = (

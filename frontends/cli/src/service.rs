@@ -13,27 +13,94 @@ use std::time::{Duration, Instant};
 /// How long a command may wait for the loop's answer.
 const ANSWER: Duration = Duration::from_secs(3);
 
-/// Sends a request; Ok(text) when accepted, Err((exit code, text)) otherwise: 2 refused,
-/// 1 no answer.
-pub fn request(req: &CommandRequest) -> Result<String, (u8, String)> {
-    let mut client =
-        hob_ipc::commands(&format!("hob-cli-{}", std::process::id())).map_err(|e| (1, e.to_string()))?;
-    let r: CommandResponse = client.request(req, ANSWER).map_err(|e| (1, e.to_string()))?;
-    if r.accepted != 0 {
-        Ok(r.text())
-    } else {
-        Err((2, r.text()))
+/// Why a command to the running loop did not succeed: exit status 2 for a refusal (the
+/// loop's, the builder's, or the command line's), 1 for a loop that cannot be reached or
+/// does not answer.
+#[derive(Debug)]
+pub enum ServiceError {
+    /// The loop's services (or the gateway) could not be reached.
+    Unreachable(hob_ipc::IpcError),
+    /// The loop did not answer in time.
+    NoAnswer(hob_ipc::IpcError),
+    /// The loop refused, in its words.
+    Refused(String),
+    /// A program file that could not be read.
+    ProgramFile {
+        path: std::path::PathBuf,
+        error: std::io::Error,
+    },
+    /// A command's word the builder refused (or a program too long to send).
+    Request(hob_ipc::Error),
+    /// `jog-hold --seconds` that is not a duration.
+    BadSeconds(f64),
+    /// `status --watch`: the loop stopped publishing its state.
+    Stopped,
+    /// `status`: no state to show.
+    Snapshot(Error),
+    /// A command line's value that does not read (`hob can sdo`).
+    Usage(Error),
+    /// A CAN command that failed (`hob can sdo`).
+    Can(Error),
+}
+
+impl ServiceError {
+    /// The exit status: 2 refused, 1 failed.
+    pub fn exit_code(&self) -> u8 {
+        match self {
+            ServiceError::Refused(_)
+            | ServiceError::ProgramFile { .. }
+            | ServiceError::Request(_)
+            | ServiceError::BadSeconds(_)
+            | ServiceError::Usage(_) => 2,
+            ServiceError::Unreachable(_)
+            | ServiceError::NoAnswer(_)
+            | ServiceError::Stopped
+            | ServiceError::Snapshot(_)
+            | ServiceError::Can(_) => 1,
+        }
     }
 }
 
-pub fn load(program: &Path) -> Result<String, (u8, String)> {
-    let text = std::fs::read_to_string(program).map_err(|e| (2, format!("{}: {e}", program.display())))?;
+impl std::fmt::Display for ServiceError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            ServiceError::Unreachable(e) | ServiceError::NoAnswer(e) => write!(f, "{e}"),
+            ServiceError::Refused(text) => f.write_str(text),
+            ServiceError::ProgramFile { path, error } => write!(f, "{}: {error}", path.display()),
+            ServiceError::Request(e) => write!(f, "{e}"),
+            ServiceError::BadSeconds(s) => write!(f, "jog-hold: --seconds {s} is not a duration"),
+            ServiceError::Stopped => f.write_str("hob-rt stopped publishing"),
+            ServiceError::Snapshot(e) | ServiceError::Usage(e) | ServiceError::Can(e) => write!(f, "{e}"),
+        }
+    }
+}
+
+impl std::error::Error for ServiceError {}
+
+/// Sends a request; Ok(text) when accepted, else why not ([`ServiceError::exit_code`]: 2
+/// refused, 1 no answer).
+pub fn request(req: &CommandRequest) -> Result<String, ServiceError> {
+    let mut client =
+        hob_ipc::commands(&format!("hob-cli-{}", std::process::id())).map_err(ServiceError::Unreachable)?;
+    let r: CommandResponse = client.request(req, ANSWER).map_err(ServiceError::NoAnswer)?;
+    if r.accepted != 0 {
+        Ok(r.text())
+    } else {
+        Err(ServiceError::Refused(r.text()))
+    }
+}
+
+pub fn load(program: &Path) -> Result<String, ServiceError> {
+    let text = std::fs::read_to_string(program).map_err(|error| ServiceError::ProgramFile {
+        path: program.to_path_buf(),
+        error,
+    })?;
     load_text(&program.display().to_string(), &text)
 }
 
 /// Sends a self-contained program's text (a library tool already resolved:
 /// [`crate::library::load_text`]) under `name`.
-pub fn load_text(name: &str, text: &str) -> Result<String, (u8, String)> {
+pub fn load_text(name: &str, text: &str) -> Result<String, ServiceError> {
     let req = CommandRequest::load_program(name, text).map_err(refused)?;
     request(&req)
 }
@@ -46,21 +113,21 @@ pub fn start(single: bool) -> CommandRequest {
     hob_ipc::request::start(single)
 }
 
-fn refused(e: hob_ipc::Error) -> (u8, String) {
-    (2, e.to_string())
+fn refused(e: hob_ipc::Error) -> ServiceError {
+    ServiceError::Request(e)
 }
 
-pub fn jog(axis: &str, distance: f64) -> Result<CommandRequest, (u8, String)> {
+pub fn jog(axis: &str, distance: f64) -> Result<CommandRequest, ServiceError> {
     hob_ipc::request::jog(axis, distance).map_err(refused)
 }
 
 /// `hob home x|y|all`.
-pub fn home(axes: &str) -> Result<CommandRequest, (u8, String)> {
+pub fn home(axes: &str) -> Result<CommandRequest, ServiceError> {
     hob_ipc::request::home(axes).map_err(refused)
 }
 
 /// `hob override feed|spindle PERCENT`.
-pub fn override_request(what: &str, percent: f64) -> Result<CommandRequest, (u8, String)> {
+pub fn override_request(what: &str, percent: f64) -> Result<CommandRequest, ServiceError> {
     hob_ipc::request::override_request(what, percent).map_err(refused)
 }
 
@@ -69,11 +136,11 @@ pub fn touch_off(
     axis: &str,
     diameter: Option<f64>,
     height: Option<f64>,
-) -> Result<CommandRequest, (u8, String)> {
+) -> Result<CommandRequest, ServiceError> {
     hob_ipc::request::touch_off(axis, diameter, height).map_err(refused)
 }
 
-pub fn touch_flank(turned: &str) -> Result<CommandRequest, (u8, String)> {
+pub fn touch_flank(turned: &str) -> Result<CommandRequest, ServiceError> {
     hob_ipc::request::touch_flank(turned).map_err(refused)
 }
 
@@ -88,21 +155,21 @@ pub fn jog_hold(
     speed: f64,
     seconds: f64,
     release: bool,
-) -> Result<String, (u8, String)> {
+) -> Result<String, ServiceError> {
     let r = hob_ipc::request::jog_continuous(axis, direction, speed).map_err(refused)?;
     // The builder accepted the axis: its code names it.
     let axis_name = codec::Axis::from_code(r.axis).map_or("?", codec::Axis::name);
     if !(seconds.is_finite() && seconds >= 0.0) {
-        return Err((2, format!("jog-hold: --seconds {seconds} is not a duration")));
+        return Err(ServiceError::BadSeconds(seconds));
     }
     let mut client =
-        hob_ipc::commands(&format!("hob-cli-{}", std::process::id())).map_err(|e| (1, e.to_string()))?;
+        hob_ipc::commands(&format!("hob-cli-{}", std::process::id())).map_err(ServiceError::Unreachable)?;
     let end = Instant::now() + Duration::from_secs_f64(seconds);
     let mut renewals = 0u32;
     loop {
-        let answer: CommandResponse = client.request(&r, ANSWER).map_err(|e| (1, e.to_string()))?;
+        let answer: CommandResponse = client.request(&r, ANSWER).map_err(ServiceError::NoAnswer)?;
         if answer.accepted == 0 {
-            return Err((2, answer.text()));
+            return Err(ServiceError::Refused(answer.text()));
         }
         renewals += 1;
         if Instant::now() >= end {
@@ -113,9 +180,9 @@ pub fn jog_hold(
     if release {
         let answer: CommandResponse = client
             .request(&hob_ipc::request::jog_release(), ANSWER)
-            .map_err(|e| (1, e.to_string()))?;
+            .map_err(ServiceError::NoAnswer)?;
         if answer.accepted == 0 {
-            return Err((2, answer.text()));
+            return Err(ServiceError::Refused(answer.text()));
         }
         Ok(format!(
             "jog {axis_name} {direction}: {renewals} renewals, released\n"
@@ -453,10 +520,10 @@ pub fn status_json(s: &Snapshot) -> String {
 }
 
 /// `hob status`: once, or `--watch` (a line per half second until interrupted).
-pub fn status(watch: bool, json: bool) -> Result<String, (u8, String)> {
+pub fn status(watch: bool, json: bool) -> Result<String, ServiceError> {
     let mut ports =
-        hob_ipc::follow(&format!("hob-status-{}", std::process::id())).map_err(|e| (1, e.to_string()))?;
-    let snap = snapshot(ports.as_mut()).map_err(|e| (1, e.to_string()))?;
+        hob_ipc::follow(&format!("hob-status-{}", std::process::id())).map_err(ServiceError::Unreachable)?;
+    let snap = snapshot(ports.as_mut()).map_err(ServiceError::Snapshot)?;
     if !watch {
         return Ok(if json {
             status_json(&snap)
@@ -480,7 +547,7 @@ pub fn status(watch: bool, json: bool) -> Result<String, (u8, String)> {
             println!("  #{:<6} cycle {:<9} {}", e.seq, e.cycle, codec::event_text(&e));
         }
         let Some(st) = ports.wait_state(Duration::from_secs(1)) else {
-            return Err((1, "hob-rt stopped publishing".into()));
+            return Err(ServiceError::Stopped);
         };
         let alarm = codec::alarm_text(&st.alarm);
         println!(

@@ -38,16 +38,16 @@ impl Failure {
     }
 }
 
-pub fn service_result(r: Result<String, (u8, String)>) -> Result<(), Failure> {
+pub fn service_result(r: Result<String, crate::service::ServiceError>) -> Result<(), Failure> {
     match r {
         Ok(text) => emit(&format!("{}\n", text.trim_end())),
-        Err((2, text)) => {
-            eprintln!("hob: refused: {text}");
+        Err(e) if e.exit_code() == 2 => {
+            eprintln!("hob: refused: {e}");
             Err(Failure::Exit(2))
         }
-        Err((code, text)) => {
-            eprintln!("hob: {text}");
-            Err(Failure::Exit(code))
+        Err(e) => {
+            eprintln!("hob: {e}");
+            Err(Failure::Exit(e.exit_code()))
         }
     }
 }

@@ -22,20 +22,83 @@ use hob_canopen::bus::CanBus;
 use hob_control::{ControlParams, Controller, Status};
 use hob_ipc::iceoryx2;
 use hob_ipc::{EventSample, StateSample, StatsSample, Svc};
-use hob_master::{Booted, boot};
+use hob_master::{BootError, Booted, boot};
 use hob_process_image::plan::BusPlan;
 use hob_rt_os::alloc_guard;
 use hob_rt_os::{IdleLatencyRequest, RtReport};
 use hob_setup::config::machine::MachineConfig;
 use serde::Serialize;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, OnceLock};
 use std::thread::JoinHandle;
 use std::time::Duration;
 
-/// Why start-up or shut-down failed: the exit status and the reason.
-pub type Failure = (u8, String);
+/// Why `hob-rt` could not start or stop cleanly: each with its exit status
+/// ([`Failure::exit_code`]) and the words it prints.
+#[derive(Debug)]
+pub enum Failure {
+    /// The machine state file (work offsets) is broken: never cut with offsets half read.
+    StateFile(hob_setup::config::LoadError),
+    /// The loop's publishers could not be opened (another hob-rt on this instance?).
+    Ports {
+        error: hob_ipc::IpcError,
+        instance: String,
+    },
+    /// The iceoryx2 node of the loop could not be made.
+    Node(hob_ipc::IpcError),
+    /// The CAN bus could not be opened.
+    BusOpen(String),
+    /// The bus did not come up.
+    BusBoot { iface: String, error: BootError },
+    /// A helper thread could not be started.
+    Thread {
+        which: &'static str,
+        error: std::io::Error,
+    },
+    /// The command and stats threads did not report ready.
+    HelpersNotReady,
+    /// `--require-rt` and the real-time set-up is not complete (exit status 3).
+    Degraded,
+    /// The stats thread panicked: its figures are lost.
+    StatsPanicked,
+    /// The run's summary could not be written.
+    Summary(serde_json::Error),
+    /// A figure's file could not be written.
+    Write { path: PathBuf, error: std::io::Error },
+}
+
+impl Failure {
+    /// The process's exit status for it: 3 for a refused degraded start, else 1.
+    pub fn exit_code(&self) -> u8 {
+        match self {
+            Failure::Degraded => 3,
+            _ => 1,
+        }
+    }
+}
+
+impl std::fmt::Display for Failure {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Failure::StateFile(e) => write!(f, "{e}"),
+            Failure::Ports { error, instance } => {
+                write!(f, "{error} (is another hob-rt running on instance {instance}?)")
+            }
+            Failure::Node(e) => write!(f, "{e}"),
+            Failure::BusOpen(e) => f.write_str(e),
+            Failure::BusBoot { iface, error } => write!(f, "bus boot on {iface}: {error}"),
+            Failure::Thread { which, error } => write!(f, "{which} thread: {error}"),
+            Failure::HelpersNotReady => f.write_str("the command and stats threads did not start"),
+            Failure::Degraded => f.write_str("--require-rt: refusing to run degraded"),
+            Failure::StatsPanicked => f.write_str("stats thread panicked"),
+            Failure::Summary(e) => write!(f, "hob-rt.json: {e}"),
+            Failure::Write { path, error } => write!(f, "{}: {error}", path.display()),
+        }
+    }
+}
+
+impl std::error::Error for Failure {}
 
 /// What the command line chose.
 #[derive(Debug, Clone, Default)]
@@ -71,7 +134,7 @@ pub fn configure(machine: MachineConfig, settings: &Settings) -> Result<Configur
         .unwrap_or_else(|| machine.state.file.clone().into());
     // The work offsets of the last touch-off: a broken file stops the start, as a broken
     // machine file does (never cut with offsets half read).
-    let offsets = match hob_store::machine_state::load(&state_file).map_err(|e| (1, e.to_string()))? {
+    let offsets = match hob_store::machine_state::load(&state_file).map_err(Failure::StateFile)? {
         hob_store::machine_state::Loaded::NotCalibrated => {
             eprintln!(
                 "hob-rt: {}: no touch-off yet: work offsets 0 (touch off X and Y before cutting)",
@@ -114,7 +177,7 @@ pub fn configure(machine: MachineConfig, settings: &Settings) -> Result<Configur
         .iface
         .clone()
         .unwrap_or_else(|| machine.can.interface.clone());
-    let mut bus = open_bus(&iface, "hob-rt-can").map_err(|e| (1, e))?;
+    let mut bus = open_bus(&iface, "hob-rt-can").map_err(Failure::BusOpen)?;
     let plan = BusPlan::from_machine(&machine);
     let booted = boot(
         &plan,
@@ -122,7 +185,10 @@ pub fn configure(machine: MachineConfig, settings: &Settings) -> Result<Configur
         &mut SystemClock::new(),
         Duration::from_millis(500),
     )
-    .map_err(|e| (1, format!("bus boot on {iface}: {e}")))?;
+    .map_err(|error| Failure::BusBoot {
+        iface: iface.clone(),
+        error,
+    })?;
     for i in &booted.nodes {
         eprintln!(
             "hob-rt: node {} \"{}\" operational{}",
@@ -154,16 +220,11 @@ pub struct LoopPorts {
 
 impl LoopPorts {
     fn open() -> Result<Self, Failure> {
-        let refused = |e: hob_ipc::IpcError| {
-            (
-                1,
-                format!(
-                    "{e} (is another hob-rt running on instance {}?)",
-                    hob_ipc::instance()
-                ),
-            )
+        let refused = |error: hob_ipc::IpcError| Failure::Ports {
+            error,
+            instance: hob_ipc::instance(),
         };
-        let node = hob_ipc::node("hob-rt").map_err(|e| (1, e.to_string()))?;
+        let node = hob_ipc::node("hob-rt").map_err(Failure::Node)?;
         let state = hob_ipc::open_state(&node)
             .and_then(|s| hob_ipc::publisher(&s, "state publisher"))
             .map_err(refused)?;
@@ -223,7 +284,10 @@ impl Helpers {
                         eprintln!("hob-rt: {e}");
                     }
                 })
-                .map_err(|e| (1, format!("command thread: {e}")))?
+                .map_err(|error| Failure::Thread {
+                    which: "command",
+                    error,
+                })?
         };
         let stats = {
             let stop = Arc::clone(&stop);
@@ -250,7 +314,10 @@ impl Helpers {
                         &ready_tx,
                     )
                 })
-                .map_err(|e| (1, format!("stats thread: {e}")))?
+                .map_err(|error| Failure::Thread {
+                    which: "stats",
+                    error,
+                })?
         };
         let flight = {
             let dir = flight_dir.to_path_buf();
@@ -261,11 +328,14 @@ impl Helpers {
                     hob_rt_os::keep_off_core(loop_core);
                     flight_writer.serve(&dir);
                 })
-                .map_err(|e| (1, format!("flight record thread: {e}")))?
+                .map_err(|error| Failure::Thread {
+                    which: "flight record",
+                    error,
+                })?
         };
         let ready = (0..2).all(|_| ready_rx.recv_timeout(Duration::from_secs(10)).is_ok());
         if !ready {
-            return Err((1, "the command and stats threads did not start".into()));
+            return Err(Failure::HelpersNotReady);
         }
         Ok(Self {
             stop,
@@ -394,7 +464,7 @@ impl Configured {
         realtime.announce();
         if require_rt && !realtime.report.is_complete() {
             helpers.stop.store(true, Ordering::Relaxed);
-            return Err((3, "--require-rt: refusing to run degraded".into()));
+            return Err(Failure::Degraded);
         }
         let _ = helpers.rt_report.set(realtime.report.clone());
         let mut cyclic = booted.cyclic;
@@ -508,11 +578,7 @@ impl Stopped {
         self.helpers.stop.store(true, Ordering::Relaxed);
         let _ = self.helpers.commands.join();
         let _ = self.helpers.flight.join();
-        let total = self
-            .helpers
-            .stats
-            .join()
-            .map_err(|_| (1, "stats thread panicked".to_string()))?;
+        let total = self.helpers.stats.join().map_err(|_| Failure::StatsPanicked)?;
         let overruns = self.counters.overruns.load(Ordering::Relaxed);
         let unpublished = self.counters.state_unpublished.load(Ordering::Relaxed);
         let (allocations, pool_blocks) = alloc_guard::counts().unwrap_or((0, 0));
@@ -549,8 +615,11 @@ impl Stopped {
             pool_blocks_in_cycles: pool_blocks,
             final_state: self.status.state.name().to_string(),
         };
-        let json = serde_json::to_string(&summary).map_err(|e| (1, format!("hob-rt.json: {e}")))? + "\n";
-        std::fs::create_dir_all(dir).map_err(|e| (1, format!("{}: {e}", dir.display())))?;
+        let json = serde_json::to_string(&summary).map_err(Failure::Summary)? + "\n";
+        std::fs::create_dir_all(dir).map_err(|error| Failure::Write {
+            path: dir.to_path_buf(),
+            error,
+        })?;
         let files = [
             ("wake.hgrm", stats::hgrm(&total.wake_ns)),
             ("compute.hgrm", stats::hgrm(&total.compute_ns)),
@@ -560,7 +629,10 @@ impl Stopped {
         ];
         for (name, text) in files {
             let p = dir.join(name);
-            std::fs::write(&p, text).map_err(|e| (1, format!("{}: {e}", p.display())))?;
+            std::fs::write(&p, text).map_err(|error| Failure::Write {
+                path: p.clone(),
+                error,
+            })?;
         }
         Ok(())
     }

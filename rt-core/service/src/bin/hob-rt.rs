@@ -99,16 +99,16 @@ fn main() -> ExitCode {
     };
     match run(&args, machine) {
         Ok(()) => ExitCode::SUCCESS,
-        Err((code, e)) => {
+        Err(e) => {
             eprintln!("hob-rt: {e}");
-            ExitCode::from(code)
+            ExitCode::from(e.exit_code())
         }
     }
 }
 
 /// The service's life: configure (machine, bus boot) -> activate (ports, helper threads,
 /// real-time set-up) -> run (the loop) -> stop (helpers joined, figures written).
-fn run(args: &Args, machine: MachineConfig) -> Result<(), (u8, String)> {
+fn run(args: &Args, machine: MachineConfig) -> Result<(), lifecycle::Failure> {
     let stop = hob_rt_os::termination_flag();
     let settings = Settings {
         iface: args.iface.clone(),
