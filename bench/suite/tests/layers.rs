@@ -566,3 +566,105 @@ fn a_breach_of_each_kind_is_reported() {
         assert!(b.contains(needle), "{needle:?} not reported in:\n{b}");
     }
 }
+
+/// The functions of a source text longer than `limit` lines (from the `fn` line to its
+/// closing brace, counted by matching braces outside strings, chars and comments): name
+/// and length.
+fn long_functions(code: &str, limit: usize) -> Vec<(String, usize)> {
+    let lines: Vec<&str> = code.lines().collect();
+    let mut out = Vec::new();
+    for (i, line) in lines.iter().enumerate() {
+        let t = line.trim_start();
+        let head = t
+            .trim_start_matches("pub(crate) ")
+            .trim_start_matches("pub(super) ")
+            .trim_start_matches("pub ")
+            .trim_start_matches("const ")
+            .trim_start_matches("async ")
+            .trim_start_matches("unsafe ");
+        let Some(rest) = head.strip_prefix("fn ") else {
+            continue;
+        };
+        let name: String = rest
+            .chars()
+            .take_while(|c| c.is_alphanumeric() || *c == '_')
+            .collect();
+        let (mut depth, mut opened) = (0i64, false);
+        for (j, l) in lines[i..].iter().enumerate() {
+            let l = l.split("//").next().unwrap_or("");
+            let mut in_str = false;
+            let mut prev = ' ';
+            for c in l.chars() {
+                match c {
+                    '"' if prev != '\\' && prev != '\'' => in_str = !in_str,
+                    '{' if !in_str => {
+                        depth += 1;
+                        opened = true;
+                    }
+                    '}' if !in_str => depth -= 1,
+                    _ => {}
+                }
+                prev = c;
+            }
+            if !opened && l.contains(';') {
+                break; // a declaration without a body
+            }
+            if opened && depth <= 0 {
+                if j + 1 > limit {
+                    out.push((name.clone(), j + 1));
+                }
+                break;
+            }
+        }
+    }
+    out
+}
+
+/// Every `.rs` file under `dir` (all of it, tests included).
+fn rust_files(dir: &std::path::Path) -> Vec<std::path::PathBuf> {
+    let mut out = Vec::new();
+    let mut todo = vec![dir.to_path_buf()];
+    while let Some(d) = todo.pop() {
+        let Ok(entries) = std::fs::read_dir(&d) else {
+            continue;
+        };
+        for e in entries.flatten() {
+            let p = e.path();
+            let name = e.file_name().to_string_lossy().to_string();
+            if p.is_dir() && name != "target" && name != "node_modules" {
+                todo.push(p);
+            } else if name.ends_with(".rs") {
+                out.push(p);
+            }
+        }
+    }
+    out.sort();
+    out
+}
+
+#[test]
+fn no_function_in_the_product_is_over_100_lines() {
+    // rt-core/, ipc/ and frontends/, tests included: a function a newcomer can read whole.
+    let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../..");
+    let mut long = Vec::new();
+    let mut files = 0;
+    for top in ["rt-core", "ipc", "frontends"] {
+        for path in rust_files(&root.join(top)) {
+            files += 1;
+            let text = std::fs::read_to_string(&path).unwrap();
+            for (name, n) in long_functions(&text, 100) {
+                long.push(format!("{}: {name} ({n} lines)", path.display()));
+            }
+        }
+    }
+    assert!(files > 100, "only {files} files read");
+    assert!(long.is_empty(), "functions over 100 lines:\n{}", long.join("\n"));
+}
+
+#[test]
+fn a_long_function_is_found() {
+    let body: String = (0..101).map(|i| format!("    let _x{i} = \"{{\";\n")).collect();
+    let code = format!("pub fn short() {{\n}}\n\nfn long() {{\n{body}}}\n\nfn decl();\n");
+    assert_eq!(long_functions(&code, 100), [("long".to_string(), 103)]);
+    assert!(long_functions(&code, 103).is_empty());
+}
