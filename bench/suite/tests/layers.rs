@@ -668,3 +668,103 @@ fn a_long_function_is_found() {
     assert_eq!(long_functions(&code, 100), [("long".to_string(), 103)]);
     assert!(long_functions(&code, 103).is_empty());
 }
+
+/// The modules of one crate's `src/` and the sibling modules each names (`crate::m` or, in
+/// a top-level file, `super::m`), comments and test items left out. Module `m` is the
+/// first component under `src/` (`src/m.rs` or `src/m/...`).
+fn module_imports(src: &std::path::Path) -> BTreeMap<String, BTreeSet<String>> {
+    let mut g: BTreeMap<String, BTreeSet<String>> = BTreeMap::new();
+    for path in rust_files(src) {
+        let rel = path.strip_prefix(src).unwrap();
+        let parts: Vec<String> = rel
+            .iter()
+            .map(|p| p.to_string_lossy().trim_end_matches(".rs").to_string())
+            .collect();
+        if parts[0] == "bin" || parts.iter().any(|p| p == "tests") {
+            continue;
+        }
+        let top = match parts[0].as_str() {
+            "lib" | "main" | "mod" => continue,
+            m => m.to_string(),
+        };
+        let code = code_of(&std::fs::read_to_string(&path).unwrap());
+        let mut names = BTreeSet::new();
+        let mut prefixes = vec!["crate::"];
+        if parts.len() == 1 {
+            prefixes.push("super::");
+        }
+        for prefix in prefixes {
+            for (i, _) in code.match_indices(prefix) {
+                let name: String = code[i + prefix.len()..]
+                    .chars()
+                    .take_while(|c| c.is_alphanumeric() || *c == '_')
+                    .collect();
+                if name != top {
+                    names.insert(name);
+                }
+            }
+        }
+        g.entry(top).or_default().extend(names);
+    }
+    let modules: BTreeSet<String> = g.keys().cloned().collect();
+    for deps in g.values_mut() {
+        deps.retain(|d| modules.contains(d));
+    }
+    g
+}
+
+/// The modules that reach themselves through the others (empty: no circle).
+fn modules_in_circles(g: &BTreeMap<String, BTreeSet<String>>) -> BTreeSet<String> {
+    let reach = |from: &String| {
+        let mut seen = BTreeSet::new();
+        let mut todo: Vec<&String> = g[from].iter().collect();
+        while let Some(m) = todo.pop() {
+            if seen.insert(m.clone()) {
+                todo.extend(g.get(m).into_iter().flatten());
+            }
+        }
+        seen
+    };
+    g.keys().filter(|m| reach(m).contains(*m)).cloned().collect()
+}
+
+#[test]
+fn no_crate_has_a_circle_of_modules() {
+    let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../..");
+    let mut circles = Vec::new();
+    let mut crates = 0;
+    for top in ["rt-core", "ipc", "frontends", "bench"] {
+        for dir in std::fs::read_dir(root.join(top)).unwrap().flatten() {
+            let src = dir.path().join("src");
+            if !src.is_dir() {
+                continue;
+            }
+            crates += 1;
+            let c = modules_in_circles(&module_imports(&src));
+            if !c.is_empty() {
+                circles.push(format!("{}: {c:?}", dir.path().display()));
+            }
+        }
+    }
+    assert!(crates > 15, "only {crates} crates read");
+    assert!(
+        circles.is_empty(),
+        "modules that import each other in a circle:\n{}",
+        circles.join("\n")
+    );
+}
+
+#[test]
+fn a_circle_of_modules_is_found() {
+    let g: BTreeMap<String, BTreeSet<String>> = [
+        ("events", vec!["sequencer"]),
+        ("sequencer", vec!["jog"]),
+        ("jog", vec!["events", "fault"]),
+        ("fault", vec![]),
+    ]
+    .into_iter()
+    .map(|(m, d)| (m.to_string(), d.into_iter().map(String::from).collect()))
+    .collect();
+    let c: Vec<String> = modules_in_circles(&g).into_iter().collect();
+    assert_eq!(c, ["events", "jog", "sequencer"]);
+}
