@@ -312,27 +312,17 @@ fn code_of(text: &str) -> String {
 /// The source files of a crate's `src/`, tests left out (files named `tests.rs` or in a
 /// `tests` folder).
 fn sources_of(src: &std::path::Path) -> Vec<(String, String)> {
-    let mut out = Vec::new();
-    let mut todo = vec![src.to_path_buf()];
-    while let Some(dir) = todo.pop() {
-        let Ok(entries) = std::fs::read_dir(&dir) else {
-            continue;
-        };
-        for e in entries.flatten() {
-            let path = e.path();
-            let name = e.file_name().to_string_lossy().to_string();
-            if path.is_dir() {
-                if name != "tests" {
-                    todo.push(path);
-                }
-            } else if name.ends_with(".rs") && name != "tests.rs" {
-                let text = std::fs::read_to_string(&path).unwrap();
-                out.push((path.display().to_string(), code_of(&text)));
-            }
-        }
-    }
-    out.sort();
-    out
+    rust_files(src)
+        .into_iter()
+        .filter(|path| {
+            let rel = path.strip_prefix(src).unwrap_or(path);
+            !rel.iter().any(|c| c == "tests" || c == "tests.rs")
+        })
+        .map(|path| {
+            let text = std::fs::read_to_string(&path).unwrap();
+            (path.display().to_string(), code_of(&text))
+        })
+        .collect()
 }
 
 fn workspace() -> Workspace {
