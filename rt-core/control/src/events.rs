@@ -75,6 +75,22 @@ pub struct EventRing {
     lost: u64,
 }
 
+/// The ring as a machine of the controller writes into it in one cycle: each event is
+/// stamped with that cycle.
+pub(crate) struct Stamped<'a> {
+    ring: &'a mut EventRing,
+    cycle: u64,
+}
+
+impl Stamped<'_> {
+    pub fn push(&mut self, kind: EventKind) {
+        self.ring.push(Event {
+            cycle: self.cycle,
+            kind,
+        });
+    }
+}
+
 impl Default for EventRing {
     fn default() -> Self {
         Self::new()
@@ -89,6 +105,11 @@ impl EventRing {
             len: 0,
             lost: 0,
         }
+    }
+
+    /// The ring for the machines of cycle `cycle`.
+    pub(crate) fn stamped(&mut self, cycle: u64) -> Stamped<'_> {
+        Stamped { ring: self, cycle }
     }
 
     pub fn push(&mut self, e: Event) {

@@ -15,11 +15,13 @@
 mod align;
 mod command;
 mod commands;
+mod cycle;
 mod drive;
 pub mod eccentricity;
 pub mod egb;
 pub mod events;
 pub mod fault;
+mod fault_reaction;
 pub mod flight;
 pub mod io;
 pub mod jog;
@@ -103,15 +105,8 @@ fn input_mode(input: &CycleInputs, k: usize) -> i8 {
 /// Scaling of one axis between counts and units (a unit conversion: `hob_gearing::units`).
 pub use hob_gearing::units::AxisScale;
 
-/// Limits and timing of one linear axis.
-#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
-pub struct LinearLimits {
-    pub soft_min_mm: f64,
-    pub soft_max_mm: f64,
-    pub rapid_mm_s: f64,
-    pub accel_mm_s2: f64,
-    pub max_following_error_mm: f64,
-}
+/// Limits and timing of one linear axis (declared with the axis' motion profile).
+pub use profile::LinearLimits;
 
 /// Everything the loop needs from the machine configuration, copied at start-up.
 #[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
@@ -452,16 +447,6 @@ impl Controller {
             cycle: self.cycle,
             kind,
         });
-    }
-
-    /// Latches a fault (the first one wins) and starts the reaction.
-    fn raise(&mut self, f: Fault) {
-        if self.fault.is_some() {
-            return;
-        }
-        self.fault = Some(f);
-        self.event(EventKind::Fault(f));
-        self.seq_on_fault(f);
     }
 
     /// One control cycle.

@@ -2,6 +2,16 @@
 //! towards a target with speed and acceleration limits (trapezoidal velocity). No
 //! allocation, constant work per call.
 
+/// Limits and timing of one linear axis.
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct LinearLimits {
+    pub soft_min_mm: f64,
+    pub soft_max_mm: f64,
+    pub rapid_mm_s: f64,
+    pub accel_mm_s2: f64,
+    pub max_following_error_mm: f64,
+}
+
 /// One axis' commanded position and speed.
 #[derive(Debug, Clone, Copy, Default, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct Profile {
