@@ -1,6 +1,6 @@
 //! `hob bus-load` and the commissioning tools `hob can ...` (in the style of can-utils).
 
-use crate::Error;
+use crate::error::Error;
 use hob_canopen::nmt::NmtState;
 
 use hob_can_transport::SystemClock;
@@ -175,7 +175,7 @@ fn encode(value: &str, ty: SdoType) -> Result<Vec<u8>, Error> {
                 value: value.to_string(),
                 lo,
                 hi,
-                ty,
+                ty: format!("{ty:?}"),
             })
         }
     };

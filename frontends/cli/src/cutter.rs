@@ -2,7 +2,7 @@
 //! ([`hob_cutters::design`]), its deviation against the grade, its primitives as TOML and a
 //! plot to look at.
 
-use crate::Error;
+use crate::error::Error;
 use hob_cutters::design::{CutterDesign, design, design_within};
 use hob_cutters::profile::{Primitive, discretise, validate};
 use hob_cutters::space::Gear;

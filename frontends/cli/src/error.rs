@@ -3,7 +3,6 @@
 //! the prefix (`hob: refused:`, `hob: error:`); a report written before the refusal is part
 //! of the message (it is printed whole).
 
-use crate::can::SdoType;
 use std::fmt;
 use std::num::ParseIntError;
 use std::path::PathBuf;
@@ -35,12 +34,13 @@ pub enum Error {
     IndexRange {
         text: String,
     },
-    /// A value to write (as given) beyond its type's range.
+    /// A value to write (as given) beyond its type's range (`ty`: the
+    /// [`crate::can::SdoType`] as its name is written).
     ValueRange {
         value: String,
         lo: i64,
         hi: i64,
-        ty: SdoType,
+        ty: String,
     },
     /// A hex value (as given) with an odd number of digits.
     HexOdd {
@@ -127,7 +127,7 @@ impl fmt::Display for Error {
             Error::Number { text, error } => write!(f, "{text:?}: {error}"),
             Error::IndexRange { text } => write!(f, "{text}: out of range 0 .. 0xFFFF"),
             Error::ValueRange { value, lo, hi, ty } => {
-                write!(f, "{value} is out of range {lo} .. {hi} for {ty:?}")
+                write!(f, "{value} is out of range {lo} .. {hi} for {ty}")
             }
             Error::HexOdd { value } => write!(f, "{value:?}: hex needs an even number of digits"),
             Error::HexDigit(e) => write!(f, "{e}"),

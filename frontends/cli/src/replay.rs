@@ -8,7 +8,7 @@
 //! and the table move, what the controller's own estimate of its synchronisation error
 //! becomes, and the first fault.
 
-use crate::Error;
+use crate::error::Error;
 use hob_control::flight::FlightRecord;
 use hob_control::{Controller, CycleOutputs, State};
 use std::fmt::Write as _;

@@ -3,7 +3,7 @@
 //! `events` and `stats` streams, and the `command` request-response service; through
 //! `hob-gateway` when `HOB_GATEWAY` names its socket (a user who is not the bus's).
 
-use crate::Error;
+use crate::error::Error;
 use hob_ipc::codec;
 use hob_ipc::{CommandRequest, CommandResponse, EventSample, Feed, StateSample, StatsSample};
 use std::fmt::Write as _;

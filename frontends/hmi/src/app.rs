@@ -2,9 +2,9 @@
 //! thread, the machine file, the program and tool library, and the machine's description
 //! for the page.
 
-use crate::Error;
 use crate::bridge::Hub;
 use crate::commander::Commander;
+use crate::error::Error;
 use hob_ipc::CommandRequest;
 use hob_setup::config::machine::MachineConfig;
 use hob_setup::planner::Plan;

@@ -2,7 +2,7 @@
 //! web server hands it requests and awaits the loop's answers, so drawing never waits on a
 //! command and a command never waits on drawing. Requests are sent one at a time, in order.
 
-use crate::Error;
+use crate::error::Error;
 use hob_ipc::{CommandRequest, CommandResponse};
 use std::sync::mpsc;
 use std::time::Duration;
@@ -57,7 +57,10 @@ pub fn run(jobs: mpsc::Receiver<Job>) {
             client = hob_ipc::commands(&name).ok();
         }
         let reply = match &mut client {
-            Some(c) => c.request(&job.request, ANSWER).map_err(Error::NoAnswer),
+            Some(c) => c.request(&job.request, ANSWER).map_err(|error| Error::NoAnswer {
+                error,
+                within: ANSWER,
+            }),
             None => Err(Error::Unreachable),
         };
         if reply.is_err() {

@@ -20,8 +20,11 @@ pub enum Error {
     },
     /// The command thread is gone: no request can reach the loop.
     CommandThreadStopped,
-    /// The loop did not answer in time ([`crate::commander::ANSWER`]).
-    NoAnswer(hob_ipc::IpcError),
+    /// The loop did not answer within `within` ([`crate::commander::ANSWER`]).
+    NoAnswer {
+        error: hob_ipc::IpcError,
+        within: std::time::Duration,
+    },
     /// The loop's command service could not be reached.
     Unreachable,
     /// A spindle hold asked to turn the hob the other way (`dir`).
@@ -33,9 +36,11 @@ pub enum Error {
         path: PathBuf,
         error: std::io::Error,
     },
-    /// The view token is shorter than [`crate::web::VIEW_TOKEN_MIN_CHARS`] (`chars`).
+    /// The view token is `chars` long, shorter than `min`
+    /// ([`crate::web::VIEW_TOKEN_MIN_CHARS`]).
     ViewTokenShort {
         chars: usize,
+        min: usize,
     },
     /// The view token holds a character other than printable ASCII (or `;` `=` `&`).
     ViewTokenCharacters,
@@ -72,10 +77,10 @@ impl fmt::Display for Error {
                 write!(f, "load {program}: read from the library by the server")
             }
             Error::CommandThreadStopped => f.write_str("the HMI's command thread has stopped"),
-            Error::NoAnswer(e) => write!(
+            Error::NoAnswer { error, within } => write!(
                 f,
-                "no answer from the loop (hob-rt) within {} s: {e}",
-                crate::commander::ANSWER.as_secs()
+                "no answer from the loop (hob-rt) within {} s: {error}",
+                within.as_secs()
             ),
             Error::Unreachable => f.write_str("cannot reach the loop's command service (is hob-rt running?)"),
             Error::SpindleOneWay { dir } => {
@@ -87,11 +92,10 @@ impl fmt::Display for Error {
                  `npm ci --omit=dev --prefix frontends/hmi` (README, Deploying) or give --vendor DIR",
                 path.display()
             ),
-            Error::ViewTokenShort { chars } => write!(
+            Error::ViewTokenShort { chars, min } => write!(
                 f,
-                "the view token is {chars} characters, at least {} are needed \
-                 (e.g. `head -c 24 /dev/urandom | base64 > FILE`)",
-                crate::web::VIEW_TOKEN_MIN_CHARS
+                "the view token is {chars} characters, at least {min} are needed \
+                 (e.g. `head -c 24 /dev/urandom | base64 > FILE`)"
             ),
             Error::ViewTokenCharacters => {
                 f.write_str("the view token holds a character other than printable ASCII (or ; = &)")
@@ -115,7 +119,7 @@ impl std::error::Error for Error {
         match self {
             Error::Library(e) => Some(e),
             Error::Program(e) => Some(e),
-            Error::NoAnswer(e) => Some(e),
+            Error::NoAnswer { error, .. } => Some(error),
             Error::VendorMissing { error, .. } => Some(error),
             Error::Toml(e) => Some(e),
             Error::ToolToml { error, .. } => Some(error),

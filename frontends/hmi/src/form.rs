@@ -5,7 +5,7 @@
 //! syntax error) lands on its field. Nothing here checks a value: a field the operator
 //! typed wrong goes into the TOML as text and the program's parser refuses it by key.
 
-use crate::Error;
+use crate::error::Error;
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 use std::fmt::Write as _;

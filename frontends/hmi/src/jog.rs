@@ -5,8 +5,8 @@
 //! finger, hiding the page, an error or the socket closing releases it at once (also when
 //! the session is dropped for any reason).
 
-use crate::Error;
 use crate::commander::{Commander, Reply};
+use crate::error::Error;
 use hob_ipc::{CommandRequest, command, request};
 use std::sync::Arc;
 use std::sync::atomic::{AtomicUsize, Ordering};

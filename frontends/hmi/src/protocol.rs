@@ -2,7 +2,7 @@
 //! names the message), and the loop's samples turned into named values: every name and
 //! text comes from `hob_ipc::codec` and the machine file, the page only shows them.
 
-use crate::Error;
+use crate::error::Error;
 use crate::reduce::PlotPoint;
 use hob_gearing::iso1328::single_pitch_tolerance_um;
 use hob_gearing::units::um_to_arcsec_at_radius;

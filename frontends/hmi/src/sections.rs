@@ -3,8 +3,8 @@
 //! own, then the whole program checked and planned as `hob check` does; a library tool
 //! filled in from the library.
 
-use crate::Error;
 use crate::app::App;
+use crate::error::Error;
 use hob_setup::form::{SECTIONS, check_sections};
 use serde_json::{Value, json};
 

@@ -2,8 +2,8 @@
 //! modules) is built into the binary; the third-party view library (Preact and htm) is read
 //! once at start-up from an npm install (`--vendor`), never copied into the repository.
 
-use crate::Error;
 use crate::app::App;
+use crate::error::Error;
 use crate::{api, definition, ws};
 use axum::Router;
 use axum::body::Body;
@@ -192,7 +192,10 @@ impl ViewToken {
     pub fn new(text: &str) -> Result<Self, Error> {
         let t = text.trim();
         if t.len() < VIEW_TOKEN_MIN_CHARS {
-            return Err(Error::ViewTokenShort { chars: t.len() });
+            return Err(Error::ViewTokenShort {
+                chars: t.len(),
+                min: VIEW_TOKEN_MIN_CHARS,
+            });
         }
         if !t
             .bytes()

@@ -4,9 +4,9 @@
 //! and the answers to its commands. A panel socket may command and jog; a view socket only
 //! reads (any command closes it).
 
-use crate::Error;
 use crate::app::App;
 use crate::commander::Reply;
+use crate::error::Error;
 use crate::jog::{JogSession, Sent};
 use crate::protocol::{Answer, ClientMsg, EventView, Frame, Op};
 use axum::extract::ws::{Message, Utf8Bytes, WebSocket};

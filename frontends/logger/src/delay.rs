@@ -37,8 +37,8 @@ pub struct DriveDelay {
 
 /// A recording's table samples, one per cycle (a missing cycle is a sample outside the cut,
 /// so that the index stays the cycle), and its cycle period.
-pub fn from_log(dir: &std::path::Path) -> Result<(Vec<TableSample>, f64), crate::Error> {
-    let states = crate::read_dir_states(dir)?;
+pub fn from_log(dir: &std::path::Path) -> Result<(Vec<TableSample>, f64), crate::error::Error> {
+    let states = crate::format::read_dir_states(dir)?;
     let period_s = crate::export::cycle_period_s(&states);
     let mut out: Vec<TableSample> = Vec::with_capacity(states.len());
     let mut last_cycle: Option<u64> = None;

@@ -25,20 +25,24 @@ pub enum Error {
         file: String,
         error: serde_json::Error,
     },
-    /// A state file's header describes other records than this reader's.
+    /// A state file's `header` describes other records than this reader's (of
+    /// `known_record_bytes`, [`crate::format::record_bytes`]).
     OtherFormat {
         file: String,
-        format: serde_json::Value,
-        version: serde_json::Value,
-        record_bytes: serde_json::Value,
+        header: serde_json::Value,
+        known_record_bytes: usize,
     },
     /// A state file's header names other fields than this reader's.
     OtherFields {
         file: String,
         fields: serde_json::Value,
     },
-    /// The simulation trace lacks the override columns a log's CSV ends with (a bug).
-    NoTraceColumns,
+    /// The simulation trace (its `header`, [`crate::trace::TRACE_HEADER`]) lacks the override
+    /// `columns` a log's CSV ends with (a bug).
+    NoTraceColumns {
+        columns: [&'static str; 2],
+        header: &'static str,
+    },
     NoSample {
         dir: PathBuf,
     },
@@ -50,12 +54,15 @@ pub enum Error {
     NoProgramLoaded {
         dir: PathBuf,
     },
-    /// The truth beside a recording differs from the controller's estimate by more than a
-    /// truth of the same program can (arcsec, in `pass`).
+    /// The truth beside a recording (`file`, [`crate::truth::FILE`]) differs from the
+    /// controller's estimate by more than a truth of the same program can (`within_arcsec`,
+    /// [`crate::export`]): by `lo` to `hi` arcsec in `pass`.
     TruthNotOfThisCut {
+        file: &'static str,
         pass: usize,
         lo: f64,
         hi: f64,
+        within_arcsec: f64,
     },
     /// A line of `events.log` (numbered from 1) that is not an event.
     NotAnEventLine {
@@ -77,8 +84,10 @@ pub enum TruthProblem {
     Io(std::io::Error),
     /// The first line does not name the gear.
     NotATruthFile,
-    /// The second line is not [`crate::truth::HEADER`].
-    Header,
+    /// The second line is not the `expected` header ([`crate::truth::HEADER`]).
+    Header {
+        expected: &'static str,
+    },
     /// A row (not the last) that is not a truth row.
     NotARow(String),
 }
@@ -90,7 +99,7 @@ impl fmt::Display for TruthProblem {
             TruthProblem::NotATruthFile => {
                 f.write_str("not a hob-sim truth file (its first line names the gear)")
             }
-            TruthProblem::Header => write!(f, "the header must be {}", crate::truth::HEADER),
+            TruthProblem::Header { expected } => write!(f, "the header must be {expected}"),
             TruthProblem::NotARow(line) => write!(f, "not a truth row: {line}"),
         }
     }
@@ -107,24 +116,20 @@ impl fmt::Display for Error {
             Error::HeaderNotJson { file, error } => write!(f, "{file}: header is not JSON: {error}"),
             Error::OtherFormat {
                 file,
-                format,
-                version,
-                record_bytes,
+                header,
+                known_record_bytes,
             } => write!(
                 f,
-                "{file}: header says {format} version {version} with {record_bytes} bytes per record; this reader knows hob-state-log version 1 with {}",
-                crate::format::record_bytes()
+                "{file}: header says {} version {} with {} bytes per record; this reader knows hob-state-log version 1 with {known_record_bytes}",
+                header["format"], header["version"], header["record_bytes"]
             ),
             Error::OtherFields { file, fields } => write!(
                 f,
                 "{file}: header's fields are not those of hob-state-log version 1 this reader knows: {fields}"
             ),
-            Error::NoTraceColumns => write!(
-                f,
-                "the trace has no {:?} columns: {}",
-                crate::export::LAST,
-                crate::trace::TRACE_HEADER
-            ),
+            Error::NoTraceColumns { columns, header } => {
+                write!(f, "the trace has no {columns:?} columns: {header}")
+            }
             Error::NoSample { dir } => write!(f, "{}: no sample recorded", dir.display()),
             Error::NoSampleOfCycles { dir, first, last } => write!(
                 f,
@@ -136,11 +141,15 @@ impl fmt::Display for Error {
                 "{}: no program was loaded while recording: nothing to report per pass",
                 dir.display()
             ),
-            Error::TruthNotOfThisCut { pass, lo, hi } => write!(
+            Error::TruthNotOfThisCut {
+                file,
+                pass,
+                lo,
+                hi,
+                within_arcsec,
+            } => write!(
                 f,
-                "{} is not of this cut: in pass {pass} it differs from the controller's estimate by {lo:.0} to {hi:.0} arcsec, more than the {} arcsec a truth of the same program can; not used",
-                crate::truth::FILE,
-                crate::export::TRUTH_AGREES_WITHIN_ARCSEC
+                "{file} is not of this cut: in pass {pass} it differs from the controller's estimate by {lo:.0} to {hi:.0} arcsec, more than the {within_arcsec} arcsec a truth of the same program can; not used"
             ),
             Error::NotAnEventLine { path, line, text } => write!(
                 f,

@@ -1,6 +1,6 @@
 //! `hob log export|report`: a recorded directory as CSV, and its per-pass statistics.
 
-use crate::Error;
+use crate::error::Error;
 use crate::trace::{PassSummary, SummaryBuilder, TRACE_HEADER, TraceRow};
 use crate::truth;
 use hob_ipc::StateSample;
@@ -42,7 +42,7 @@ pub(crate) const LAST: [&str; 2] = ["feed_override_percent", "spindle_override_p
 /// the recorded extras (the cycle counter among them), then the overrides (the last
 /// columns of the simulation trace, empty in a log that did not record them).
 pub fn export_csv(dir: &Path) -> Result<String, Error> {
-    let states = crate::read_dir_states(dir)?;
+    let states = crate::format::read_dir_states(dir)?;
     let sim_cols: Vec<&str> = TRACE_HEADER.split(',').collect();
     let upto = sim_cols
         .iter()
@@ -50,7 +50,10 @@ pub fn export_csv(dir: &Path) -> Result<String, Error> {
         .map_or(sim_cols.len(), |i| i + 1);
     let last = LAST.map(|name| sim_cols.iter().position(|c| *c == name));
     let [Some(feed_at), Some(spindle_at)] = last else {
-        return Err(Error::NoTraceColumns);
+        return Err(Error::NoTraceColumns {
+            columns: LAST,
+            header: TRACE_HEADER,
+        });
     };
     let mut out = String::with_capacity(states.len() * 176);
     let _ = writeln!(out, "{},{EXTRA},{}", sim_cols[..upto].join(","), LAST.join(","));
@@ -129,7 +132,7 @@ pub(crate) fn cycle_period_s(states: &[StateSample]) -> f64 {
 
 /// The report of a whole recording (every run of `hob-rt` in it).
 pub fn report(dir: &Path) -> Result<Report, Error> {
-    let states = crate::read_dir_states(dir)?;
+    let states = crate::format::read_dir_states(dir)?;
     if states.is_empty() {
         return Err(Error::NoSample {
             dir: dir.to_path_buf(),
@@ -303,9 +306,11 @@ fn graded_by_truth(
         .find(|(_, e)| e.1 > 0 && e.3 - e.2 > TRUTH_AGREES_WITHIN_ARCSEC)
     {
         return Err(Error::TruthNotOfThisCut {
+            file: truth::FILE,
             pass: pass + 1,
             lo: *lo,
             hi: *hi,
+            within_arcsec: TRUTH_AGREES_WITHIN_ARCSEC,
         });
     }
     let phase_arcsec: Vec<f64> = sums
@@ -567,7 +572,7 @@ pub fn percent_range(min: Option<f64>, max: Option<f64>) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::LogWriter;
+    use crate::writer::LogWriter;
 
     /// A recorded cut: pass 1 with the feed turned down to 80 % in the cut, a hold at
     /// 0 %, the retract at 120 %; pass 2 at 100 % throughout.

@@ -1,7 +1,7 @@
 //! State records: the field list (names and types, written into every file's header) and
 //! the encoder and decoder, which must follow it.
 
-use crate::Error;
+use crate::error::Error;
 use hob_ipc::{AlarmCode, AxisSample, EventSample, StateSample};
 use std::path::{Path, PathBuf};
 
@@ -304,9 +304,8 @@ pub fn read_states(bytes: &[u8], name: &str, f: &mut impl FnMut(StateSample)) ->
     if h["format"] != "hob-state-log" || h["version"] != 1 || h["record_bytes"] != record_bytes() {
         return Err(Error::OtherFormat {
             file: file(),
-            format: h["format"].clone(),
-            version: h["version"].clone(),
-            record_bytes: h["record_bytes"].clone(),
+            header: h,
+            known_record_bytes: record_bytes(),
         });
     }
     let recorded = overrides_recorded(&h["fields"]).ok_or_else(|| Error::OtherFields {

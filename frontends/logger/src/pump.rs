@@ -6,7 +6,7 @@
 //! writer blocked for longer than [`QUEUE_BATCHES`] batches) is dropped whole and shows as
 //! lost samples, a gap in the cycle counter, like anything else the logger missed.
 
-use crate::LogWriter;
+use crate::writer::LogWriter;
 use hob_ipc::{EventSample, StateSample};
 use std::sync::mpsc::{Receiver, RecvTimeoutError, SyncSender, TrySendError, sync_channel};
 use std::time::{Duration, Instant};
@@ -205,7 +205,7 @@ mod tests {
         let w = writer.join().unwrap();
         assert_eq!(w.stats.samples, 4);
         assert_eq!(w.stats.samples_lost, 2, "cycles 4 and 5");
-        let states = crate::read_dir_states(&dir).unwrap();
+        let states = crate::format::read_dir_states(&dir).unwrap();
         assert_eq!(
             states.iter().map(|s| s.cycle).collect::<Vec<_>>(),
             vec![1, 2, 3, 6]

@@ -10,7 +10,7 @@
 //! (which only the controller knows): the report puts each pass's phase back
 //! ([`crate::export`]).
 
-use crate::{Error, TruthProblem};
+use crate::error::{Error, TruthProblem};
 use std::io::{BufRead, Write};
 use std::path::Path;
 
@@ -97,7 +97,7 @@ pub fn read(path: &Path) -> Result<(Gear, Vec<TruthRow>), Error> {
     let gear = parse_gear(&first).ok_or_else(|| at(1, TruthProblem::NotATruthFile))?;
     let header = lines.next().transpose().map_err(|e| at(2, TruthProblem::Io(e)))?;
     if header.as_deref() != Some(HEADER) {
-        return Err(at(2, TruthProblem::Header));
+        return Err(at(2, TruthProblem::Header { expected: HEADER }));
     }
     let mut rows = Vec::new();
     let mut pending: Option<(usize, String)> = None;
