@@ -12,9 +12,9 @@
 //! (the socket's path): [`follow`] and [`commands`] then return its client instead of the
 //! shared-memory ports.
 
-use crate::ports::{Client, IpcError, Ports};
-use crate::{CommandRequest, CommandResponse, EventSample, RecorderSample, StateSample, StatsSample};
+use crate::ports::{Client, IpcError, Ports, STATE_BUFFER};
 pub use hob_wire::frame::{FromGateway, MAX_FRAME, Role, ToGateway, decode, encode, fixed_bytes};
+use hob_wire::{CommandRequest, CommandResponse, EventSample, RecorderSample, StateSample, StatsSample};
 use std::collections::VecDeque;
 use std::io::{ErrorKind, Read, Write};
 use std::os::unix::net::UnixStream;
@@ -236,7 +236,7 @@ impl GatewayClient {
     fn file(&mut self, msg: FromGateway) -> Option<FromGateway> {
         match msg {
             FromGateway::State(s) => {
-                if self.states.len() >= crate::STATE_BUFFER {
+                if self.states.len() >= STATE_BUFFER {
                     self.states.pop_front();
                 }
                 self.states.push_back(*s);

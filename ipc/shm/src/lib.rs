@@ -29,12 +29,9 @@ pub use gateway::{Commands, Feed, commands, follow};
 pub use hob_wire::*;
 pub use ports::{
     CAN_BUFFER, CanError, CanPort, Client, EVENT_BUFFER, EVENT_HISTORY, IpcError, Ports, PubSub,
-    STATE_BUFFER, command_server, instance, node, open_can, open_can_port, open_command, open_events,
+    STATE_BUFFER, Svc, command_server, instance, node, open_can, open_can_port, open_command, open_events,
     open_recorder, open_state, open_stats, publisher, service_name, use_instance,
 };
 
 /// The exact iceoryx2 every process must use (re-exported so nobody depends on another).
 pub use iceoryx2;
-
-/// iceoryx2's service type used by every process (inter-process, not thread-safe ports).
-pub type Svc = iceoryx2::prelude::ipc::Service;

@@ -2,8 +2,7 @@
 //! a service whose settings differ from its creator's, and a subscriber's buffer can only
 //! be as large as the service allows).
 
-use crate::Svc;
-use crate::{
+use hob_wire::{
     CanFrameSample, CommandRequest, CommandResponse, EventSample, RecorderSample, StateSample, StatsSample,
 };
 use iceoryx2::node::Node;
@@ -16,6 +15,9 @@ use iceoryx2::port::{LoanError, ReceiveError, SendError};
 use iceoryx2::prelude::{NodeBuilder, NodeName, ServiceName, SignalHandlingMode};
 use iceoryx2::service::port_factory::PortFactory as _;
 use std::time::{Duration, Instant};
+
+/// iceoryx2's service type used by every process (inter-process, not thread-safe ports).
+pub type Svc = iceoryx2::prelude::ipc::Service;
 
 /// State samples a subscriber may buffer: 2 s of cycles, so a logger that is descheduled
 /// for a while loses nothing (its own `buffer_size` must be raised to this too).
