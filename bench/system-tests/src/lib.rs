@@ -79,6 +79,11 @@ pub fn tolerance_ms() -> u32 {
     env_num("HOB_TOLERANCE_MS", Some(100)).unwrap_or(100)
 }
 
+/// How near their home the simulated drives power up (`hob-sim --power-on-near-home`) in
+/// the tests whose subject is not referencing: referencing over the whole way takes
+/// about a minute, and the operator path and `hob demo` still do it.
+pub const SHORT_HOMING_MM: &str = "20";
+
 /// The demo's short job, also the sessions' unless `HOB_SESSION_PROGRAM` names another.
 pub const DEMO_PROGRAM: &str = "config/programs/demo-short-spur-z17-m5.toml";
 

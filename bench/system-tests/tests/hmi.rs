@@ -16,7 +16,7 @@
 //! `HOB_HMI_SHOTS=docs/hmi` to refresh the README's).
 #![allow(clippy::unwrap_used)]
 
-use hob_system_tests::{Bench, TomlDoc, session_program};
+use hob_system_tests::{Bench, SHORT_HOMING_MM, TomlDoc, session_program};
 use std::path::Path;
 use std::process::Command;
 use std::time::{Duration, Instant};
@@ -57,6 +57,9 @@ fn stack(b: &mut Bench) -> Vec<(&'static str, String)> {
         "--control",
         "--truth",
         &path(&log_dir.join("truth.csv")),
+        // HOME ALL is tested, not the length of its way.
+        "--power-on-near-home",
+        SHORT_HOMING_MM,
     ])
     .stdin(std::process::Stdio::piped());
     let sim = b.spawn_cmd("hob-sim", sim, "sim.txt");

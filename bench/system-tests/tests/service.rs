@@ -15,8 +15,8 @@
 #![allow(clippy::unwrap_used)]
 
 use hob_system_tests::{
-    Bench, CSV_COLUMNS, DoubleSawReaction, LoggerStats, ProcId, Report, TomlDoc, WatchdogTrip, parse_candump,
-    session_program, tolerance_ms, watchdog_reaction,
+    Bench, CSV_COLUMNS, DoubleSawReaction, LoggerStats, ProcId, Report, SHORT_HOMING_MM, TomlDoc,
+    WatchdogTrip, parse_candump, session_program, tolerance_ms, watchdog_reaction,
 };
 use std::path::Path;
 use std::time::Duration;
@@ -26,23 +26,22 @@ const STATE_TIMEOUT: Duration = Duration::from_secs(300);
 
 /// `hob-sim` and `hob-rt` on `machine`, the session's program loaded into the simulator;
 /// their logs `sim{n}.txt`, `rt{n}.txt`.
-fn start_service(b: &mut Bench, machine: &Path, n: u32) -> (ProcId, ProcId) {
+fn start_service(b: &mut Bench, machine: &Path, n: u32, homing: Homing) -> (ProcId, ProcId) {
     let (iface, machine, program) = (b.iface.clone(), path(machine), program_arg());
-    let sim = b.spawn(
-        "hob-sim",
-        "hob-sim",
-        &[
-            "--iface",
-            &iface,
-            "--machine",
-            &machine,
-            "--program",
-            &program,
-            "--rt-priority",
-            "75",
-        ],
-        &format!("sim{n}.txt"),
-    );
+    let mut args = vec![
+        "--iface",
+        &iface,
+        "--machine",
+        &machine,
+        "--program",
+        &program,
+        "--rt-priority",
+        "75",
+    ];
+    if homing == Homing::Short {
+        args.extend(["--power-on-near-home", SHORT_HOMING_MM]);
+    }
+    let sim = b.spawn("hob-sim", "hob-sim", &args, &format!("sim{n}.txt"));
     std::thread::sleep(Duration::from_millis(300));
     // The work offsets of this session only (never the machine PC's /var/lib/hob).
     let state = path(&b.art.join(format!("machine-state{n}.toml")));
@@ -53,6 +52,15 @@ fn start_service(b: &mut Bench, machine: &Path, n: u32) -> (ProcId, ProcId) {
         &format!("rt{n}.txt"),
     );
     (sim, rt)
+}
+
+/// Where the simulated drives power up: wherever the plant file says (referencing over
+/// the whole way, the operator path's subject), or within [`SHORT_HOMING_MM`] of home
+/// (tests whose subject is not referencing: each saves about 50 s of homing).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Homing {
+    Full,
+    Short,
 }
 
 fn path(p: &Path) -> String {
@@ -200,7 +208,7 @@ fn service_session() {
     let cycle_us = m.int("control.cycle_period_us") as f64;
     let deadline_ms = m.int("service.watchdog_deadline_ms") as f64;
     let session = b.art.join("session");
-    let (_sim, rt) = start_service(&mut b, &machine, 1);
+    let (_sim, rt) = start_service(&mut b, &machine, 1, Homing::Short);
     let logger = b.spawn("hob-logger", "hob-logger", &[&session], "logger1.txt");
     let iface = b.iface.clone();
     let wd = b.spawn(
@@ -691,7 +699,7 @@ fn load_a_command_flood_stopped_subscribers_and_restarted_frontends() {
     let machine = m.write(&b.art.join("machine.toml"));
     let cycle_us = m.int("control.cycle_period_us") as f64;
     let iface = b.iface.clone();
-    let (_sim, _rt) = start_service(&mut b, &machine, 1);
+    let (_sim, _rt) = start_service(&mut b, &machine, 1, Homing::Full);
     b.step("power-up to idle", |b| {
         b.wait_state("idle", STATE_TIMEOUT);
         String::new()
@@ -876,7 +884,7 @@ fn logger_on_a_full_disk_raises_the_recorder_alarm_and_resumes() {
     let cycle_us = m.int("control.cycle_period_us") as f64;
     let disk = SmallDisk::mount(&b.art.join("disk"), "1m");
     let log = disk.0.join("log");
-    let (_sim, _rt) = start_service(&mut b, &machine, 1);
+    let (_sim, _rt) = start_service(&mut b, &machine, 1, Homing::Full);
     b.step("power-up to idle", |b| {
         b.wait_state("idle", STATE_TIMEOUT);
         String::new()
@@ -978,7 +986,7 @@ fn logger_on_a_full_disk_raises_the_recorder_alarm_and_resumes() {
 fn silent_machine_mid_cut() {
     let mut b = Bench::new("silent_machine_mid_cut");
     let machine = b.session_machine().write(&b.art.join("machine.toml"));
-    let (sim, _rt) = start_service(&mut b, &machine, 2);
+    let (sim, _rt) = start_service(&mut b, &machine, 2, Homing::Short);
     let iface = b.iface.clone();
     let wd = b.spawn(
         "hob-watchdog",
@@ -1422,7 +1430,7 @@ fn frontends_of_another_user_watch_and_command_through_the_gateway() {
     let machine = m.write(&b.art.join("machine.toml"));
     // As deployed (README): the machine file root's, readable by all, writable by root alone.
     std::fs::set_permissions(&machine, std::os::unix::fs::PermissionsExt::from_mode(0o644)).unwrap();
-    let (_sim, _rt) = start_service(&mut b, &machine, 1);
+    let (_sim, _rt) = start_service(&mut b, &machine, 1, Homing::Full);
     let socket = b.art.join("gateway.sock");
     // Operators: the group `users` (100); viewers: `staff` (50): Debian's base groups.
     let (operators, viewers, nobody) = ("100", "50", "65534");
