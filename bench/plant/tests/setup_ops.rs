@@ -7,7 +7,7 @@
 
 mod common;
 
-use common::{Run, in_order, powered_up, run, short_spur};
+use common::{Run, in_order, powered_up, repair_and_reset, run, short_spur};
 use hob_control::egb::Coupling;
 use hob_control::events::EventKind;
 use hob_control::fault::{Axis, Fault, Refusal};
@@ -422,20 +422,6 @@ fn faulted_in_the_second_pass() -> (Simulation, Program, CycleProgram, Plan, Run
     let mut events = before.events;
     events.extend(reaction.events);
     (sim, job, cycle, plan, Run { rows, events })
-}
-
-/// The technician repairs the Y drive; the operator resets; back to idle.
-fn repair_and_reset(sim: &mut Simulation) {
-    sim.plant.y.fault = false;
-    sim.command(Command::Reset).unwrap();
-    let back = run(sim, 30.0, |r| r.state == State::Idle);
-    assert_eq!(
-        back.rows.last().unwrap().state,
-        State::Idle,
-        "{:?}",
-        back.states()
-    );
-    assert_eq!(sim.controller.status().fault, None);
 }
 
 #[test]

@@ -205,6 +205,9 @@ pub struct Status {
     pub spindle_override_percent: f64,
     /// The pass `hob continue` would continue from.
     pub continue_pass: Option<u32>,
+    /// Where `hob continue` would re-enter that pass's cut (none: at its start).
+    #[serde(default)]
+    pub continue_from_y_mm: Option<f64>,
     pub recorder: RecorderStatus,
 }
 

@@ -324,7 +324,12 @@ fn axes_lines(o: &mut String, st: &StateSample) {
         st.y_offset_mm,
         st.feed_override_percent,
         st.spindle_override_percent,
-        if st.continue_pass > 0 {
+        if st.continue_pass > 0 && st.continue_from_y_mm.is_finite() {
+            format!(
+                "   continue from pass {} at Y {:.3} mm",
+                st.continue_pass, st.continue_from_y_mm
+            )
+        } else if st.continue_pass > 0 {
             format!("   continue from pass {}", st.continue_pass)
         } else {
             String::new()
@@ -504,6 +509,8 @@ pub fn status_json(s: &Snapshot) -> String {
         "feed_override_percent": st.feed_override_percent,
         "spindle_override_percent": st.spindle_override_percent,
         "continue_pass": (st.continue_pass > 0).then_some(st.continue_pass),
+        "continue_from_y_mm": (st.continue_pass > 0 && st.continue_from_y_mm.is_finite())
+            .then_some(st.continue_from_y_mm),
         "stats": stats,
         "recorder": {
             "alarm": s.recorder.alarm,

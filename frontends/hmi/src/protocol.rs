@@ -92,6 +92,8 @@ pub struct StateView {
     pub referenced: Referenced,
     pub moving_axis: Option<&'static str>,
     pub continue_pass: Option<u32>,
+    /// Where "continue" re-enters that pass's cut (none: at its start).
+    pub continue_from_y_mm: Option<f64>,
     pub feed_override_percent: f64,
     pub spindle_override_percent: f64,
     pub x_offset_mm: f64,
@@ -190,6 +192,8 @@ impl StateView {
             },
             moving_axis: Axis::from_code(s.moving_axis).map(Axis::name),
             continue_pass: (s.continue_pass > 0).then_some(s.continue_pass),
+            continue_from_y_mm: (s.continue_pass > 0 && s.continue_from_y_mm.is_finite())
+                .then_some(s.continue_from_y_mm),
             feed_override_percent: s.feed_override_percent,
             spindle_override_percent: s.spindle_override_percent,
             x_offset_mm: s.x_offset_mm,

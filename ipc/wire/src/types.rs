@@ -142,6 +142,9 @@ pub struct StateSample {
     /// Work offsets (touch-off), mm.
     pub x_offset_mm: f64,
     pub y_offset_mm: f64,
+    /// The Y where "continue" re-enters the cut of pass `continue_pass`; NaN: at the
+    /// pass's start.
+    pub continue_from_y_mm: f64,
     /// [`program_hash`] of the program text the loop loaded (0 without a program): a
     /// frontend tells whether the program it loaded is still the loop's.
     pub program_hash: u64,

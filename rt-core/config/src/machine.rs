@@ -225,6 +225,10 @@ pub struct ControlConfig {
     pub spindle_start_timeout_s: f64,
     /// The X clamp must report closed (or open) within this time.
     pub x_clamp_timeout_s: f64,
+    /// "Continue" after a pass was interrupted in its cut re-enters it at the Y where it
+    /// stopped, less the pass's feed per table revolution (every tooth gap was cut by the
+    /// hob within that distance behind the stop) and less this overlap.
+    pub resume_overlap_mm: f64,
 }
 
 /// The electronic gearbox: engagement, synchronism windows, cross-coupling.
@@ -668,6 +672,7 @@ impl MachineConfig {
         );
         p.positive("control.spindle_start_timeout_s", c.spindle_start_timeout_s);
         p.positive("control.x_clamp_timeout_s", c.x_clamp_timeout_s);
+        p.within("control.resume_overlap_mm", c.resume_overlap_mm, 0.0, 50.0, "mm");
     }
 
     /// `[gearbox]`: the engagement, its windows and the cross-coupling correction.

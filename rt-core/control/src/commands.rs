@@ -140,17 +140,21 @@ impl Controller {
         Ok(())
     }
 
-    /// Continues the interrupted program from the interrupted pass, on the same part.
+    /// Continues the interrupted program on the same part: the interrupted pass, its cut
+    /// re-entered behind where it stopped (`Status::continue_from_y_mm`).
     fn continue_interrupted(&mut self) -> Result<(), Refusal> {
         let program = self.program.ok_or(Refusal::NoProgram)?;
-        let Some((pass_index, single)) = self.sequencer.interrupted else {
+        let Some(interrupted) = self.sequencer.interrupted else {
             return Err(Refusal::NothingToDo);
         };
-        self.check_can_start(&program, single)?;
+        self.check_can_start(&program, interrupted.single)?;
         if self.sequencer.phase_lost {
             return Err(Refusal::TablePositionLost);
         }
-        self.begin_cycle(single, pass_index);
+        self.begin_cycle(interrupted.single, interrupted.pass_index);
+        // The pass is under way again: "continue" is noted anew if it is broken off again.
+        self.sequencer.interrupted = None;
+        self.sequencer.resume_y_mm = interrupted.from_y_mm;
         Ok(())
     }
 
@@ -244,6 +248,7 @@ impl Controller {
         self.sequencer.tooth = 0;
         self.sequencer.stopping = false;
         self.sequencer.hold = false;
+        self.sequencer.resume_y_mm = None;
         self.enter(State::ToSafe);
     }
 

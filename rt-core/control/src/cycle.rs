@@ -11,6 +11,7 @@ use super::fault::Fault;
 use super::profile::Profile;
 use super::program::{CycleProgram, PassSetpoint};
 use super::sequencer::{Motion, SeqInputs, Sequencer};
+use super::setup_math;
 use hob_setup::job::CycleKind;
 
 /// Feed ramp time in and out of the cut (feed hold, resume).
@@ -104,9 +105,9 @@ impl Sequencer {
         }
     }
 
-    /// Y to the pass's start.
+    /// Y to the pass's start, or to where "continue" re-enters its cut.
     fn step_to_start(&mut self, i: &SeqInputs, pass: &PassSetpoint, m: &mut Motion) {
-        if self.move_y(pass.y_start_mm, i, m) {
+        if self.move_y(self.resume_y_mm.unwrap_or(pass.y_start_mm), i, m) {
             self.enter(State::SpindleUp, &mut m.events);
         }
     }
@@ -159,16 +160,21 @@ impl Sequencer {
 
     // In the work.
 
-    /// X in to the pass's depth at rapid (radial plunge: to just outside the blank).
+    /// X in to the pass's depth at rapid (radial plunge: to just outside the blank;
+    /// re-entering an interrupted cut: to just outside the pass's depth).
     fn step_infeed(&mut self, i: &SeqInputs, program: &CycleProgram, pass: &PassSetpoint, m: &mut Motion) {
-        let target = if program.cycle == CycleKind::RadialPlunge {
+        let plunge = program.cycle == CycleKind::RadialPlunge;
+        let re_entry = self.resume_y_mm.is_some();
+        let target = if plunge {
             program.x_surface_mm + PLUNGE_CLEARANCE_MM
+        } else if re_entry {
+            Self::x_in_cut(program, pass, m.y.position) + setup_math::RE_ENTRY_CLEARANCE_MM
         } else {
             Self::x_in_cut(program, pass, m.y.position)
         };
         if self.move_x(target, i.x_limits.rapid_mm_s, i, m) {
             self.rev_start_deg = i.spindle_deg;
-            if program.cycle == CycleKind::RadialPlunge {
+            if plunge || re_entry {
                 self.enter(State::Plunge, &mut m.events);
             } else {
                 self.enter_cut_or_clamp(program, &mut m.events);
@@ -176,13 +182,23 @@ impl Sequencer {
         }
     }
 
-    /// Radial plunge: X in to the pass's depth at the plunge feed.
+    /// X in to the pass's depth at feed: the radial plunge's (then one more turn of the
+    /// table), or re-entering an interrupted cut the pass's own feed (then the cut).
     fn step_plunge(&mut self, i: &SeqInputs, program: &CycleProgram, pass: &PassSetpoint, m: &mut Motion) {
         let target = Self::x_in_cut(program, pass, m.y.position);
-        let feed_mm_s = program.plunge_feed_mm_min / 60.0 * i.feed_override;
+        let plunge = program.cycle == CycleKind::RadialPlunge;
+        let feed_mm_s = if plunge {
+            program.plunge_feed_mm_min / 60.0 * i.feed_override
+        } else {
+            pass.axial_feed_mm_s() * i.feed_override
+        };
         if self.move_x(target, feed_mm_s, i, m) {
             self.rev_start_deg = i.spindle_deg;
-            self.enter(State::ExtraRev, &mut m.events);
+            if plunge {
+                self.enter(State::ExtraRev, &mut m.events);
+            } else {
+                self.enter_cut_or_clamp(program, &mut m.events);
+            }
         }
     }
 

@@ -22,17 +22,14 @@ const RETRACTED_WITHIN_MM: f64 = 0.02;
 const RETRACT_SETTLE_TIMEOUT_S: f64 = 2.0;
 
 impl Sequencer {
-    /// Starts the fault reaction: a cycle under way is noted for "continue", a lost table
-    /// position forgets the tooth phase, a jog stops; outside a cycle straight to
+    /// Starts the fault reaction (the controller has noted a cycle under way for
+    /// "continue"): a lost table position forgets the tooth phase, a jog stops; outside a cycle straight to
     /// `Faulted`; in the work X out first if it can move, else the stop. (X's and Y's lost
     /// references, and referencing broken off, are the controller's to tell the
     /// referencing.)
-    pub fn on_fault(&mut self, f: Fault, has_program: bool, gearbox: &mut Gearbox, events: &mut Stamped) {
+    pub fn on_fault(&mut self, f: Fault, gearbox: &mut Gearbox, events: &mut Stamped) {
         let state = self.state;
         self.hold = false;
-        if state.in_cycle() {
-            self.note_interrupted(has_program);
-        }
         if let Fault::FeedbackLost { axis: Axis::B } | Fault::PositionLost { axis: Axis::B } = f {
             self.table_position_lost(gearbox);
         }
@@ -54,13 +51,6 @@ impl Sequencer {
             self.enter(State::FaultRetract, events);
         } else {
             self.enter(State::FaultStop, events);
-        }
-    }
-
-    /// A cycle is being broken off: remember the pass for "continue".
-    pub fn note_interrupted(&mut self, has_program: bool) {
-        if has_program {
-            self.interrupted = Some((self.pass_index, self.single));
         }
     }
 

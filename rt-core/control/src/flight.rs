@@ -8,7 +8,7 @@
 //! keeps the record in fixed rings (`hob_service::recorder`) and writes it to disk
 //! ([`encode`]); `hob replay` reads it back ([`decode`]) and replays it.
 //!
-//! The file: one text line `hob-flight-record 1 <bytes> <fnv64 hex>\n`, then the record in
+//! The file: one text line `hob-flight-record 2 <bytes> <fnv64 hex>\n`, then the record in
 //! postcard's serde encoding (floats to the bit). A file cut short or changed is refused by
 //! its length and checksum before anything is decoded; one of another format version is
 //! refused by the line.
@@ -244,7 +244,7 @@ impl FlightRecord {
 }
 
 const MAGIC: &str = "hob-flight-record";
-const VERSION: u32 = 1;
+const VERSION: u32 = 2;
 
 /// FNV-1a, 64 bits: a checksum against a file cut short or damaged (not against intent).
 fn fnv64(bytes: &[u8]) -> u64 {
@@ -372,8 +372,8 @@ mod tests {
         damaged[last] ^= 1;
         assert!(decode(&damaged, "f").unwrap_err().contains("checksum"));
         let other =
-            String::from_utf8_lossy(&bytes).replacen("hob-flight-record 1 ", "hob-flight-record 2 ", 1);
-        assert!(decode(other.as_bytes(), "f").unwrap_err().contains("format 2"));
+            String::from_utf8_lossy(&bytes).replacen("hob-flight-record 2 ", "hob-flight-record 3 ", 1);
+        assert!(decode(other.as_bytes(), "f").unwrap_err().contains("format 3"));
         assert!(
             decode(b"hello\n", "f")
                 .unwrap_err()

@@ -128,6 +128,9 @@ pub struct ControlParams {
     pub spindle_tolerance: f64,
     pub spindle_start_timeout_s: f64,
     pub clamp_timeout_s: f64,
+    /// "Continue" re-enters an interrupted cut this far (and a feed per table revolution)
+    /// behind the Y where it stopped.
+    pub resume_overlap_mm: f64,
     pub observer_bandwidth_hz: f64,
     /// Time constant of the spindle encoder's once-per-turn error identification (0: off).
     pub encoder_identification_s: f64,
@@ -187,6 +190,7 @@ impl ControlParams {
             spindle_tolerance: m.control.spindle_speed_tolerance,
             spindle_start_timeout_s: m.control.spindle_start_timeout_s,
             clamp_timeout_s: m.control.x_clamp_timeout_s,
+            resume_overlap_mm: m.control.resume_overlap_mm,
             observer_bandwidth_hz: m.control.spindle_observer_bandwidth_hz,
             encoder_identification_s: m.control.spindle_encoder_identification_s,
             feedback_misses_to_fault: m.can.tpdo_misses_to_fault,
@@ -273,6 +277,8 @@ pub struct Status {
     pub moving_axis: Option<Axis>,
     /// The 1-based pass "continue" would start from (0: nothing to continue).
     pub continue_pass: u32,
+    /// The Y where "continue" would re-enter that pass's cut (none: at the pass's start).
+    pub continue_from_y_mm: Option<f64>,
     pub feed_override_percent: f64,
     pub spindle_override_percent: f64,
     pub offsets: Offsets,
@@ -822,7 +828,8 @@ impl Controller {
                 State::Jog => self.sequencer.jog.axis(),
                 _ => None,
             },
-            continue_pass: self.sequencer.interrupted.map_or(0, |(p, _)| p as u32 + 1),
+            continue_pass: self.sequencer.interrupted.map_or(0, |i| i.pass_index as u32 + 1),
+            continue_from_y_mm: self.sequencer.interrupted.and_then(|i| i.from_y_mm),
             feed_override_percent: self.feed_override * 100.0,
             spindle_override_percent: self.spindle_override * 100.0,
             offsets: self.offsets,

@@ -24,6 +24,11 @@ pub struct PassSetpoint {
 }
 
 impl PassSetpoint {
+    /// The feed of Y in the cut at the programmed spindle speed, mm/s.
+    pub fn axial_feed_mm_s(&self) -> f64 {
+        self.feed_mm_per_spindle_deg * self.spindle_rpm * 6.0
+    }
+
     fn from_pass(p: &Pass) -> Self {
         Self {
             kind: p.kind,
@@ -68,6 +73,16 @@ pub struct CycleProgram {
 }
 
 impl CycleProgram {
+    /// Y travel of a pass per table revolution, mm: how far apart along Y a tooth gap
+    /// meets the hob (0 tooth by tooth, where the table does not turn with the spindle).
+    pub fn feed_per_table_rev_mm(&self, pass: &PassSetpoint) -> f64 {
+        if self.ratio_signed == 0.0 {
+            0.0
+        } else {
+            pass.feed_mm_per_spindle_deg * 360.0 / self.ratio_signed.abs()
+        }
+    }
+
     /// Checks and plans `program` on `machine` (both modes); `None` with the problems
     /// recorded when it cannot be cut.
     pub fn build(program: &Program, machine: &MachineConfig, p: &mut Problems) -> Option<Self> {

@@ -40,8 +40,11 @@ pub(super) struct Sequencer {
     pub rev_start_deg: f64,
     /// The operator's jog under way and held spindle.
     pub jog: Jog,
-    /// The pass a fault or a stop interrupted (index, single mode), for "continue".
-    pub interrupted: Option<(usize, bool)>,
+    /// The pass a fault or a stop interrupted, for "continue".
+    pub interrupted: Option<Interrupted>,
+    /// The Y where this run of the pass enters its cut, when it re-enters an interrupted
+    /// one ("continue"); none: at the pass's start.
+    pub resume_y_mm: Option<f64>,
     /// The table lost its position after the tooth phase of an interrupted part was
     /// recorded: "continue" is refused until a new start or a new blank.
     pub phase_lost: bool,
@@ -52,6 +55,16 @@ pub(super) struct Sequencer {
     /// In the fault reaction's retract: when X's command reached the safe position
     /// (state time, s); cleared on every change of state.
     pub retract_commanded_s: Option<f64>,
+}
+
+/// A pass a fault or a stop broke off: where "continue" takes it up.
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
+pub(super) struct Interrupted {
+    pub pass_index: usize,
+    pub single: bool,
+    /// The Y where its cut is re-entered (module `setup_math`, `resume_y_mm`); none: at
+    /// the pass's start (it was broken off before its cut, or it is tooth by tooth).
+    pub from_y_mm: Option<f64>,
 }
 
 /// What the sequencer reads in one cycle, copied: the machine's settings it needs, the
@@ -248,6 +261,7 @@ impl Sequencer {
     pub(super) fn next_pass(&mut self, program: &CycleProgram, events: &mut Stamped) {
         if self.pass_index + 1 < self.pass_count(program) && !self.stopping {
             self.pass_index += 1;
+            self.resume_y_mm = None;
             self.enter(State::ToStart, events);
         } else {
             self.enter(State::Home, events);

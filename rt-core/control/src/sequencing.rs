@@ -12,7 +12,9 @@ use super::fault::{Axis, Fault};
 use super::jog::{JogAxis, JogContext, JogCycle};
 use super::profile::Profile;
 use super::referencing::{HomingInputs, Progress};
-use super::sequencer::{Motion, Next, SeqInputs};
+use super::sequencer::{Interrupted, Motion, Next, SeqInputs};
+use super::setup_math;
+use hob_setup::job::CycleKind;
 
 impl Controller {
     /// One cycle of the sequencer, and of the machine it hands on to.
@@ -72,6 +74,9 @@ impl Controller {
         }
         self.fault = Some(f);
         self.event(EventKind::Fault(f));
+        if self.sequencer.state.in_cycle() {
+            self.note_interrupted();
+        }
         if let Fault::FeedbackLost { axis } | Fault::PositionLost { axis } = f
             && axis != Axis::B
         {
@@ -80,10 +85,8 @@ impl Controller {
         if self.sequencer.state == State::Referencing {
             self.referencing.abandon();
         }
-        let has_program = self.program.is_some();
         let mut events = self.events.stamped(self.cycle);
-        self.sequencer
-            .on_fault(f, has_program, &mut self.gearbox, &mut events);
+        self.sequencer.on_fault(f, &mut self.gearbox, &mut events);
     }
 
     /// A drive lost its position: X or Y its reference; the table the tooth phase.
@@ -107,9 +110,38 @@ impl Controller {
         self.sequencer.leave_cut(self.program.as_ref(), &mut events);
     }
 
-    /// A cycle is being broken off (a stop's doing): remember the pass for "continue".
+    /// A cycle is being broken off (by a fault or a stop): remember the pass for
+    /// "continue", and where its cut is to be re-entered. Broken off in its cut (or once
+    /// it was cut), a feed and the overlap behind where Y stands
+    /// (`setup_math::resume_y_mm`); before its cut, where this run was to enter it. Tooth by tooth every tooth is a pass of Y of its own, and
+    /// the pass is cut again from its first tooth.
     pub(super) fn note_interrupted(&mut self) {
-        self.sequencer.note_interrupted(self.program.is_some());
+        let Some(program) = self.program else {
+            return;
+        };
+        let s = &self.sequencer;
+        let cut_begun = matches!(s.state, State::Cut | State::Unclamp | State::Retract)
+            && program.cycle != CycleKind::ToothByTooth;
+        let behind_y = s.current_pass(&program).filter(|_| cut_begun).and_then(|pass| {
+            setup_math::resume_y_mm(
+                self.y.position,
+                pass.y_start_mm,
+                program.feed_per_table_rev_mm(&pass),
+                program.feed_sign,
+                self.params.resume_overlap_mm,
+            )
+        });
+        // A re-entry this run had is still good (the gaps there were cut to depth before),
+        // and so is the one further along.
+        let from_y_mm = match (s.resume_y_mm, behind_y) {
+            (Some(a), Some(b)) => Some(if program.feed_sign * (b - a) > 0.0 { b } else { a }),
+            (a, b) => a.or(b),
+        };
+        self.sequencer.interrupted = Some(Interrupted {
+            pass_index: s.pass_index,
+            single: s.single,
+            from_y_mm,
+        });
     }
 
     /// One cycle of the jog under way (module `jog`).

@@ -45,6 +45,7 @@ pub fn fill_state(s: &mut StateSample, st: &Status, passes_total: u32, program_l
     s.referenced = bits([st.table_position_whole, st.referenced[0], st.referenced[1]]);
     s.moving_axis = st.moving_axis.map_or(0, Axis::code);
     s.continue_pass = st.continue_pass;
+    s.continue_from_y_mm = st.continue_from_y_mm.unwrap_or(f64::NAN);
     s.feed_override_percent = st.feed_override_percent;
     s.spindle_override_percent = st.spindle_override_percent;
     s.x_offset_mm = st.offsets.x_mm;

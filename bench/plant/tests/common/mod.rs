@@ -132,3 +132,17 @@ pub fn in_order(states: &[State], expected: &[State]) -> bool {
     let mut it = states.iter();
     expected.iter().all(|e| it.any(|s| s == e))
 }
+
+/// The technician repairs the Y drive; the operator resets; back to idle.
+pub fn repair_and_reset(sim: &mut Simulation) {
+    sim.plant.y.fault = false;
+    sim.command(Command::Reset).unwrap();
+    let back = run(sim, 30.0, |r| r.state == State::Idle);
+    assert_eq!(
+        back.rows.last().unwrap().state,
+        State::Idle,
+        "{:?}",
+        back.states()
+    );
+    assert_eq!(sim.controller.status().fault, None);
+}

@@ -165,7 +165,7 @@ export function Automatic({ conn, program }) {
         <${CmdButton} conn=${conn} op="hold" label="FEED HOLD" testid="feed-hold" />
         <${CmdButton} conn=${conn} op="resume" label="RESUME" testid="resume" />
         <${CmdButton} conn=${conn} op="stop" label="STOP" cls="stop" />
-        <${CmdButton} conn=${conn} op="continue" label=${s && s.continue_pass ? `CONTINUE FROM PASS ${s.continue_pass}` : "CONTINUE"} disabled=${!(s && s.continue_pass)} />
+        <${CmdButton} conn=${conn} op="continue" label=${s && s.continue_pass ? `CONTINUE FROM PASS ${s.continue_pass}${s.continue_from_y_mm != null ? ` AT Y ${s.continue_from_y_mm.toFixed(1)}` : ""}` : "CONTINUE"} disabled=${!(s && s.continue_pass)} />
         <${CmdButton} conn=${conn} op="new_blank" label="NEW BLANK" /></div>
       <div class="progress"><div style=${`width:${progress}%`}></div></div>
       <div class="row"><span class="label">state</span><b data-testid="auto-state">${s ? s.state : "-"}</b>
