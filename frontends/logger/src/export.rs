@@ -282,18 +282,27 @@ fn graded_by_truth(
             f(s, truth::row_for(rows, &mut from, s.sync_time_ns, next));
         }
     };
-    // Per pass: the sum, count and range of the truth less the estimate.
-    let mut sums: Vec<(f64, u64, f64, f64)> = Vec::new();
+    // The law's phase counts modulo a tooth pitch: "continue" puts the table back on the
+    // same gaps, which the truth's law may call a whole number of pitches further on.
+    let pitch_arcsec = 360.0 * 3600.0 / f64::from(g.teeth.max(1));
+    let whole_pitches = |d: f64, from: f64| pitch_arcsec * ((d - from) / pitch_arcsec).round();
+    // Per pass: the sum, count and range of the truth less the estimate, each taken to
+    // within half a pitch of the pass's first.
+    let mut sums: Vec<(f64, u64, f64, f64, f64)> = Vec::new();
     let mut joined = 0;
     join(&mut |s, t| {
         joined += usize::from(t.is_some());
         if let Some(t) = t.filter(|_| synchronised_cut(s)) {
             let i = s.pass as usize - 1;
             if sums.len() <= i {
-                sums.resize(i + 1, (0.0, 0, f64::INFINITY, f64::NEG_INFINITY));
+                sums.resize(i + 1, (0.0, 0, f64::INFINITY, f64::NEG_INFINITY, 0.0));
             }
-            let d = t.drive_err_arcsec - s.sync_error_arcsec;
             let e = &mut sums[i];
+            let raw = t.drive_err_arcsec - s.sync_error_arcsec;
+            if e.1 == 0 {
+                e.4 = raw;
+            }
+            let d = raw - whole_pitches(raw, e.4);
             (e.0, e.1, e.2, e.3) = (e.0 + d, e.1 + 1, e.2.min(d), e.3.max(d));
         }
     });
@@ -331,10 +340,11 @@ fn graded_by_truth(
             .copied();
         match (t, phase) {
             (Some(t), Some(phase)) if row.sync_err_arcsec.is_some() => {
+                let k = whole_pitches(t.drive_err_arcsec, phase);
                 row.table_deg = t.table_drive_deg;
                 row.y_mm = t.y_mm;
-                row.sync_err_arcsec = Some(t.drive_err_arcsec - phase);
-                row.blank_err_arcsec = Some(t.blank_err_arcsec - phase);
+                row.sync_err_arcsec = Some(t.drive_err_arcsec - phase - k);
+                row.blank_err_arcsec = Some(t.blank_err_arcsec - phase - k);
             }
             // No truth for this sample: a gap in the truth, never the estimate in its place.
             _ => {
@@ -767,6 +777,44 @@ mod tests {
         assert!(text.contains("the controller's estimate, pass 1: rms"), "{text}");
     }
 
+    /// After "continue" the table is on the same gaps, which the truth's law may count a
+    /// whole number of pitches on (the operator's trial: 16 pitches): graded the same.
+    fn the_same_gaps_a_whole_number_of_pitches_on_are_graded_the_same(dir: &Path) {
+        let pitch_arcsec = 360.0 * 3600.0 / 17.0;
+        let plain = {
+            std::fs::write(dir.join(truth::FILE), agreeing_truth()).unwrap();
+            report(dir).unwrap().truth.unwrap()
+        };
+        let shifted = truth_file(truth_gear(), &[1, 2, 4, 5, 6], |cycle| {
+            let est = 0.5 * cycle as f64;
+            let extra = if (2..=4).contains(&cycle) {
+                2.0 + 0.1 * cycle as f64
+            } else {
+                0.0
+            };
+            let on = if cycle >= 4 { 16.0 * pitch_arcsec } else { 0.0 };
+            (3600.25 + est + extra + on, 3600.25 + est + extra + 1.0 + on)
+        });
+        std::fs::write(dir.join(truth::FILE), &shifted).unwrap();
+        let r = report(dir).unwrap();
+        let t = r
+            .truth
+            .as_ref()
+            .unwrap_or_else(|| panic!("{:?}", r.truth_refused));
+        assert!(
+            // Floats of a million arcsec: equal to 1e-4 arcsec.
+            (t.phase_arcsec[0] - plain.phase_arcsec[0]).abs() < 1e-4,
+            "{:?}",
+            t.phase_arcsec
+        );
+        assert_eq!(t.passes[0].samples, plain.passes[0].samples);
+        assert!((t.passes[0].sync_err_max_arcsec - plain.passes[0].sync_err_max_arcsec).abs() < 1e-4);
+        assert!(
+            (t.passes[0].blank_err_max_arcsec.unwrap() - plain.passes[0].blank_err_max_arcsec.unwrap()).abs()
+                < 1e-4
+        );
+    }
+
     /// The truth of another gear is not used, and the report says why.
     fn another_gears_truth_is_not_used(dir: &Path) {
         let truth_text = agreeing_truth();
@@ -828,6 +876,7 @@ mod tests {
     fn a_recording_with_the_truth_beside_it_is_graded_by_the_truth() {
         let dir = recorded("truth");
         graded_by_the_truth(&dir);
+        the_same_gaps_a_whole_number_of_pitches_on_are_graded_the_same(&dir);
         another_gears_truth_is_not_used(&dir);
         a_drifting_truth_is_not_used(&dir);
         a_missing_truth_is_said_and_a_broken_one_refused(&dir);
