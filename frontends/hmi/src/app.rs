@@ -11,6 +11,7 @@ use hob_setup::planner::Plan;
 use hob_store::library::{Kind, Library};
 use std::path::PathBuf;
 use std::sync::Mutex;
+use std::time::{Duration, Instant};
 
 /// A program this HMI loaded into the loop.
 #[derive(Debug, Clone)]
@@ -33,7 +34,12 @@ pub struct App {
     /// The program this HMI loaded last (accepted by the loop): its name, plan and the
     /// [`hob_ipc::program_hash`] of the text sent; used while the loop publishes that hash.
     pub loaded: Mutex<Option<Loaded>>,
+    /// The last answer of [`App::changed_since_load`]: when, for which loop program, what.
+    changed: Mutex<Option<(Instant, u64, bool)>>,
 }
+
+/// How long [`App::changed_since_load`] keeps its answer before it reads the file again.
+const CHANGED_CHECK_EVERY: Duration = Duration::from_secs(1);
 
 impl App {
     pub fn new(
@@ -52,6 +58,7 @@ impl App {
             log_dir,
             hello,
             loaded: Mutex::new(None),
+            changed: Mutex::new(None),
         }
     }
 
@@ -94,6 +101,36 @@ impl App {
             .as_ref()
             .filter(|l| program_hash != 0 && l.hash == program_hash)
             .cloned()
+    }
+
+    /// The [`hob_ipc::program_hash`] of the program this HMI loaded as its library file
+    /// is now (what LOAD would send now), while the loop's program is that one; 0 when the
+    /// loop's program is not one this HMI loaded (START and CONTINUE then claim none); 1
+    /// when the file cannot be read or planned any more (it changed, for the worse).
+    pub fn current_hash(&self, loop_hash: u64) -> u64 {
+        match self.loaded_here(loop_hash) {
+            Some(l) => self.load_request(&l.name).map_or(1, |(_, now)| now.hash),
+            None => 0,
+        }
+    }
+
+    /// Whether the program this HMI loaded was changed in the library since LOAD (the
+    /// loop would refuse START and CONTINUE for it); read again at most once a second.
+    pub fn changed_since_load(&self, loop_hash: u64) -> bool {
+        let mut last = self
+            .changed
+            .lock()
+            .unwrap_or_else(std::sync::PoisonError::into_inner);
+        if let Some((at, hash, changed)) = *last
+            && hash == loop_hash
+            && at.elapsed() < CHANGED_CHECK_EVERY
+        {
+            return changed;
+        }
+        let now = self.current_hash(loop_hash);
+        let changed = now != 0 && now != loop_hash;
+        *last = Some((Instant::now(), loop_hash, changed));
+        changed
     }
 
     /// The time left of the cycle under way (`hob_setup::planner::progress`), when the loop's

@@ -32,6 +32,8 @@ enum Out<'a> {
         time_left_s: Option<f64>,
         /// The library program this HMI loaded, while it is the loop's program.
         loaded_here: Option<String>,
+        /// That program's file was changed since LOAD: START and CONTINUE are refused.
+        changed_since_load: bool,
         #[serde(flatten)]
         frame: &'a Frame,
     },
@@ -157,7 +159,13 @@ impl Session {
                 op: Op::Load { program },
             } => self.load(id, &program).await,
             ClientMsg::Cmd { id, op } => match op.request() {
-                Ok(r) => {
+                Ok(mut r) => {
+                    // START and CONTINUE name the program as its file is now: the loop
+                    // refuses them when that is not the program it loaded.
+                    if matches!(op, Op::Start { .. } | Op::Continue {}) {
+                        let loop_hash = frames.borrow().state.as_ref().map_or(0, |s| s.program_hash);
+                        r.program_hash = self.app.current_hash(loop_hash);
+                    }
                     self.waiting.answer(id, self.app.commands.submit(r), false);
                     true
                 }
@@ -206,6 +214,10 @@ impl Session {
             skipped,
             time_left_s: time_left(&self.app, f),
             loaded_here: loaded_here(&self.app, f),
+            changed_since_load: f
+                .state
+                .as_ref()
+                .is_some_and(|s| self.app.changed_since_load(s.program_hash)),
             frame: f,
         };
         self.s.send(&frame).await

@@ -432,6 +432,10 @@ pub struct CommandRequest {
     pub _pad: [u8; 1],
     /// JOG: distance (mm, or deg for B); SPINDLE_ON: rpm.
     pub value: f64,
+    /// START, CONTINUE: the [`program_hash`] of the program the sender means to cut, as
+    /// its text is now; the loop refuses (`program-changed`) when its loaded program is
+    /// another. 0: whichever program is loaded.
+    pub program_hash: u64,
     /// LOAD_PROGRAM: the program file's name (for messages) and its TOML text.
     pub name_len: u32,
     pub text_len: u32,
@@ -450,6 +454,7 @@ impl CommandRequest {
             direction: 0,
             _pad: [0; 1],
             value: 0.0,
+            program_hash: 0,
             name_len: 0,
             text_len: 0,
             name: [0; 256],

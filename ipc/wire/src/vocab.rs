@@ -147,11 +147,12 @@ pub enum Refusal {
     JogActive = 13,
     SpindleTurning = 14,
     FlanksCrossed = 15,
+    ProgramChanged = 16,
 }
 
 impl Refusal {
     /// Every refusal, in code order (`ALL[i].code() == i + 1`).
-    pub const ALL: [Refusal; 15] = [
+    pub const ALL: [Refusal; 16] = [
         Refusal::NoProgram,
         Refusal::CycleRunning,
         Refusal::Faulted,
@@ -167,6 +168,7 @@ impl Refusal {
         Refusal::JogActive,
         Refusal::SpindleTurning,
         Refusal::FlanksCrossed,
+        Refusal::ProgramChanged,
     ];
 
     pub const fn code(self) -> u32 {
@@ -194,6 +196,7 @@ impl Refusal {
             Refusal::JogActive => "jog-active",
             Refusal::SpindleTurning => "spindle-turning",
             Refusal::FlanksCrossed => "flanks-crossed",
+            Refusal::ProgramChanged => "program-changed",
         }
     }
 
@@ -222,6 +225,9 @@ impl Refusal {
             }
             Refusal::FlanksCrossed => {
                 "this flank lies on the wrong side of the other one: the table is turned positive to touch one flank of the gap and negative to touch the other"
+            }
+            Refusal::ProgramChanged => {
+                "the program was changed since it was loaded: load it again to cut the changed program"
             }
         }
     }

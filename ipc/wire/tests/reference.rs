@@ -49,6 +49,7 @@ const REFUSALS: &[(u32, &str)] = &[
     (13, "jog-active"),
     (14, "spindle-turning"),
     (15, "flanks-crossed"),
+    (16, "program-changed"),
 ];
 
 const FAULTS: &[(u32, &str)] = &[

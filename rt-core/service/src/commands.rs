@@ -30,6 +30,10 @@ pub enum Mail {
     /// A program and the [`hob_ipc::program_hash`] of the text it was built from.
     Load(CycleProgram, u64),
     Command(Command),
+    /// A command for the program of this [`hob_ipc::program_hash`] only (START, CONTINUE
+    /// from a frontend that knows the program's text as it is now): refused
+    /// (`program-changed`) when the loaded program is another.
+    CommandFor(Command, u64),
     /// Write the flight recorder's last seconds (`hob record`): not the control core's.
     Record,
 }
@@ -65,8 +69,15 @@ pub fn to_mail(req: &CommandRequest, machine: &MachineConfig) -> Result<Mail, St
     if req.command == command::FLIGHT_RECORD {
         return Ok(Mail::Record);
     }
+    let for_program = matches!(req.command, command::START | command::CONTINUE) && req.program_hash != 0;
     encode::command_from_code(&encode::Args::from_request(req))
-        .map(Mail::Command)
+        .map(|c| {
+            if for_program {
+                Mail::CommandFor(c, req.program_hash)
+            } else {
+                Mail::Command(c)
+            }
+        })
         .ok_or_else(|| {
             format!(
                 "unknown command {} (axis code {}, direction code {})",
@@ -182,7 +193,7 @@ pub fn answer(
             let text = match mail {
                 Mail::Load(p, _) => format!("loaded {} ({} passes)", req.name(), p.passes().len()),
                 Mail::Command(c @ Command::TouchOff { .. }) => save_offsets(state_file, offsets, c),
-                Mail::Command(_) => format!("{what}: accepted"),
+                Mail::Command(_) | Mail::CommandFor(..) => format!("{what}: accepted"),
                 Mail::Record => format!(
                     "{what}: the flight recorder's last seconds go to {} (hob replay FILE)",
                     flight_dir.display()
@@ -288,6 +299,31 @@ mod tests {
         let (thread, _loop) = mailboxes();
         let e = thread.ask(Mail::Command(Command::Stop)).unwrap_err();
         assert!(e.contains("did not answer"), "{e}");
+    }
+
+    #[test]
+    fn a_start_for_a_program_is_checked_against_the_loaded_one_and_others_are_not() {
+        let m = shipped_for_tests();
+        let mut r = hob_ipc::request::start(false);
+        assert!(matches!(
+            to_mail(&r, &m),
+            Ok(Mail::Command(Command::Start { single: false }))
+        ));
+        r.program_hash = 42;
+        assert!(matches!(
+            to_mail(&r, &m),
+            Ok(Mail::CommandFor(Command::Start { single: false }, 42))
+        ));
+        let mut c = CommandRequest::new(command::CONTINUE);
+        c.program_hash = 7;
+        assert!(matches!(
+            to_mail(&c, &m),
+            Ok(Mail::CommandFor(Command::Continue, 7))
+        ));
+        // Only START and CONTINUE name a program.
+        let mut hold = CommandRequest::new(command::FEED_HOLD);
+        hold.program_hash = 7;
+        assert!(matches!(to_mail(&hold, &m), Ok(Mail::Command(Command::FeedHold))));
     }
 
     #[test]

@@ -147,6 +147,17 @@ impl<B: CanBus> RtLoop<B> {
                     self.recorder.command(c);
                     self.controller.command(c)
                 }
+                // The sender means another program than the loaded one (its file was
+                // changed since LOAD): nothing reaches the control core.
+                Mail::CommandFor(_, hash)
+                    if hash != self.program_hash || self.controller.program().is_none() =>
+                {
+                    Err(hob_control::fault::Refusal::ProgramChanged)
+                }
+                Mail::CommandFor(c, _) => {
+                    self.recorder.command(c);
+                    self.controller.command(c)
+                }
                 Mail::Record => {
                     self.recorder.request(Reason::Request, self.controller.cycle());
                     Ok(())

@@ -2,7 +2,7 @@
 // belongs, and changes nothing: not the library on disk, not the loop.
 import { test, after } from "node:test";
 import assert from "node:assert/strict";
-import { statSync, readFileSync } from "node:fs";
+import { statSync, readFileSync, writeFileSync } from "node:fs";
 import { join } from "node:path";
 import { startHmi, browser, status, waitFor, shot, need } from "./lib/hmi.mjs";
 
@@ -58,5 +58,35 @@ test("a spindle speed above the machine's is refused by the loop, shown with its
   // when the loop next updates its connections.)
   assert.equal(s.state, s0.state, "the loop's state after the refusal");
   assert.equal(s.alarm, s0.alarm, "the loop's alarm after the refusal");
+  await page.close();
+});
+
+test("a program changed in the library since LOAD is marked on the status line and the loop refuses its START", async () => {
+  const file = join(need("HOB_LIBRARY"), "programs", "session-gear.toml");
+  const original = readFileSync(file, "utf8");
+  const page = await open("automatic");
+  const loaded = page.locator('[data-testid="loaded-program"]');
+  await waitFor("the status line names session-gear", async () => (await loaded.innerText()).includes("session-gear"), 10000);
+  const mark = page.locator('[data-testid="changed-since-load"]');
+  assert.equal(await mark.count(), 0, "marked changed before anything changed");
+  const s0 = status();
+  try {
+    // The operator corrects the program in the library after LOAD (here: its part name).
+    const edited = original.replace(/^name = "([^"]*)"/m, 'name = "$1, corrected"');
+    assert.notEqual(edited, original, "the test's edit changed nothing");
+    writeFileSync(file, edited);
+    await mark.waitFor({ timeout: 10000 });
+    await page.locator('[data-testid="start-auto"]').tap();
+    const refused = page.locator('[data-testid="toast"].refused');
+    await refused.first().waitFor({ timeout: 10000 });
+    assert.match(await refused.first().innerText(), /changed since it was loaded/);
+    await shot(page, "changed-since-load");
+    const s = status();
+    assert.equal(s.state, s0.state, "the loop's state after the refused START");
+    assert.equal(s.pass, s0.pass);
+  } finally {
+    writeFileSync(file, original);
+  }
+  await waitFor("the mark gone with the file as loaded", async () => (await mark.count()) === 0, 10000);
   await page.close();
 });

@@ -98,6 +98,9 @@ mod old {
             Refusal::FlanksCrossed => {
                 "this flank lies on the wrong side of the other one: the table is turned positive to touch one flank of the gap and negative to touch the other"
             }
+            Refusal::ProgramChanged => {
+                "the program was changed since it was loaded: load it again to cut the changed program"
+            }
         }
     }
 
