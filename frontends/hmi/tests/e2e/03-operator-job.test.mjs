@@ -4,7 +4,7 @@
 // and a feed hold, and the cut report.
 import { test, after } from "node:test";
 import assert from "node:assert/strict";
-import { startHmi, browser, status, waitFor, shot } from "./lib/hmi.mjs";
+import { startHmi, browser, status, waitFor, shot, touchHold } from "./lib/hmi.mjs";
 
 const hmi = await startHmi();
 const ctx = await browser();
@@ -101,6 +101,23 @@ test("a new program through the sub-menus, a single pass, the span, the automati
   await page.setViewportSize({ width: 1280, height: 800 });
   await page.locator('[data-testid="resume"]').tap();
   await waitFor("resumed", () => !status().hold, 5000);
+
+  // A jog in the cut: the loop refuses it, the page says why where the operator looks, the
+  // key does not light as if jogging; the answer stays with its screen.
+  await page.locator('nav [data-screen="jog"]').tap();
+  const held = await touchHold(page, '[data-jog="x-"]', 800);
+  const refusal = page.locator('[data-testid="toast"].refused');
+  await refusal.first().waitFor({ timeout: 5000 });
+  assert.match(await refusal.first().innerText(), /JOG X-.*a cycle is running/s);
+  assert.equal(await page.locator('[data-jog="x-"].held').count(), 0, "the refused jog key still lit");
+  assert.equal(status().state, "cut", "the refused jog changed the cut");
+  const answers = await page.locator('[data-testid="answers"]').boundingBox();
+  const main = await page.locator("main").boundingBox();
+  assert.ok(answers.y >= main.y + main.height - 1, `the answers (y ${answers.y}) overlap the screen (ends at ${main.y + main.height})`);
+  await shot(page, "refused-jog");
+  await held.lift();
+  await page.locator('nav [data-screen="automatic"]').tap();
+  assert.equal(await page.locator('[data-testid="toast"]').count(), 0, "the JOG screen's answer followed to AUTOMATIC");
   await waitFor("the cycle done", () => status().state === "idle", 600000, 500);
 
   // The cut report from the logger's record.

@@ -111,6 +111,12 @@ export class Conn {
 
   newId() { return this.nextId++; }
 
+  /** Calls `f` with the answer to request `id` if one comes (a jog's: only its refusal). */
+  onAnswer(id, f) { this.pending.set(id, f); }
+
+  /** No answer to request `id` is wanted any more (the jog it was is over). */
+  forget(id) { this.pending.delete(id); }
+
   /** The server's frames stopped (killed, network): every value on screen is old. */
   get serverStale() { return !this.connected || performance.now() - this.lastFrameAt > STALE_MS; }
 

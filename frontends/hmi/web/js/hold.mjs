@@ -13,6 +13,7 @@ function stop(conn) {
   if (!active) return;
   clearInterval(active.timer);
   active.el.classList.remove("held");
+  conn.forget(active.id);
   active = null;
   conn.send({ t: "jog_release" });
 }
@@ -36,9 +37,16 @@ export function HoldKey({ conn, axis, dir, speed, label, disabled }) {
       stop(conn);
       try { el.setPointerCapture(ev.pointerId); } catch { /* a synthetic pointer */ }
       const id = conn.newId();
+      // The loop answers a jog only when it refuses it: the key goes dark, the reason is
+      // shown, and nothing more is renewed.
+      conn.onAnswer(id, (a) => {
+        if (a.ok) return;
+        if (active && active.id === id) stop(conn);
+        conn.toast(a, `JOG ${axis.toUpperCase()}${dir}`);
+      });
       conn.send({ t: "jog_hold", id, axis, dir, speed: Number(speed) });
       el.classList.add("held");
-      active = { el, timer: setInterval(() => conn.send({ t: "jog_renew" }), RENEW_MS) };
+      active = { el, id, timer: setInterval(() => conn.send({ t: "jog_renew" }), RENEW_MS) };
     };
     const up = () => stop(conn);
     el.addEventListener("pointerdown", down);

@@ -73,7 +73,8 @@ function App() {
     const raf = setInterval(() => setTick((t) => t + 1), 40);
     return () => clearInterval(raf);
   }, []);
-  const go = (s) => { setScreen(s); location.hash = s; };
+  // An answer belongs to the screen its command was given on: another screen starts clean.
+  const go = (s) => { if (s !== screen) { conn.toasts = []; } setScreen(s); location.hash = s; };
   const props = { conn, program, setProgram, go };
   const body = {
     powerup: PowerUp, jog: Jog, programs: Programs, definition: Definition, single: Single,

@@ -20,10 +20,11 @@ export function CmdButton({ conn, op, fields, label, cls = "", disabled, onAnswe
   return html`<button class=${`key ${cls}`} data-testid=${testid || `cmd-${op}`} disabled=${disabled || conn.viewOnly} onClick=${click}>${label}</button>`;
 }
 
-/** The last answers, newest first: refusals stay until tapped away. */
+/** The last two answers, newest first, in their own line under the screen (never over a
+ *  control, always the same height): refusals stay until tapped away or another screen. */
 export function Toasts({ conn }) {
-  const list = conn.toasts || [];
-  return html`<div class="toasts">${list.map(
+  const list = (conn.toasts || []).slice(0, 2);
+  return html`<div class="toasts" data-testid="answers">${list.map(
     (t) => html`<div class=${`toast ${t.ok ? "ok" : "refused"}`} data-testid="toast" data-refusal=${t.refusal || ""} onClick=${() => conn.dismiss(t.key)}>
       <b>${t.label}:</b> ${t.ok ? t.text || "accepted" : html`REFUSED: ${t.text}`}</div>`,
   )}</div>`;
