@@ -6,7 +6,7 @@
 
 use hob_canopen::frame::{Frame, sdo_rx_id, sdo_tx_id};
 use hob_canopen::sdo::{AbortCode, ObjectDictionary, Progress, SDO_MAX, SdoClient, SdoServer};
-use hob_control::{ControlParams, Controller};
+use hob_control::{Command, ControlParams, Controller};
 use hob_hmi::protocol::ClientMsg;
 use hob_ipc::CommandRequest;
 use hob_logger::format::{decode as decode_state, encode as encode_state, parse_event_line, states_in_file};
@@ -295,6 +295,7 @@ pub fn command(data: &[u8]) {
     req.value = f64::from_le_bytes([b[8], b[9], b[10], b[11], b[12], b[13], b[14], b[15]]);
     req.name_len = u32::from_le_bytes([b[16], b[17], b[18], b[19]]);
     req.text_len = u32::from_le_bytes([b[20], b[21], b[22], b[23]]);
+    req.program_hash = u64::from_le_bytes([b[24], b[25], b[26], b[27], b[28], b[29], b[30], b[31]]);
     let text = data.get(32..).unwrap_or_default();
     let n = text.len().min(req.text.len());
     req.text[..n].copy_from_slice(&text[..n]);
@@ -303,6 +304,11 @@ pub fn command(data: &[u8]) {
         Err(why) => assert!(!why.is_empty()),
         Ok(Mail::Load(p, _)) => assert!(!p.passes().is_empty()),
         Ok(Mail::Record) => assert_eq!(req.command, hob_ipc::command::FLIGHT_RECORD),
+        // Only START and CONTINUE name a program; the loop checks it before the core.
+        Ok(Mail::CommandFor(c, hash)) => {
+            assert!(matches!(c, Command::Start { .. } | Command::Continue), "{c:?}");
+            assert_ne!(hash, 0);
+        }
         Ok(Mail::Command(c)) => {
             let args = encode::command_code(c);
             let again =

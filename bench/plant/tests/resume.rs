@@ -79,6 +79,8 @@ fn continue_re_enters_the_cut_behind_where_it_stopped_and_the_gear_is_as_good() 
     rows.extend(run(&mut sim, 60.0, |r| r.state == State::Faulted).rows);
     let s = sim.controller.status();
     assert_eq!(s.continue_pass, 2);
+    // The alarm will say what happened in the cut only (`hob_wire`'s reaction by situation).
+    assert_eq!(s.fault_met, hob_control::State::Cut);
     let from_y = s.continue_from_y_mm.expect("a point to re-enter the cut");
     let expected = resume_y_mm(
         stopped_y,

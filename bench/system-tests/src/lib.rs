@@ -190,6 +190,12 @@ pub struct Status {
     pub program_loaded: bool,
     /// Empty when there is none.
     pub alarm: String,
+    /// What the machine did on the alarm (its reaction, in the operator's words).
+    #[serde(default)]
+    pub alarm_reaction: String,
+    /// What the drive the alarm names reported itself (its last EMCY).
+    #[serde(default)]
+    pub alarm_drive_reported: Option<String>,
     pub stats: Option<LoopStats>,
     /// Work positions (machine position plus the work offset).
     pub x_mm: f64,

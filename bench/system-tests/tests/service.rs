@@ -1320,6 +1320,18 @@ fn operator_path_from_power_on_to_a_continued_cut() {
             writeln!(faults, "drive-fault y").unwrap();
             let s = b.wait_state("fault", STATE_TIMEOUT);
             assert!(s.alarm.contains('Y'), "alarm '{}'", s.alarm);
+            // The alarm says what the drive reported and what happened in the cut, only.
+            assert!(
+                s.alarm_drive_reported
+                    .as_deref()
+                    .is_some_and(|r| r.starts_with("drive Y reported EMCY 0x")),
+                "{s:?}"
+            );
+            assert!(
+                s.alarm_reaction.starts_with("X retracted to its safe position"),
+                "{s:?}"
+            );
+            assert!(!s.alarm_reaction.contains("outside a cycle"), "{s:?}");
             assert!(
                 s.x_mm > before.x_mm,
                 "X {} -> {} mm: not retracted",

@@ -293,6 +293,9 @@ fn state_lines(o: &mut String, st: &StateSample) {
         "alarm    {}",
         if alarm.is_empty() { "none".into() } else { alarm }
     );
+    if let Some(reported) = codec::drive_reported(&st.alarm, &st.last_emcy_code) {
+        let _ = writeln!(o, "         {reported}");
+    }
     if let Some(f) = codec::Fault::of(&st.alarm) {
         let _ = writeln!(o, "         the machine: {}", f.reaction(&st.alarm));
         let _ = writeln!(o, "         remedy: {}", f.remedy());
@@ -488,6 +491,7 @@ pub fn status_json(s: &Snapshot) -> String {
         "passes_total": st.passes_total,
         "program_loaded": st.program_loaded != 0,
         "alarm": codec::alarm_text(&st.alarm),
+        "alarm_drive_reported": codec::drive_reported(&st.alarm, &st.last_emcy_code),
         "alarm_reaction": codec::Fault::of(&st.alarm).map_or(String::new(), |f| f.reaction(&st.alarm).to_string()),
         "alarm_remedy": codec::Fault::of(&st.alarm).map_or("", codec::Fault::remedy),
         "alarm_how_to_continue": codec::Fault::of(&st.alarm).map_or("", codec::Fault::how_to_continue),

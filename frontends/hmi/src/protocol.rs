@@ -25,6 +25,9 @@ pub struct AxisView {
 pub struct AlarmView {
     pub code: u32,
     pub text: String,
+    /// What the alarm's drive reported itself (its last EMCY, by the drive's name), when
+    /// the alarm names a drive that sent one.
+    pub drive_reported: Option<String>,
     pub reaction: &'static str,
     pub remedy: &'static str,
     pub how_to_continue: &'static str,
@@ -54,6 +57,8 @@ pub struct NodeView {
     pub heartbeat_age_ms: f64,
     pub cia402: Option<&'static str>,
     pub statusword: Option<String>,
+    /// The node's last EMCY, code and meaning (none: none since power-up, or reset).
+    pub emcy: Option<String>,
 }
 
 /// The nodes of a state sample, in the bus plan's order; `period_ns` dates the heartbeats.
@@ -67,6 +72,7 @@ pub fn nodes(s: &StateSample, period_ns: u64) -> Vec<NodeView> {
             heartbeat_age_ms: f64::from(s.heartbeat_age_cycles[i]) * period_ns as f64 / 1e6,
             cia402: (i < 3).then(|| codec::cia402_state_name(s.drive_statusword[i])),
             statusword: (i < 3).then(|| format!("0x{:04X}", s.drive_statusword[i])),
+            emcy: codec::emcy_words(s.last_emcy_code[i]),
         })
         .collect()
 }
@@ -125,14 +131,16 @@ fn axes(bits: u8) -> Vec<&'static str> {
 }
 
 /// The alarm in the operator's words, with what the machine did and what to do.
-pub fn alarm_view(a: &hob_ipc::AlarmCode) -> Option<AlarmView> {
+pub fn alarm_view(a: &hob_ipc::AlarmCode, last_emcy_code: &[u16; 4]) -> Option<AlarmView> {
     if a.code == 0 {
         return None;
     }
     let f = codec::Fault::of(a);
+    let drive_reported = codec::drive_reported(a, last_emcy_code);
     Some(AlarmView {
         code: a.code,
         text: codec::alarm_text(a),
+        drive_reported,
         reaction: f.map_or("", |f| f.reaction(a)),
         remedy: f.map_or("", codec::Fault::remedy),
         how_to_continue: f.map_or("", codec::Fault::how_to_continue),
@@ -184,7 +192,7 @@ impl StateView {
             spindle_rpm: s.spindle_rpm,
             spindle_set_rpm: s.spindle_set_rpm,
             sync_error_arcsec: s.sync_error_arcsec,
-            alarm: alarm_view(&s.alarm),
+            alarm: alarm_view(&s.alarm, &s.last_emcy_code),
             referenced: Referenced {
                 x: s.referenced & 2 != 0,
                 y: s.referenced & 4 != 0,
@@ -237,7 +245,8 @@ impl EventView {
             operator: matches!(e.kind, event_kind::ACCEPTED | event_kind::REFUSED),
             text: codec::event_text(e),
             alarm: if e.kind == event_kind::ALARM {
-                alarm_view(&e.alarm)
+                // What the drive reported is a bus event of its own in the list.
+                alarm_view(&e.alarm, &[0; 4])
             } else {
                 None
             },
@@ -258,7 +267,7 @@ impl EventView {
             operator: matches!(e.kind, event_kind::ACCEPTED | event_kind::REFUSED),
             text: e.text.clone(),
             alarm: if e.kind == event_kind::ALARM {
-                e.alarm.as_ref().and_then(alarm_view)
+                e.alarm.as_ref().and_then(|a| alarm_view(a, &[0; 4]))
             } else {
                 None
             },
@@ -663,9 +672,15 @@ mod tests {
             drive_statusword: [0x0237, 0x0008, 0x0040],
             nmt_state: [0x05, 0x7F, 0x04, hob_ipc::NMT_NOT_HEARD],
             heartbeat_age_cycles: [10, 0, 250, u32::MAX],
+            last_emcy_code: [0, 0x2310, 0, 0],
             ..Default::default()
         };
         let n = nodes(&s, 2_000_000);
+        let emcy: Vec<_> = n.iter().map(|n| n.emcy.as_deref()).collect();
+        assert_eq!(
+            emcy,
+            [None, Some("EMCY 0x2310 continuous over-current"), None, None]
+        );
         let got: Vec<_> = n.iter().map(|n| (n.name, n.nmt, n.cia402)).collect();
         assert_eq!(
             got,

@@ -185,7 +185,9 @@ pub fn decode(b: &[u8]) -> Option<StateSample> {
         code: c.u32(),
         axis: c.u8(),
         end: c.u8(),
-        _pad: [0; 2],
+        // Not in the record: a recorded alarm tells its reaction in every case.
+        situation: hob_ipc::situation::UNKNOWN,
+        _pad: [0; 1],
         value_a: c.f64(),
         value_b: c.f64(),
     };

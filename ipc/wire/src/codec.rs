@@ -87,6 +87,20 @@ pub fn recorder_view(r: Option<&crate::RecorderSample>, now_ns: u64) -> Recorder
     RecorderView { alarm: false, text }
 }
 
+/// An EMCY error code and its meaning; none for 0x0000 (no error, or its reset).
+pub fn emcy_words(code: u16) -> Option<String> {
+    (code != 0).then(|| format!("EMCY 0x{code:04X} {}", emcy_text(code)))
+}
+
+/// What the drive an alarm names reported itself: its last EMCY
+/// ([`crate::StateSample::last_emcy_code`]), by the drive's name; none when the alarm names
+/// no drive or the drive sent none.
+pub fn drive_reported(a: &AlarmCode, last_emcy_code: &[u16; 4]) -> Option<String> {
+    let axis = Axis::from_code(a.axis)?;
+    let code = last_emcy_code[usize::from(axis.code() - 1)];
+    emcy_words(code).map(|w| format!("drive {} reported {w}", axis.name()))
+}
+
 /// The text of an alarm ("" for none, `alarm code <c>` for one this build cannot word).
 pub fn alarm_text(a: &AlarmCode) -> String {
     if a.code == 0 {
@@ -492,6 +506,65 @@ mod tests {
         for f in [Fault::FeedbackLost, Fault::IoLost] {
             assert!(f.how_to_continue().contains("restart hob-rt"), "{f:?}");
         }
+    }
+
+    #[test]
+    fn an_alarm_whose_situation_is_recorded_tells_only_what_happened() {
+        use crate::vocab::situation;
+        let y = |sit: u8| AlarmCode {
+            code: Fault::DriveFault.code(),
+            axis: Axis::Y.code(),
+            situation: sit,
+            ..AlarmCode::default()
+        };
+        let work = Fault::DriveFault.reaction(&y(situation::IN_WORK));
+        assert!(work.starts_with("X retracted to its safe position"), "{work}");
+        let cycle = Fault::DriveFault.reaction(&y(situation::IN_CYCLE));
+        assert!(cycle.starts_with("the hob was out of the work"), "{cycle}");
+        let outside = Fault::DriveFault.reaction(&y(situation::OUTSIDE_CYCLE));
+        assert!(outside.starts_with("no cycle ran"), "{outside}");
+        for t in [work, cycle, outside] {
+            assert!(!t.contains("elsewhere") && !t.contains("outside a cycle"), "{t}");
+        }
+        // Not recorded: every case, as before.
+        let unknown = Fault::DriveFault.reaction(&y(situation::UNKNOWN));
+        assert!(unknown.contains("elsewhere") && unknown.contains("outside a cycle"));
+        // The table's drive in the work: the spindle stops at once, X pulls out.
+        let b = AlarmCode {
+            axis: Axis::B.code(),
+            ..y(situation::IN_WORK)
+        };
+        assert!(
+            Fault::DriveFault
+                .reaction(&b)
+                .starts_with("the table could no longer follow")
+        );
+        // A lost node still tells the watchdog's part.
+        let lost = AlarmCode {
+            code: Fault::FeedbackLost.code(),
+            ..y(situation::IN_WORK)
+        };
+        assert!(Fault::FeedbackLost.reaction(&lost).contains("watchdog"));
+        assert_eq!(State::Cut.situation(), situation::IN_WORK);
+        assert_eq!(State::Infeed.situation(), situation::IN_WORK);
+        assert_eq!(State::ToStart.situation(), situation::IN_CYCLE);
+        assert_eq!(State::Jog.situation(), situation::OUTSIDE_CYCLE);
+    }
+
+    #[test]
+    fn the_drive_an_alarm_names_says_what_it_reported() {
+        let y = AlarmCode {
+            code: Fault::DriveFault.code(),
+            axis: Axis::Y.code(),
+            ..AlarmCode::default()
+        };
+        assert_eq!(
+            drive_reported(&y, &[0, 0, 0x2310, 0]).as_deref(),
+            Some("drive Y reported EMCY 0x2310 continuous over-current")
+        );
+        // Another drive's EMCY is not this alarm's; none sent, or reset: nothing.
+        assert_eq!(drive_reported(&y, &[0x2310, 0x2310, 0, 0]), None);
+        assert_eq!(drive_reported(&AlarmCode::default(), &[0x2310; 4]), None);
     }
 
     #[test]

@@ -27,3 +27,4 @@ pub mod vocab;
 
 pub use error::Error;
 pub use types::*;
+pub use vocab::situation;

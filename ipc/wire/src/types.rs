@@ -72,7 +72,9 @@ pub struct AlarmCode {
     pub axis: u8,
     /// 0 none, 1 min, 2 max.
     pub end: u8,
-    pub _pad: [u8; 2],
+    /// Where the fault met the machine ([`crate::vocab::situation`]): what its reaction did.
+    pub situation: u8,
+    pub _pad: [u8; 1],
     pub value_a: f64,
     pub value_b: f64,
 }
@@ -156,6 +158,9 @@ pub struct StateSample {
     pub _pad3: [u8; 2],
     /// Cycles since each node's last heartbeat (same order), saturating.
     pub heartbeat_age_cycles: [u32; 4],
+    /// Each node's last EMCY error code (same order; 0: none, or its error reset):
+    /// what a drive reported about its own fault (`hob_wire::bus::emcy_text`).
+    pub last_emcy_code: [u16; 4],
 }
 
 /// [`StateSample::nmt_state`] of a node not heard from yet.

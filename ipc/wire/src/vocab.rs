@@ -123,6 +123,29 @@ impl State {
             State::Init | State::Idle | State::Jog | State::Faulted | State::Referencing
         )
     }
+
+    /// Where a fault in this state meets the machine ([`situation`]): in the work (the
+    /// cut, or the infeed: the fault reaction retracts from there), elsewhere in a cycle,
+    /// outside one.
+    pub fn situation(self) -> u8 {
+        if self.tool_in_work() || self == State::Infeed {
+            situation::IN_WORK
+        } else if self.in_cycle() {
+            situation::IN_CYCLE
+        } else {
+            situation::OUTSIDE_CYCLE
+        }
+    }
+}
+
+/// Where a fault met the machine ([`crate::AlarmCode::situation`]): its reaction differs.
+pub mod situation {
+    /// Not recorded (an alarm of an older recording): the reaction of every case is told.
+    pub const UNKNOWN: u8 = 0;
+    pub const OUTSIDE_CYCLE: u8 = 1;
+    pub const IN_CYCLE: u8 = 2;
+    /// The cut or the infeed.
+    pub const IN_WORK: u8 = 3;
 }
 
 /// Why the loop refused a command ([`crate::CommandResponse::refusal`], the `b` of
@@ -631,6 +654,52 @@ macro_rules! reaction_outside {
     };
 }
 
+// Each case alone (an alarm whose situation is recorded tells only what happened).
+
+macro_rules! work_retract {
+    () => {
+        "X retracted to its safe position with the gearbox still engaged, so the hob left its \
+         tooth gap (Y stopped, the X clamp opened); then the machine stopped (gearbox out, \
+         spindle and axes to rest, 15 s at most) and PC-OK dropped, which opens the safety chain"
+    };
+}
+
+macro_rules! work_table_lost {
+    () => {
+        "the table could no longer follow: the spindle stopped and the gearbox disengaged at \
+         once, X pulled the hob out of the work (Y stopped), then the machine came to rest and \
+         PC-OK dropped, which opens the safety chain"
+    };
+}
+
+macro_rules! work_x_stuck {
+    () => {
+        "X could not move: the machine stopped where it was with the hob in the work (gearbox \
+         out, spindle and axes to rest, 15 s at most), then PC-OK dropped, which opens the \
+         safety chain"
+    };
+}
+
+macro_rules! cycle_stop {
+    () => {
+        "the hob was out of the work: the machine stopped where it was (gearbox out, spindle and \
+         axes to rest, 15 s at most), then PC-OK dropped, which opens the safety chain"
+    };
+}
+
+macro_rules! cycle_table_lost {
+    () => {
+        "the hob was out of the work: the spindle stopped and the gearbox disengaged at once, \
+         the machine stopped where it was, then PC-OK dropped, which opens the safety chain"
+    };
+}
+
+macro_rules! outside_stop {
+    () => {
+        "no cycle ran: the spindle stopped and PC-OK dropped at once, which opens the safety chain"
+    };
+}
+
 /// The watchdog's reaction to a loop faulted with a node lost (`hob-watchdog`).
 macro_rules! reaction_watchdog {
     () => {
@@ -781,6 +850,9 @@ impl FaultCode {
     /// the watchdog did once the loop stood faulted.
     pub fn reaction(self, a: &AlarmCode) -> &'static str {
         let watchdog = matches!(self, FaultCode::FeedbackLost | FaultCode::IoLost);
+        if a.situation != situation::UNKNOWN {
+            return self.reaction_in(a, watchdog);
+        }
         match (self.x_can_move(a), self.table_can_follow(a), watchdog) {
             (false, _, false) => concat!(reaction_x_stuck!(), reaction_outside!()),
             (false, _, true) => concat!(reaction_x_stuck!(), reaction_outside!(), reaction_watchdog!()),
@@ -790,6 +862,25 @@ impl FaultCode {
             }
             (true, true, false) => concat!(reaction_retract!(), reaction_outside!()),
             (true, true, true) => concat!(reaction_retract!(), reaction_outside!(), reaction_watchdog!()),
+        }
+    }
+
+    /// [`Self::reaction`] for an alarm whose situation is recorded: what happened only.
+    fn reaction_in(self, a: &AlarmCode, watchdog: bool) -> &'static str {
+        let (x, table) = (self.x_can_move(a), self.table_can_follow(a));
+        match (a.situation, x, table, watchdog) {
+            (situation::IN_WORK, false, _, false) => work_x_stuck!(),
+            (situation::IN_WORK, false, _, true) => concat!(work_x_stuck!(), reaction_watchdog!()),
+            (situation::IN_WORK, true, false, false) => work_table_lost!(),
+            (situation::IN_WORK, true, false, true) => concat!(work_table_lost!(), reaction_watchdog!()),
+            (situation::IN_WORK, true, true, false) => work_retract!(),
+            (situation::IN_WORK, true, true, true) => concat!(work_retract!(), reaction_watchdog!()),
+            (situation::IN_CYCLE, _, false, false) => cycle_table_lost!(),
+            (situation::IN_CYCLE, _, false, true) => concat!(cycle_table_lost!(), reaction_watchdog!()),
+            (situation::IN_CYCLE, _, true, false) => cycle_stop!(),
+            (situation::IN_CYCLE, _, true, true) => concat!(cycle_stop!(), reaction_watchdog!()),
+            (_, _, _, false) => outside_stop!(),
+            (_, _, _, true) => concat!(outside_stop!(), reaction_watchdog!()),
         }
     }
 

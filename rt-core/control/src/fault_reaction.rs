@@ -29,6 +29,7 @@ impl Sequencer {
     /// referencing.)
     pub fn on_fault(&mut self, f: Fault, gearbox: &mut Gearbox, events: &mut Stamped) {
         let state = self.state;
+        self.fault_met = state;
         self.hold = false;
         if let Fault::FeedbackLost { axis: Axis::B } | Fault::PositionLost { axis: Axis::B } = f {
             self.table_position_lost(gearbox);

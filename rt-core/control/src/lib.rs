@@ -261,6 +261,9 @@ pub struct Status {
     pub sync_error_arcsec: f64,
     pub ccc_arcsec: f64,
     pub fault: Option<Fault>,
+    /// The state the fault met: in the work, elsewhere in a cycle or outside one (its
+    /// reaction differs).
+    pub fault_met: State,
     pub inputs: Inputs,
     pub outputs: Outputs,
     /// Drives (B, X, Y) reporting "operation enabled".
@@ -817,6 +820,7 @@ impl Controller {
             sync_error_arcsec: s.error_deg * 3600.0,
             ccc_arcsec: s.ccc_deg * 3600.0,
             fault: self.fault,
+            fault_met: self.sequencer.fault_met,
             inputs: self.measured.inputs,
             outputs: self.outputs,
             drives_enabled: self.measured.drives_enabled,

@@ -52,6 +52,8 @@ pub(super) struct Sequencer {
     pub flank_touch: [Option<f64>; 2],
     /// Power-up conditions met (chain closed, lubricated, no fault): enable the drives.
     pub init_ready: bool,
+    /// The state the latched fault met (what its reaction did follows from it).
+    pub fault_met: State,
     /// In the fault reaction's retract: when X's command reached the safe position
     /// (state time, s); cleared on every change of state.
     pub retract_commanded_s: Option<f64>,

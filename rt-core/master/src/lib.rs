@@ -491,6 +491,9 @@ pub struct Cyclic {
     outputs_age: u32,
     analog_age: u32,
     liveness: [Liveness; 4],
+    /// Each node's last EMCY error code (its `nodes()` order; 0x0000: none, or its
+    /// "error reset" after the drive cleared its error).
+    last_emcy: [u16; 4],
     /// Cycles of silence that reach the heartbeat timeout: ceil(timeout / period), in
     /// whole nanoseconds, computed once ([`heartbeat_cycles`]).
     heartbeat_cycles: u32,
@@ -532,6 +535,7 @@ impl Cyclic {
             outputs_age: u32::MAX,
             analog_age: u32::MAX,
             liveness: [Liveness::default(); 4],
+            last_emcy: [0; 4],
             heartbeat_cycles: heartbeat_cycles(&plan),
             cycle: 0,
             events: [None; BUS_EVENTS],
@@ -604,6 +608,11 @@ impl Cyclic {
 
     pub fn liveness(&self) -> [Liveness; 4] {
         self.liveness
+    }
+
+    /// Each node's last EMCY error code (B, X, Y, the I/O coupler; 0: none or reset).
+    pub fn last_emcy(&self) -> [u16; 4] {
+        self.last_emcy
     }
 
     /// Each drive's statusword (0x6041) as last received (B, X, Y).
@@ -688,6 +697,9 @@ impl Cyclic {
             }
             Cob::Emcy(_) => {
                 if let Some(e) = Emcy::parse(f) {
+                    if let Some(i) = self.plan.nodes().iter().position(|n| *n == e.node) {
+                        self.last_emcy[i] = e.code;
+                    }
                     self.event(BusEvent::Emcy(e));
                 }
             }

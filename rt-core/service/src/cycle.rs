@@ -113,8 +113,14 @@ impl<B: CanBus> RtLoop<B> {
     }
 
     fn publish_events(&mut self, cycle: u64) {
+        // An alarm says where its fault met the machine (what its reaction did): the
+        // fault is latched at most once between resets, so the state it met is the one.
+        let met = self.controller.status().fault_met.situation();
         while let Some(ev) = self.controller.events().pop() {
-            let s = encode::event_sample(0, &ev);
+            let mut s = encode::event_sample(0, &ev);
+            if s.kind == hob_ipc::event_kind::ALARM {
+                s.alarm.situation = met;
+            }
             self.publish_event(s);
         }
         let n = self.cyclic.take_events(&mut self.bus_events);
@@ -125,13 +131,9 @@ impl<B: CanBus> RtLoop<B> {
         }
     }
 
-    /// One cycle, woken at `wake_ns` for the deadline `deadline_ns`; returns the
-    /// sequencer's state after it.
-    pub fn cycle(&mut self, deadline_ns: u64, wake_ns: u64) -> State {
-        while let Ok(Some(f)) = self.bus.try_recv() {
-            self.cyclic.receive(&f);
-        }
-        self.recorder.begin_cycle(&self.controller);
+    /// This cycle's one piece of mail, if any: a stop asked by a signal first, else a
+    /// command thread's request, carried out and answered (nothing here waits).
+    fn take_mail(&mut self) {
         if self.stop_pending {
             // Alone in its cycle: one mail per cycle, as the record holds it.
             self.stop_pending = false;
@@ -166,6 +168,16 @@ impl<B: CanBus> RtLoop<B> {
             .map(|()| self.controller.offsets());
             let _ = self.mailbox.verdicts.try_send(verdict);
         }
+    }
+
+    /// One cycle, woken at `wake_ns` for the deadline `deadline_ns`; returns the
+    /// sequencer's state after it.
+    pub fn cycle(&mut self, deadline_ns: u64, wake_ns: u64) -> State {
+        while let Ok(Some(f)) = self.bus.try_recv() {
+            self.cyclic.receive(&f);
+        }
+        self.recorder.begin_cycle(&self.controller);
+        self.take_mail();
         let inputs = self.cyclic.inputs();
         self.outputs = self.controller.step(&inputs);
         self.recorder.end_cycle(&inputs, &self.outputs);
@@ -209,6 +221,7 @@ impl<B: CanBus> RtLoop<B> {
         s.normal_module_mm = normal_module_mm;
         s.program_hash = if loaded { self.program_hash } else { 0 };
         s.drive_statusword = self.cyclic.statuswords();
+        s.last_emcy_code = self.cyclic.last_emcy();
         for (i, l) in self.cyclic.liveness().iter().enumerate() {
             s.nmt_state[i] = l.state.map_or(hob_ipc::NMT_NOT_HEARD, |n| n as u8);
             s.heartbeat_age_cycles[i] = l.cycles_since_heartbeat;

@@ -42,6 +42,9 @@ pub fn fill_state(s: &mut StateSample, st: &Status, passes_total: u32, program_l
     s.sync_error_arcsec = st.sync_error_arcsec;
     s.ccc_arcsec = st.ccc_arcsec;
     s.alarm = Fault::alarm(st.fault);
+    if st.fault.is_some() {
+        s.alarm.situation = st.fault_met.situation();
+    }
     s.referenced = bits([st.table_position_whole, st.referenced[0], st.referenced[1]]);
     s.moving_axis = st.moving_axis.map_or(0, Axis::code);
     s.continue_pass = st.continue_pass;

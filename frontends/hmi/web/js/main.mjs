@@ -54,7 +54,7 @@ function Status({ conn }) {
     <div class="age">${age}</div>
     <div class="st-reset">${conn.viewOnly ? html`<b class="warn" data-testid="view-only">VIEW ONLY</b>` : html`<${CmdButton} conn=${conn} op="reset" label="RESET" cls="reset" />`}</div>
     ${s && s.alarm ? html`<div class="alarm" data-testid="alarm">
-      <div><b>ALARM</b> ${s.alarm.text}</div>
+      <div><b>ALARM</b> ${s.alarm.text}${s.alarm.drive_reported ? html`: <b data-testid="alarm-drive-reported">${s.alarm.drive_reported}</b>` : ""}</div>
       <div><span class="label">the machine</span> ${s.alarm.reaction}</div>
       <div><span class="label">remedy</span> ${s.alarm.remedy}</div>
       <div><span class="label">to continue</span> ${s.alarm.how_to_continue}</div></div>` : ""}

@@ -269,7 +269,14 @@ function Bars({ title, bars, testid }) {
 export function Diagnostics({ conn }) {
   const s = conn.frame && conn.frame.state, st = conn.stats;
   const pct = (p) => (p ? html`<td>${fmt(p.min, 1)}</td><td>${fmt(p.p50, 1)}</td><td>${fmt(p.p99, 1)}</td><td>${fmt(p.p999, 1)}</td><td>${fmt(p.max, 1)}</td><td>${p.count}</td>` : "");
-  const bus = conn.events.filter((e) => e.kind === "bus").slice(-20).reverse();
+  // Repeated bus noise folded: one line per kind and node, its count and its latest time.
+  const folded = new Map();
+  for (const e of conn.events.filter((e) => e.kind === "bus")) {
+    const key = e.text.replace(/ in \d+ cycles?.*$/, "");
+    const f = folded.get(key);
+    folded.set(key, { e, count: f ? f.count + 1 : 1 });
+  }
+  const bus = [...folded.values()].sort((a, b) => b.e.seq - a.e.seq).slice(0, 20);
   return html`<section class="grid2">
     <div class="card"><h2>The loop</h2>${st ? html`
       <table class="grid"><tr><th>us</th><th>min</th><th>p50</th><th>p99</th><th>p99.9</th><th>max</th><th>cycles</th></tr>
@@ -283,13 +290,14 @@ export function Diagnostics({ conn }) {
         <tr><td>samples the HMI missed</td><td>${conn.frame ? conn.frame.samples_missed : "-"}</td></tr>
         <tr><td>recorder</td><td class=${conn.frame && conn.frame.recorder.alarm ? "warn" : ""} data-testid="recorder">${conn.frame ? conn.frame.recorder.text : "-"}</td></tr></table>` : html`<p>no stats from the loop yet</p>`}</div>
     <div class="card"><h2>Drives and CAN nodes</h2>
-      <table class="grid" data-testid="nodes"><tr><th>node</th><th>NMT</th><th>heartbeat</th><th>CiA 402 (statusword)</th><th>feedback</th></tr>
+      <table class="grid" data-testid="nodes"><tr><th>node</th><th>NMT</th><th>heartbeat</th><th>CiA 402 (statusword)</th><th>last EMCY</th><th>feedback</th></tr>
         ${s ? s.nodes.map((n) => html`<tr data-node=${n.name}><td>${n.name === "I/O" ? "I/O coupler" : `drive ${n.name}`}</td>
           <td class=${n.nmt === "operational" ? "" : "warn"}>${n.nmt}</td><td>${n.nmt === "not heard" ? "-" : `${fmt(n.heartbeat_age_ms, 0)} ms ago`}</td>
           <td class=${n.cia402 && n.cia402.includes("fault") ? "warn" : ""}>${n.cia402 || "-"}${n.statusword ? html`<div class="small">${n.statusword}</div>` : ""}</td>
+          <td class=${n.emcy ? "warn" : ""} data-testid=${`emcy-${n.name}`}>${n.emcy || "-"}</td>
           <td>${n.name === "I/O" ? (s.io_valid ? "inputs current" : "NOT VALID") : s.drives_silent.includes(n.name) ? "SILENT" : "current"}</td></tr>`) : ""}</table>
       <h3>Bus events (EMCY, heartbeats)</h3>
-      ${bus.length ? html`<ul>${bus.map((e) => html`<li>${time(e)} ${e.text}</li>`)}</ul>` : html`<p class="hint">none since the HMI started</p>`}</div>
+      ${bus.length ? html`<ul data-testid="bus-events">${bus.map(({ e, count }) => html`<li>${time(e)} ${e.text}${count > 1 ? html` <b class="warn">(${count} times)</b>` : ""}</li>`)}</ul>` : html`<p class="hint">none since the HMI started</p>`}</div>
     <div class="card wide"><h2>I/O signals</h2>
       <div class="signals">${s ? [...s.inputs.map((x) => ({ ...x, dir: "in" })), ...s.outputs.map((x) => ({ ...x, dir: "out" }))].map((x) => html`
         <div class=${`signal ${x.active ? "on" : ""}`} data-signal=${x.name}><span>${x.dir} ${x.bit}</span> ${x.name.replaceAll("_", " ")}</div>`) : "-"}</div></div>
