@@ -29,6 +29,9 @@ pub struct DemoArgs<'a> {
     pub strict: bool,
     /// Otherwise: how long the bus may be silent before it is a fault, ms.
     pub tolerance_ms: u32,
+    /// X and Y power up within this many mm of their home (`hob-sim --power-on-near-home`:
+    /// a short referencing); `None`: anywhere in their travel.
+    pub near_home_mm: Option<f64>,
 }
 
 /// Where the demo keeps its logs when no `--log-dir` is given: `$XDG_STATE_HOME/hob`, else
@@ -89,12 +92,12 @@ fn machine_for_demo(
 }
 
 /// The binaries the demo starts beside itself.
-const SIBLINGS: [&str; 4] = ["hob-rt", "hob-sim", "hob-logger", "hob-watchdog"];
+pub const SIBLINGS: [&str; 4] = ["hob-rt", "hob-sim", "hob-logger", "hob-watchdog"];
 
 /// Run by `cargo run` (which names itself in `CARGO`), the demo first has cargo build the
 /// binaries it starts, in its own profile: `cargo run --release -p hob-lab -- demo` is the
 /// whole quick start on a fresh clone. Run as an installed binary, it builds nothing.
-fn build_siblings(say: &dyn Fn(&str)) -> Result<(), String> {
+fn build_siblings(binaries: &[&str], say: &dyn Fn(&str)) -> Result<(), String> {
     let Some(cargo) = std::env::var_os("CARGO") else {
         return Ok(());
     };
@@ -111,7 +114,7 @@ fn build_siblings(say: &dyn Fn(&str)) -> Result<(), String> {
         Some("debug") => {}
         _ => return Ok(()), // not in a cargo target directory: nothing to build
     }
-    say(&format!("building {} (cargo build, once)", SIBLINGS.join(", ")));
+    say(&format!("building {} (cargo build, once)", binaries.join(", ")));
     let status = c.status().map_err(|e| format!("cargo build: {e}"))?;
     if status.success() {
         Ok(())
@@ -120,9 +123,37 @@ fn build_siblings(say: &dyn Fn(&str)) -> Result<(), String> {
     }
 }
 
-pub fn run(machine: &MachineConfig, a: &DemoArgs<'_>) -> Result<String, (u8, String)> {
+/// The simulated machine and the service, running: the processes `hob demo` started and
+/// where they write.
+#[derive(Debug)]
+pub struct Started {
+    pub procs: Processes,
+    /// The log directory (the recording, each process's log, the demo's machine file).
+    pub dir: PathBuf,
+    pub iface: String,
+    pub instance: String,
+    /// The machine file the processes run on (the relaxed copy unless `--strict`).
+    pub machine_file: PathBuf,
+}
+
+/// What `hob demo` and `hob demo --hmi` share: checks the program and the tolerance, has
+/// cargo build the binaries when run by it and checks that `binaries` are all there (each
+/// a refusal, exit 2, before anything is written), makes the log directory, then starts
+/// `hob-sim`, the logger, `hob-rt` and the watchdog on a bus instance of their own.
+/// `title` opens the first line it says.
+pub fn start(
+    machine: &MachineConfig,
+    a: &DemoArgs<'_>,
+    title: &str,
+    binaries: &[&str],
+) -> Result<Started, (u8, String)> {
     let fail = |e: String| (1, e);
-    let plan = hob_store::files::plan_file(a.program, machine).map_err(|e| (2, e.to_string()))?;
+    hob_store::files::plan_file(a.program, machine).map_err(|e| (2, e.to_string()))?;
+    if let Some(mm) = a.near_home_mm
+        && !(mm.is_finite() && mm > 0.0)
+    {
+        return Err((2, format!("--near-home {mm}: must be a distance above 0 mm")));
+    }
     let iface = a.iface.map_or_else(
         || hob_can_transport::shm::default_iface().to_string(),
         str::to_string,
@@ -131,6 +162,26 @@ pub fn run(machine: &MachineConfig, a: &DemoArgs<'_>) -> Result<String, (u8, Str
     let relaxed = machine_for_demo(a.strict, a.machine_file, a.tolerance_ms).map_err(|e| (2, e))?;
     let instance = std::env::var("HOB_INSTANCE").unwrap_or_else(|_| format!("demo-{}", std::process::id()));
     hob_ipc::use_instance(&instance);
+    let say = |s: &str| {
+        if !a.quiet {
+            eprintln!("{s}");
+        }
+    };
+    say(&format!(
+        "{title}: {} on {} ({}), instance {instance}",
+        a.program.display(),
+        iface,
+        if iface == "shm" {
+            "shared-memory virtual CAN bus: this kernel has no vcan0"
+        } else {
+            "SocketCAN"
+        }
+    ));
+    build_siblings(binaries, &say).map_err(fail)?;
+    // Every binary there before anything is written or started: refused otherwise.
+    for b in binaries {
+        sibling(b).map_err(|e| (2, e))?;
+    }
     let stamp = std::time::SystemTime::now()
         .duration_since(std::time::UNIX_EPOCH)
         .map_or(0, |d| d.as_secs());
@@ -143,22 +194,6 @@ pub fn run(machine: &MachineConfig, a: &DemoArgs<'_>) -> Result<String, (u8, Str
             .join(format!("demo-{stamp}")),
     };
     std::fs::create_dir_all(&dir).map_err(|e| fail(format!("{}: {e}", dir.display())))?;
-    let say = |s: &str| {
-        if !a.quiet {
-            eprintln!("{s}");
-        }
-    };
-    say(&format!(
-        "hob demo: {} on {} ({}), instance {instance}",
-        a.program.display(),
-        iface,
-        if iface == "shm" {
-            "shared-memory virtual CAN bus: this kernel has no vcan0"
-        } else {
-            "SocketCAN"
-        }
-    ));
-
     let machine_path = match &relaxed {
         None => a.machine_file.to_path_buf(),
         Some((text, note)) => {
@@ -166,7 +201,6 @@ pub fn run(machine: &MachineConfig, a: &DemoArgs<'_>) -> Result<String, (u8, Str
             write_machine(&dir, text).map_err(fail)?
         }
     };
-    build_siblings(&say).map_err(fail)?;
     let mut procs = Processes::default();
     let machine_file = machine_path.to_str().unwrap_or("config/machine.toml");
     let cmd = |name: &str| -> Result<Command, (u8, String)> {
@@ -190,6 +224,9 @@ pub fn run(machine: &MachineConfig, a: &DemoArgs<'_>) -> Result<String, (u8, Str
     // The machine's truth beside the recording: the report grades the cut by it.
     .arg("--truth")
     .arg(dir.join(hob_logger::truth::FILE));
+    if let Some(mm) = a.near_home_mm {
+        sim.arg("--power-on-near-home").arg(mm.to_string());
+    }
     procs
         .spawn("hob-sim", sim, &dir.join("hob-sim.log"))
         .map_err(fail)?;
@@ -210,7 +247,62 @@ pub fn run(machine: &MachineConfig, a: &DemoArgs<'_>) -> Result<String, (u8, Str
     procs
         .spawn("hob-watchdog", wd, &dir.join("hob-watchdog.log"))
         .map_err(fail)?;
+    Ok(Started {
+        procs,
+        dir,
+        iface,
+        instance,
+        machine_file: machine_path,
+    })
+}
 
+/// The program `a.program` in the demo's own program library `DIR/library`, as the shop's
+/// would hold it (replacing one of its name): its name there and its text, resolved.
+pub fn into_library(
+    machine: &MachineConfig,
+    program: &Path,
+    library: &Path,
+) -> Result<(String, String), (u8, String)> {
+    let fail = |e: String| (1, e);
+    let name = program
+        .file_stem()
+        .and_then(|s| s.to_str())
+        .unwrap_or("program")
+        .to_string();
+    let text = std::fs::read_to_string(program).map_err(|e| (2, format!("{}: {e}", program.display())))?;
+    let lib = Library::open(library).map_err(|e| fail(e.to_string()))?;
+    if lib
+        .names(Kind::Program)
+        .map_err(|e| fail(e.to_string()))?
+        .contains(&name)
+    {
+        lib.delete(Kind::Program, &name)
+            .map_err(|e| fail(e.to_string()))?;
+    }
+    lib.create_program(&name, &text, machine)
+        .map_err(|e| (2, format!("library: {e}")))?;
+    let origin = lib.path(Kind::Program, &name).map_err(|e| fail(e.to_string()))?;
+    let stored = lib.text(Kind::Program, &name).map_err(|e| fail(e.to_string()))?;
+    let text = lib
+        .resolve(&origin, &stored)
+        .map_err(|e| (2, format!("library: {e}")))?;
+    Ok((name, text))
+}
+
+pub fn run(machine: &MachineConfig, a: &DemoArgs<'_>) -> Result<String, (u8, String)> {
+    let fail = |e: String| (1, e);
+    let plan = hob_store::files::plan_file(a.program, machine).map_err(|e| (2, e.to_string()))?;
+    let say = |s: &str| {
+        if !a.quiet {
+            eprintln!("{s}");
+        }
+    };
+    let Started {
+        mut procs,
+        dir,
+        iface,
+        ..
+    } = start(machine, a, "hob demo", &SIBLINGS)?;
     let ports =
         Ports::subscribe(&format!("hob-demo-{}", std::process::id())).map_err(|e| fail(e.to_string()))?;
     say("waiting for power-up (drives enabled, lubrication, safety chain)...");
@@ -237,29 +329,7 @@ pub fn run(machine: &MachineConfig, a: &DemoArgs<'_>) -> Result<String, (u8, Str
     ));
     // The program goes through the demo's own program library, as the shop's would.
     let library = dir.join("library");
-    let name = a
-        .program
-        .file_stem()
-        .and_then(|s| s.to_str())
-        .unwrap_or("program");
-    let text =
-        std::fs::read_to_string(a.program).map_err(|e| (2, format!("{}: {e}", a.program.display())))?;
-    let lib = Library::open(&library).map_err(|e| fail(e.to_string()))?;
-    if lib
-        .names(Kind::Program)
-        .map_err(|e| fail(e.to_string()))?
-        .iter()
-        .any(|n| n == name)
-    {
-        lib.delete(Kind::Program, name).map_err(|e| fail(e.to_string()))?;
-    }
-    lib.create_program(name, &text, machine)
-        .map_err(|e| (2, format!("library: {e}")))?;
-    let origin = lib.path(Kind::Program, name).map_err(|e| fail(e.to_string()))?;
-    let stored = lib.text(Kind::Program, name).map_err(|e| fail(e.to_string()))?;
-    let text = lib
-        .resolve(&origin, &stored)
-        .map_err(|e| (2, format!("library: {e}")))?;
+    let (name, text) = into_library(machine, a.program, &library)?;
     say(&format!("program from the library {}: {name}", library.display()));
     let req = CommandRequest::load_program(&format!("library program {name}"), &text)
         .map_err(|e| (2, e.to_string()))?;

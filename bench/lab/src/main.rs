@@ -6,6 +6,7 @@
 
 mod can_run;
 mod demo;
+mod demo_hmi;
 mod simulate;
 
 use clap::{Parser, Subcommand};
@@ -28,7 +29,8 @@ struct Cli {
 #[derive(Debug, Subcommand)]
 enum Command {
     /// Cut a program on the virtual machine with the real-time service, logger and
-    /// watchdog as separate processes; prints the summary, last line `log: PATH`.
+    /// watchdog as separate processes; prints the summary, last line `log: PATH`. With
+    /// --hmi: cut nothing, serve the touch HMI beside them until Ctrl-C.
     Demo {
         /// Program file [default: config/programs/demo-short-spur-z17-m5.toml].
         program: Option<PathBuf>,
@@ -54,6 +56,18 @@ enum Command {
         /// Without --strict: bus silence tolerated before a fault, ms.
         #[arg(long, default_value_t = 100)]
         tolerance_ms: u32,
+        /// Cut nothing: also start the touch HMI (hob-hmi) and print the address to open
+        /// (`HMI: http://127.0.0.1:PORT/`); the operator does the job on the page. Runs
+        /// until Ctrl-C or SIGTERM, then stops every process it started.
+        #[arg(long)]
+        hmi: bool,
+        /// With --hmi: the HMI's port on 127.0.0.1 (0: any free port) [default: 8080].
+        #[arg(long, requires = "hmi")]
+        port: Option<u16>,
+        /// X and Y power up within MM of their home, for a short referencing (hob-sim
+        /// --power-on-near-home) [default: anywhere in their travel].
+        #[arg(long, value_name = "MM")]
+        near_home: Option<f64>,
     },
     /// Run a program against the simulated machine; write DIR/trace.csv and DIR/summary.json.
     Simulate {
@@ -137,6 +151,9 @@ fn run(command: Command) -> Result<(), Failure> {
             quiet,
             strict,
             tolerance_ms,
+            hmi,
+            port,
+            near_home,
         } => {
             let machine_file = machine_path(machine.as_deref())?;
             let machine = hob_store::files::load_machine(&machine_file).map_err(Failure::Refused)?;
@@ -150,8 +167,14 @@ fn run(command: Command) -> Result<(), Failure> {
                 quiet,
                 strict,
                 tolerance_ms,
+                near_home_mm: near_home,
             };
-            match demo::run(&machine, &args) {
+            let result = if hmi {
+                demo_hmi::run(&machine, &args, port.unwrap_or(8080))
+            } else {
+                demo::run(&machine, &args)
+            };
+            match result {
                 Ok(text) => emit(&text),
                 // A refusal (the program, the tolerance, or hob-rt refusing the load or the
                 // start): the reasons on stderr, as every refusal.

@@ -214,3 +214,34 @@ fn demo_refuses_a_tolerance_the_machine_file_cannot_take_before_creating_anythin
     );
     assert!(!log.exists(), "no log directory for a refused demo");
 }
+
+#[test]
+fn demo_hmi_refuses_without_the_web_libraries_before_creating_anything() {
+    let root = support::root();
+    // A directory without frontends/hmi/node_modules (and nothing installed beside target/).
+    let cwd = std::env::temp_dir().join(format!("hob-lab-test-no-vendor-{}", std::process::id()));
+    let log = cwd.join("log");
+    let _ = std::fs::remove_dir_all(&cwd);
+    std::fs::create_dir_all(&cwd).unwrap();
+    let file = |p: &str| root.join(p).to_str().unwrap().to_string();
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_hob-lab"))
+        .args(["demo", "--hmi", "--iface", "shm", "--machine"])
+        .arg(file("config/machine.toml"))
+        .arg("--plant")
+        .arg(file("config/plant.toml"))
+        .arg("--log-dir")
+        .arg(&log)
+        .arg(file("config/programs/demo-short-spur-z17-m5.toml"))
+        .current_dir(&cwd)
+        .output()
+        .unwrap();
+    let err = text(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{err}");
+    for n in ["Preact and htm", "npm ci --omit=dev --prefix frontends/hmi"] {
+        assert!(err.contains(n), "missing {n:?} in: {err}");
+    }
+    assert!(!log.exists(), "no log directory for a refused demo");
+    let _ = std::fs::remove_dir_all(&cwd);
+    // The HMI's port belongs to --hmi.
+    assert_refused(&["demo", "--port", "8081"], &["--hmi"]);
+}

@@ -139,6 +139,8 @@ const ALLOWED: &[(&str, &[&str])] = &[
             "hob-master",
             "hob-plant",
             "hob-process-image",
+            // `hob demo --hmi` stops its processes in order at Ctrl-C or SIGTERM.
+            "hob-rt-os",
             "hob-setup",
             "hob-store",
             "hob-virtual-machine",

@@ -195,6 +195,294 @@ fn demo_cuts_end_to_end() {
     });
 }
 
+/// `hob demo --hmi`, the README's one command for the HMI on the simulated machine: it
+/// prints the address; the page, the library and the loop's state arrive through it; HOME
+/// ALL sent as the page sends it references X and Y; SIGTERM (with the page's socket open)
+/// stops every process it started, each by itself, and leaves none of its instance's
+/// shared-memory files.
+#[test]
+#[ignore = "needs the release binaries, the HMI's npm install and a bus; ci/test runs it"]
+fn demo_hmi_serves_the_panel_and_stops_clean() {
+    if hob_system_tests::host_only("demo_hmi_serves_the_panel_and_stops_clean") {
+        return;
+    }
+    let mut b = Bench::new("demo_hmi");
+    assert!(
+        b.bin.join("hob-hmi").is_file(),
+        "{}: not built",
+        b.bin.join("hob-hmi").display()
+    );
+    let machine = b.base_machine_file();
+    let dir = b.art.join("demo");
+    let mut args = vec![
+        "demo".to_string(),
+        "--hmi".into(),
+        "--port".into(),
+        "0".into(),
+        "--near-home".into(),
+        SHORT_HOMING_MM.into(),
+        "--machine".into(),
+        path(&machine),
+        "--iface".into(),
+        b.iface.clone(),
+        "--log-dir".into(),
+        path(&dir),
+    ];
+    if std::env::var("HOB_TOLERANCE_MS").is_ok_and(|v| !v.is_empty()) {
+        args.extend(["--tolerance-ms".into(), tolerance_ms().to_string()]);
+    }
+    let demo = b.spawn("hob demo --hmi", "hob", &args, "demo.txt");
+    for f in [
+        "hob-sim.log",
+        "hob-rt.log",
+        "hob-logger.log",
+        "hob-watchdog.log",
+        "hob-hmi.log",
+    ] {
+        b.add_log(dir.join(f));
+    }
+    let demo_pid = b.pid(demo);
+    let mut children = Vec::new();
+    let mut addr = String::new();
+    b.step("the address printed, five processes started", |b| {
+        let url = b.wait_for("the line HMI: URL", Duration::from_secs(120), |b| {
+            let out = std::fs::read_to_string(b.log_of(demo)).unwrap_or_default();
+            out.lines()
+                .find_map(|l| l.strip_prefix("HMI: http://"))
+                .and_then(|r| r.split_once('/'))
+                .map(|(a, _)| a.to_string())
+                .ok_or_else(|| format!("not yet: {}", out.lines().last().unwrap_or("")))
+        });
+        addr = url;
+        children = children_of(demo_pid);
+        let names: Vec<String> = children.iter().map(|(_, n)| n.clone()).collect();
+        for exe in ["hob-sim", "hob-rt", "hob-logger", "hob-watchdog", "hob-hmi"] {
+            assert!(
+                names.iter().any(|n| n == exe),
+                "{exe} not among the demo's children {names:?}"
+            );
+        }
+        format!("http://{addr}/, children {names:?}")
+    });
+    b.step("the page and the library through the HMI", |b| {
+        let page = http_get(&addr, "/").unwrap();
+        assert!(
+            page.contains("<title>hob</title>"),
+            "not the panel's page: {page}"
+        );
+        let list = http_get(&addr, "/api/programs").unwrap();
+        let j: serde_json::Value = serde_json::from_str(&list).unwrap_or_else(|e| panic!("{e}: {list}"));
+        let demo_program = j["entries"]
+            .as_array()
+            .and_then(|l| l.iter().find(|e| e["name"] == "demo-short-spur-z17-m5"));
+        assert!(
+            demo_program.is_some_and(|e| e["valid"] == true),
+            "the demo's program not valid in the library: {list}"
+        );
+        b.check_alive();
+        "the panel's page; the demo's program in the library, valid".into()
+    });
+    let mut ws = Ws::connect(&addr, "/ws/panel");
+    b.step(
+        "the loop's state on the page's socket; HOME ALL as the page sends it references X and Y",
+        |b| {
+            ws.send(r#"{"t":"hello","last_event":0}"#);
+            let frame = |m: &serde_json::Value| m["t"] == "frame";
+            let first = ws.until(Duration::from_secs(120), |m| {
+                frame(m) && m["state"]["state"] == "idle"
+            });
+            b.check_alive();
+            ws.send(r#"{"t":"cmd","id":1,"op":"home","axis":"all"}"#);
+            let answer = ws.until(Duration::from_secs(20), |m| m["t"] == "answer" && m["id"] == 1);
+            assert_eq!(answer["ok"], true, "HOME ALL refused: {answer}");
+            let s = ws.until(Duration::from_secs(120), |m| {
+                let s = &m["state"];
+                frame(m)
+                    && s["state"] == "idle"
+                    && s["referenced"]["x"] == true
+                    && s["referenced"]["y"] == true
+            });
+            b.check_alive();
+            format!(
+                "idle at cycle {}; HOME ALL accepted ({}); X and Y referenced at cycle {}",
+                first["state"]["cycle"], answer["text"], s["state"]["cycle"]
+            )
+        },
+    );
+    b.step(
+        "SIGTERM: every process stopped, no shared-memory file of the instance left",
+        |b| {
+            let st = b.terminate(demo, Duration::from_secs(60));
+            drop(ws);
+            let st = st.unwrap_or_else(|| panic!("hob demo --hmi did not end within 60 s of SIGTERM"));
+            assert!(st.success(), "hob demo --hmi: {st}");
+            let out = std::fs::read_to_string(b.log_of(demo)).unwrap();
+            let last = out.lines().last().unwrap_or("");
+            assert!(last.starts_with("log: "), "last line '{last}', not 'log: DIR'");
+            let mut wrong = Vec::new();
+            for (pid, name) in &children {
+                if Path::new(&format!("/proc/{pid}")).exists() {
+                    wrong.push(format!("{name} (pid {pid}) still there"));
+                }
+                // The machine and the loop ended by themselves (their last words), not killed.
+                let log = std::fs::read_to_string(dir.join(format!("{name}.log"))).unwrap_or_default();
+                let words = match name.as_str() {
+                    "hob-sim" => "hob-sim: stopped after",
+                    "hob-rt" => "hob-rt: stopped in state",
+                    _ => "",
+                };
+                if !log.contains(words) {
+                    wrong.push(format!("{name} did not say '{words}': it was killed"));
+                }
+            }
+            let left = iceoryx2_files_of(&b.instance, children.iter().map(|c| c.0).chain([demo_pid]));
+            if !left.is_empty() {
+                wrong.push(format!("left behind: {left:?}"));
+            }
+            assert!(wrong.is_empty(), "{}", wrong.join("\n"));
+            format!(
+                "{} processes ended; no file of instance {} left",
+                children.len(),
+                b.instance
+            )
+        },
+    );
+}
+
+/// The processes whose parent is `pid`: their pid and name (from `/proc`).
+fn children_of(pid: u32) -> Vec<(u32, String)> {
+    let mut out = Vec::new();
+    for e in std::fs::read_dir("/proc").unwrap().flatten() {
+        let Some(child) = e.file_name().to_str().and_then(|n| n.parse::<u32>().ok()) else {
+            continue;
+        };
+        let stat = std::fs::read_to_string(e.path().join("stat")).unwrap_or_default();
+        // `pid (comm) state ppid ...`: comm may hold spaces, so after the last ')'.
+        let ppid = stat
+            .rsplit_once(')')
+            .and_then(|(_, r)| r.split_whitespace().nth(1))
+            .and_then(|p| p.parse::<u32>().ok());
+        if ppid == Some(pid) {
+            let exe = std::fs::read_link(e.path().join("exe")).unwrap_or_default();
+            let name = exe
+                .file_name()
+                .map_or(String::new(), |n| n.to_string_lossy().into_owned());
+            out.push((child, name));
+        }
+    }
+    out
+}
+
+/// What iceoryx2 keeps of a bus instance and its processes under `/tmp/iceoryx2`: the
+/// services named `hob/<instance>/...` and the nodes of `pids`. (Its files in `/dev/shm`
+/// are named by hashes; they go with the services.)
+fn iceoryx2_files_of(instance: &str, pids: impl Iterator<Item = u32>) -> Vec<String> {
+    let pids: Vec<String> = pids.map(|p| format!("process = {p}\n")).collect();
+    let service = format!("\"hob/{instance}/");
+    let mut left = Vec::new();
+    let mut dirs = vec![std::path::PathBuf::from("/tmp/iceoryx2")];
+    while let Some(d) = dirs.pop() {
+        for e in std::fs::read_dir(&d).into_iter().flatten().flatten() {
+            let p = e.path();
+            if p.is_dir() {
+                dirs.push(p);
+                continue;
+            }
+            let text = String::from_utf8_lossy(&std::fs::read(&p).unwrap_or_default()).into_owned();
+            if text.contains(&service) || pids.iter().any(|x| text.contains(x.as_str())) {
+                left.push(p.display().to_string());
+            }
+        }
+    }
+    left
+}
+
+/// A WebSocket client, as much as the panel's socket needs: text messages, each in one
+/// frame (the server's are; the client's are masked, as they must be).
+struct Ws {
+    s: std::net::TcpStream,
+}
+
+impl Ws {
+    fn connect(addr: &str, path: &str) -> Ws {
+        use std::io::{Read, Write};
+        let mut s = std::net::TcpStream::connect(addr).unwrap_or_else(|e| panic!("{addr}: {e}"));
+        // The panel accepts a socket only from a page of its own address.
+        write!(
+            s,
+            "GET {path} HTTP/1.1\r\nHost: {addr}\r\nOrigin: http://{addr}\r\nUpgrade: websocket\r\n\
+             Connection: Upgrade\r\nSec-WebSocket-Key: dGhlIHNhbXBsZSBub25jZQ==\r\nSec-WebSocket-Version: 13\r\n\r\n"
+        )
+        .unwrap();
+        s.set_read_timeout(Some(Duration::from_secs(10))).unwrap();
+        let mut head = Vec::new();
+        let mut byte = [0u8; 1];
+        while !head.ends_with(b"\r\n\r\n") {
+            s.read_exact(&mut byte)
+                .unwrap_or_else(|e| panic!("{addr}{path}: {e}"));
+            head.push(byte[0]);
+        }
+        let head = String::from_utf8_lossy(&head);
+        assert!(head.starts_with("HTTP/1.1 101"), "{addr}{path}: {head}");
+        Ws { s }
+    }
+
+    fn send(&mut self, text: &str) {
+        use std::io::Write;
+        let n = text.len();
+        assert!(n < 126, "a short message only");
+        // FIN, text; masked with the key 0 (the payload as it is).
+        let mut frame = vec![0x81, 0x80 | n as u8, 0, 0, 0, 0];
+        frame.extend_from_slice(text.as_bytes());
+        self.s.write_all(&frame).unwrap();
+    }
+
+    /// The next message (a JSON value; `Null` for what is not JSON text).
+    fn next(&mut self) -> std::io::Result<serde_json::Value> {
+        use std::io::Read;
+        let mut h = [0u8; 2];
+        self.s.read_exact(&mut h)?;
+        let len = match h[1] & 0x7F {
+            126 => {
+                let mut l = [0u8; 2];
+                self.s.read_exact(&mut l)?;
+                u64::from(u16::from_be_bytes(l))
+            }
+            127 => {
+                let mut l = [0u8; 8];
+                self.s.read_exact(&mut l)?;
+                u64::from_be_bytes(l)
+            }
+            n => u64::from(n),
+        };
+        let mut payload = vec![0u8; len as usize];
+        self.s.read_exact(&mut payload)?;
+        Ok(if h[0] & 0x0F == 1 {
+            serde_json::from_slice(&payload).unwrap_or(serde_json::Value::Null)
+        } else {
+            serde_json::Value::Null
+        })
+    }
+
+    /// The first message within `timeout` that `ok` accepts; fails with the last one seen.
+    fn until(&mut self, timeout: Duration, ok: impl Fn(&serde_json::Value) -> bool) -> serde_json::Value {
+        let end = std::time::Instant::now() + timeout;
+        let mut last = serde_json::Value::Null;
+        while std::time::Instant::now() < end {
+            let m = self
+                .next()
+                .unwrap_or_else(|e| panic!("the panel's socket: {e}; last message {last}"));
+            if ok(&m) {
+                return m;
+            }
+            if m["t"] == "frame" {
+                last = m;
+            }
+        }
+        panic!("not within {} s; the last frame: {last}", timeout.as_secs());
+    }
+}
+
 /// A service session: refusals change nothing; kill -9 of the logger and of a CLI leave
 /// the loop on time; a restarted logger resumes; `hob status` shows the loop's histograms;
 /// kill -9 of hob-rt mid-cut makes the watchdog drop PC-OK and quick-stop the drives.

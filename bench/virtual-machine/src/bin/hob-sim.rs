@@ -239,8 +239,11 @@ fn run(a: Args) -> Result<(), String> {
     let mut batch: Vec<Frame> = Vec::new();
     let mut superseded = (0, Instant::now());
     let mut in_cut = in_cut;
+    // SIGTERM or SIGINT ends the run cleanly: the shared-memory virtual CAN bus's endpoint
+    // is removed as it goes (killed by the signal, it would leave its files behind).
+    let stop = hob_rt_os::termination_flag();
     vm.power_on(&mut out);
-    loop {
+    while !stop.load(std::sync::atomic::Ordering::Relaxed) {
         while let Ok(line) = rx.try_recv() {
             match VmFault::parse(&line) {
                 Ok(f) => {
@@ -318,6 +321,8 @@ fn run(a: Args) -> Result<(), String> {
             bus.wait_for_frame(Duration::from_millis(5));
         }
     }
+    eprintln!("hob-sim: stopped after {} SYNCs", vm.syncs());
+    Ok(())
 }
 
 /// The truth file's writer: a thread of its own (the simulator answers SYNCs), fed rows
