@@ -81,7 +81,7 @@ pub fn tolerance_ms() -> u32 {
 
 /// How near their home the simulated drives power up (`hob-sim --power-on-near-home`) in
 /// the tests whose subject is not referencing: referencing over the whole way takes
-/// about a minute, and the operator path and `hob demo` still do it.
+/// about a minute, and the operator path still does it.
 pub const SHORT_HOMING_MM: &str = "20";
 
 /// The demo's short job, also the sessions' unless `HOB_SESSION_PROGRAM` names another.

@@ -92,6 +92,9 @@ fn demo_cuts_end_to_end() {
                 b.iface.clone(),
                 "--log".into(),
                 demo_dir.display().to_string(),
+                // The cut is the subject, not the length of the referencing's way.
+                "--near-home".into(),
+                SHORT_HOMING_MM.into(),
             ];
             // HOB_TOLERANCE_MS: the demo's relaxed bus timing (the emulated guest needs more).
             if std::env::var("HOB_TOLERANCE_MS").is_ok_and(|v| !v.is_empty()) {
