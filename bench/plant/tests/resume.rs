@@ -5,7 +5,7 @@
 #![allow(clippy::unwrap_used)]
 
 mod common;
-use common::{powered_up, program, repair_and_reset, run, run_cycle};
+use common::{powered_up, repair_and_reset, run, run_cycle, short_spur};
 use hob_control::Command;
 use hob_control::events::EventKind;
 use hob_control::fault::Axis;
@@ -17,21 +17,9 @@ use hob_setup::job::Program;
 use hob_setup::planner::Plan;
 
 /// The thesis gear over its whole 40 mm face, shallow (one rough pass and a finishing
-/// pass, 2 mm in all) so that a pass takes about a minute of machine time.
+/// pass, 2 mm in all: `short_spur` with its face back) so that a pass takes about a minute.
 fn shallow_spur() -> (Program, CycleProgram, Plan) {
-    program(
-        "spur-z17-m5.toml",
-        &[
-            ("allowance_mm = 2.0", "allowance_mm = 0.5"),
-            ("total_depth_mm = 11.25", "total_depth_mm = 2.0"),
-            ("finish_allowance_mm = 0.5", "finish_allowance_mm = 0.2"),
-            ("rough_depths_mm = [6.0, 4.75]\n", ""),
-            ("rough_passes = 2", "rough_passes = 1"),
-            ("feed_mm_per_rev = 2.0", "feed_mm_per_rev = 8.0"),
-            ("feed_mm_per_rev = 1.0", "feed_mm_per_rev = 6.0"),
-            ("single_depth_mm = 5.0", "single_depth_mm = 1.0"),
-        ],
-    )
+    short_spur(&[("face_width_mm = 4.0", "face_width_mm = 40.0")])
 }
 
 /// What ISO 1328-1 would measure on the gear the last pass left, from the truth of
