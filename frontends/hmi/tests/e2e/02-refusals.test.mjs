@@ -64,7 +64,12 @@ test("a spindle speed above the machine's is refused by the loop, shown with its
 test("a program changed in the library since LOAD is marked on the status line and the loop refuses its START", async () => {
   const file = join(need("HOB_LIBRARY"), "programs", "session-gear.toml");
   const original = readFileSync(file, "utf8");
-  const page = await open("automatic");
+  // LOAD it on this HMI (each test file starts its own hob-hmi, which knows only what it
+  // loaded), then to AUTOMATIC.
+  const page = await open("programs");
+  await page.locator('[data-testid="load-session-gear"]').tap();
+  await page.locator('[data-testid="toast"].ok').first().waitFor({ timeout: 10000 });
+  await page.locator('nav [data-screen="automatic"]').tap();
   const loaded = page.locator('[data-testid="loaded-program"]');
   await waitFor("the status line names session-gear", async () => (await loaded.innerText()).includes("session-gear"), 10000);
   const mark = page.locator('[data-testid="changed-since-load"]');

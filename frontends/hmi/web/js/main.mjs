@@ -48,7 +48,7 @@ function Status({ conn }) {
   return html`<header class=${`status ${stale || silent || !s ? "is-stale" : ""}`} data-testid="status">
     <div class="st-state"><span class="label">state</span><b data-testid="state">${s ? s.state : "-"}</b>${s && s.hold ? html` <b class="warn">FEED HOLD</b>` : ""}</div>
     <div><span class="label">pass</span><b data-testid="pass">${s && s.passes ? `${s.pass} of ${s.passes}` : "-"}</b></div>
-    <div><span class="label">program</span><b data-testid="loaded-program">${!s ? "-" : !s.program_loaded ? "none" : f.loaded_here ? (f.changed_since_load ? html`${f.loaded_here} <span class="warn" data-testid="changed-since-load">CHANGED SINCE LOAD: load it again</span>` : f.loaded_here) : html`<span class="warn">loaded elsewhere (plan unknown here)</span>`}</b></div>
+    <div><span class="label">program</span><b data-testid="loaded-program">${!s ? "-" : !s.program_loaded ? "none" : f.loaded_here ? (f.changed_since_load ? html`${f.loaded_here} <span class="warn" data-testid="changed-since-load">CHANGED SINCE LOAD</span>` : f.loaded_here) : html`<span class="warn">loaded elsewhere (plan unknown here)</span>`}</b></div>
     <div><span class="label">reference</span><b data-testid="referenced">X ${s && s.referenced.x ? "✓" : "✗"} Y ${s && s.referenced.y ? "✓" : "✗"}</b></div>
     ${ov ? html`<div class="warn" data-testid="overrides">feed ${fmt(s.feed_override_percent, 0)} % spindle ${fmt(s.spindle_override_percent, 0)} %</div>` : ""}
     <div class="age">${age}</div>
