@@ -428,7 +428,7 @@ mod tests {
         );
         assert_eq!(
             event_text(&e(event_kind::REFUSED, command::START, Refusal::NoProgram.code())),
-            "refused: start: no program loaded: load one first (hob load PROGRAM)"
+            "refused: start: no program loaded: load one first"
         );
         assert_eq!(
             event_text(&e(event_kind::REFUSED, command::START, 0)),

@@ -67,7 +67,7 @@ mod old {
                     .into()
             }
             Fault::PositionLost { axis } => format!(
-                "drive {} lost its position (reboot or encoder): reference it again (hob home)",
+                "drive {} lost its position (reboot or encoder): reference it again (HOME)",
                 axis.name()
             ),
         }
@@ -75,7 +75,7 @@ mod old {
 
     pub fn refusal_text(r: Refusal) -> &'static str {
         match r {
-            Refusal::NoProgram => "no program loaded: load one first (hob load PROGRAM)",
+            Refusal::NoProgram => "no program loaded: load one first",
             Refusal::CycleRunning => "a cycle is running: stop it first",
             Refusal::Faulted => "the machine is in fault: remove the cause, then reset",
             Refusal::NotReady => "power-up not finished (lubrication, safety chain, drives)",
@@ -86,10 +86,10 @@ mod old {
             Refusal::SafetyChainOpen => "the safety chain is open: close it with the reset button first",
             Refusal::DrivesNotEnabled => "not every drive reports \"operation enabled\" yet",
             Refusal::NotReferenced => {
-                "X and Y are not referenced: only referencing (hob home) and slow jogs until they are"
+                "X and Y are not referenced: only referencing (HOME) and slow jogs until they are"
             }
             Refusal::TablePositionLost => {
-                "the table lost its position since the tooth phase was recorded: continuing would cut a new set of gaps into this part (touch both flanks of a cut gap to align to it: hob touch-flank)"
+                "the table lost its position since the tooth phase was recorded: continuing would cut a new set of gaps into this part (touch both flanks of a cut gap to align to it)"
             }
             Refusal::JogActive => "a jog is running: release it (or stop) first",
             Refusal::SpindleTurning => {
