@@ -83,7 +83,9 @@ fn simulate_writes_the_trace_and_the_summary() {
             "sync_err_max_arcsec",
             "sync_err_rms_um",
             "sync_err_max_um",
-            "time_s",
+            "cut_time_s",
+            "pass_time_s",
+            "stood_s",
         ] {
             assert!(p[key].as_f64().is_some(), "{key}");
         }

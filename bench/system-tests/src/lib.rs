@@ -741,7 +741,8 @@ pub struct Report {
 
 impl Report {
     /// Parses the report: the header line (`..., N missing; ... (bound: a quarter, B um)`)
-    /// and one line per pass (`pass cut_s samples rms max | rms_um max_um pct %`).
+    /// and one line per pass (`pass cut_s pass_s stood_s samples rms max | rms_um max_um
+    /// pct % | ...`: the max um the second field after the first `|`).
     pub fn parse(text: &str) -> Result<Report, String> {
         let head = text.lines().next().ok_or("empty report")?;
         let after = |key: &str| -> Result<&str, String> {
@@ -772,7 +773,9 @@ impl Report {
             let f: Vec<&str> = l.split_whitespace().collect();
             if l.starts_with(' ') && f.first().is_some_and(|p| p.parse::<u32>().is_ok()) {
                 let v = f
-                    .get(7)
+                    .iter()
+                    .position(|f| *f == "|")
+                    .and_then(|bar| f.get(bar + 2))
                     .and_then(|v| v.parse().ok())
                     .ok_or_else(|| format!("a pass line without its max um: {l}"))?;
                 pass_max_um.push(v);

@@ -463,8 +463,9 @@ enum LogCommand {
         #[arg(long, value_name = "FILE")]
         out: Option<PathBuf>,
     },
-    /// Per-pass synchronisation error statistics of a recorded cut, and the feed and
-    /// spindle override ranges in each pass's cut.
+    /// A recorded cut: its program, part, date (UTC), operator and alarms, then per pass
+    /// its durations (cut, pass, stood), synchronisation error statistics and the feed
+    /// and spindle override ranges in its cut.
     Report { dir: PathBuf },
     /// The table drive's delay identified from a recorded cut (the shift that best lines
     /// its measured angle up with its command), against the machine file's

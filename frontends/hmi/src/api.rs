@@ -246,31 +246,95 @@ pub async fn report(State(app): Shared, Query(q): Query<Range>) -> Response {
     let r =
         tokio::task::spawn_blocking(move || hob_logger::export::report_cycles(&dir, range.0, range.1)).await;
     match r {
-        Ok(Ok(r)) => Json(json!({
-            "what": what,
-            "samples": r.samples,
-            "first_cycle": r.first_cycle,
-            "last_cycle": r.last_cycle,
-            "missing": r.missing,
-            "pitch_radius_mm": r.pitch_radius_mm,
-            "grade5_single_pitch_um": r.grade5_single_pitch_um,
-            "bound_um": r.grade5_single_pitch_um / 4.0,
-            "passes": r.passes,
-            // The simulated machine's truth beside the record (`hob-sim --truth`): the
-            // cut graded by it, and the gear each pass left; absent on a real machine.
-            "truth": r.truth.as_ref().map(|t| json!({
-                "joined": t.joined,
-                "teeth": t.gear.teeth,
-                "passes": t.passes,
-            })),
-            "truth_refused": r.truth_refused,
-        }))
-        .into_response(),
+        Ok(Ok(r)) => Json(report_json(&what, &r)).into_response(),
         Ok(Err(e)) => (StatusCode::NOT_FOUND, Json(json!({"refused": e.to_string()}))).into_response(),
         Err(e) => (
             StatusCode::INTERNAL_SERVER_ERROR,
             Json(json!({"refused": e.to_string()})),
         )
             .into_response(),
+    }
+}
+
+/// The cut report as the HMI's REPORT screen gets it: `hob log report`'s figures, its head
+/// in its own lines (the program, part, date, operator and alarms) and the words the
+/// durations are given in, all from the logger's code (the screen computes nothing).
+pub fn report_json(what: &str, r: &hob_logger::export::Report) -> Value {
+    json!({
+        "what": what,
+        "header": r.header,
+        "header_lines": r.header.lines(),
+        "durations": hob_logger::trace::DURATIONS,
+        "samples": r.samples,
+        "first_cycle": r.first_cycle,
+        "last_cycle": r.last_cycle,
+        "missing": r.missing,
+        "pitch_radius_mm": r.pitch_radius_mm,
+        "grade5_single_pitch_um": r.grade5_single_pitch_um,
+        "bound_um": r.grade5_single_pitch_um / 4.0,
+        "passes": r.passes,
+        // The simulated machine's truth beside the record (`hob-sim --truth`): the
+        // cut graded by it, and the gear each pass left; absent on a real machine.
+        "truth": r.truth.as_ref().map(|t| json!({
+            "joined": t.joined,
+            "teeth": t.gear.teeth,
+            "passes": t.passes,
+        })),
+        "truth_refused": r.truth_refused,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use hob_ipc::StateSample;
+    use hob_ipc::codec::{Coupling, State};
+
+    /// The REPORT screen gets the same head and the same durations `hob log report` prints:
+    /// the pass's time and cut time, the time stood apart, no `time_s` of another meaning.
+    #[test]
+    fn the_report_screen_gets_the_head_and_durations_of_hob_log_report() {
+        let dir = std::env::temp_dir().join(format!("hob-hmi-report-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        let mut w = hob_logger::LogWriter::open(&dir, "t").unwrap();
+        for (cycle, state, pass) in [(1, State::Cut, 1), (2, State::Faulted, 0), (3, State::Cut, 1)] {
+            w.push_state(&StateSample {
+                cycle,
+                sync_time_ns: cycle * 1_000_000,
+                state: state.code(),
+                pass,
+                coupling: Coupling::Synchronised.code(),
+                pitch_radius_mm: 42.5,
+                normal_module_mm: 5.0,
+                ..StateSample::default()
+            })
+            .unwrap();
+        }
+        w.flush().unwrap();
+        let r = hob_logger::export::report(&dir).unwrap();
+        let text = hob_logger::export::report_text(&dir, &r);
+        let _ = std::fs::remove_dir_all(&dir);
+        let j = report_json("the whole recording", &r);
+        let lines: Vec<&str> = j["header_lines"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|l| l.as_str().unwrap())
+            .collect();
+        assert!(!lines.is_empty());
+        for l in &lines {
+            assert!(text.lines().any(|t| t == *l), "{l:?} not in:\n{text}");
+        }
+        assert!(
+            lines.iter().any(|l| l.starts_with("operator: not recorded")),
+            "{lines:?}"
+        );
+        assert!(text.contains(j["durations"].as_str().unwrap()));
+        let p = &j["passes"][0];
+        assert!(p.get("time_s").is_none(), "{p}");
+        assert_eq!(p["pass_time_s"].as_f64(), Some(r.passes[0].pass_time_s));
+        assert_eq!(p["cut_time_s"].as_f64(), Some(r.passes[0].cut_time_s));
+        assert_eq!(p["stood_s"].as_f64(), Some(r.passes[0].stood_s));
+        assert!(r.passes[0].stood_s > 0.0, "{:?}", r.passes[0]);
     }
 }

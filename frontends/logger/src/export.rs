@@ -1,7 +1,9 @@
 //! `hob log export|report`: a recorded directory as CSV, and its per-pass statistics.
 
 use crate::error::Error;
-use crate::trace::{PassSummary, SummaryBuilder, TRACE_HEADER, TraceRow};
+use crate::format::FileClock;
+use crate::header::{CutHeader, Span};
+use crate::trace::{DURATIONS, PassSummary, SummaryBuilder, TRACE_HEADER, TraceRow};
 use crate::truth;
 use hob_ipc::StateSample;
 use hob_ipc::codec::{self, Coupling, State};
@@ -81,9 +83,11 @@ pub fn export_csv(dir: &Path) -> Result<String, Error> {
     Ok(out)
 }
 
-/// Per-pass synchronisation error of a recorded cut.
+/// Per-pass synchronisation error of a recorded cut, under its head.
 #[derive(Debug, Clone)]
 pub struct Report {
+    /// The program, part, date, operator and alarms of the cut ([`crate::header`]).
+    pub header: CutHeader,
     pub samples: usize,
     pub first_cycle: u64,
     pub last_cycle: u64,
@@ -130,15 +134,29 @@ pub(crate) fn cycle_period_s(states: &[StateSample]) -> f64 {
     }
 }
 
+/// The samples of a report, and where each file's samples begin with its clock.
+type Clocked = (Vec<StateSample>, Vec<(usize, Option<FileClock>)>);
+
+/// Notes a sample's file clock where it changes (the first sample of each file).
+fn note_clock(clocks: &mut Vec<(usize, Option<FileClock>)>, at: usize, clock: Option<FileClock>) {
+    if clocks.last().is_none_or(|(_, c)| *c != clock) {
+        clocks.push((at, clock));
+    }
+}
+
 /// The report of a whole recording (every run of `hob-rt` in it).
 pub fn report(dir: &Path) -> Result<Report, Error> {
-    let states = crate::format::read_dir_states(dir)?;
+    let (mut states, mut clocks): Clocked = (Vec::new(), Vec::new());
+    crate::format::for_each_state_clocked(dir, |s, clock| {
+        note_clock(&mut clocks, states.len(), clock);
+        states.push(s);
+    })?;
     if states.is_empty() {
         return Err(Error::NoSample {
             dir: dir.to_path_buf(),
         });
     }
-    report_of(dir, &states)
+    report_of(dir, &states, &clocks, Span::Whole)
 }
 
 /// The report of the cycles `first ..= last` of a recording: one cut (a frontend takes the
@@ -146,7 +164,7 @@ pub fn report(dir: &Path) -> Result<Report, Error> {
 /// cycles from its start, so a recording over a restart holds the same cycle twice: the
 /// report is of the newest run holding any of the range ([`read_cycles`]).
 pub fn report_cycles(dir: &Path, first: u64, last: u64) -> Result<Report, Error> {
-    let states = read_cycles(dir, first, last)?;
+    let (states, clocks) = read_cycles_clocked(dir, first, last)?;
     if states.is_empty() {
         return Err(Error::NoSampleOfCycles {
             dir: dir.to_path_buf(),
@@ -154,27 +172,34 @@ pub fn report_cycles(dir: &Path, first: u64, last: u64) -> Result<Report, Error>
             last,
         });
     }
-    report_of(dir, &states)
+    report_of(dir, &states, &clocks, Span::Cycles(first, last))
 }
 
 /// The samples of cycles `first ..= last` of the newest run of `hob-rt` that holds any
 /// (a run ends where the cycle counter goes back, as the logger's `gaps.log` says
 /// `restart`); only those samples are held while reading.
 pub fn read_cycles(dir: &Path, first: u64, last: u64) -> Result<Vec<StateSample>, Error> {
-    let mut out = Vec::new();
+    read_cycles_clocked(dir, first, last).map(|(states, _)| states)
+}
+
+/// [`read_cycles`], with where each file's samples begin and its clock.
+fn read_cycles_clocked(dir: &Path, first: u64, last: u64) -> Result<Clocked, Error> {
+    let (mut out, mut clocks): Clocked = (Vec::new(), Vec::new());
     let mut runs = Runs::default();
     let mut out_run = None;
-    crate::format::for_each_state(dir, |s| {
+    crate::format::for_each_state_clocked(dir, |s, clock| {
         let run = runs.of(s.cycle);
         if (first..=last).contains(&s.cycle) {
             if out_run != Some(run) {
                 out.clear();
+                clocks.clear();
                 out_run = Some(run);
             }
+            note_clock(&mut clocks, out.len(), clock);
             out.push(s);
         }
     })?;
-    Ok(out)
+    Ok((out, clocks))
 }
 
 /// Counts the runs of `hob-rt` in a recording, in order: a cycle not after the one before
@@ -195,8 +220,14 @@ impl Runs {
     }
 }
 
-/// The per-pass report of recorded samples (not empty, in order).
-fn report_of(dir: &Path, states: &[StateSample]) -> Result<Report, Error> {
+/// The per-pass report of recorded samples (not empty, in order; `clocks`: where each
+/// file's samples begin, with its clock), under the head of `span`.
+fn report_of(
+    dir: &Path,
+    states: &[StateSample],
+    clocks: &[(usize, Option<FileClock>)],
+    span: Span,
+) -> Result<Report, Error> {
     let gear = states
         .iter()
         .find(|s| s.pitch_radius_mm > 0.0)
@@ -245,7 +276,9 @@ fn report_of(dir: &Path, states: &[StateSample]) -> Result<Report, Error> {
             ));
         }
     }
+    let header = CutHeader::of(read_events(dir), span, states, clocks, period_s);
     Ok(Report {
+        header,
         samples: states.len(),
         first_cycle: states.first().map_or(0, |s| s.cycle),
         last_cycle: states.last().map_or(0, |s| s.cycle),
@@ -525,16 +558,22 @@ pub fn report_text(dir: &Path, r: &Report) -> String {
             &r.passes
         }
     };
+    for l in r.header.lines() {
+        let _ = writeln!(o, "{l}");
+    }
+    let _ = writeln!(o, "durations: {DURATIONS}");
     let _ = writeln!(
         o,
-        "pass  cut s  samples  sync error arcsec: rms    max   |  um at pitch circle: rms    max   of grade 5 | overrides in the cut"
+        "pass  cut s  pass s  stood s  samples  sync error arcsec: rms    max   |  um at pitch circle: rms    max   of grade 5 | overrides in the cut"
     );
     for p in graded {
         let _ = writeln!(
             o,
-            "{:>4} {:>6.1} {:>8} {:>24.3} {:>6.3} | {:>24.3} {:>6.3} {:>7.0} % | feed {}, spindle {}",
+            "{:>4} {:>6.1} {:>7.1} {:>8.1} {:>8} {:>24.3} {:>6.3} | {:>24.3} {:>6.3} {:>7.0} % | feed {}, spindle {}",
             p.pass,
             p.cut_time_s,
+            p.pass_time_s,
+            p.stood_s,
             p.samples,
             p.sync_err_rms_arcsec,
             p.sync_err_max_arcsec,
@@ -652,7 +691,7 @@ mod tests {
         assert_eq!(r.passes[0].feed_override_min_percent, Some(80.0));
         assert_eq!(r.passes[0].feed_override_max_percent, Some(100.0));
         // The pass lines as `Report::parse` of the system tests reads them: a leading
-        // space, the pass number first, the max um at field 7.
+        // space, the pass number first, the max um the second field after the first `|`.
         let lines: Vec<&str> = text
             .lines()
             .skip(1)
@@ -666,7 +705,8 @@ mod tests {
         assert_eq!(lines.len(), 2, "{text}");
         for (l, p) in lines.iter().zip(&r.passes) {
             let f: Vec<&str> = l.split_whitespace().collect();
-            let max_um: f64 = f[7].parse().unwrap();
+            let bar = f.iter().position(|f| *f == "|").unwrap();
+            let max_um: f64 = f[bar + 2].parse().unwrap();
             assert!((max_um - p.sync_err_max_um).abs() < 5e-4, "{l}");
         }
         assert!(lines[0].ends_with("| feed 80-100 %, spindle 100 %"), "{text}");

@@ -267,6 +267,33 @@ pub fn read_dir_states(dir: &Path) -> Result<Vec<StateSample>, Error> {
 /// Every state sample of a log directory, in order, handed to `f` one by one (a reader of
 /// a part of a long log holds only that part), read as [`read_dir_states`] reads them.
 pub fn for_each_state(dir: &Path, mut f: impl FnMut(StateSample)) -> Result<(), Error> {
+    for_each_state_clocked(dir, |s, _| f(s))
+}
+
+/// The wall clock of a state file: the logger's clock when it started the file
+/// (`started_unix_s` of its header, whole seconds) and the SYNC time of the file's first
+/// record. The logger starts a file when it writes its first records, at most a flush
+/// (200 ms) after it received them: a sample's time from it is good to about a second.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct FileClock {
+    pub started_unix_s: u64,
+    pub first_sync_ns: u64,
+}
+
+impl FileClock {
+    /// The wall-clock time (seconds since 1970-01-01 UTC) of a sample of this file with SYNC
+    /// time `sync_ns` (the loop's monotonic clock).
+    pub fn unix_s(&self, sync_ns: u64) -> f64 {
+        self.started_unix_s as f64 + (sync_ns as f64 - self.first_sync_ns as f64) * 1e-9
+    }
+}
+
+/// [`for_each_state`], each sample with its file's clock (none where the header has no
+/// `started_unix_s`).
+pub fn for_each_state_clocked(
+    dir: &Path,
+    mut f: impl FnMut(StateSample, Option<FileClock>),
+) -> Result<(), Error> {
     let files = state_files(dir).map_err(|error| Error::Io {
         path: dir.to_path_buf(),
         error,
@@ -281,9 +308,25 @@ pub fn for_each_state(dir: &Path, mut f: impl FnMut(StateSample)) -> Result<(), 
             path: path.clone(),
             error,
         })?;
-        read_states(&bytes, &path.display().to_string(), &mut f)?;
+        let started_unix_s = header_json(&bytes).and_then(|h| h["started_unix_s"].as_u64());
+        let mut clock = None;
+        read_states(&bytes, &path.display().to_string(), &mut |s: StateSample| {
+            if clock.is_none() {
+                clock = started_unix_s.map(|started_unix_s| FileClock {
+                    started_unix_s,
+                    first_sync_ns: s.sync_time_ns,
+                });
+            }
+            f(s, clock);
+        })?;
     }
     Ok(())
+}
+
+/// A state file's header, as JSON (none when it is not: [`read_states`] says why).
+fn header_json(bytes: &[u8]) -> Option<serde_json::Value> {
+    let nl = bytes.iter().position(|&b| b == b'\n')?;
+    serde_json::from_slice(&bytes[..nl]).ok()
 }
 
 /// [`read_states`] with its error as text: the form the fuzz harness

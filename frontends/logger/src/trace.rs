@@ -85,12 +85,26 @@ impl TraceRow {
     }
 }
 
+/// What the durations of a pass ([`PassSummary`]) count, in the words every report
+/// prints them with (`hob log report`, the HMI's cut report, `summary.json`'s fields).
+pub const DURATIONS: &str = "cut s: the time at feed in the cut (state cut, feed hold not counted); pass s: the pass's own cycles, from its start to its end (the rapids, the feed holds and a fault's retract counted), not the time stood between them (in a fault, stopped, jogging or referencing before a continue); stood s: that time stood";
+
 /// Synchronisation error statistics of one pass, in the cut.
+///
+/// The durations ([`DURATIONS`]) count the cycles recorded (rows) times the cycle period: a
+/// sample the logger missed counts in none of them.
 #[derive(Debug, Clone, Default, PartialEq, Serialize)]
 pub struct PassSummary {
     pub pass: u32,
-    pub time_s: f64,
+    /// The time at feed in the cut: rows in state cut without feed hold.
     pub cut_time_s: f64,
+    /// The pass's own time: every row of this pass (the cycle running it, from its start to
+    /// its end), the rapids, feed holds and a fault's retract included; the time stood
+    /// between (`stood_s`) not.
+    pub pass_time_s: f64,
+    /// The time the pass stood between its own rows: rows out of a cycle (in a fault,
+    /// stopped, jogging or referencing) before the pass went on (a continue).
+    pub stood_s: f64,
     pub samples: u64,
     pub sync_err_rms_arcsec: f64,
     pub sync_err_max_arcsec: f64,
@@ -138,8 +152,6 @@ pub struct PassSummary {
     min: f64,
     #[serde(skip)]
     max: f64,
-    #[serde(skip)]
-    first_t: f64,
 }
 
 /// Collects the per-pass statistics of the cut from trace rows.
@@ -153,6 +165,10 @@ pub struct SummaryBuilder {
     gear: Option<(u32, f64, u8)>,
     /// Per pass: the controller's share's sections and the blank's.
     sections: Vec<[SectionBuilder; 2]>,
+    /// The index of the pass of the last row in a pass, and the time out of any pass since
+    /// (counted as stood by that pass if it goes on).
+    last_pass: Option<usize>,
+    out_of_pass_s: f64,
 }
 
 impl SummaryBuilder {
@@ -164,6 +180,8 @@ impl SummaryBuilder {
             normal_module_mm,
             gear: None,
             sections: Vec::new(),
+            last_pass: None,
+            out_of_pass_s: 0.0,
         }
     }
 
@@ -207,13 +225,16 @@ impl SummaryBuilder {
 
     pub fn add(&mut self, row: &TraceRow, period_s: f64) {
         if row.pass == 0 {
+            // Out of a cycle: stood, if the pass before goes on.
+            if self.last_pass.is_some() {
+                self.out_of_pass_s += period_s;
+            }
             return;
         }
         let idx = row.pass as usize - 1;
         while self.passes.len() <= idx {
             self.passes.push(PassSummary {
                 pass: self.passes.len() as u32 + 1,
-                first_t: row.t_s,
                 min: f64::INFINITY,
                 max: f64::NEG_INFINITY,
                 ..PassSummary::default()
@@ -244,8 +265,13 @@ impl SummaryBuilder {
                 }
             }
         }
+        let stood_s = std::mem::take(&mut self.out_of_pass_s);
+        let goes_on = self.last_pass.replace(idx) == Some(idx);
         let p = &mut self.passes[idx];
-        p.time_s = row.t_s - p.first_t + period_s;
+        if goes_on {
+            p.stood_s += stood_s;
+        }
+        p.pass_time_s += period_s;
         if row.state == State::Cut && !row.hold {
             if let Some(y) = p.last_cut_y_mm {
                 p.y_travel_in_cut_mm += (row.y_mm - y).abs();
@@ -339,6 +365,69 @@ mod tests {
             (passes[1].y_travel_in_cut_mm - 0.5).abs() < 1e-12,
             "{:?}",
             passes[1]
+        );
+    }
+
+    /// The durations of a pass broken off by a fault and continued: the time stood in the
+    /// fault (rows out of a cycle, pass 0) counts in neither its pass time nor its cut time.
+    #[test]
+    fn a_pass_continued_after_a_fault_counts_not_the_time_stood_in_it() {
+        let mut b = SummaryBuilder::for_gear(42.5, 5.0);
+        let mut t = 0.0;
+        let mut rows = |b: &mut SummaryBuilder, n: usize, state: State, hold: bool, pass: u32| {
+            for _ in 0..n {
+                b.add(&row(t, state, hold, pass, 0.0), 0.1);
+                t += 0.1;
+            }
+        };
+        rows(&mut b, 20, State::Idle, false, 0); // before the start: not the pass's
+        rows(&mut b, 30, State::ToStart, false, 1); // 3 s to the start
+        rows(&mut b, 100, State::Cut, false, 1); // 10 s at feed
+        rows(&mut b, 10, State::Cut, true, 1); // 1 s feed hold
+        rows(&mut b, 20, State::FaultRetract, false, 1); // 2 s: the fault's retract
+        rows(&mut b, 870, State::Faulted, false, 0); // 87 s stood in the fault
+        rows(&mut b, 50, State::Idle, false, 0); // 5 s reset, before the continue
+        rows(&mut b, 40, State::ToStart, false, 1); // continued: 4 s back in
+        rows(&mut b, 150, State::Cut, false, 1); // 15 s at feed
+        rows(&mut b, 20, State::Retract, false, 1); // 2 s out
+        rows(&mut b, 30, State::Idle, false, 0); // after the cycle: not stood
+        let (passes, _) = b.passes();
+        assert_eq!(passes.len(), 1);
+        let p = &passes[0];
+        let close = |a: f64, b: f64| (a - b).abs() < 1e-9;
+        assert!(close(p.cut_time_s, 25.0), "{p:?}");
+        assert!(
+            close(p.pass_time_s, 3.0 + 10.0 + 1.0 + 2.0 + 4.0 + 15.0 + 2.0),
+            "{p:?}"
+        );
+        assert!(close(p.stood_s, 87.0 + 5.0), "{p:?}");
+        let json = serde_json::to_value(p).unwrap();
+        assert!(
+            json.get("time_s").is_none(),
+            "no field of another meaning under the old name: {json}"
+        );
+        assert!(json["pass_time_s"].as_f64().is_some() && json["stood_s"].as_f64().is_some());
+    }
+
+    /// A pass that starts after another ended stood for none of the time between them.
+    #[test]
+    fn the_time_between_two_passes_is_stood_by_neither() {
+        let mut b = SummaryBuilder::for_gear(42.5, 5.0);
+        let states = [
+            (State::Cut, 1),
+            (State::Idle, 0),
+            (State::Idle, 0),
+            (State::Cut, 2),
+            (State::Idle, 0),
+        ];
+        for (i, (state, pass)) in states.into_iter().enumerate() {
+            b.add(&row(i as f64, state, false, pass, 0.0), 1.0);
+        }
+        let (passes, _) = b.passes();
+        assert_eq!(passes.iter().map(|p| p.stood_s).collect::<Vec<_>>(), [0.0, 0.0]);
+        assert_eq!(
+            passes.iter().map(|p| p.pass_time_s).collect::<Vec<_>>(),
+            [1.0, 1.0]
         );
     }
 

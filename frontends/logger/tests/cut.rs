@@ -8,7 +8,7 @@ use hob_ipc::codec::{self, Axis, Coupling, Fault, State};
 use hob_ipc::{AlarmCode, EventSample, StateSample, event_kind, write_text};
 use hob_logger::LogWriter;
 use hob_logger::export::{LoggedEvent, events_in, read_events, report, report_cycles};
-use hob_logger::format::header;
+use hob_logger::format::{encode, header};
 use std::path::{Path, PathBuf};
 
 fn log_dir(name: &str) -> PathBuf {
@@ -214,4 +214,152 @@ fn a_range_without_samples_and_an_empty_log_are_refused_in_words() {
     assert!(no_file.contains("not a hob log"), "{no_file}");
     assert!(empty.ends_with(": no sample recorded"), "{empty}");
     assert!(none.contains("no sample of cycles 100 .. 200 recorded"), "{none}");
+}
+
+/// A program loaded, as `hob-rt` names it in its event.
+fn loaded(seq: u64, cycle: u64, file: &str, part: Option<&str>) -> EventSample {
+    let mut e = event(seq, cycle, event_kind::PROGRAM_LOADED, 0);
+    e.text_len = write_text(&mut e.text, &codec::program_loaded_text(file, part));
+    e
+}
+
+/// A cut broken off by a fault and continued, one cycle a second (to read the times in
+/// whole seconds): cycles 1 ..= 85 in a state file the logger started at
+/// 2026-11-27T15:31:46Z with cycle 1. Another program loaded at 2 and an alarm at 3, before
+/// the cut; spur-z17-m5 loaded at 5, START at 10; pass 1 at 11 ..= 33 (to the start 11 ..=
+/// 15, the cut 16 ..= 30, the fault's retract 31 ..= 33: the alarm at 31); stood in the fault
+/// 34 ..= 60 (cleared and reset at 40, CONTINUE at 60); pass 1 again at 61 ..= 80 (the
+/// cut 66 ..= 75); the cycle done at 81.
+fn continued_cut(dir: &Path) {
+    let events = [
+        loaded(1, 2, "other.toml", None),
+        alarm(2, 3),
+        event(3, 4, event_kind::ALARM_CLEARED, 0),
+        loaded(
+            4,
+            5,
+            "config/programs/spur-z17-m5.toml",
+            Some("Thesis worst case, spur z17 m5, 42CrMo4"),
+        ),
+        event(5, 10, event_kind::ACCEPTED, hob_ipc::command::START),
+        event(6, 11, event_kind::PASS_STARTED, 1),
+        alarm(7, 31),
+        event(8, 40, event_kind::ALARM_CLEARED, 0),
+        event(9, 40, event_kind::ACCEPTED, hob_ipc::command::RESET),
+        event(10, 60, event_kind::ACCEPTED, hob_ipc::command::CONTINUE),
+        event(11, 61, event_kind::PASS_STARTED, 1),
+        event(12, 81, event_kind::CYCLE_DONE, 0),
+    ];
+    write(dir, &[], &events);
+    let state = |cycle: u64| match cycle {
+        11..=15 | 61..=65 => (State::ToStart, 1),
+        16..=30 | 66..=75 => (State::Cut, 1),
+        31..=33 => (State::FaultRetract, 1),
+        34..=39 => (State::Faulted, 0),
+        76..=80 => (State::Retract, 1),
+        _ => (State::Idle, 0),
+    };
+    let mut file = header("t", 1_795_793_506).into_bytes();
+    for cycle in 1..=85 {
+        let (st, pass) = state(cycle);
+        encode(
+            &StateSample {
+                sync_time_ns: cycle * 1_000_000_000,
+                state: st.code(),
+                ..sample(cycle, pass, 0.5)
+            },
+            &mut file,
+        );
+    }
+    std::fs::write(dir.join("state-000001.hoblog"), file).unwrap();
+}
+
+#[test]
+fn the_report_of_a_cut_continued_after_a_fault_names_its_program_part_date_and_alarms() {
+    let dir = log_dir("continued");
+    continued_cut(&dir);
+    // The cut as the HMI asks for it: from the accepted START to the cycle done.
+    let r = report_cycles(&dir, 10, 81).unwrap();
+    let text = hob_logger::export::report_text(&dir, &r);
+    let whole = report(&dir).unwrap();
+    let whole_text = hob_logger::export::report_text(&dir, &whole);
+    let _ = std::fs::remove_dir_all(&dir);
+    let lines: Vec<&str> = text.lines().collect();
+    let has = |l: &str| assert!(lines.contains(&l), "no line {l:?} in:\n{text}");
+    has("program: spur-z17-m5.toml (loaded 2026-11-27T15:31:50Z, cycle 5)");
+    has("part: Thesis worst case, spur z17 m5, 42CrMo4");
+    has("date: 2026-11-27T15:31:55Z to 2026-11-27T15:33:06Z (UTC, the logger's clock, to about a second)");
+    assert!(
+        text.contains("\noperator: not recorded (no command carries who gave it"),
+        "{text}"
+    );
+    // The cut's alarm and what followed, in order; not the alarm before the cut.
+    let from = lines.iter().position(|l| l.starts_with("alarms: ")).unwrap();
+    assert_eq!(
+        lines[from..from + 5],
+        [
+            "alarms: 1 raised; the alarms, clearings, resets, stops and continues of the cut:",
+            "  2026-11-27T15:32:16Z, cycle 31: ALARM drive fault Y",
+            "  2026-11-27T15:32:25Z, cycle 40: alarm cleared",
+            "  2026-11-27T15:32:25Z, cycle 40: accepted: reset",
+            "  2026-11-27T15:32:45Z, cycle 60: accepted: continue",
+        ],
+        "{text}"
+    );
+    assert!(lines[from + 5].starts_with("durations: cut s: "), "{text}");
+    // The pass: 25 s at feed, 43 s of its own cycles; the 27 s stood in the fault counted
+    // apart, in neither.
+    let p = &r.passes[0];
+    assert_eq!(
+        (p.cut_time_s, p.pass_time_s, p.stood_s),
+        (25.0, 43.0, 27.0),
+        "{p:?}"
+    );
+    let pass_line = lines
+        .iter()
+        .find(|l| l.starts_with("   1 "))
+        .unwrap_or_else(|| panic!("{text}"));
+    let f: Vec<&str> = pass_line.split_whitespace().collect();
+    assert_eq!(f[..4], ["1", "25.0", "43.0", "27.0"], "{text}");
+    // The whole recording: both programs, both alarms.
+    assert!(
+        whole_text.contains("\nprograms: other.toml (loaded 2026-11-27T15:31:47Z, cycle 2); then spur-z17-m5.toml (loaded 2026-11-27T15:31:50Z, cycle 5)\n"),
+        "{whole_text}"
+    );
+    assert!(
+        whole_text.contains("\nparts: not named (the program's [workpiece] has no name); then Thesis worst case, spur z17 m5, 42CrMo4\n"),
+        "{whole_text}"
+    );
+    assert!(whole_text.contains("\nalarms: 2 raised;"), "{whole_text}");
+    assert!(
+        whole_text.contains("\ndate: 2026-11-27T15:31:46Z to 2026-11-27T15:33:10Z"),
+        "{whole_text}"
+    );
+}
+
+#[test]
+fn a_recording_that_names_no_program_says_so() {
+    let dir = log_dir("unnamed");
+    // A hob-rt that did not name its program; no events at all in a second log.
+    write(
+        &dir,
+        &[sample(1, 1, 0.1), sample(2, 1, 0.1)],
+        &[event(1, 1, event_kind::PROGRAM_LOADED, 0)],
+    );
+    let unnamed = hob_logger::export::report_text(&dir, &report(&dir).unwrap());
+    std::fs::write(dir.join("events.log"), "").unwrap();
+    let none = hob_logger::export::report_text(&dir, &report(&dir).unwrap());
+    let _ = std::fs::remove_dir_all(&dir);
+    assert!(
+        unnamed.contains("\nprogram: not named (loaded ")
+            && unnamed.contains("by a hob-rt that did not name its programs)\npart: not recorded\n"),
+        "{unnamed}"
+    );
+    assert!(
+        none.contains(
+            "\nprogram: not recorded (no program loaded in the events recorded before or in the cut"
+        ),
+        "{none}"
+    );
+    assert!(none.contains("\nalarms: none\n"), "{none}");
 }

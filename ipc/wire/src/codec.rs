@@ -132,6 +132,39 @@ pub fn event_kind_name(k: u32) -> Option<&'static str> {
     event_kind::name(k)
 }
 
+/// How the words of a [`event_kind::PROGRAM_LOADED`] event that names its program begin.
+const PROGRAM_LOADED_WORDS: &str = "program loaded: ";
+
+/// Between the program's file name and its part in such an event's text.
+const PART_WORDS: &str = "; part: ";
+
+/// The text `hob-rt` gives a [`event_kind::PROGRAM_LOADED`] event: the program file's name
+/// (as the command named it, without its folders) and the part, the workpiece's `name` of
+/// the program (none: the program names none). [`loaded_program`] reads it back from the
+/// event's words; cut short to [`crate::EVENT_TEXT_BYTES`] where it is longer.
+pub fn program_loaded_text(file: &str, part: Option<&str>) -> String {
+    let file = file.rsplit('/').next().unwrap_or(file);
+    match part {
+        Some(part) => format!("{file}{PART_WORDS}{part}"),
+        None => file.to_string(),
+    }
+}
+
+/// The program and part a [`event_kind::PROGRAM_LOADED`] event's words
+/// ([`event_text`]) name, as [`program_loaded_text`] wrote them: `None` for words of
+/// another event; the file `None` when `hob-rt` did not name the program (one that
+/// recorded no name), the part `None` when the program names none.
+pub fn loaded_program(words: &str) -> Option<(Option<String>, Option<String>)> {
+    if words == "program loaded" {
+        return Some((None, None));
+    }
+    let named = words.strip_prefix(PROGRAM_LOADED_WORDS)?;
+    Some(match named.split_once(PART_WORDS) {
+        Some((file, part)) => (Some(file.to_string()), Some(part.to_string())),
+        None => (Some(named.to_string()), None),
+    })
+}
+
 /// One line for an event (logger, `hob status --watch`, HMI).
 pub fn event_text(e: &EventSample) -> String {
     match e.kind {
@@ -146,7 +179,8 @@ pub fn event_text(e: &EventSample) -> String {
             command_name(e.a),
             Refusal::from_code(e.b).map_or("?", Refusal::text)
         ),
-        event_kind::PROGRAM_LOADED => "program loaded".into(),
+        event_kind::PROGRAM_LOADED if e.text_len == 0 => "program loaded".into(),
+        event_kind::PROGRAM_LOADED => format!("{PROGRAM_LOADED_WORDS}{}", e.text()),
         event_kind::CYCLE_DONE => "cycle done".into(),
         event_kind::BUS => bus_event_text(e),
         event_kind::MESSAGE => e.text(),
@@ -442,6 +476,44 @@ mod tests {
         assert_eq!(event_text(&bus), "heartbeat of node 5 lost");
         bus.b = 9;
         assert_eq!(event_text(&bus), "bus event 9 of node 5");
+    }
+
+    #[test]
+    fn a_loaded_program_is_named_in_its_event_and_read_back_from_its_words() {
+        let named = |text: &str| {
+            let mut e = EventSample {
+                kind: event_kind::PROGRAM_LOADED,
+                ..EventSample::default()
+            };
+            e.text_len = crate::write_text(&mut e.text, text);
+            event_text(&e)
+        };
+        let text = program_loaded_text(
+            "config/programs/spur-z17-m5.toml",
+            Some("Thesis worst case, spur z17 m5, 42CrMo4"),
+        );
+        let words = named(&text);
+        assert_eq!(
+            words,
+            "program loaded: spur-z17-m5.toml; part: Thesis worst case, spur z17 m5, 42CrMo4"
+        );
+        assert_eq!(
+            loaded_program(&words),
+            Some((
+                Some("spur-z17-m5.toml".to_string()),
+                Some("Thesis worst case, spur z17 m5, 42CrMo4".to_string())
+            ))
+        );
+        let words = named(&program_loaded_text("library program hmi-gear", None));
+        assert_eq!(words, "program loaded: library program hmi-gear");
+        assert_eq!(
+            loaded_program(&words),
+            Some((Some("library program hmi-gear".to_string()), None))
+        );
+        // A hob-rt that did not name its program; another event.
+        assert_eq!(named(""), "program loaded");
+        assert_eq!(loaded_program("program loaded"), Some((None, None)));
+        assert_eq!(loaded_program("cycle done"), None);
     }
 
     #[test]

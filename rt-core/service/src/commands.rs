@@ -27,8 +27,9 @@ use std::time::{Duration, Instant};
 #[derive(Debug, Clone, Copy)]
 #[allow(clippy::large_enum_variant)]
 pub enum Mail {
-    /// A program and the [`hob_ipc::program_hash`] of the text it was built from.
-    Load(CycleProgram, u64),
+    /// A program, and what names it (the hash of the text it was built from, its file
+    /// and part).
+    Load(CycleProgram, LoadedAs),
     Command(Command),
     /// A command for the program of this [`hob_ipc::program_hash`] only (START, CONTINUE
     /// from a frontend that knows the program's text as it is now): refused
@@ -36,6 +37,38 @@ pub enum Mail {
     CommandFor(Command, u64),
     /// Write the flight recorder's last seconds (`hob record`): not the control core's.
     Record,
+}
+
+/// What names a program handed to the loop: the [`hob_ipc::program_hash`] of its text
+/// (the state sample's `program_hash` while it is loaded) and the text of its
+/// [`hob_ipc::event_kind::PROGRAM_LOADED`] event ([`hob_ipc::codec::program_loaded_text`]:
+/// its file name and part), in a fixed buffer: the loop copies it, never allocates.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct LoadedAs {
+    pub hash: u64,
+    text: [u8; hob_ipc::EVENT_TEXT_BYTES],
+    text_len: u32,
+}
+
+impl LoadedAs {
+    /// A program file's text `text` sent under `name`, its workpiece named `part`.
+    pub fn new(name: &str, part: Option<&str>, text: &str) -> Self {
+        let mut t = [0; hob_ipc::EVENT_TEXT_BYTES];
+        let text_len = hob_ipc::write_text(&mut t, &codec::program_loaded_text(name, part));
+        Self {
+            hash: hob_ipc::program_hash(text),
+            text: t,
+            text_len,
+        }
+    }
+
+    /// Names the program in its PROGRAM_LOADED event (any other event is left as it is).
+    pub fn name_event(&self, e: &mut hob_ipc::EventSample) {
+        if e.kind == hob_ipc::event_kind::PROGRAM_LOADED {
+            e.text = self.text;
+            e.text_len = self.text_len;
+        }
+    }
 }
 
 /// The loop's verdict: accepted with the work offsets after the command, or refused.
@@ -47,11 +80,20 @@ const LOOP_ANSWER: Duration = Duration::from_millis(500);
 /// Checks a program file's text on this machine: the cycle program, or the problems
 /// (file, line, key, limit) as text.
 pub fn build_program(name: &str, text: &str, machine: &MachineConfig) -> Result<CycleProgram, String> {
+    checked_program(name, text, machine).map(|(c, _)| c)
+}
+
+/// [`build_program`], with the program as parsed (its workpiece's name among it).
+fn checked_program(
+    name: &str,
+    text: &str,
+    machine: &MachineConfig,
+) -> Result<(CycleProgram, Program), String> {
     let path = Path::new(name);
     let program = Program::parse(path, text).map_err(|e| e.to_string())?;
     let mut problems = Problems::new();
     match CycleProgram::build(&program, machine, &mut problems) {
-        Some(c) => Ok(c),
+        Some(c) => Ok((c, program)),
         None => Err(problems
             .into_result(path, text)
             .err()
@@ -62,9 +104,11 @@ pub fn build_program(name: &str, text: &str, machine: &MachineConfig) -> Result<
 /// Turns a request into mail for the loop, or the reason it is malformed.
 pub fn to_mail(req: &CommandRequest, machine: &MachineConfig) -> Result<Mail, String> {
     if req.command == command::LOAD_PROGRAM {
-        let text = req.text();
-        return build_program(&req.name(), &text, machine)
-            .map(|p| Mail::Load(p, hob_ipc::program_hash(&text)));
+        let (text, name) = (req.text(), req.name());
+        return checked_program(&name, &text, machine).map(|(c, p)| {
+            let part = p.workpiece.name.as_deref();
+            Mail::Load(c, LoadedAs::new(&name, part, &text))
+        });
     }
     if req.command == command::FLIGHT_RECORD {
         return Ok(Mail::Record);
@@ -324,6 +368,36 @@ mod tests {
         let mut hold = CommandRequest::new(command::FEED_HOLD);
         hold.program_hash = 7;
         assert!(matches!(to_mail(&hold, &m), Ok(Mail::Command(Command::FeedHold))));
+    }
+
+    #[test]
+    fn a_loaded_program_is_named_in_its_event_by_its_file_and_part() {
+        let m = shipped_for_tests();
+        let text = std::fs::read_to_string(
+            Path::new(env!("CARGO_MANIFEST_DIR")).join("../../config/programs/spur-z17-m5.toml"),
+        )
+        .unwrap();
+        let req = CommandRequest::load_program("config/programs/spur-z17-m5.toml", &text).unwrap();
+        let Ok(Mail::Load(_, loaded)) = to_mail(&req, &m) else {
+            panic!("not loaded")
+        };
+        assert_eq!(loaded.hash, hob_ipc::program_hash(&text));
+        let mut e = hob_ipc::EventSample {
+            kind: hob_ipc::event_kind::PROGRAM_LOADED,
+            ..hob_ipc::EventSample::default()
+        };
+        loaded.name_event(&mut e);
+        assert_eq!(
+            codec::event_text(&e),
+            "program loaded: spur-z17-m5.toml; part: Thesis worst case, spur z17 m5, 42CrMo4"
+        );
+        // Another event keeps its own words.
+        let mut other = hob_ipc::EventSample {
+            kind: hob_ipc::event_kind::CYCLE_DONE,
+            ..hob_ipc::EventSample::default()
+        };
+        loaded.name_event(&mut other);
+        assert_eq!(codec::event_text(&other), "cycle done");
     }
 
     #[test]

@@ -6,7 +6,7 @@
 //! publishers write into preallocated shared memory and never wait for a subscriber
 //! (a slow one loses its oldest samples, the loop never notices).
 
-use crate::commands::{LoopMailbox, Mail};
+use crate::commands::{LoadedAs, LoopMailbox, Mail};
 use crate::encode;
 use crate::recorder::{AFTER_FAULT_CYCLES, Reason, Recorder};
 use crate::stats::LoopTiming;
@@ -49,8 +49,9 @@ pub struct RtLoop<B: CanBus> {
     pub counters: Arc<LoopCounters>,
     pub period_ns: u64,
     event_seq: u64,
-    /// The hash of the loaded program's text (published while a program is loaded).
-    program_hash: u64,
+    /// What names the program loaded last: its text's hash (published while a program is
+    /// loaded) and its file and part (in its PROGRAM_LOADED event).
+    loaded: Option<LoadedAs>,
     bus_events: [Option<BusEvent>; BUS_EVENTS],
     outputs: CycleOutputs,
     /// The flight recorder: each cycle's mail, inputs and outputs.
@@ -86,7 +87,7 @@ impl<B: CanBus> RtLoop<B> {
             counters,
             period_ns,
             event_seq: 0,
-            program_hash: 0,
+            loaded: None,
             bus_events: [None; BUS_EVENTS],
             outputs: CycleOutputs::default(),
             recorder,
@@ -121,6 +122,9 @@ impl<B: CanBus> RtLoop<B> {
             if s.kind == hob_ipc::event_kind::ALARM {
                 s.alarm.situation = met;
             }
+            if let Some(l) = &self.loaded {
+                l.name_event(&mut s);
+            }
             self.publish_event(s);
         }
         let n = self.cyclic.take_events(&mut self.bus_events);
@@ -141,9 +145,9 @@ impl<B: CanBus> RtLoop<B> {
             let _ = self.controller.command(hob_control::Command::Stop);
         } else if let Ok(mail) = self.mailbox.requests.try_recv() {
             let verdict = match mail {
-                Mail::Load(p, hash) => {
+                Mail::Load(p, loaded) => {
                     self.recorder.load(&p);
-                    self.controller.load(p).map(|()| self.program_hash = hash)
+                    self.controller.load(p).map(|()| self.loaded = Some(loaded))
                 }
                 Mail::Command(c) => {
                     self.recorder.command(c);
@@ -152,7 +156,7 @@ impl<B: CanBus> RtLoop<B> {
                 // The sender means another program than the loaded one (its file was
                 // changed since LOAD): nothing reaches the control core.
                 Mail::CommandFor(_, hash)
-                    if hash != self.program_hash || self.controller.program().is_none() =>
+                    if self.loaded.is_none_or(|l| l.hash != hash) || self.controller.program().is_none() =>
                 {
                     Err(hob_control::fault::Refusal::ProgramChanged)
                 }
@@ -219,7 +223,10 @@ impl<B: CanBus> RtLoop<B> {
         s.events_lost = self.controller.events().lost();
         s.pitch_radius_mm = pitch_radius_mm;
         s.normal_module_mm = normal_module_mm;
-        s.program_hash = if loaded { self.program_hash } else { 0 };
+        s.program_hash = match (&self.loaded, loaded) {
+            (Some(l), true) => l.hash,
+            _ => 0,
+        };
         s.drive_statusword = self.cyclic.statuswords();
         s.last_emcy_code = self.cyclic.last_emcy();
         for (i, l) in self.cyclic.liveness().iter().enumerate() {

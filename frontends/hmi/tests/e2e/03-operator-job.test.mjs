@@ -125,6 +125,10 @@ test("a new program through the sub-menus, a single pass, the span, the automati
   await page.locator('[data-testid="report-pass"]').first().waitFor({ timeout: 20000 });
   assert.match(await page.locator('[data-testid="report-what"]').innerText(), /the last cycle run/);
   assert.equal(await page.locator('[data-testid="report-pass"]').count(), 2, "the automatic program's two passes, not the single pass's");
+  // Its head, as `hob log report` prints it: the program the loop's event named; nobody's name.
+  const head = await page.locator('[data-testid="report-header"]').innerText();
+  assert.match(head, /program: library program hmi-gear \(loaded /);
+  assert.match(head, /operator: not recorded/);
   // Graded by the simulated machine's truth (hob-sim writes it beside the logger's record):
   // the gear each pass left, predicted.
   const noTruth = await page.locator('[data-testid="report-no-truth"]').count() ? await page.locator('[data-testid="report-no-truth"]').innerText() : "";

@@ -207,13 +207,15 @@ export function Report() {
   const tol = r.grade5_single_pitch_um;
   return html`<section class="card report" data-testid="report"><h2>Cut report</h2>
     <p data-testid="report-what"><b>${r.what}</b></p>
+    <div data-testid="report-header">${r.header_lines.map((l) => html`<p class=${l.startsWith("  ") ? "small report-alarm" : ""}>${l}</p>`)}</div>
     <p>${r.samples} samples recorded, ${r.missing} missing (cycles ${r.first_cycle}..${r.last_cycle}); pitch radius ${fmt(r.pitch_radius_mm, 3)} mm; ISO 1328-1 single pitch tolerance, grade 5: ${fmt(tol, 2)} um; bound (a quarter): ${fmt(r.bound_um, 2)} um.</p>
     <p class="small">Synchronisation error in the cut as the controller estimates it from its encoders:</p>
-    <table class="grid"><tr><th>pass</th><th>time s</th><th>samples</th><th>RMS "</th><th>max "</th><th>RMS um</th><th>max um</th><th>max / tolerance</th><th>feed override %</th><th>spindle override %</th></tr>
-      ${r.passes.map((p) => html`<tr data-testid="report-pass"><td>${p.pass}</td><td>${fmt(p.time_s, 1)}</td><td>${p.samples}</td><td>${fmt(p.sync_err_rms_arcsec, 2)}</td><td>${fmt(p.sync_err_max_arcsec, 2)}</td>
+    <table class="grid"><tr><th>pass</th><th>cut s</th><th>pass s</th><th>stood s</th><th>samples</th><th>RMS "</th><th>max "</th><th>RMS um</th><th>max um</th><th>max / tolerance</th><th>feed override %</th><th>spindle override %</th></tr>
+      ${r.passes.map((p) => html`<tr data-testid="report-pass"><td>${p.pass}</td><td>${fmt(p.cut_time_s, 1)}</td><td>${fmt(p.pass_time_s, 1)}</td><td>${fmt(p.stood_s, 1)}</td><td>${p.samples}</td><td>${fmt(p.sync_err_rms_arcsec, 2)}</td><td>${fmt(p.sync_err_max_arcsec, 2)}</td>
         <td>${fmt(p.sync_err_rms_um, 3)}</td><td>${fmt(p.sync_err_max_um, 3)}</td><td class=${p.sync_err_max_um > r.bound_um ? "bad" : "ok"}>${fmt((100 * p.sync_err_max_um) / tol, 1)} %</td>
-        <td>${p.feed_override_min_percent === undefined ? "-" : `${fmt(p.feed_override_min_percent, 0)}..${fmt(p.feed_override_max_percent, 0)}`}</td>
-        <td>${p.spindle_override_min_percent === undefined ? "-" : `${fmt(p.spindle_override_min_percent, 0)}..${fmt(p.spindle_override_max_percent, 0)}`}</td></tr>`)}</table>
+        <td>${p.feed_override_min_percent == null ? "-" : `${fmt(p.feed_override_min_percent, 0)}..${fmt(p.feed_override_max_percent, 0)}`}</td>
+        <td>${p.spindle_override_min_percent == null ? "-" : `${fmt(p.spindle_override_min_percent, 0)}..${fmt(p.spindle_override_max_percent, 0)}`}</td></tr>`)}</table>
+    <p class="small" data-testid="report-durations">Durations: ${r.durations}.</p>
     ${r.truth ? PredictedGear(r.truth, r.samples) : html`<p class="small" data-testid="report-no-truth">The error above is the controller's own estimate from its encoders (${r.truth_refused ? `no truth used: ${r.truth_refused}` : "no truth of a simulated machine beside the record"}).</p>`}
     <div class="row noprint"><button class="key" onClick=${load}>READ AGAIN</button><button class="key" onClick=${() => window.print()}>PRINT</button></div></section>`;
 }
