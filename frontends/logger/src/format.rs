@@ -435,6 +435,30 @@ pub fn parse_event_line(line: &str) -> Option<EventLine> {
     })
 }
 
+/// An event as the logger recorded it (`events.log`).
+#[derive(Debug, Clone, PartialEq)]
+pub struct LoggedEvent {
+    /// Which run of `hob-rt` in the file, from 0 (its event numbers and cycles start again
+    /// at every start).
+    pub run: u32,
+    pub seq: u64,
+    pub cycle: u64,
+    /// The event's kind (`hob_ipc::event_kind`).
+    pub kind: u32,
+    /// The event in words, as `hob_ipc::codec::event_text` gave it when it was recorded.
+    pub text: String,
+    /// An alarm's code and arguments (none on another event, or on an alarm's line written
+    /// before they were recorded): the reaction, remedy and way to continue follow from it
+    /// (`hob_ipc::codec::Fault`).
+    pub alarm: Option<hob_ipc::AlarmCode>,
+}
+
+impl LoggedEvent {
+    pub fn is_alarm(&self) -> bool {
+        self.kind == hob_ipc::event_kind::ALARM
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

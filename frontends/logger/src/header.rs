@@ -15,9 +15,8 @@
 //! - The alarms: every alarm event of the cut with its time and words, and the events that
 //!   dealt with them (alarm cleared, the accepted reset, stop and continue).
 
-use crate::Error;
-use crate::export::LoggedEvent;
-use crate::format::FileClock;
+use crate::error::Error;
+use crate::format::{FileClock, LoggedEvent};
 use hob_ipc::{StateSample, codec, command, event_kind};
 use serde::Serialize;
 
