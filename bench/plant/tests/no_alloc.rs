@@ -217,11 +217,20 @@ fn the_control_step_never_allocates() {
     d.accepted(Command::SpindleOff);
     d.accepted(Command::SpindleHold { rpm: 20.0 });
     d.until(3.0, |_| false);
+    // A ring gauge where X stands (not the blank): refused as needing a confirmation,
+    // then confirmed; judged, asked, applied, all without allocation.
     let x_mm = d.sim.controller.status().x_mm;
-    d.accepted(Command::TouchOff {
+    let ring = |confirmed| Command::TouchOff {
         axis: Axis::X,
         value_mm: 2.0 * x_mm - cycle.tool_tip_diameter_mm,
-    });
+        confirmed,
+    };
+    assert_eq!(
+        d.answer(ring(false)),
+        Err(hob_control::fault::Refusal::OffsetNeedsConfirmation)
+    );
+    d.until(0.01, |_| false);
+    d.accepted(ring(true));
     // The other cycles: loading a program is part of the loop's work too.
     for (name, edits) in [
         (

@@ -1026,3 +1026,102 @@ fn releasing_a_jog_stops_it_sooner_than_the_dead_man() {
         assert_eq!(sim.controller.status().fault, None);
     }
 }
+
+// ---------------------------------------------------------------------------------------
+// 5. Touch-off: a gauge that does not fit asks before it moves the work
+// ---------------------------------------------------------------------------------------
+
+/// Issue 32's typo on the simulated machine: the hob's tip on the blank, its diameter
+/// typed with a 1 in front. The loop refuses it as needing a confirmation and changes
+/// nothing (no offset, no event, no axis); confirmed, it sets exactly the offset it named;
+/// a value that is no number stays refused confirmed.
+#[test]
+fn a_mistyped_touch_off_changes_nothing_until_confirmed_then_sets_the_offset_it_named() {
+    let (job, cycle, plan) = short_spur(&[]);
+    let mut sim = powered_up(&job, &cycle, &plan);
+    let blank_mm = job.workpiece.outside_diameter_mm;
+    let tip_mm = cycle.tool_tip_diameter_mm;
+    // The hob's tip jogged onto the blank; the reference is 10 um off (offset -0.01 mm).
+    let x0 = sim.controller.status().x_mm;
+    let on_blank = 0.5 * (blank_mm + tip_mm) + 0.01;
+    sim.command(Command::Jog {
+        axis: Axis::X,
+        distance: on_blank - x0,
+    })
+    .unwrap();
+    run(&mut sim, 60.0, |r| r.state == State::Idle);
+    run(&mut sim, 0.5, |_| false);
+    let touch = |value_mm, confirmed| Command::TouchOff {
+        axis: Axis::X,
+        value_mm,
+        confirmed,
+    };
+    // The right gauge: applied unasked.
+    assert_eq!(sim.command(touch(blank_mm, false)), Ok(()));
+    let first = sim.controller.offsets();
+    assert!((first.x_mm + 0.01).abs() < 2e-3, "{first:?}");
+    run(&mut sim, 0.1, |_| false);
+
+    // The typo: refused, its figures kept for the answer, nothing changed.
+    let typo_mm = blank_mm + 100.0;
+    let true_x = sim.plant.x_mm();
+    assert_eq!(
+        sim.command(touch(typo_mm, false)),
+        Err(Refusal::OffsetNeedsConfirmation)
+    );
+    let asked = sim.controller.last_touch_off().expect("judged");
+    assert_eq!(asked.old_offset_mm, first.x_mm);
+    assert!((asked.change_mm() - 50.0).abs() < 2e-3, "{asked:?}");
+    assert!(asked.new_offset_mm < hob_control::setup_math::MAX_OFFSET_MM);
+    assert_eq!(asked.doubts.gauge_less_blank_mm, Some(100.0), "{asked:?}");
+    assert!(asked.doubts.change_mm.is_some(), "{asked:?}");
+    let waited = run(&mut sim, 1.0, |_| false);
+    assert_eq!(
+        sim.controller.offsets(),
+        first,
+        "a refused touch-off changed the offset"
+    );
+    assert!(
+        !waited
+            .events
+            .iter()
+            .any(|e| matches!(e.kind, EventKind::OffsetChanged { .. })),
+        "{:?}",
+        waited.events
+    );
+    assert!(waited.events.iter().any(|e| matches!(
+        e.kind,
+        EventKind::Refused {
+            reason: Refusal::OffsetNeedsConfirmation,
+            ..
+        }
+    )));
+    // Not a number: refused even confirmed, nothing changed.
+    assert_eq!(sim.command(touch(f64::NAN, true)), Err(Refusal::BadValue));
+    assert_eq!(sim.controller.last_touch_off(), None);
+    assert_eq!(sim.controller.offsets(), first);
+
+    // Confirmed a second later (X held by its servo, a count either way): exactly the
+    // offset the refusal named, and its event.
+    assert_eq!(sim.command(touch(typo_mm, true)), Ok(()));
+    let set = sim.controller.offsets().x_mm;
+    assert_eq!(set.to_bits(), asked.new_offset_mm.to_bits(), "{set} vs {asked:?}");
+    assert_eq!(sim.controller.last_touch_off(), Some(asked));
+    let applied = run(&mut sim, 0.1, |_| false);
+    assert!(applied.events.iter().any(|e| e.kind
+        == EventKind::OffsetChanged {
+            axis: Axis::X,
+            offset_mm: set,
+        }));
+    // Nothing moved: only the coordinates shifted.
+    assert!((sim.plant.x_mm() - true_x).abs() < 0.001, "X moved");
+    assert_eq!(sim.controller.status().state, hob_control::State::Idle);
+
+    // Put right: the right gauge now moves the offset back by 50 mm, so it asks too.
+    assert_eq!(
+        sim.command(touch(blank_mm, false)),
+        Err(Refusal::OffsetNeedsConfirmation)
+    );
+    assert_eq!(sim.command(touch(blank_mm, true)), Ok(()));
+    assert!((sim.controller.offsets().x_mm - first.x_mm).abs() < 1e-3);
+}

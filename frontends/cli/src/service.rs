@@ -137,7 +137,7 @@ pub fn touch_off(
     diameter: Option<f64>,
     height: Option<f64>,
 ) -> Result<CommandRequest, ServiceError> {
-    hob_ipc::request::touch_off(axis, diameter, height).map_err(refused)
+    hob_ipc::request::touch_off(axis, diameter, height, false).map_err(refused)
 }
 
 pub fn touch_flank(turned: &str) -> Result<CommandRequest, ServiceError> {

@@ -499,7 +499,7 @@ impl Op {
             Op::NewBlank {} => Ok(request::simple(c::NEW_BLANK)),
             Op::Start { single } => Ok(request::start(*single)),
             Op::Override { what, percent } => request::override_request(what, *percent),
-            Op::TouchOff { axis, value } => request::touch_off_value(axis, *value),
+            Op::TouchOff { axis, value } => request::touch_off_value(axis, *value, false),
             Op::TouchFlank { turned } => request::touch_flank(turned),
             Op::Spindle { rpm } if *rpm == 0.0 => Ok(request::simple(c::SPINDLE_OFF)),
             Op::Spindle { rpm } => Ok(request::spindle_on(*rpm)),
@@ -578,7 +578,7 @@ mod tests {
             ),
             (
                 r#"{"t":"cmd","id":1,"op":"touch_off","axis":"x","value":120.005}"#,
-                request::touch_off("x", Some(120.005), None).expect("touch-off"),
+                request::touch_off("x", Some(120.005), None, false).expect("touch-off"),
             ),
             (
                 r#"{"t":"cmd","id":1,"op":"start","single":true}"#,

@@ -103,17 +103,25 @@ pub fn override_request(what: &str, percent: f64) -> Result<CommandRequest, Erro
     Ok(r)
 }
 
-/// `TOUCH_OFF` as the CLI takes it: X with the gauge's diameter, or Y with its height.
-pub fn touch_off(axis: &str, diameter: Option<f64>, height: Option<f64>) -> Result<CommandRequest, Error> {
+/// `TOUCH_OFF` as the CLI takes it: X with the gauge's diameter, or Y with its height;
+/// `confirm`: the operator confirms the new offset the loop asked about.
+pub fn touch_off(
+    axis: &str,
+    diameter: Option<f64>,
+    height: Option<f64>,
+    confirm: bool,
+) -> Result<CommandRequest, Error> {
     match (Axis::parse(axis), diameter, height) {
-        (Some(Axis::X), Some(d), None) => touch_off_value("x", d),
-        (Some(Axis::Y), None, Some(h)) => touch_off_value("y", h),
+        (Some(Axis::X), Some(d), None) => touch_off_value("x", d, confirm),
+        (Some(Axis::Y), None, Some(h)) => touch_off_value("y", h, confirm),
         _ => Err(Error::TouchOffGauge),
     }
 }
 
-/// `TOUCH_OFF` of an axis with its gauge's size: X its diameter, Y its height, mm.
-pub fn touch_off_value(axis: &str, value_mm: f64) -> Result<CommandRequest, Error> {
+/// `TOUCH_OFF` of an axis with its gauge's size: X its diameter, Y its height, mm. With
+/// `confirm` the loop applies an offset it would otherwise refuse as
+/// `OffsetNeedsConfirmation` (never one beyond its limits).
+pub fn touch_off_value(axis: &str, value_mm: f64, confirm: bool) -> Result<CommandRequest, Error> {
     let a = match Axis::parse(axis) {
         Some(a @ (Axis::X | Axis::Y)) => a,
         _ => {
@@ -125,6 +133,7 @@ pub fn touch_off_value(axis: &str, value_mm: f64) -> Result<CommandRequest, Erro
     let mut r = CommandRequest::new(command::TOUCH_OFF);
     r.axis = a.code();
     r.value = value_mm;
+    r.confirm = u8::from(confirm);
     Ok(r)
 }
 
@@ -169,15 +178,21 @@ mod tests {
         );
         let o = override_request("spindle", 110.0).expect("override");
         assert_eq!((o.command, o.value), (command::SPINDLE_OVERRIDE, 110.0));
-        let t = touch_off("x", Some(120.0), None).expect("touch-off");
-        assert_eq!(t, touch_off_value("X", 120.0).expect("touch-off"));
+        let t = touch_off("x", Some(120.0), None, false).expect("touch-off");
+        assert_eq!(t, touch_off_value("X", 120.0, false).expect("touch-off"));
         assert_eq!(
-            (t.command, t.axis, t.value),
-            (command::TOUCH_OFF, Axis::X.code(), 120.0)
+            (t.command, t.axis, t.value, t.confirm),
+            (command::TOUCH_OFF, Axis::X.code(), 120.0, 0)
         );
+        let y = touch_off("y", None, Some(3.0), true).expect("touch-off");
+        assert_eq!((y.axis, y.confirm), (Axis::Y.code(), 1));
+        // The confirmation is the only difference: the same gauge, the same axis.
         assert_eq!(
-            touch_off("y", None, Some(3.0)).expect("touch-off").axis,
-            Axis::Y.code()
+            CommandRequest {
+                confirm: 0,
+                ..touch_off_value("x", 120.0, true).expect("touch-off")
+            },
+            t
         );
         assert_eq!(start(true).single, 1);
         assert_eq!(spindle_on(20.0).value, 20.0);
@@ -202,14 +217,14 @@ mod tests {
             override_request("rapid", 50.0).unwrap_err().to_string(),
             "override: rapid is not feed or spindle"
         );
-        assert!(touch_off("x", None, Some(1.0)).is_err());
-        assert!(touch_off("x", Some(1.0), Some(1.0)).is_err());
+        assert!(touch_off("x", None, Some(1.0), false).is_err());
+        assert!(touch_off("x", Some(1.0), Some(1.0), true).is_err());
         assert_eq!(
-            touch_off_value("b", 1.0).unwrap_err().to_string(),
+            touch_off_value("b", 1.0, false).unwrap_err().to_string(),
             "touch-off: axis b is not x or y"
         );
         assert!(
-            touch_off("y", None, None)
+            touch_off("y", None, None, false)
                 .unwrap_err()
                 .to_string()
                 .contains("--height MM")

@@ -185,7 +185,10 @@ code_table! {
         ALARM_CLEARED = 3, "alarm-cleared";
         PASS_STARTED = 4, "pass-started";
         PHASE_RECORDED = 5, "phase-recorded";
+        /// `a`: the command's code; `b`: its `single | axis << 8 | direction << 16 |
+        /// confirm << 24`; `value`: its value.
         ACCEPTED = 6, "accepted";
+        /// `a`: the command's code; `b`: the refusal's code; `value`: the command's value.
         REFUSED = 7, "refused";
         PROGRAM_LOADED = 8, "program-loaded";
         CYCLE_DONE = 9, "cycle-done";
@@ -402,7 +405,8 @@ code_table! {
         FEED_OVERRIDE = 14, "feed override";
         /// `value`: percent.
         SPINDLE_OVERRIDE = 15, "spindle override";
-        /// `axis` (X or Y), `value`: the gauge's diameter (X) or height (Y), mm.
+        /// `axis` (X or Y), `value`: the gauge's diameter (X) or height (Y), mm; `confirm`:
+        /// 1 when the operator confirmed the offset the loop asked about.
         TOUCH_OFF = 16, "touch-off";
         /// Continue the interrupted program from its interrupted pass.
         CONTINUE = 17, "continue";
@@ -434,7 +438,9 @@ pub struct CommandRequest {
     pub axis: u8,
     /// JOG_CONTINUOUS, TOUCH_FLANK: a [`direction`] code.
     pub direction: u8,
-    pub _pad: [u8; 1],
+    /// TOUCH_OFF: 1 when the operator confirmed the new offset after the loop refused it
+    /// as `OffsetNeedsConfirmation` (the byte that was padding: the layout is unchanged).
+    pub confirm: u8,
     /// JOG: distance (mm, or deg for B); SPINDLE_ON: rpm.
     pub value: f64,
     /// START, CONTINUE: the [`program_hash`] of the program the sender means to cut, as
@@ -457,7 +463,7 @@ impl CommandRequest {
             single: 0,
             axis: 0,
             direction: 0,
-            _pad: [0; 1],
+            confirm: 0,
             value: 0.0,
             program_hash: 0,
             name_len: 0,

@@ -171,11 +171,12 @@ pub enum Refusal {
     SpindleTurning = 14,
     FlanksCrossed = 15,
     ProgramChanged = 16,
+    OffsetNeedsConfirmation = 17,
 }
 
 impl Refusal {
     /// Every refusal, in code order (`ALL[i].code() == i + 1`).
-    pub const ALL: [Refusal; 16] = [
+    pub const ALL: [Refusal; 17] = [
         Refusal::NoProgram,
         Refusal::CycleRunning,
         Refusal::Faulted,
@@ -192,6 +193,7 @@ impl Refusal {
         Refusal::SpindleTurning,
         Refusal::FlanksCrossed,
         Refusal::ProgramChanged,
+        Refusal::OffsetNeedsConfirmation,
     ];
 
     pub const fn code(self) -> u32 {
@@ -220,6 +222,7 @@ impl Refusal {
             Refusal::SpindleTurning => "spindle-turning",
             Refusal::FlanksCrossed => "flanks-crossed",
             Refusal::ProgramChanged => "program-changed",
+            Refusal::OffsetNeedsConfirmation => "offset-needs-confirmation",
         }
     }
 
@@ -251,6 +254,9 @@ impl Refusal {
             }
             Refusal::ProgramChanged => {
                 "the program was changed since it was loaded: load it again to cut the changed program"
+            }
+            Refusal::OffsetNeedsConfirmation => {
+                "this touch-off does not fit what the machine knows (the loaded blank, the previous offset, where the hob stands): check the gauge's value and the hob's position, and confirm the new offset only if both are right; nothing was changed"
             }
         }
     }

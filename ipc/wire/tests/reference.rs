@@ -50,6 +50,7 @@ const REFUSALS: &[(u32, &str)] = &[
     (14, "spindle-turning"),
     (15, "flanks-crossed"),
     (16, "program-changed"),
+    (17, "offset-needs-confirmation"),
 ];
 
 const FAULTS: &[(u32, &str)] = &[
@@ -151,6 +152,16 @@ fn every_refusal_keeps_its_code_and_word() {
         assert_eq!((r.code(), r.name()), (code, word));
     }
     assert_eq!(Refusal::from_code(0), None);
+}
+
+#[test]
+fn a_touch_off_to_confirm_is_said_in_the_operators_words() {
+    // The HMI shows it beside a CONFIRM button, the CLI beside its own hint: no command
+    // line in it, and it says that nothing changed.
+    let t = Refusal::OffsetNeedsConfirmation.text();
+    assert!(!t.contains("hob touch") && !t.contains("--confirm"), "{t}");
+    assert!(t.contains("confirm") && t.contains("nothing was changed"), "{t}");
+    assert_eq!(codec::refusal_text(16), t);
 }
 
 #[test]

@@ -53,6 +53,7 @@ pub struct MachineConfig {
     pub io: IoMap,
     pub library: LibraryConfig,
     pub state: StateConfig,
+    pub setup: SetupConfig,
 }
 
 /// The operator's program and tool library (`hob lib`, later the HMI): a directory with
@@ -71,6 +72,18 @@ pub struct LibraryConfig {
 pub struct StateConfig {
     /// Absolute path of the state file, written atomically.
     pub file: String,
+}
+
+/// Setting up the part: how far the operator's set-up input may move the work before the
+/// loop asks for a confirmation.
+#[derive(Debug, Clone, PartialEq, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct SetupConfig {
+    /// A touch-off is refused as needing the operator's confirmation when it would move
+    /// the work offset by more than this, put the hob's tip this far off the loaded
+    /// blank's outside diameter (X), or this far into the blank's root cylinder (mm;
+    /// `hob_control::setup_math::check_touch_off`).
+    pub touch_off_confirm_mm: f64,
 }
 
 /// Jogging: before X and Y are referenced, and the dead-man of the continuous jog.
@@ -620,6 +633,16 @@ impl MachineConfig {
         self.validate_node_ids(p);
         absolute_path(p, "library.dir", &self.library.dir);
         absolute_path(p, "state.file", &self.state.file);
+        // Below 0.01 mm every re-touch would ask (a touch scatters by a few um and the
+        // ways grow with warmth); above 5 mm a wrong tens digit of a diameter (10 mm: 5 mm
+        // on X) would pass unasked.
+        p.within(
+            "setup.touch_off_confirm_mm",
+            self.setup.touch_off_confirm_mm,
+            0.01,
+            5.0,
+            "mm",
+        );
     }
 
     /// `[control]`: the cycle, the drive delay, the spindle observer and the timeouts.

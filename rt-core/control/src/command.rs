@@ -49,10 +49,13 @@ pub enum Command {
         percent: f64,
     },
     /// Touch-off: the hob's tip touches a gauge; X: its diameter, Y: its top face's
-    /// height above the table face (mm). Sets that axis' work offset.
+    /// height above the table face (mm). Sets that axis' work offset, unless it does not
+    /// fit the loaded blank, the previous offset or where the axes stand
+    /// (`setup_math::check_touch_off`): then only `confirmed` by the operator.
     TouchOff {
         axis: Axis,
         value_mm: f64,
+        confirmed: bool,
     },
     /// Continue the interrupted program from the interrupted pass on the same part.
     Continue,

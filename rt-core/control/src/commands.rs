@@ -85,7 +85,11 @@ impl Controller {
             } => self.jog_continuous(axis, direction, speed_per_min),
             Command::JogRelease => self.jog_release(),
             Command::Home { axes } => self.home(axes),
-            Command::TouchOff { axis, value_mm } => self.touch_off(axis, value_mm),
+            Command::TouchOff {
+                axis,
+                value_mm,
+                confirmed,
+            } => self.touch_off(axis, value_mm, confirmed),
             Command::SpindleOn { rpm } => self.spindle_on(rpm),
             Command::SpindleHold { rpm } => self.spindle_hold(rpm),
             Command::SpindleOff => self.spindle_off(),
@@ -346,8 +350,13 @@ impl Controller {
 
     // Setting up the part.
 
-    /// Touch-off: sets an axis' work offset from a gauge touched with the hob's tip.
-    fn touch_off(&mut self, axis: Axis, value_mm: f64) -> Result<(), Refusal> {
+    /// Touch-off: sets an axis' work offset from a gauge touched with the hob's tip, once
+    /// it is judged plausible against the loaded blank, the previous offset and where the
+    /// axes stand, or the operator confirmed the offset the loop showed
+    /// (`setup_math::check_touch_off`, `TouchOffs::decide`). An absurd one is refused even
+    /// confirmed. [`Controller::last_touch_off`] keeps the figures for the answer.
+    fn touch_off(&mut self, axis: Axis, value_mm: f64, confirmed: bool) -> Result<(), Refusal> {
+        self.touch_offs.last = None;
         idle(self.sequencer.state)?;
         if !self.referencing.is_referenced(axis) || axis == Axis::B {
             return Err(if axis == Axis::B {
@@ -356,14 +365,35 @@ impl Controller {
                 Refusal::NotReferenced
             });
         }
-        let tool_mm = self.program.ok_or(Refusal::NoProgram)?.tool_tip_diameter_mm;
-        let offset = match axis {
-            Axis::X => {
-                setup_math::x_offset_from_touch(self.measured.x_mm - self.offsets.x_mm, value_mm, tool_mm)
-            }
-            _ => setup_math::y_offset_from_touch(self.measured.y_mm - self.offsets.y_mm, value_mm, tool_mm),
-        }
+        let program = self.program.ok_or(Refusal::NoProgram)?;
+        let (work_mm, old_offset_mm, other) = match axis {
+            Axis::X => (
+                self.measured.x_mm,
+                self.offsets.x_mm,
+                (Axis::Y, self.measured.y_mm),
+            ),
+            _ => (
+                self.measured.y_mm,
+                self.offsets.y_mm,
+                (Axis::X, self.measured.x_mm),
+            ),
+        };
+        let judged = setup_math::check_touch_off(&setup_math::TouchOffInput {
+            axis,
+            gauge_mm: value_mm,
+            machine_mm: work_mm - old_offset_mm,
+            old_offset_mm,
+            other_work_mm: self.referencing.is_referenced(other.0).then_some(other.1),
+            tool_tip_diameter_mm: program.tool_tip_diameter_mm,
+            blank: program.blank(),
+            confirm_mm: self.params.touch_off_confirm_mm,
+        })
         .ok_or(Refusal::BadValue)?;
+        let applied = self
+            .touch_offs
+            .decide(judged, confirmed)
+            .ok_or(Refusal::OffsetNeedsConfirmation)?;
+        let offset = applied.new_offset_mm;
         let mut offsets = self.offsets;
         match axis {
             Axis::X => offsets.x_mm = offset,

@@ -147,6 +147,9 @@ pub struct ControlParams {
     /// A continuous jog not renewed for this long stops.
     pub deadman_s: f64,
     pub overrides: setup_math::OverrideLimits,
+    /// A touch-off that moves the work more than this needs the operator's confirmation
+    /// (`setup.touch_off_confirm_mm`, mm).
+    pub touch_off_confirm_mm: f64,
 }
 
 impl ControlParams {
@@ -224,6 +227,7 @@ impl ControlParams {
                 spindle_min: m.overrides.spindle_min_percent / 100.0,
                 spindle_max: m.overrides.spindle_max_percent / 100.0,
             },
+            touch_off_confirm_mm: m.setup.touch_off_confirm_mm,
         }
     }
 }
@@ -343,6 +347,8 @@ pub struct Controller {
     started: bool,
     referencing: referencing::Referencing,
     offsets: Offsets,
+    /// The last touch-off judged and the one the operator was asked to confirm.
+    touch_offs: setup_math::TouchOffs,
     /// Overrides as fractions (1.0 = 100 %).
     feed_override: f64,
     spindle_override: f64,
@@ -382,6 +388,7 @@ impl Controller {
             started: false,
             referencing: referencing::Referencing::default(),
             offsets: Offsets::default(),
+            touch_offs: setup_math::TouchOffs::default(),
             feed_override: 1.0,
             spindle_override: 1.0,
         }
@@ -407,6 +414,13 @@ impl Controller {
 
     pub fn offsets(&self) -> Offsets {
         self.offsets
+    }
+
+    /// The touch-off the last `TouchOff` command judged: applied (the command accepted) or
+    /// asked about (refused as `OffsetNeedsConfirmation`), with the old and new offsets the
+    /// answer names; `None` when it was refused before it was judged.
+    pub fn last_touch_off(&self) -> Option<setup_math::TouchOff> {
+        self.touch_offs.last
     }
 
     fn apply_offsets(&mut self, new: Offsets) {

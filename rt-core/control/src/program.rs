@@ -1,6 +1,7 @@
 //! The loaded program in the form the loop runs it: fixed size and `Copy`, built at
 //! start-up (or on "load program") from a checked program and its plans.
 
+use crate::setup_math::Blank;
 use hob_gearing::shapes::XShape;
 use hob_setup::config::Problems;
 use hob_setup::config::machine::MachineConfig;
@@ -59,6 +60,11 @@ pub struct CycleProgram {
     /// X with the tool tip on the blank's outside diameter.
     pub x_surface_mm: f64,
     pub face_bottom_mm: f64,
+    /// The blank as a touch-off judges it: its outside diameter, its face's width above
+    /// `face_bottom_mm` and the program's total depth (`CycleProgram::blank`).
+    pub blank_outside_diameter_mm: f64,
+    pub face_width_mm: f64,
+    pub total_depth_mm: f64,
     pub shape: XShape,
     pub plunge_feed_mm_min: f64,
     /// The hob's tip diameter (a touch-off's centre distance and height come from it).
@@ -132,6 +138,9 @@ impl CycleProgram {
             x_safe_mm: plan.x_safe_mm,
             x_surface_mm: plan.x_safe_mm - program.strategy.retract_mm,
             face_bottom_mm: program.workpiece.height_above_table_mm,
+            blank_outside_diameter_mm: program.workpiece.outside_diameter_mm,
+            face_width_mm: program.workpiece.face_width_mm,
+            total_depth_mm: program.strategy.total_depth_mm,
             shape,
             plunge_feed_mm_min: program.strategy.plunge_feed_mm_min.unwrap_or(0.0),
             tool_tip_diameter_mm: program.tool.outside_diameter_mm,
@@ -165,6 +174,16 @@ impl CycleProgram {
             }
         }
         (x.0, x.1, y.0, y.1)
+    }
+
+    /// The loaded blank as a touch-off judges it.
+    pub fn blank(&self) -> Blank {
+        Blank {
+            outside_diameter_mm: self.blank_outside_diameter_mm,
+            total_depth_mm: self.total_depth_mm,
+            face_bottom_mm: self.face_bottom_mm,
+            face_top_mm: self.face_bottom_mm + self.face_width_mm,
+        }
     }
 
     /// Pitch of the table between equivalent tooth phases.

@@ -12,6 +12,7 @@ use crate::encode;
 use hob_control::Command;
 use hob_control::fault::Refusal;
 use hob_control::program::CycleProgram;
+use hob_control::setup_math::TouchOff;
 use hob_ipc::codec;
 use hob_ipc::{CommandRequest, CommandResponse, command};
 use hob_setup::config::Problems;
@@ -71,8 +72,15 @@ impl LoadedAs {
     }
 }
 
-/// The loop's verdict: accepted with the work offsets after the command, or refused.
-pub type Verdict = Result<hob_control::Offsets, Refusal>;
+/// The loop's verdict: accepted with the work offsets after the command, or refused; for a
+/// touch-off the figures the loop judged it by (`Controller::last_touch_off`): the offset
+/// it applied, or the one it asks the operator to confirm. Copied, never boxed: the loop
+/// sends it from the cycle.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Verdict {
+    pub result: Result<hob_control::Offsets, Refusal>,
+    pub touch_off: Option<TouchOff>,
+}
 
 /// How long a request may wait for the loop (it takes one per cycle).
 const LOOP_ANSWER: Duration = Duration::from_millis(500);
@@ -181,10 +189,54 @@ impl ThreadMailbox {
     }
 }
 
+/// A touch-off's figures as the operator reads them: the offset before and after, and the
+/// change (the loop's numbers: the one a confirmation applies is the one shown).
+pub fn touch_off_figures(t: &TouchOff) -> String {
+    format!(
+        "{} offset {:+.4} mm -> {:+.4} mm (change {:+.4} mm)",
+        t.axis.name(),
+        t.old_offset_mm,
+        t.new_offset_mm,
+        t.change_mm()
+    )
+}
+
+/// Why the loop asks before applying a touch-off, one clause per check that failed.
+pub fn touch_off_doubts(t: &TouchOff) -> String {
+    let d = &t.doubts;
+    let mut why = Vec::new();
+    if let Some(off) = d.gauge_less_blank_mm {
+        why.push(format!(
+            "the gauge, {:.3} mm, is {:.3} mm {} than the loaded blank's outside diameter, {:.3} mm",
+            t.gauge_mm,
+            off.abs(),
+            if off > 0.0 { "larger" } else { "smaller" },
+            t.gauge_mm - off
+        ));
+    }
+    if let Some(change) = d.change_mm {
+        why.push(format!(
+            "the offset would move by {change:+.4} mm, more than the {:.3} mm a touch-off may move it unasked",
+            t.confirm_mm
+        ));
+    }
+    if let Some(reach) = d.into_blank_mm {
+        why.push(format!(
+            "with it the hob would stand {reach:.3} mm inside the loaded blank (below its root diameter or under its top face) where the axes are now"
+        ));
+    }
+    why.join("; ")
+}
+
 /// Keeps the offsets of an accepted touch-off in the machine state file (atomically: a
 /// crash or a power loss while writing leaves the previous file whole). Returns the text
-/// for the operator.
-pub fn save_offsets(state_file: &Path, offsets: hob_control::Offsets, cmd: Command) -> String {
+/// for the operator: the offset's change (`touch`, the loop's figures) and what was saved.
+pub fn save_offsets(
+    state_file: &Path,
+    offsets: hob_control::Offsets,
+    cmd: Command,
+    touch: Option<TouchOff>,
+) -> String {
     use hob_store::machine_state::{Loaded, MachineState, load};
     let previous = match load(state_file) {
         Ok(Loaded::Calibrated(s)) => Some(s),
@@ -194,7 +246,7 @@ pub fn save_offsets(state_file: &Path, offsets: hob_control::Offsets, cmd: Comma
         .as_ref()
         .map_or((None, None), |s| (s.gauge_diameter_mm, s.gauge_height_mm));
     let axis = match cmd {
-        Command::TouchOff { axis, value_mm } => {
+        Command::TouchOff { axis, value_mm, .. } => {
             if axis == hob_control::fault::Axis::X {
                 diameter = Some(value_mm);
             } else {
@@ -204,18 +256,33 @@ pub fn save_offsets(state_file: &Path, offsets: hob_control::Offsets, cmd: Comma
         }
         _ => "?",
     };
+    let change = touch.map_or_else(String::new, |t| format!(" {};", touch_off_figures(&t)));
     let state = MachineState::new(offsets.x_mm, offsets.y_mm, diameter, height);
     match state.save(state_file) {
         Ok(()) => format!(
-            "touch-off {axis}: accepted; offsets X {:+.4} mm, Y {:+.4} mm saved in {}",
+            "touch-off {axis}: accepted;{change} offsets X {:+.4} mm, Y {:+.4} mm saved in {}",
             offsets.x_mm,
             offsets.y_mm,
             state_file.display()
         ),
         Err(e) => format!(
-            "touch-off {axis}: accepted by the loop (offsets X {:+.4} mm, Y {:+.4} mm) but NOT SAVED: {e}; touch off again once the state file can be written",
+            "touch-off {axis}: accepted by the loop;{change} offsets X {:+.4} mm, Y {:+.4} mm, but NOT SAVED: {e}; touch off again once the state file can be written",
             offsets.x_mm, offsets.y_mm
         ),
+    }
+}
+
+/// The text of a refusal: the loop's words, and for a touch-off it asks to confirm the
+/// offset it would set and why it asks.
+pub fn refusal_text(what: &str, r: Refusal, touch: Option<TouchOff>) -> String {
+    match touch {
+        Some(t) if r == Refusal::OffsetNeedsConfirmation => format!(
+            "{what} refused: {}. Confirmed, it sets the {}: {}",
+            r.text(),
+            touch_off_figures(&t),
+            touch_off_doubts(&t)
+        ),
+        _ => format!("{what} refused: {}", r.text()),
     }
 }
 
@@ -233,10 +300,15 @@ pub fn answer(
         Err(text) => return CommandResponse::new(false, 0, &format!("{what} refused: {text}")),
     };
     match mailbox.ask(mail) {
-        Ok(Ok(offsets)) => {
+        Ok(Verdict {
+            result: Ok(offsets),
+            touch_off,
+        }) => {
             let text = match mail {
                 Mail::Load(p, _) => format!("loaded {} ({} passes)", req.name(), p.passes().len()),
-                Mail::Command(c @ Command::TouchOff { .. }) => save_offsets(state_file, offsets, c),
+                Mail::Command(c @ Command::TouchOff { .. }) => {
+                    save_offsets(state_file, offsets, c, touch_off)
+                }
                 Mail::Command(_) | Mail::CommandFor(..) => format!("{what}: accepted"),
                 Mail::Record => format!(
                     "{what}: the flight recorder's last seconds go to {} (hob replay FILE)",
@@ -245,7 +317,10 @@ pub fn answer(
             };
             CommandResponse::new(true, 0, &text)
         }
-        Ok(Err(r)) => CommandResponse::new(false, r.code(), &format!("{what} refused: {}", r.text())),
+        Ok(Verdict {
+            result: Err(r),
+            touch_off,
+        }) => CommandResponse::new(false, r.code(), &refusal_text(what, r, touch_off)),
         Err(text) => CommandResponse::new(false, 0, &format!("{what} not done: {text}")),
     }
 }
@@ -307,12 +382,14 @@ mod tests {
         let x = Command::TouchOff {
             axis: Axis::X,
             value_mm: 100.0,
+            confirmed: false,
         };
-        let text = save_offsets(&file, hob_control::Offsets { x_mm: 0.4, y_mm: 0.0 }, x);
+        let text = save_offsets(&file, hob_control::Offsets { x_mm: 0.4, y_mm: 0.0 }, x, None);
         assert!(text.contains("saved in"), "{text}");
         let y = Command::TouchOff {
             axis: Axis::Y,
             value_mm: 0.0,
+            confirmed: true,
         };
         let text = save_offsets(
             &file,
@@ -321,6 +398,7 @@ mod tests {
                 y_mm: -1.5,
             },
             y,
+            None,
         );
         assert!(text.contains("saved in"), "{text}");
         let Ok(Loaded::Calibrated(s)) = load(&file) else {
@@ -335,6 +413,120 @@ mod tests {
             ),
             (0.4, -1.5, Some(100.0), Some(0.0))
         );
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+
+    /// The typo as the loop judges it: the blank 95 mm, the hob 80 mm on it at X
+    /// 87.475 mm (machine), the previous offset -0.005 mm, 194.94 typed for 94.94.
+    fn typo() -> TouchOff {
+        use hob_control::fault::Axis;
+        use hob_control::setup_math::{Blank, TouchOffInput, check_touch_off};
+        check_touch_off(&TouchOffInput {
+            axis: Axis::X,
+            gauge_mm: 194.94,
+            machine_mm: 87.475,
+            old_offset_mm: -0.005,
+            other_work_mm: Some(70.0),
+            tool_tip_diameter_mm: 80.0,
+            blank: Blank {
+                outside_diameter_mm: 95.0,
+                total_depth_mm: 11.25,
+                face_bottom_mm: 50.0,
+                face_top_mm: 90.0,
+            },
+            confirm_mm: 0.3,
+        })
+        .unwrap()
+    }
+
+    #[test]
+    fn a_touch_off_to_confirm_is_answered_with_the_offset_it_would_set_and_why() {
+        let t = typo();
+        let text = refusal_text("touch-off", Refusal::OffsetNeedsConfirmation, Some(t));
+        for needle in [
+            Refusal::OffsetNeedsConfirmation.text(),
+            "X offset -0.0050 mm -> +49.9950 mm (change +50.0000 mm)",
+            "the gauge, 194.940 mm, is 99.940 mm larger than the loaded blank's outside diameter, 95.000 mm",
+            "more than the 0.300 mm a touch-off may move it unasked",
+        ] {
+            assert!(text.contains(needle), "{needle:?} not in {text:?}");
+        }
+        assert!(!text.contains("inside the loaded blank"), "{text}");
+        // Other refusals are the loop's words alone.
+        assert_eq!(
+            refusal_text("touch-off", Refusal::BadValue, Some(t)),
+            format!("touch-off refused: {}", Refusal::BadValue.text())
+        );
+    }
+
+    #[test]
+    fn the_answer_carries_the_loops_figures_through_the_mailbox() {
+        use hob_control::fault::Axis;
+        let m = shipped_for_tests();
+        let dir = std::env::temp_dir().join(format!("hob-service-touch-answer-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        std::fs::create_dir_all(&dir).unwrap();
+        let file = dir.join("machine-state.toml");
+        let (thread, lp) = mailboxes();
+        let t = typo();
+        // The loop: refuses the first, applies the confirmed one (the offset it showed).
+        let loop_side = std::thread::spawn(move || {
+            let mut seen = Vec::new();
+            for result in [
+                Err(Refusal::OffsetNeedsConfirmation),
+                Ok(hob_control::Offsets {
+                    x_mm: t.new_offset_mm,
+                    y_mm: 0.0,
+                }),
+            ] {
+                let mail = loop {
+                    if let Ok(mail) = lp.requests.try_recv() {
+                        break mail;
+                    }
+                    std::thread::sleep(Duration::from_millis(1));
+                };
+                seen.push(mail);
+                lp.verdicts
+                    .try_send(Verdict {
+                        result,
+                        touch_off: Some(t),
+                    })
+                    .unwrap();
+            }
+            seen
+        });
+        let ask = |confirm| {
+            let r = hob_ipc::request::touch_off_value("x", 194.94, confirm).unwrap();
+            answer(&r, &m, &file, &dir, &thread)
+        };
+        let refused = ask(false);
+        assert_eq!(
+            (refused.accepted, refused.refusal),
+            (0, Refusal::OffsetNeedsConfirmation.code())
+        );
+        assert!(refused.text().contains("-> +49.9950 mm"), "{}", refused.text());
+        let accepted = ask(true);
+        assert_eq!(accepted.accepted, 1, "{}", accepted.text());
+        assert!(
+            accepted
+                .text()
+                .contains("touch-off X: accepted; X offset -0.0050 mm -> +49.9950 mm (change +50.0000 mm); offsets X +49.9950 mm"),
+            "{}",
+            accepted.text()
+        );
+        let seen = loop_side.join().unwrap();
+        let confirmed: Vec<bool> = seen
+            .iter()
+            .map(|m| match m {
+                Mail::Command(Command::TouchOff {
+                    axis: Axis::X,
+                    confirmed,
+                    ..
+                }) => *confirmed,
+                other => panic!("{other:?}"),
+            })
+            .collect();
+        assert_eq!(confirmed, [false, true]);
         let _ = std::fs::remove_dir_all(&dir);
     }
 

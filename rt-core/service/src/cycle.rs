@@ -6,7 +6,7 @@
 //! publishers write into preallocated shared memory and never wait for a subscriber
 //! (a slow one loses its oldest samples, the loop never notices).
 
-use crate::commands::{LoadedAs, LoopMailbox, Mail};
+use crate::commands::{LoadedAs, LoopMailbox, Mail, Verdict};
 use crate::encode;
 use crate::recorder::{AFTER_FAULT_CYCLES, Reason, Recorder};
 use crate::stats::LoopTiming;
@@ -144,7 +144,7 @@ impl<B: CanBus> RtLoop<B> {
             self.recorder.command(hob_control::Command::Stop);
             let _ = self.controller.command(hob_control::Command::Stop);
         } else if let Ok(mail) = self.mailbox.requests.try_recv() {
-            let verdict = match mail {
+            let result = match mail {
                 Mail::Load(p, loaded) => {
                     self.recorder.load(&p);
                     self.controller.load(p).map(|()| self.loaded = Some(loaded))
@@ -170,7 +170,13 @@ impl<B: CanBus> RtLoop<B> {
                 }
             }
             .map(|()| self.controller.offsets());
-            let _ = self.mailbox.verdicts.try_send(verdict);
+            // A touch-off's figures go with its answer: the offset it set, or the one the
+            // operator is asked to confirm.
+            let touch_off = match mail {
+                Mail::Command(hob_control::Command::TouchOff { .. }) => self.controller.last_touch_off(),
+                _ => None,
+            };
+            let _ = self.mailbox.verdicts.try_send(Verdict { result, touch_off });
         }
     }
 

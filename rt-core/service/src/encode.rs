@@ -62,6 +62,8 @@ pub struct Args {
     pub single: u8,
     pub axis: u8,
     pub direction: u8,
+    /// TOUCH_OFF: 1 when confirmed.
+    pub confirm: u8,
     pub value: f64,
 }
 
@@ -72,6 +74,7 @@ impl Args {
             single: 0,
             axis: 0,
             direction: 0,
+            confirm: 0,
             value: 0.0,
         }
     }
@@ -94,6 +97,7 @@ impl Args {
             single: r.single,
             axis: r.axis,
             direction: r.direction,
+            confirm: r.confirm,
             value: r.value,
         }
     }
@@ -104,6 +108,7 @@ impl Args {
         r.single = self.single;
         r.axis = self.axis;
         r.direction = self.direction;
+        r.confirm = self.confirm;
         r.value = self.value;
     }
 }
@@ -155,7 +160,14 @@ pub const fn command_code(c: Command) -> Args {
         Command::JogRelease => Args::of(command::JOG_RELEASE),
         Command::FeedOverride { percent } => Args::of(command::FEED_OVERRIDE).value(percent),
         Command::SpindleOverride { percent } => Args::of(command::SPINDLE_OVERRIDE).value(percent),
-        Command::TouchOff { axis: a, value_mm } => Args::of(command::TOUCH_OFF).axis(a).value(value_mm),
+        Command::TouchOff {
+            axis: a,
+            value_mm,
+            confirmed,
+        } => Args {
+            confirm: confirmed as u8,
+            ..Args::of(command::TOUCH_OFF).axis(a).value(value_mm)
+        },
         Command::Continue => Args::of(command::CONTINUE),
         Command::TouchFlank { turned } => Args {
             direction: direction_code(turned),
@@ -208,6 +220,7 @@ pub fn command_from_code(a: &Args) -> Option<Command> {
         command::TOUCH_OFF => Command::TouchOff {
             axis: ax()?,
             value_mm: a.value,
+            confirmed: a.confirm != 0,
         },
         command::CONTINUE => Command::Continue,
         _ => return None,
@@ -255,7 +268,10 @@ pub fn event_sample(seq: u64, e: &Event) -> EventSample {
             s.kind = event_kind::ACCEPTED;
             let a = command_code(c);
             s.a = a.code;
-            s.b = u32::from(a.single) | (u32::from(a.axis) << 8) | (u32::from(a.direction) << 16);
+            s.b = u32::from(a.single)
+                | (u32::from(a.axis) << 8)
+                | (u32::from(a.direction) << 16)
+                | (u32::from(a.confirm) << 24);
             s.value = a.value;
         }
         EventKind::Refused { command, reason } => {

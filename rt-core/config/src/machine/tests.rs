@@ -213,3 +213,28 @@ fn a_signal_is_read_and_written_with_its_polarity() {
     };
     assert!(!far.is_active(u32::MAX));
 }
+
+#[test]
+fn the_touch_off_confirmation_limit_is_named_when_out_of_range_or_missing() {
+    assert_eq!(load_src(&shipped_src()).unwrap().setup.touch_off_confirm_mm, 0.3);
+    for bad in ["0.0", "0.005", "7.5", "nan", "-0.3"] {
+        let src = shipped_with(&[(
+            "touch_off_confirm_mm = 0.3",
+            &format!("touch_off_confirm_mm = {bad}"),
+        )]);
+        let e = load_src(&src).expect_err(bad);
+        let p = &e.problems()[0];
+        assert_eq!(p.key, "setup.touch_off_confirm_mm", "{e}");
+        assert!(p.message.contains("0.01 .. 5 mm"), "{bad}: {}", p.message);
+        let line = src
+            .lines()
+            .position(|l| l.starts_with("touch_off_confirm_mm"))
+            .unwrap()
+            + 1;
+        assert_eq!(p.position.map(|p| p.line), Some(line), "{bad}");
+    }
+    // Every key is the machine builder's to state: none has a silent default.
+    let src = shipped_with(&[("[setup]\ntouch_off_confirm_mm = 0.3\n", "")]);
+    let e = load_src(&src).expect_err("no [setup]").to_string();
+    assert!(e.contains("setup"), "{e}");
+}

@@ -196,7 +196,8 @@ fn nothing_but_referencing_and_slow_jogs_before_the_reference() {
     assert_eq!(
         r.c.command(Command::TouchOff {
             axis: Axis::X,
-            value_mm: 100.0
+            value_mm: 100.0,
+            confirmed: true,
         }),
         Err(Refusal::NotReferenced)
     );
@@ -374,7 +375,8 @@ fn overrides_are_checked_and_a_touch_off_moves_nothing() {
     assert_eq!(
         r.c.command(Command::TouchOff {
             axis: Axis::X,
-            value_mm: 400.0
+            value_mm: 400.0,
+            confirmed: false,
         }),
         Err(Refusal::NoProgram)
     );

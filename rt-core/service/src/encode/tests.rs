@@ -101,6 +101,9 @@ mod old {
             Refusal::ProgramChanged => {
                 "the program was changed since it was loaded: load it again to cut the changed program"
             }
+            Refusal::OffsetNeedsConfirmation => {
+                "this touch-off does not fit what the machine knows (the loaded blank, the previous offset, where the hob stands): check the gauge's value and the hob's position, and confirm the new offset only if both are right; nothing was changed"
+            }
         }
     }
 
@@ -217,10 +220,13 @@ fn every_command() -> Vec<Command> {
             axis,
             distance: -12.5,
         });
-        v.push(Command::TouchOff {
-            axis,
-            value_mm: 101.5,
-        });
+        for confirmed in [false, true] {
+            v.push(Command::TouchOff {
+                axis,
+                value_mm: 101.5,
+                confirmed,
+            });
+        }
         for direction in [Direction::Positive, Direction::Negative] {
             v.push(Command::JogContinuous {
                 axis,
@@ -314,6 +320,7 @@ fn every_command_round_trips_with_its_old_name() {
         single,
         axis,
         direction,
+        confirm: 0,
         value,
     };
     assert_eq!(
@@ -351,6 +358,38 @@ fn every_command_round_trips_with_its_old_name() {
         None
     );
     assert_eq!(command_from_code(&args(command::HOME, 0, 1, 0, 0.0)), None);
+    // A touch-off's confirmation travels in the byte that was padding; any other value
+    // than 0 confirms.
+    let touch = Command::TouchOff {
+        axis: Axis::X,
+        value_mm: 194.94,
+        confirmed: true,
+    };
+    assert_eq!(
+        command_code(touch),
+        Args {
+            confirm: 1,
+            ..args(16, 0, 2, 0, 194.94)
+        }
+    );
+    assert_eq!(
+        command_from_code(&Args {
+            confirm: 7,
+            ..args(16, 0, 2, 0, 194.94)
+        }),
+        Some(touch)
+    );
+    let e = event_sample(
+        0,
+        &Event {
+            cycle: 0,
+            kind: EventKind::Accepted(touch),
+        },
+    );
+    assert_eq!(
+        (e.a, e.b, e.value),
+        (command::TOUCH_OFF, 1 << 24 | 2 << 8, 194.94)
+    );
 }
 
 #[test]
