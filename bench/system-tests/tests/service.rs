@@ -1549,8 +1549,28 @@ fn operator_path_from_power_on_to_a_continued_cut() {
             let absurd = b.hob(&["touch-off", "x", "--diameter", "10"]);
             assert_eq!(absurd.code, Some(2), "a 10 mm gauge here: {}", absurd.text);
             assert_eq!(b.status().x_offset_mm, 0.0, "the offset after the refusal");
-            let x = b.hob_ok(&["touch-off", "x", "--diameter", &format!("{gauge_diameter_mm:.6}")]);
+            // The hob stands beside the blank, on a ring gauge of another size than the
+            // blank's: the loop asks first, naming the offset; --confirm sets it.
+            let gauge = format!("{gauge_diameter_mm:.6}");
+            let asked = b.hob(&["touch-off", "x", "--diameter", &gauge]);
+            assert_eq!(asked.code, Some(2), "hob touch-off x unconfirmed: {}", asked.text);
+            for needle in [
+                "does not fit what the machine knows",
+                // +0.1 mm within a count or two (the figures have 4 decimals).
+                "X offset +0.0000 mm -> +0.",
+                "than the loaded blank's outside diameter",
+                "--confirm",
+            ] {
+                assert!(asked.text.contains(needle), "{needle:?} not in {}", asked.text);
+            }
+            assert_eq!(b.status().x_offset_mm, 0.0, "the offset after the question");
+            let x = b.hob_ok(&["touch-off", "x", "--diameter", &gauge, "--confirm"]);
             assert!(x.text.contains("saved in"), "hob touch-off x: {}", x.text);
+            assert!(
+                x.text.contains("X offset +0.0000 mm -> +0."),
+                "hob touch-off x: {}",
+                x.text
+            );
             let y = b.hob_ok(&["touch-off", "y", "--height", &format!("{gauge_height_mm:.6}")]);
             assert!(y.text.contains("saved in"), "hob touch-off y: {}", y.text);
             let t = b.status();

@@ -131,6 +131,11 @@ enum Command {
         /// Y: the gauge's height above the table face, mm.
         #[arg(long)]
         height: Option<f64>,
+        /// Set the offset even though it does not fit the loaded blank, the previous
+        /// offset or where the hob stands (the loop refuses such a touch-off first and
+        /// names the offset it would set); never one beyond the loop's limits.
+        #[arg(long)]
+        confirm: bool,
     },
     /// Continue the interrupted program from the interrupted pass, on the same part.
     Continue,
@@ -550,7 +555,12 @@ fn run(command: Command) -> Result<(), Failure> {
             axis,
             diameter,
             height,
-        } => send_built(service::touch_off(&axis, diameter, height)),
+            confirm,
+        } => service_result(
+            service::touch_off(&axis, diameter, height, confirm)
+                .and_then(|r| service::request(&r))
+                .map_err(|e| e.with_confirm_hint(&service::touch_off_again(&axis, diameter, height))),
+        ),
         Command::Continue => send(&service::simple(code::CONTINUE)),
         Command::Record => send(&service::simple(code::FLIGHT_RECORD)),
         Command::Replay {

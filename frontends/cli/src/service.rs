@@ -22,8 +22,8 @@ pub enum ServiceError {
     Unreachable(hob_ipc::IpcError),
     /// The loop did not answer in time.
     NoAnswer(hob_ipc::IpcError),
-    /// The loop refused, in its words.
-    Refused(String),
+    /// The loop refused, in its words; `code` its refusal (0: the request was malformed).
+    Refused { code: u32, text: String },
     /// A program file that could not be read.
     ProgramFile {
         path: std::path::PathBuf,
@@ -44,10 +44,29 @@ pub enum ServiceError {
 }
 
 impl ServiceError {
+    /// A touch-off the loop asks the operator to confirm: the loop's words (the offset it
+    /// would set and why it asks), and how to confirm it here: `again`, the same command,
+    /// with `--confirm`.
+    pub fn with_confirm_hint(self, again: &str) -> Self {
+        match self {
+            ServiceError::Refused { code, text }
+                if code == codec::Refusal::OffsetNeedsConfirmation.code() =>
+            {
+                ServiceError::Refused {
+                    code,
+                    text: format!(
+                        "{text}\n  if the gauge's value and the hob's position are right, set it: {again} --confirm"
+                    ),
+                }
+            }
+            other => other,
+        }
+    }
+
     /// The exit status: 2 refused, 1 failed.
     pub fn exit_code(&self) -> u8 {
         match self {
-            ServiceError::Refused(_)
+            ServiceError::Refused { .. }
             | ServiceError::ProgramFile { .. }
             | ServiceError::Request(_)
             | ServiceError::BadSeconds(_)
@@ -65,7 +84,7 @@ impl std::fmt::Display for ServiceError {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         match self {
             ServiceError::Unreachable(e) | ServiceError::NoAnswer(e) => write!(f, "{e}"),
-            ServiceError::Refused(text) => f.write_str(text),
+            ServiceError::Refused { text, .. } => f.write_str(text),
             ServiceError::ProgramFile { path, error } => write!(f, "{}: {error}", path.display()),
             ServiceError::Request(e) => write!(f, "{e}"),
             ServiceError::BadSeconds(s) => write!(f, "jog-hold: --seconds {s} is not a duration"),
@@ -86,7 +105,10 @@ pub fn request(req: &CommandRequest) -> Result<String, ServiceError> {
     if r.accepted != 0 {
         Ok(r.text())
     } else {
-        Err(ServiceError::Refused(r.text()))
+        Err(ServiceError::Refused {
+            code: r.refusal,
+            text: r.text(),
+        })
     }
 }
 
@@ -131,13 +153,27 @@ pub fn override_request(what: &str, percent: f64) -> Result<CommandRequest, Serv
     hob_ipc::request::override_request(what, percent).map_err(refused)
 }
 
-/// `hob touch-off x --diameter D` or `hob touch-off y --height H`.
+/// `hob touch-off x --diameter D` or `hob touch-off y --height H`, `--confirm`ed or not.
 pub fn touch_off(
     axis: &str,
     diameter: Option<f64>,
     height: Option<f64>,
+    confirm: bool,
 ) -> Result<CommandRequest, ServiceError> {
-    hob_ipc::request::touch_off(axis, diameter, height, false).map_err(refused)
+    hob_ipc::request::touch_off(axis, diameter, height, confirm).map_err(refused)
+}
+
+/// The command line that repeats a touch-off (the gauge written so that it reads back to
+/// the same number: the loop applies a confirmed offset only for the gauge it asked about).
+pub fn touch_off_again(axis: &str, diameter: Option<f64>, height: Option<f64>) -> String {
+    let mut line = format!("hob touch-off {axis}");
+    if let Some(d) = diameter {
+        line += &format!(" --diameter {d}");
+    }
+    if let Some(h) = height {
+        line += &format!(" --height {h}");
+    }
+    line
 }
 
 pub fn touch_flank(turned: &str) -> Result<CommandRequest, ServiceError> {
@@ -169,7 +205,10 @@ pub fn jog_hold(
     loop {
         let answer: CommandResponse = client.request(&r, ANSWER).map_err(ServiceError::NoAnswer)?;
         if answer.accepted == 0 {
-            return Err(ServiceError::Refused(answer.text()));
+            return Err(ServiceError::Refused {
+                code: answer.refusal,
+                text: answer.text(),
+            });
         }
         renewals += 1;
         if Instant::now() >= end {
@@ -182,7 +221,10 @@ pub fn jog_hold(
             .request(&hob_ipc::request::jog_release(), ANSWER)
             .map_err(ServiceError::NoAnswer)?;
         if answer.accepted == 0 {
-            return Err(ServiceError::Refused(answer.text()));
+            return Err(ServiceError::Refused {
+                code: answer.refusal,
+                text: answer.text(),
+            });
         }
         Ok(format!(
             "jog {axis_name} {direction}: {renewals} renewals, released\n"
@@ -613,6 +655,35 @@ mod tests {
         ] {
             assert!(text.lines().any(|l| l == line), "no line {line:?} in\n{text}");
         }
+    }
+
+    #[test]
+    fn a_touch_off_to_confirm_says_how_and_other_refusals_are_left_alone() {
+        let again = touch_off_again("x", Some(194.94), None);
+        assert_eq!(again, "hob touch-off x --diameter 194.94");
+        // The gauge reads back to the number that was sent, to the bit.
+        let sent = 0.1 + 0.2;
+        let line = touch_off_again("y", None, Some(sent));
+        let read: f64 = line.rsplit(' ').next().unwrap().parse().unwrap();
+        assert_eq!(read.to_bits(), sent.to_bits());
+        let asked = ServiceError::Refused {
+            code: codec::Refusal::OffsetNeedsConfirmation.code(),
+            text: "touch-off refused: ... X offset -0.0050 mm -> +49.9950 mm".into(),
+        };
+        let text = asked.with_confirm_hint(&again).to_string();
+        assert!(text.starts_with("touch-off refused: ... X offset"), "{text}");
+        assert!(
+            text.ends_with("set it: hob touch-off x --diameter 194.94 --confirm"),
+            "{text}"
+        );
+        let other = ServiceError::Refused {
+            code: codec::Refusal::BadValue.code(),
+            text: "touch-off refused: the value".into(),
+        };
+        assert_eq!(
+            other.with_confirm_hint(&again).to_string(),
+            "touch-off refused: the value"
+        );
     }
 
     #[test]

@@ -537,3 +537,20 @@ fn a_flank_touch_needs_the_way_the_table_turned() {
         &["touch-flank: direction up is not + or -"],
     );
 }
+
+/// `hob touch-off` takes `--confirm` (for a touch-off the loop asks about); the gauge is
+/// still needed, and refused before anything is sent to the loop when missing.
+#[test]
+fn a_touch_off_takes_a_confirmation_and_still_needs_its_gauge() {
+    assert_refused(
+        &["touch-off", "x", "--confirm"],
+        &["touch-off: give x --diameter MM"],
+    );
+    let help = hob(&["touch-off", "--help"]);
+    assert!(help.status.success());
+    let text = support::text(&help.stdout);
+    assert!(
+        text.contains("--confirm") && text.contains("names the offset it would set"),
+        "{text}"
+    );
+}
