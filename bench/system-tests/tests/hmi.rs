@@ -120,10 +120,9 @@ fn stack(b: &mut Bench) -> Vec<(&'static str, String)> {
         ],
         "gateway.txt",
     );
-    let tip_mm = TomlDoc::load(&program)
-        .get("tool.outside_diameter_mm")
-        .as_float()
-        .unwrap();
+    let job = TomlDoc::load(&program);
+    let tip_mm = job.get("tool.outside_diameter_mm").as_float().unwrap();
+    let blank_mm = job.get("workpiece.outside_diameter_mm").as_float().unwrap();
     b.wait_state("idle", Duration::from_secs(300));
     vec![
         ("HOB_INSTANCE", b.instance.clone()),
@@ -133,6 +132,8 @@ fn stack(b: &mut Bench) -> Vec<(&'static str, String)> {
         ("HOB_LOG_DIR", path(&log_dir)),
         ("HOB_VENDOR", path(&vendor)),
         ("HOB_TOOL_TIP_MM", tip_mm.to_string()),
+        // The touch-off test touches the blank of this diameter.
+        ("HOB_BLANK_OD_MM", blank_mm.to_string()),
         // lib/hmi.mjs starts hob-hmi as this user through the gateway (the CLI that reads
         // the truth stays on the bus).
         ("HOB_HMI_USER", "65534:100".to_string()),

@@ -439,9 +439,12 @@ pub enum Op {
         what: String,
         percent: f64,
     },
+    /// `confirm`: the operator confirmed the offset the loop asked about (its CONFIRM).
     TouchOff {
         axis: String,
         value: f64,
+        #[serde(default)]
+        confirm: bool,
     },
     /// A flank of a cut gap touched, the table turned `+` or `-` to it.
     TouchFlank {
@@ -499,7 +502,7 @@ impl Op {
             Op::NewBlank {} => Ok(request::simple(c::NEW_BLANK)),
             Op::Start { single } => Ok(request::start(*single)),
             Op::Override { what, percent } => request::override_request(what, *percent),
-            Op::TouchOff { axis, value } => request::touch_off_value(axis, *value, false),
+            Op::TouchOff { axis, value, confirm } => request::touch_off_value(axis, *value, *confirm),
             Op::TouchFlank { turned } => request::touch_flank(turned),
             Op::Spindle { rpm } if *rpm == 0.0 => Ok(request::simple(c::SPINDLE_OFF)),
             Op::Spindle { rpm } => Ok(request::spindle_on(*rpm)),
@@ -581,6 +584,10 @@ mod tests {
                 request::touch_off("x", Some(120.005), None, false).expect("touch-off"),
             ),
             (
+                r#"{"t":"cmd","id":1,"op":"touch_off","axis":"x","value":194.94,"confirm":true}"#,
+                request::touch_off("x", Some(194.94), None, true).expect("touch-off"),
+            ),
+            (
                 r#"{"t":"cmd","id":1,"op":"start","single":true}"#,
                 request::start(true),
             ),
@@ -612,6 +619,7 @@ mod tests {
             r#"{"t":"cmd","id":1,"op":"jog","axis":"x"}"#,
             r#"{"t":"cmd","id":1,"op":"reset","extra":1}"#,
             r#"{"t":"jog_hold","axis":"x","dir":"+","speed":100}"#,
+            r#"{"t":"cmd","id":1,"op":"touch_off","axis":"x","value":94.94,"confirm":"yes"}"#,
         ] {
             assert!(serde_json::from_str::<ClientMsg>(bad).is_err(), "{bad} parsed");
         }

@@ -4,7 +4,7 @@ import { test, after } from "node:test";
 import assert from "node:assert/strict";
 import { readFileSync } from "node:fs";
 import { join } from "node:path";
-import { startHmi, browser, status, waitFor, shot, touchHold, need } from "./lib/hmi.mjs";
+import { startHmi, browser, status, waitFor, shot, touchHold, need, hob } from "./lib/hmi.mjs";
 
 const hmi = await startHmi();
 const ctx = await browser();
@@ -114,22 +114,80 @@ test("DIAGNOSTICS shows each CAN node's NMT state and each drive's CiA 402 state
   await page.close();
 });
 
-test("touch-off X sets the offset the loop reports; an absurd gauge is refused with the loop's reason and changes nothing", async () => {
+// The figures a touch-off's answer names: the old and new offset and the change (mm).
+const FIGURES = /X offset ([+-]\d+\.\d{4}) mm -> ([+-]\d+\.\d{4}) mm \(change ([+-]\d+\.\d{4}) mm\)/;
+
+test("touch-off X: the offsets on the panel; a typo is refused with the offset it would set and changes nothing; CANCEL leaves it, CONFIRM sets exactly that offset", async () => {
   const page = await open("jog");
   const before = status();
-  await page.locator('[data-testid="touch-x-value"]').fill("100000");
-  await page.locator('[data-testid="touch-x"]').tap();
-  const refused = page.locator('[data-testid="toast"].refused');
-  await refused.first().waitFor({ timeout: 10000 });
-  assert.match(await refused.first().innerText(), /REFUSED/);
+  const touch = async (gauge) => {
+    await page.locator('[data-testid="touch-x-value"]').fill(String(gauge));
+    await page.locator('[data-testid="touch-x"]').tap();
+  };
+  const shown = async () => Number(await page.locator('[data-testid="touch-offset-x"]').innerText());
+  // The offsets are on the touch-off panel itself, as the loop has them.
+  await waitFor("the panel's X offset", async () => Math.abs((await shown()) - before.x_offset_mm) < 1e-4, 5000);
+  // Absurd: refused with the loop's reason, even before any question.
+  await touch(100000);
+  await page.locator('[data-testid="touch-answer"].bad').waitFor({ timeout: 10000 });
+  assert.match(await page.locator('[data-testid="touch-answer"]').innerText(), /REFUSED: touch-off refused: the value is not a finite number in range/);
   assert.equal(status().x_offset_mm, before.x_offset_mm, "a refused touch-off changed the offset");
-  // A gauge such that the offset comes out +0.1 mm: X = gauge radius + tip radius at the touch.
-  const tip = Number(process.env.HOB_TOOL_TIP_MM);
-  const gauge = (2 * (before.x_mm + 0.1) - tip).toFixed(4);
-  await page.locator('[data-testid="touch-x-value"]').fill(gauge);
-  await page.locator('[data-testid="touch-x"]').tap();
-  await page.locator('[data-testid="toast"].ok').first().waitFor({ timeout: 10000 });
-  await waitFor("the offset in the loop", () => Math.abs(status().x_offset_mm - 0.1) < 1e-3, 5000);
+
+  // The hob's tip onto the blank, 0.1 mm beyond its outside diameter (set-up of the test:
+  // the loop's own jog through the CLI, as the keys would send it).
+  const tip = Number(need("HOB_TOOL_TIP_MM"));
+  const blank = Number(need("HOB_BLANK_OD_MM"));
+  const onBlank = (blank + tip) / 2 + 0.1;
+  hob("jog", "x", (onBlank - before.x_mm).toFixed(4));
+  await waitFor("X on the blank", () => { const s = status(); return s.state === "idle" && Math.abs(s.x_mm - onBlank) < 0.01; }, 30000, 200);
+  // The blank's own diameter: plausible, applied unasked; the answer names the change.
+  await touch(blank);
+  await waitFor("the offset near -0.1 mm", () => Math.abs(status().x_offset_mm - (before.x_offset_mm - 0.1)) < 0.01, 5000);
+  const first = status().x_offset_mm;
+  await waitFor("the accepted answer on the panel", async () => /touch-off X: accepted; X offset .* -> .* \(change -0\.\d{4} mm\)/.test(await page.locator('[data-testid="touch-answer"].ok').innerText()), 5000);
+  assert.equal(await page.locator('[data-testid="touch-confirm"]').count(), 0, "a plausible touch-off asked");
+
+  // The typo of issue 32: a 1 typed in front of the blank's diameter.
+  const typo = blank + 100;
+  await touch(typo);
+  const dialog = page.locator('[data-testid="touch-confirm"]');
+  await dialog.waitFor({ timeout: 10000 });
+  const asked = await page.locator('[data-testid="touch-confirm-text"]').innerText();
+  assert.match(asked, /touch-off refused: this touch-off does not fit what the machine knows/);
+  assert.match(asked, new RegExp(`the gauge, ${typo.toFixed(3)} mm, is 100\\.000 mm larger than the loaded blank's outside diameter, ${blank.toFixed(3)} mm`));
+  const m = asked.match(FIGURES);
+  assert.ok(m, `no figures in: ${asked}`);
+  const [named, change] = [Number(m[2]), Number(m[3])];
+  assert.ok(Math.abs(Number(m[1]) - first) < 1e-4, `old ${m[1]}, the loop has ${first}`);
+  assert.ok(Math.abs(change - 50) < 0.01, `change ${change}`);
+  await shot(page, "touch-off-confirm");
+  // Nothing changed while the loop asks.
+  await new Promise((r) => setTimeout(r, 500));
+  assert.equal(status().x_offset_mm, first, "the offset changed before a confirmation");
+  assert.ok(Math.abs((await shown()) - first) < 1e-4);
+  // CANCEL: the dialog goes, nothing changes.
+  await page.locator('[data-testid="touch-cancel"]').tap();
+  await waitFor("the dialog closed", async () => (await dialog.count()) === 0, 5000);
+  assert.match(await page.locator('[data-testid="touch-answer"]').innerText(), /CANCELLED, nothing changed/);
+  assert.equal(status().x_offset_mm, first, "CANCEL changed the offset");
+  // Asked again, CONFIRM: the loop sets exactly the offset it named.
+  await touch(typo);
+  await dialog.waitFor({ timeout: 10000 });
+  await page.locator('[data-testid="touch-confirm-yes"]').tap();
+  await waitFor("the dialog closed after CONFIRM", async () => (await dialog.count()) === 0, 10000);
+  await waitFor("the confirmed offset in the loop", () => status().x_offset_mm !== first, 5000);
+  const set = status().x_offset_mm;
+  assert.equal(set.toFixed(4), named.toFixed(4), `the loop set ${set}, the dialog named ${named}`);
+  const ok = await page.locator('[data-testid="touch-answer"].ok').innerText();
+  assert.match(ok, new RegExp(`touch-off X: accepted; X offset .* -> ${m[2].replace("+", "\\+")} mm`));
+  await waitFor("the panel shows the new offset", async () => (await shown()).toFixed(4) === named.toFixed(4), 5000);
+  // Put right: the blank's diameter again is a 50 mm change, asked about and confirmed.
+  await touch(blank);
+  await dialog.waitFor({ timeout: 10000 });
+  await page.locator('[data-testid="touch-confirm-yes"]').tap();
+  await waitFor("the offset back", () => Math.abs(status().x_offset_mm - first) < 1e-3, 10000);
+  await page.locator('[data-testid="touch-answer"].ok').waitFor({ timeout: 5000 });
+  await page.locator('[data-testid="touch-offsets"]').scrollIntoViewIfNeeded();
   await shot(page, "touch-off");
   await page.close();
 });

@@ -66,8 +66,6 @@ export function Jog({ conn, program }) {
   const [speed, setSpeed] = useState(300);
   const [step, setStep] = useState(0.1);
   const [rpm, setRpm] = useState(20);
-  const [dia, setDia] = useState("");
-  const [height, setHeight] = useState("");
   const [plan, setPlan] = useState(null);
   useEffect(() => {
     if (!program) return;
@@ -96,6 +94,7 @@ export function Jog({ conn, program }) {
         <${CmdButton} conn=${conn} op="jog" fields=${{ axis: a, distance: -step }} label=${`${a.toUpperCase()} −${step}`} testid=${`step-${a}-minus`} />
         <${CmdButton} conn=${conn} op="jog" fields=${{ axis: a, distance: step }} label=${`${a.toUpperCase()} +${step}`} testid=${`step-${a}-plus`} /></div>`)}
     </div>
+    <${TouchOff} conn=${conn} />
     <div class="card"><h2>Hob spindle C</h2>
       <p class="hint">HOLD C turns the hob while your finger is on it (dead-man, as the jog keys). SPINDLE ON latches it until SPINDLE OFF or STOP.</p>
       <div class="row"><input type="number" inputmode="decimal" value=${rpm} data-testid="spindle-rpm" onInput=${(e) => setRpm(e.target.value)} /> rpm
@@ -103,12 +102,6 @@ export function Jog({ conn, program }) {
         <b data-testid="spindle-actual">${s ? `${fmt(s.spindle_rpm, 1)} rpm` : "-"}</b></div>
       <div class="row"><${CmdButton} conn=${conn} op="spindle" fields=${{ rpm: Number(rpm) }} label="SPINDLE ON" />
         <${CmdButton} conn=${conn} op="spindle" fields=${{ rpm: 0 }} label="SPINDLE OFF" /></div></div>
-    <div class="card"><h2>Touch-off</h2>
-      <p class="hint">Bring the hob onto a gauge of known size, then enter it: the loop sets the work offset and saves it.</p>
-      <div class="row">X: gauge diameter <input type="number" inputmode="decimal" value=${dia} data-testid="touch-x-value" onInput=${(e) => setDia(e.target.value)} /> mm
-        <${CmdButton} conn=${conn} op="touch_off" fields=${{ axis: "x", value: Number(dia) }} label="TOUCH OFF X" testid="touch-x" disabled=${dia === ""} /></div>
-      <div class="row">Y: gauge top above the table <input type="number" inputmode="decimal" value=${height} data-testid="touch-y-value" onInput=${(e) => setHeight(e.target.value)} /> mm
-        <${CmdButton} conn=${conn} op="touch_off" fields=${{ axis: "y", value: Number(height) }} label="TOUCH OFF Y" testid="touch-y" disabled=${height === ""} /></div></div>
     <div class="card"><h2>Align to cut gaps</h2>
       ${s && !s.referenced.table ? html`<p class="warn" data-testid="table-lost">The table lost its position: CONTINUE would cut new gaps into this part. Align to its gaps (or NEW BLANK for a new part).</p>` : ""}
       <p class="hint">For a part whose gaps are cut: spindle off, a hob tooth in a gap. Jog B − until a flank touches the tooth, tap FLANK AT B −; jog B + until the other flank touches, tap FLANK AT B +. The loop takes the middle as the part's tooth phase.</p>
@@ -123,6 +116,39 @@ export function Jog({ conn, program }) {
         ${Object.entries(plan.signs || {}).map(([k, v]) => html`<tr><td>${k.replaceAll("_", " ")}</td><td>${String(v)}</td></tr>`)}
       </table>` : html`<p class="hint">Pick a program in PROGRAMS to see its set-up.</p>`}</div>
   </section>`;
+}
+
+// Touch-off: the work offsets as the loop has them, on the panel where they are set; the
+// loop's answer stays beside the buttons (it names the old and the new offset and the
+// change; no toast that vanishes). A touch-off the loop asks about (it does not fit the loaded blank, the previous
+// offset or where the hob stands) opens a dialog with the loop's words: CONFIRM sends the
+// same command confirmed, CANCEL leaves everything as it is. The page judges nothing.
+function TouchOff({ conn }) {
+  const s = conn.frame && conn.frame.state;
+  const [dia, setDia] = useState("");
+  const [height, setHeight] = useState("");
+  const [last, setLast] = useState(null);
+  const answered = (axis, value) => (answer) => setLast({ axis, value, answer });
+  const ask = last && !last.cancelled && !last.answer.ok && last.answer.refusal === "offset-needs-confirmation" ? last : null;
+  const offset = (axis) => s && (axis === "x" ? s.x_offset_mm : s.y_offset_mm);
+  const gauge = (axis, label, value, set) => html`<div class="row">${label} <input type="number" inputmode="decimal" value=${value} data-testid=${`touch-${axis}-value`} onInput=${(e) => set(e.target.value)} /> mm
+    <${CmdButton} conn=${conn} op="touch_off" fields=${{ axis, value: Number(value) }} label=${`TOUCH OFF ${axis.toUpperCase()}`} testid=${`touch-${axis}`} disabled=${value === ""} onAnswer=${answered(axis, Number(value))} quiet /></div>`;
+  return html`<div class="card"><h2>Touch-off</h2>
+    <div class="offsets" data-testid="touch-offsets"><span class="label">work offsets now</span> X <b data-testid="touch-offset-x">${fmt(offset("x"), 4)}</b> mm <span class="sep"></span> Y <b data-testid="touch-offset-y">${fmt(offset("y"), 4)}</b> mm</div>
+    <p class="hint">Bring the hob onto a gauge of known size, then enter it: the loop sets the work offset and saves it. It asks first when the offset would move more than the machine allows, or the gauge does not fit the loaded blank.</p>
+    ${gauge("x", "X: gauge diameter", dia, setDia)}
+    ${gauge("y", "Y: gauge top above the table", height, setHeight)}
+    ${last && !ask ? html`<p class=${`answer ${last.answer.ok ? "ok" : "bad"}`} data-testid="touch-answer">${last.cancelled ? `CANCELLED, nothing changed: ` : last.answer.ok ? "" : "REFUSED: "}${last.answer.text}</p>` : ""}
+    ${ask ? html`<div class="modal-back"><div class="modal" role="dialog" aria-modal="true" data-testid="touch-confirm">
+        <h2>Touch-off ${ask.axis.toUpperCase()}: the loop asks before it sets this offset</h2>
+        <div class="offsets">work offset ${ask.axis.toUpperCase()} now <b>${fmt(offset(ask.axis), 4)}</b> mm, gauge ${ask.value} mm</div>
+        <p data-testid="touch-confirm-text">${ask.answer.text}</p>
+        <p class="hint">Check the gauge's value and where the hob stands. CONFIRM sets the offset named above; CANCEL changes nothing.</p>
+        <div class="row">
+          <button class="key" data-testid="touch-cancel" onClick=${() => setLast({ ...ask, cancelled: true })}>CANCEL</button>
+          <${CmdButton} conn=${conn} op="touch_off" fields=${{ axis: ask.axis, value: ask.value, confirm: true }} label=${`CONFIRM ${ask.axis.toUpperCase()} OFFSET`} cls="warnkey" testid="touch-confirm-yes" onAnswer=${answered(ask.axis, ask.value)} quiet /></div>
+      </div></div>` : ""}
+  </div>`;
 }
 
 export function Single({ conn, program }) {

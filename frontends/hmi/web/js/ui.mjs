@@ -6,14 +6,15 @@ export const html = htm.bind(h);
 
 export const fmt = (x, digits = 3) => (x === null || x === undefined || Number.isNaN(x) ? "-" : Number(x).toFixed(digits));
 
-/** A command button: sends, shows the loop's answer beside it (refusals in red). */
-export function CmdButton({ conn, op, fields, label, cls = "", disabled, onAnswer, testid }) {
+/** A command button: sends, shows the loop's answer as a toast (refusals in red), or only
+ * hands it to `onAnswer` when `quiet` (a panel that keeps the answer in view itself). */
+export function CmdButton({ conn, op, fields, label, cls = "", disabled, onAnswer, testid, quiet = false }) {
   const click = async (ev) => {
     const el = ev.currentTarget;
     el.classList.add("busy");
     const a = await conn.cmd(op, fields || {});
     el.classList.remove("busy");
-    conn.toast(a, label);
+    if (!quiet) conn.toast(a, label);
     if (onAnswer) onAnswer(a);
   };
   // A view-only screen sends no command: its buttons are shown, never active.
