@@ -272,12 +272,12 @@ pub fn save_offsets(
     }
 }
 
-/// The text of a refusal: the loop's words, and for a touch-off it asks to confirm the
-/// offset it would set and why it asks.
+/// The text of a refusal: the loop's words, and for a touch-off it asks to confirm, on
+/// lines of their own, the offset it would set and why it asks.
 pub fn refusal_text(what: &str, r: Refusal, touch: Option<TouchOff>) -> String {
     match touch {
         Some(t) if r == Refusal::OffsetNeedsConfirmation => format!(
-            "{what} refused: {}. Confirmed, it sets the {}: {}",
+            "{what} refused: {}.\nConfirmed, it sets the {}.\nWhy: {}.",
             r.text(),
             touch_off_figures(&t),
             touch_off_doubts(&t)
@@ -445,7 +445,7 @@ mod tests {
         let text = refusal_text("touch-off", Refusal::OffsetNeedsConfirmation, Some(t));
         for needle in [
             Refusal::OffsetNeedsConfirmation.text(),
-            "X offset -0.0050 mm -> +49.9950 mm (change +50.0000 mm)",
+            "\nConfirmed, it sets the X offset -0.0050 mm -> +49.9950 mm (change +50.0000 mm).\nWhy: ",
             "the gauge, 194.940 mm, is 99.940 mm larger than the loaded blank's outside diameter, 95.000 mm",
             "more than the 0.300 mm a touch-off may move it unasked",
         ] {

@@ -187,7 +187,8 @@ test("touch-off X: the offsets on the panel; a typo is refused with the offset i
   await page.locator('[data-testid="touch-confirm-yes"]').tap();
   await waitFor("the offset back", () => Math.abs(status().x_offset_mm - first) < 1e-3, 10000);
   await page.locator('[data-testid="touch-answer"].ok').waitFor({ timeout: 5000 });
-  await page.locator('[data-testid="touch-offsets"]').scrollIntoViewIfNeeded();
+  // The panel in view with its offsets and the answer (the page's own scroller, not the body).
+  await page.locator('[data-testid="touch-offsets"]').evaluate((e) => { const main = e.closest("main"); main.scrollTop += e.closest(".card").getBoundingClientRect().top - main.getBoundingClientRect().top - 8; });
   await shot(page, "touch-off");
   await page.close();
 });

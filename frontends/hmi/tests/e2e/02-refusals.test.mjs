@@ -44,7 +44,7 @@ test("a typo in the teeth is refused on its field by the program's own check, an
 test("a spindle speed above the machine's is refused by the loop, shown with its reason, and the spindle stays still", async () => {
   const page = await open("jog");
   const s0 = status();
-  await page.locator('input[type=number]').nth(0).fill("100000");
+  await page.locator('[data-testid="spindle-rpm"]').fill("100000");
   await page.locator('[data-testid="cmd-spindle"]').first().tap();
   const refused = page.locator('[data-testid="toast"].refused');
   await refused.first().waitFor({ timeout: 10000 });

@@ -134,7 +134,8 @@ function TouchOff({ conn }) {
   const gauge = (axis, label, value, set) => html`<div class="row">${label} <input type="number" inputmode="decimal" value=${value} data-testid=${`touch-${axis}-value`} onInput=${(e) => set(e.target.value)} /> mm
     <${CmdButton} conn=${conn} op="touch_off" fields=${{ axis, value: Number(value) }} label=${`TOUCH OFF ${axis.toUpperCase()}`} testid=${`touch-${axis}`} disabled=${value === ""} onAnswer=${answered(axis, Number(value))} quiet /></div>`;
   return html`<div class="card"><h2>Touch-off</h2>
-    <div class="offsets" data-testid="touch-offsets"><span class="label">work offsets now</span> X <b data-testid="touch-offset-x">${fmt(offset("x"), 4)}</b> mm <span class="sep"></span> Y <b data-testid="touch-offset-y">${fmt(offset("y"), 4)}</b> mm</div>
+    <div class="offsets" data-testid="touch-offsets"><span class="label">work offsets now</span>
+      <span class="off">X <b data-testid="touch-offset-x">${fmt(offset("x"), 4)}</b> mm</span> <span class="off">Y <b data-testid="touch-offset-y">${fmt(offset("y"), 4)}</b> mm</span></div>
     <p class="hint">Bring the hob onto a gauge of known size, then enter it: the loop sets the work offset and saves it. It asks first when the offset would move more than the machine allows, or the gauge does not fit the loaded blank.</p>
     ${gauge("x", "X: gauge diameter", dia, setDia)}
     ${gauge("y", "Y: gauge top above the table", height, setHeight)}
@@ -142,7 +143,7 @@ function TouchOff({ conn }) {
     ${ask ? html`<div class="modal-back"><div class="modal" role="dialog" aria-modal="true" data-testid="touch-confirm">
         <h2>Touch-off ${ask.axis.toUpperCase()}: the loop asks before it sets this offset</h2>
         <div class="offsets">work offset ${ask.axis.toUpperCase()} now <b>${fmt(offset(ask.axis), 4)}</b> mm, gauge ${ask.value} mm</div>
-        <p data-testid="touch-confirm-text">${ask.answer.text}</p>
+        <p class="loop-text" data-testid="touch-confirm-text">${ask.answer.text}</p>
         <p class="hint">Check the gauge's value and where the hob stands. CONFIRM sets the offset named above; CANCEL changes nothing.</p>
         <div class="row">
           <button class="key" data-testid="touch-cancel" onClick=${() => setLast({ ...ask, cancelled: true })}>CANCEL</button>
