@@ -161,7 +161,7 @@ fn a_touch_off_to_confirm_is_said_in_the_operators_words() {
     let t = Refusal::OffsetNeedsConfirmation.text();
     assert!(!t.contains("hob touch") && !t.contains("--confirm"), "{t}");
     assert!(t.contains("confirm") && t.contains("nothing was changed"), "{t}");
-    assert_eq!(codec::refusal_text(16), t);
+    assert_eq!(codec::refusal_text(17), t);
 }
 
 #[test]
