@@ -113,10 +113,12 @@ impl<B: CanBus> RtLoop<B> {
         let _ = self.events_pub.send_copy(e);
     }
 
-    fn publish_events(&mut self, cycle: u64) {
+    /// The cycle's events; `fault_met`: the state the latched fault met (this cycle's
+    /// status, already built).
+    fn publish_events(&mut self, cycle: u64, fault_met: State) {
         // An alarm says where its fault met the machine (what its reaction did): the
         // fault is latched at most once between resets, so the state it met is the one.
-        let met = self.controller.status().fault_met.situation();
+        let met = fault_met.situation();
         while let Some(ev) = self.controller.events().pop() {
             let mut s = encode::event_sample(0, &ev);
             if s.kind == hob_ipc::event_kind::ALARM {
@@ -246,7 +248,7 @@ impl<B: CanBus> RtLoop<B> {
         if !published {
             self.counters.state_unpublished.fetch_add(1, Ordering::Relaxed);
         }
-        self.publish_events(status.cycle);
+        self.publish_events(status.cycle, status.fault_met);
         self.counters.cycle.store(status.cycle, Ordering::Relaxed);
         self.timing
             .current
