@@ -3,7 +3,8 @@
 //! kernel has it, else the shared-memory virtual CAN bus (the harness: `src/lib.rs`).
 //!
 //! They need the release binaries and a bus, so they are ignored in the workspace's test
-//! pass; `ci/test` runs them, one at a time (they share the bus):
+//! pass; `ci/test` runs them (one at a time on vcan0, which they would share; two at a
+//! time on the shared-memory bus, where each has its own instance, the load test alone):
 //!
 //! ```sh
 //! cargo build --release --workspace --bins
@@ -75,7 +76,7 @@ fn program_arg() -> String {
 /// lost, no system heap allocation in a cycle; and its relaxed machine file is the one the
 /// session tests run on.
 #[test]
-#[ignore = "needs the release binaries and a bus; ci/test runs it (--ignored --test-threads=1)"]
+#[ignore = "needs the release binaries and a bus; ci/test runs it (--ignored)"]
 fn demo_cuts_end_to_end() {
     let mut b = Bench::new("demo_cuts_end_to_end");
     let machine = b.base_machine_file();
@@ -491,7 +492,7 @@ impl Ws {
 /// kill -9 of hob-rt mid-cut makes the watchdog drop PC-OK and quick-stop the drives.
 /// One set of processes, the steps in order.
 #[test]
-#[ignore = "needs the release binaries and a bus; ci/test runs it (--ignored --test-threads=1)"]
+#[ignore = "needs the release binaries and a bus; ci/test runs it (--ignored)"]
 fn service_session() {
     let mut b = Bench::new("service_session");
     let m = b.session_machine();
@@ -783,7 +784,7 @@ fn service_session() {
 /// them, a second publisher (another stand-in, a hob-rt) or command server is refused, and
 /// hob-rt is refused before it touches the bus.
 #[test]
-#[ignore = "needs the release binaries and a bus; ci/test runs it (--ignored --test-threads=1)"]
+#[ignore = "needs the release binaries and a bus; ci/test runs it (--ignored)"]
 fn watchdog_watches_the_sync_and_the_state_and_only_the_loop_publishes() {
     let mut b = Bench::new("watchdog_channels");
     let m = b.session_machine();
@@ -980,7 +981,7 @@ fn shm_files() -> usize {
 /// logger, the watchdog and a `hob status --watch` killed with `kill -9` and started again,
 /// over and over, leave no shared-memory files behind.
 #[test]
-#[ignore = "needs the release binaries and a bus; ci/test runs it (--ignored --test-threads=1)"]
+#[ignore = "needs the release binaries and a bus; ci/test runs it (--ignored)"]
 fn load_a_command_flood_stopped_subscribers_and_restarted_frontends() {
     if hob_system_tests::host_only("load_a_command_flood_stopped_subscribers_and_restarted_frontends") {
         return;
@@ -1164,7 +1165,7 @@ impl Drop for SmallDisk {
 /// the alarm goes, the recording resumes, and every sample received is either in the log
 /// or counted as not written, its run of cycles in `gaps.log`.
 #[test]
-#[ignore = "needs the release binaries, a bus and root (a tmpfs); ci/test runs it (--ignored --test-threads=1)"]
+#[ignore = "needs the release binaries, a bus and root (a tmpfs); ci/test runs it (--ignored)"]
 fn logger_on_a_full_disk_raises_the_recorder_alarm_and_resumes() {
     if hob_system_tests::host_only("logger_on_a_full_disk_raises_the_recorder_alarm_and_resumes") {
         return;
@@ -1273,7 +1274,7 @@ fn logger_on_a_full_disk_raises_the_recorder_alarm_and_resumes() {
 /// The virtual machine going silent mid-cut (`kill -STOP hob-sim`) makes hob-rt fault and
 /// retract.
 #[test]
-#[ignore = "needs the release binaries and a bus; ci/test runs it (--ignored --test-threads=1)"]
+#[ignore = "needs the release binaries and a bus; ci/test runs it (--ignored)"]
 fn silent_machine_mid_cut() {
     let mut b = Bench::new("silent_machine_mid_cut");
     let machine = b.session_machine().write(&b.art.join("machine.toml"));
@@ -1400,7 +1401,7 @@ fn silent_machine_mid_cut() {
 /// overrides in the cut, a drive fault in the cut (X retracts, the loop stops), the fault
 /// repaired and reset, and the program continued from the interrupted pass on the same part.
 #[test]
-#[ignore = "needs the release binaries and a bus; ci/test runs it (--ignored --test-threads=1)"]
+#[ignore = "needs the release binaries and a bus; ci/test runs it (--ignored)"]
 fn operator_path_from_power_on_to_a_continued_cut() {
     use std::io::Write as _;
     let mut b = Bench::new("operator_path");
@@ -1680,7 +1681,7 @@ fn operator_path_from_power_on_to_a_continued_cut() {
 /// after the bus is booted and before the loop starts: here without the capabilities and
 /// limits for SCHED_FIFO and the memory lock (`prlimit`, `setpriv`, from util-linux).
 #[test]
-#[ignore = "needs the release binaries and a bus; ci/test runs it (--ignored --test-threads=1)"]
+#[ignore = "needs the release binaries and a bus; ci/test runs it (--ignored)"]
 fn require_rt_refuses_to_run_degraded() {
     assert!(
         which("prlimit") && which("setpriv"),
@@ -1742,7 +1743,7 @@ fn require_rt_refuses_to_run_degraded() {
 /// the viewers' group only watches, anyone else is refused; none of them can join the bus
 /// (so none can publish the loop's state) or write the machine file.
 #[test]
-#[ignore = "needs the release binaries, a bus and root (setpriv); ci/test runs it (--ignored --test-threads=1)"]
+#[ignore = "needs the release binaries, a bus and root (setpriv); ci/test runs it (--ignored)"]
 fn frontends_of_another_user_watch_and_command_through_the_gateway() {
     if hob_system_tests::host_only("frontends_of_another_user_watch_and_command_through_the_gateway") {
         return;
