@@ -90,7 +90,7 @@ enum Command {
     /// Move an axis by a distance (mm, or deg for B) while idle.
     Jog {
         axis: String,
-        #[arg(allow_hyphen_values = true)]
+        #[arg(allow_hyphen_values = true, value_parser = typed_number)]
         distance: f64,
     },
     /// Continuous jog with a dead-man: renewed every 100 ms for SECONDS (or until the
@@ -119,17 +119,18 @@ enum Command {
     Override {
         /// feed or spindle.
         what: String,
+        #[arg(value_parser = typed_number)]
         percent: f64,
     },
     /// Touch-off: the hob's tip touches a gauge; sets the work offset of X (the gauge's
     /// diameter) or Y (the height of its top face above the table face).
     TouchOff {
         axis: String,
-        /// X: the gauge's diameter, mm.
-        #[arg(long)]
+        /// X: the gauge's diameter, mm (a decimal point or comma).
+        #[arg(long, value_parser = typed_number)]
         diameter: Option<f64>,
-        /// Y: the gauge's height above the table face, mm.
-        #[arg(long)]
+        /// Y: the gauge's height above the table face, mm (a decimal point or comma).
+        #[arg(long, value_parser = typed_number)]
         height: Option<f64>,
         /// Set the offset even though it does not fit the loaded blank, the previous
         /// offset or where the hob stands (the loop refuses such a touch-off first and
@@ -500,6 +501,14 @@ enum SdoOp {
         #[arg(long = "type", value_enum, default_value = "u32")]
         ty: can::SdoType,
     },
+}
+
+/// A number the operator typed, read as the HMI reads it (`hob_ipc::number`: a decimal
+/// point or comma).
+fn typed_number(text: &str) -> Result<f64, String> {
+    hob_ipc::number::decimal(text).ok_or_else(|| {
+        format!("\"{text}\" is not a number (digits with one decimal point or comma: 94.94 or 94,94)")
+    })
 }
 
 fn main() -> ExitCode {

@@ -554,3 +554,20 @@ fn a_touch_off_takes_a_confirmation_and_still_needs_its_gauge() {
         "{text}"
     );
 }
+
+/// A gauge typed with a decimal comma is read as with a point (`hob_ipc::number`, as the
+/// HMI reads it); a thousands separator is refused in words before anything is sent.
+#[test]
+fn a_typed_number_takes_a_decimal_comma_and_refuses_a_thousands_separator() {
+    assert_refused(
+        &["touch-off", "x", "--diameter", "1.094,94"],
+        &["\"1.094,94\" is not a number", "94.94 or 94,94"],
+    );
+    assert_refused(&["override", "feed", "8O"], &["\"8O\" is not a number"]);
+    let out = hob(&["touch-off", "x", "--diameter", "94,94"]);
+    let err = text(&out.stderr);
+    assert!(
+        !err.contains("not a number") && !err.contains("invalid value"),
+        "{err}"
+    );
+}

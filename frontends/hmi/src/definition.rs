@@ -5,6 +5,7 @@
 use crate::api::refusal;
 use crate::app::App;
 use crate::form::{self, Field};
+use crate::protocol::Typed;
 use axum::Json;
 use axum::extract::{Path, State};
 use axum::http::StatusCode;
@@ -122,10 +123,65 @@ pub async fn save(State(app): Shared, Json(s): Json<Save>) -> Response {
 #[serde(deny_unknown_fields)]
 pub struct Span {
     program: String,
-    k: u32,
-    measured_mm: f64,
+    /// Each number as the operator typed it (a decimal point or comma), read by
+    /// `hob_ipc::number`; an empty optional field is no value.
+    k: Typed,
+    measured_mm: Typed,
     #[serde(default)]
-    drawing_mm: Option<f64>,
+    drawing_mm: Option<Typed>,
+    #[serde(default)]
+    upper_mm: Option<Typed>,
+    #[serde(default)]
+    lower_mm: Option<Typed>,
+    #[serde(default)]
+    profile_shift: Option<Typed>,
+    #[serde(default)]
+    after: hob_setup::job::span::CutMeasured,
+}
+
+/// The span form's typed numbers, or each one that is not a number as a problem by its key.
+fn span_reading(s: &Span) -> Result<hob_setup::job::span::SpanReading, Vec<Value>> {
+    let mut problems = Vec::new();
+    let mut num = |key: &str, label: &str, t: Option<&Typed>| -> Option<f64> {
+        match t {
+            None => None,
+            Some(Typed::Text(x)) if x.trim().is_empty() => None,
+            Some(t) => t
+                .read(label)
+                .map_err(|e| problems.push(json!({"key": key, "message": e.to_string()})))
+                .ok(),
+        }
+    };
+    let k = num("span.k", "teeth spanned k", Some(&s.k));
+    let measured = num("span.measured_mm", "measured span W", Some(&s.measured_mm));
+    let reading = hob_setup::job::span::SpanReading {
+        k: 0,
+        measured_mm: f64::NAN,
+        drawing_mm: num("span.drawing_mm", "drawing's span", s.drawing_mm.as_ref()),
+        upper_mm: num("span.upper_mm", "upper allowance", s.upper_mm.as_ref()),
+        lower_mm: num("span.lower_mm", "lower allowance", s.lower_mm.as_ref()),
+        profile_shift: num("span.profile_shift", "profile shift x", s.profile_shift.as_ref()),
+        after: s.after,
+    };
+    let (Some(k), Some(measured)) = (k, measured) else {
+        if problems.is_empty() {
+            problems.push(json!({"key": "span.measured_mm", "message": "the teeth spanned and the measured span are needed"}));
+        }
+        return Err(problems);
+    };
+    if !problems.is_empty() {
+        return Err(problems);
+    }
+    if k.fract() != 0.0 || !(0.0..=1000.0).contains(&k) {
+        return Err(vec![
+            json!({"key": "span.k", "message": format!("teeth spanned k: {k} is not a whole number of teeth")}),
+        ]);
+    }
+    Ok(hob_setup::job::span::SpanReading {
+        k: k as u32,
+        measured_mm: measured,
+        ..reading
+    })
 }
 
 fn span_correction(
@@ -133,6 +189,15 @@ fn span_correction(
     s: &Span,
 ) -> Result<(String, hob_setup::job::span::SpanCorrection), Box<Response>> {
     let refused = |r: Refusal| Box::new(refusal(&r));
+    let reading = span_reading(s).map_err(|problems| {
+        Box::new(
+            (
+                StatusCode::UNPROCESSABLE_ENTITY,
+                Json(json!({"refused": "the span reading is refused", "problems": problems})),
+            )
+                .into_response(),
+        )
+    })?;
     let text = app.library.text(Kind::Program, &s.program).map_err(refused)?;
     let origin = app.library.path(Kind::Program, &s.program).map_err(refused)?;
     let resolved = app.library.resolve(&origin, &text).map_err(refused)?;
@@ -145,11 +210,6 @@ fn span_correction(
                 .into_response(),
         )
     })?;
-    let reading = hob_setup::job::span::SpanReading {
-        k: s.k,
-        measured_mm: s.measured_mm,
-        drawing_mm: s.drawing_mm,
-    };
     let c = hob_setup::job::span::correction(&program, reading).map_err(|p| {
         let problems: Vec<Value> = p
             .as_slice()

@@ -15,8 +15,8 @@ use toml::Value;
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize, Serialize)]
 #[serde(rename_all = "snake_case")]
 pub enum Kind {
-    /// A number when it reads as one, else the text as a string (the parser then says
-    /// "expected a number" for that key).
+    /// A number when it reads as one (with a decimal point or comma), else the text as a
+    /// string (the parser then says "expected a number" for that key).
     Num,
     Str,
     Bool,
@@ -73,9 +73,11 @@ fn literal(f: &Field) -> Option<Value> {
             "false" => Value::Boolean(false),
             _ => Value::String(t.to_string()),
         },
-        Kind::Num => match (t.parse::<i64>(), t.parse::<f64>()) {
-            (Ok(i), _) => Value::Integer(i),
-            (_, Ok(x)) if x.is_finite() => Value::Float(x),
+        Kind::Num => match (t.parse::<i64>(), t.parse::<f64>(), hob_ipc::number::decimal(t)) {
+            (Ok(i), _, _) => Value::Integer(i),
+            (_, Ok(x), _) if x.is_finite() => Value::Float(x),
+            // A decimal comma (`94,94`), read as the CLI and the commands read it.
+            (_, _, Some(x)) => Value::Float(x),
             _ => Value::String(t.to_string()),
         },
     })
@@ -274,6 +276,8 @@ mod tests {
             f("strategy.rough_depths_mm[0]", Kind::Num, "6"),
             f("workpiece.contour[0][0]", Kind::Num, "0"),
             f("workpiece.contour[0][1]", Kind::Num, "0.01"),
+            f("workpiece.outside_diameter_mm", Kind::Num, "94,94"),
+            f("workpiece.bore_mm", Kind::Num, "1.094,94"),
         ])
         .expect("toml");
         let v: toml::Table = t.parse().expect("valid TOML");
@@ -286,6 +290,16 @@ mod tests {
             "the typo goes to the parser as text"
         );
         assert!(w.get("helix_deg").is_none(), "an empty field is absent");
+        assert_eq!(
+            w["outside_diameter_mm"].as_float(),
+            Some(94.94),
+            "a decimal comma"
+        );
+        assert_eq!(
+            w["bore_mm"].as_str(),
+            Some("1.094,94"),
+            "a thousands separator is a typo"
+        );
         assert_eq!(w["crowning"]["height_mm"].as_float(), Some(0.02));
         assert_eq!(v["strategy"]["rough_depths_mm"][1].as_float(), Some(4.75));
         assert_eq!(w["contour"][0][1].as_float(), Some(0.01));

@@ -415,6 +415,26 @@ impl From<hob_ipc::codec::RecorderView> for RecorderView {
     }
 }
 
+/// A number the operator typed: JSON's number, or the field's text as typed (`94,94` with a
+/// decimal comma), read by `hob_ipc::number` (the CLI's reading) when the command is built,
+/// so that a typo is refused in words naming the field.
+#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[serde(untagged)]
+pub enum Typed {
+    Number(f64),
+    Text(String),
+}
+
+impl Typed {
+    pub fn read(&self, field: &str) -> Result<f64, hob_ipc::Error> {
+        match self {
+            Typed::Number(x) if x.is_finite() => Ok(*x),
+            Typed::Number(x) => hob_ipc::number::parse(field, &x.to_string()),
+            Typed::Text(t) => hob_ipc::number::parse(field, t),
+        }
+    }
+}
+
 /// The operation of a command from the page.
 #[derive(Debug, Clone, PartialEq, Deserialize)]
 #[serde(tag = "op", rename_all = "snake_case", deny_unknown_fields)]
@@ -442,7 +462,7 @@ pub enum Op {
     /// `confirm`: the operator confirmed the offset the loop asked about (its CONFIRM).
     TouchOff {
         axis: String,
-        value: f64,
+        value: Typed,
         #[serde(default)]
         confirm: bool,
     },
@@ -451,7 +471,7 @@ pub enum Op {
         turned: String,
     },
     Spindle {
-        rpm: f64,
+        rpm: Typed,
     },
     /// A library program by name: the server reads and resolves it (`hob load --lib`).
     Load {
@@ -476,7 +496,8 @@ pub enum ClientMsg {
         id: u64,
         axis: String,
         dir: String,
-        speed: f64,
+        /// mm/min (deg/min for B); the hob spindle C's rpm, as typed.
+        speed: Typed,
     },
     JogRenew,
     JogRelease,
@@ -502,10 +523,24 @@ impl Op {
             Op::NewBlank {} => Ok(request::simple(c::NEW_BLANK)),
             Op::Start { single } => Ok(request::start(*single)),
             Op::Override { what, percent } => request::override_request(what, *percent),
-            Op::TouchOff { axis, value, confirm } => request::touch_off_value(axis, *value, *confirm),
+            Op::TouchOff { axis, value, confirm } => {
+                let field = if axis.eq_ignore_ascii_case("y") {
+                    "Y: gauge top above the table"
+                } else {
+                    "X: gauge diameter"
+                };
+                value
+                    .read(field)
+                    .and_then(|v| request::touch_off_value(axis, v, *confirm))
+            }
             Op::TouchFlank { turned } => request::touch_flank(turned),
-            Op::Spindle { rpm } if *rpm == 0.0 => Ok(request::simple(c::SPINDLE_OFF)),
-            Op::Spindle { rpm } => Ok(request::spindle_on(*rpm)),
+            Op::Spindle { rpm } => rpm.read("spindle speed").map(|rpm| {
+                if rpm == 0.0 {
+                    request::simple(c::SPINDLE_OFF)
+                } else {
+                    request::spindle_on(rpm)
+                }
+            }),
             Op::Load { program } => {
                 return Err(Error::LoadFromLibrary {
                     program: program.clone(),
@@ -588,6 +623,18 @@ mod tests {
                 request::touch_off("x", Some(194.94), None, true).expect("touch-off"),
             ),
             (
+                r#"{"t":"cmd","id":1,"op":"touch_off","axis":"x","value":"94,94"}"#,
+                request::touch_off("x", Some(94.94), None, false).expect("touch-off"),
+            ),
+            (
+                r#"{"t":"cmd","id":1,"op":"touch_off","axis":"y","value":" 120.5 "}"#,
+                request::touch_off("y", None, Some(120.5), false).expect("touch-off"),
+            ),
+            (
+                r#"{"t":"cmd","id":1,"op":"spindle","rpm":"80,5"}"#,
+                request::spindle_on(80.5),
+            ),
+            (
                 r#"{"t":"cmd","id":1,"op":"start","single":true}"#,
                 request::start(true),
             ),
@@ -632,6 +679,26 @@ mod tests {
             panic!("not a command")
         };
         assert!(op.request().is_err(), "a flank touch needs + or -");
+        for (json, words) in [
+            (
+                r#"{"t":"cmd","id":1,"op":"touch_off","axis":"x","value":"1.094,94"}"#,
+                "X: gauge diameter: \"1.094,94\" is not a number",
+            ),
+            (
+                r#"{"t":"cmd","id":1,"op":"touch_off","axis":"y","value":""}"#,
+                "Y: gauge top above the table: \"\" is not a number",
+            ),
+            (
+                r#"{"t":"cmd","id":1,"op":"spindle","rpm":"80 rpm"}"#,
+                "spindle speed: \"80 rpm\" is not a number",
+            ),
+        ] {
+            let ClientMsg::Cmd { op, .. } = parse(json) else {
+                panic!("{json}: not a command")
+            };
+            let e = op.request().expect_err(json).to_string();
+            assert!(e.starts_with(words), "{json}: {e}");
+        }
     }
 
     #[test]

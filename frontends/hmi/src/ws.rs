@@ -171,7 +171,17 @@ impl Session {
                 }
                 Err(e) => self.refuse(id, e.to_string()).await,
             },
-            ClientMsg::JogHold { id, axis, dir, speed } => self.jog_hold(id, &axis, &dir, speed).await,
+            ClientMsg::JogHold { id, axis, dir, speed } => {
+                let field = if axis.eq_ignore_ascii_case("c") {
+                    "spindle speed"
+                } else {
+                    "jog speed"
+                };
+                match speed.read(field) {
+                    Ok(speed) => self.jog_hold(id, &axis, &dir, speed).await,
+                    Err(e) => self.refuse(id, e.to_string()).await,
+                }
+            }
             ClientMsg::JogRenew => {
                 if let Some(Sent { id, reply }) = self.jog.renew(Instant::now()) {
                     self.waiting.answer(id, reply, true);

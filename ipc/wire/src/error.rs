@@ -23,6 +23,8 @@ pub enum Error {
     ProgramTooLong { name: String, bytes: usize, max: usize },
     /// A gateway frame longer than the limit.
     FrameTooLong { bytes: usize, max: usize },
+    /// A typed number that is not one (`number`): the field's name and the text.
+    NotANumber { field: String, text: String },
     /// A message postcard could not encode.
     Encode(String),
     /// Bytes that do not decode to a message.
@@ -50,6 +52,10 @@ impl fmt::Display for Error {
                 write!(f, "{name}: {bytes} bytes, a program file may have at most {max}")
             }
             Error::FrameTooLong { bytes, max } => write!(f, "a frame of {bytes} bytes (at most {max})"),
+            Error::NotANumber { field, text } => write!(
+                f,
+                "{field}: \"{text}\" is not a number (digits with one decimal point or comma: 94.94 or 94,94)"
+            ),
             Error::Encode(e) => write!(f, "encode: {e}"),
             Error::Decode(e) => write!(f, "a frame that does not decode: {e}"),
         }

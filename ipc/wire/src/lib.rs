@@ -11,7 +11,8 @@
 //! - [`codec`]: every code's words from its number alone (alarms with their reaction,
 //!   remedy and how to continue, commands, events, bus events), so a code reads the same
 //!   in every frontend; [`bus`]: the CAN bus's words (EMCY codes, NMT and CiA 402 states);
-//! - [`request`]: the operator's words to a request, for the CLI and the HMI;
+//! - [`request`]: the operator's words to a request, for the CLI and the HMI; [`number`]:
+//!   a number as an operator types it (a decimal point or comma);
 //! - [`frame`]: the gateway's frames (length-prefixed postcard).
 //!
 //! The numbers are the wire format: never renumber one, only add new ones
@@ -21,6 +22,7 @@ pub mod bus;
 pub mod codec;
 mod error;
 pub mod frame;
+pub mod number;
 pub mod request;
 mod types;
 pub mod vocab;

@@ -127,10 +127,13 @@ test("touch-off X: the offsets on the panel; a typo is refused with the offset i
   const shown = async () => Number(await page.locator('[data-testid="touch-offset-x"]').innerText());
   // The offsets are on the touch-off panel itself, as the loop has them.
   await waitFor("the panel's X offset", async () => Math.abs((await shown()) - before.x_offset_mm) < 1e-4, 5000);
+  // A thousands separator is not a number: refused in words naming the field, nothing sent.
+  await touch("1.094,940");
+  await page.locator('[data-testid="touch-answer"].bad').waitFor({ timeout: 10000 });
+  assert.match(await page.locator('[data-testid="touch-answer"]').innerText(), /REFUSED: X: gauge diameter: "1\.094,940" is not a number/);
   // Absurd: refused with the loop's reason, even before any question.
   await touch(100000);
-  await page.locator('[data-testid="touch-answer"].bad').waitFor({ timeout: 10000 });
-  assert.match(await page.locator('[data-testid="touch-answer"]').innerText(), /REFUSED: touch-off refused: the value is not a finite number in range/);
+  await waitFor("the loop's refusal on the panel", async () => /REFUSED: touch-off refused: the value is not a finite number in range/.test(await page.locator('[data-testid="touch-answer"].bad').innerText()), 10000);
   assert.equal(status().x_offset_mm, before.x_offset_mm, "a refused touch-off changed the offset");
 
   // The hob's tip onto the blank, 0.1 mm beyond its outside diameter (set-up of the test:
@@ -140,8 +143,9 @@ test("touch-off X: the offsets on the panel; a typo is refused with the offset i
   const onBlank = (blank + tip) / 2 + 0.1;
   hob("jog", "x", (onBlank - before.x_mm).toFixed(4));
   await waitFor("X on the blank", () => { const s = status(); return s.state === "idle" && Math.abs(s.x_mm - onBlank) < 0.01; }, 30000, 200);
-  // The blank's own diameter: plausible, applied unasked; the answer names the change.
-  await touch(blank);
+  // The blank's own diameter, typed with a decimal comma as a German shop types it:
+  // plausible, applied unasked; the answer names the change.
+  await touch(blank.toFixed(3).replace(".", ","));
   await waitFor("the offset near -0.1 mm", () => Math.abs(status().x_offset_mm - (before.x_offset_mm - 0.1)) < 0.01, 5000);
   const first = status().x_offset_mm;
   await waitFor("the accepted answer on the panel", async () => /touch-off X: accepted; X offset .* -> .* \(change -0\.\d{4} mm\)/.test(await page.locator('[data-testid="touch-answer"].ok').innerText()), 5000);

@@ -73,11 +73,27 @@ test("a new program through the sub-menus, a single pass, the span, the automati
   await page.locator('[data-testid="start-single"]').tap();
   await waitFor("the single pass cutting", () => status().state === "cut", 120000, 200);
   await waitFor("the single pass done", () => status().state === "idle", 300000, 500);
-  // The operator measures the span over k teeth and enters it.
-  await page.locator('[data-key="span.k"]').fill("2");
-  await page.locator('[data-key="span.measured_mm"]').fill("24.10");
-  await page.locator('[data-testid="span-compute"]').tap();
+  // The operator measures the span over k teeth and enters it, with decimal commas, against
+  // the drawing's span and its allowances (below the nominal, for backlash): a gear inside
+  // them is good and nothing is carried (the defect: it was called too deep).
+  const span = async (fields) => {
+    for (const [key, text] of Object.entries(fields)) await page.locator(`[data-key="span.${key}"]`).fill(text);
+    await page.locator('[data-testid="span-compute"]').tap();
+  };
+  await span({ k: "2", measured_mm: "23,255", drawing_mm: "23,3315", upper_mm: "-0,050", lower_mm: "-0,090" });
+  await page.locator('[data-testid="span-verdict"]').waitFor({ timeout: 10000 });
+  assert.match(await page.locator('[data-testid="span-verdict"]').innerText(), /^GOOD/);
+  assert.ok(await page.locator('[data-testid="span-carry"]').isDisabled(), "nothing to carry from a good gear");
+  await shot(page, "single-span-good");
+  // A typo with two separators is refused on its field, in words.
+  await span({ measured_mm: "24,1.0" });
+  await page.locator('[data-testid="span-refused"]').waitFor({ timeout: 10000 });
+  assert.match(await page.locator('[data-testid="span-refused"]').innerText(), /measured span W: "24,1\.0" is not a number/);
+  assert.doesNotMatch(await page.locator('[data-testid="span-refused"]').innerText(), /span\.measured_mm/);
+  // Over the nominal span: the depth still to cut, carried into the program.
+  await span({ measured_mm: "24,10", drawing_mm: "", upper_mm: "", lower_mm: "" });
   await page.locator('[data-testid="span-result"]').waitFor({ timeout: 10000 });
+  assert.match(await page.locator('[data-testid="span-verdict"]').innerText(), /^OVER/);
   const inputs = await page.locator('[data-testid="span-result"]').innerText();
   assert.match(inputs, /teeth|z/i);
   await shot(page, "single-span");

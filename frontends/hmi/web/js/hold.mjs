@@ -44,7 +44,7 @@ export function HoldKey({ conn, axis, dir, speed, label, disabled }) {
         if (active && active.id === id) stop(conn);
         conn.toast(a, `JOG ${axis.toUpperCase()}${dir}`);
       });
-      conn.send({ t: "jog_hold", id, axis, dir, speed: Number(speed) });
+      conn.send({ t: "jog_hold", id, axis, dir, speed: String(speed) });
       el.classList.add("held");
       active = { el, id, timer: setInterval(() => conn.send({ t: "jog_renew" }), RENEW_MS) };
     };

@@ -97,10 +97,10 @@ export function Jog({ conn, program }) {
     <${TouchOff} conn=${conn} />
     <div class="card"><h2>Hob spindle C</h2>
       <p class="hint">HOLD C turns the hob while your finger is on it (dead-man, as the jog keys). SPINDLE ON latches it until SPINDLE OFF or STOP.</p>
-      <div class="row"><input type="number" inputmode="decimal" value=${rpm} data-testid="spindle-rpm" onInput=${(e) => setRpm(e.target.value)} /> rpm
+      <div class="row"><input inputmode="decimal" value=${rpm} data-testid="spindle-rpm" onInput=${(e) => setRpm(e.target.value)} /> rpm
         <${HoldKey} conn=${conn} axis="c" dir="+" speed=${rpm} label="HOLD C" />
         <b data-testid="spindle-actual">${s ? `${fmt(s.spindle_rpm, 1)} rpm` : "-"}</b></div>
-      <div class="row"><${CmdButton} conn=${conn} op="spindle" fields=${{ rpm: Number(rpm) }} label="SPINDLE ON" />
+      <div class="row"><${CmdButton} conn=${conn} op="spindle" fields=${{ rpm: String(rpm) }} label="SPINDLE ON" />
         <${CmdButton} conn=${conn} op="spindle" fields=${{ rpm: 0 }} label="SPINDLE OFF" /></div></div>
     <div class="card"><h2>Align to cut gaps</h2>
       ${s && !s.referenced.table ? html`<p class="warn" data-testid="table-lost">The table lost its position: CONTINUE would cut new gaps into this part. Align to its gaps (or NEW BLANK for a new part).</p>` : ""}
@@ -122,7 +122,8 @@ export function Jog({ conn, program }) {
 // loop's answer stays beside the buttons (it names the old and the new offset and the
 // change; no toast that vanishes). A touch-off the loop asks about (it does not fit the loaded blank, the previous
 // offset or where the hob stands) opens a dialog with the loop's words: CONFIRM sends the
-// same command confirmed, CANCEL leaves everything as it is. The page judges nothing.
+// same command confirmed, CANCEL leaves everything as it is. The page judges nothing: the
+// gauge goes as typed (a decimal comma or point), the server reads it as the CLI does.
 function TouchOff({ conn }) {
   const s = conn.frame && conn.frame.state;
   const [dia, setDia] = useState("");
@@ -131,8 +132,8 @@ function TouchOff({ conn }) {
   const answered = (axis, value) => (answer) => setLast({ axis, value, answer });
   const ask = last && !last.cancelled && !last.answer.ok && last.answer.refusal === "offset-needs-confirmation" ? last : null;
   const offset = (axis) => s && (axis === "x" ? s.x_offset_mm : s.y_offset_mm);
-  const gauge = (axis, label, value, set) => html`<div class="row">${label} <input type="number" inputmode="decimal" value=${value} data-testid=${`touch-${axis}-value`} onInput=${(e) => set(e.target.value)} /> mm
-    <${CmdButton} conn=${conn} op="touch_off" fields=${{ axis, value: Number(value) }} label=${`TOUCH OFF ${axis.toUpperCase()}`} testid=${`touch-${axis}`} disabled=${value === ""} onAnswer=${answered(axis, Number(value))} quiet /></div>`;
+  const gauge = (axis, label, value, set) => html`<div class="row">${label} <input inputmode="decimal" value=${value} data-testid=${`touch-${axis}-value`} onInput=${(e) => set(e.target.value)} /> mm
+    <${CmdButton} conn=${conn} op="touch_off" fields=${{ axis, value }} label=${`TOUCH OFF ${axis.toUpperCase()}`} testid=${`touch-${axis}`} disabled=${value === ""} onAnswer=${answered(axis, value)} quiet /></div>`;
   return html`<div class="card"><h2>Touch-off</h2>
     <div class="offsets" data-testid="touch-offsets"><span class="label">work offsets now</span>
       <span class="off">X <b data-testid="touch-offset-x">${fmt(offset("x"), 4)}</b> mm</span> <span class="off">Y <b data-testid="touch-offset-y">${fmt(offset("y"), 4)}</b> mm</span></div>
@@ -152,13 +153,27 @@ function TouchOff({ conn }) {
   </div>`;
 }
 
+// The span form's fields: the key the server names a problem by, and the operator's words.
+const SPAN_FIELDS = [
+  ["k", "span.k", "teeth spanned k", ""],
+  ["measured_mm", "span.measured_mm", "measured span W", "mm"],
+  ["drawing_mm", "span.drawing_mm", "drawing's span (empty: nominal)", "mm"],
+  ["upper_mm", "span.upper_mm", "upper allowance (e.g. -0,050)", "mm"],
+  ["lower_mm", "span.lower_mm", "lower allowance (e.g. -0,090)", "mm"],
+  ["profile_shift", "span.profile_shift", "profile shift x (empty: 0)", ""],
+];
+const SPAN_LABEL = Object.fromEntries([...SPAN_FIELDS.map(([, key, label]) => [key, label]), ["span.after", "measured after"]]);
+const VERDICT = { good: "GOOD: within the drawing's allowances", over: "OVER: depth still to cut" };
+
 export function Single({ conn, program }) {
   const s = conn.frame && conn.frame.state;
-  const [k, setK] = useState("");
-  const [w, setW] = useState("");
+  // Each field as typed (a decimal comma or point): the server reads and checks them.
+  const [v, setV] = useState({ after: "single" });
   const [res, setRes] = useState(null);
-  const compute = async () => setRes(await api("POST", "/api/span", { program, k: Number(k), measured_mm: Number(w) }));
-  const carry = async () => setRes({ ...res, carried: await api("POST", `/api/span/carry`, { program, k: Number(k), measured_mm: Number(w) }) });
+  const body = () => ({ program, ...Object.fromEntries(SPAN_FIELDS.map(([name]) => [name, v[name] || ""])), after: v.after });
+  const compute = async () => setRes(await api("POST", "/api/span", body()));
+  const carry = async () => setRes({ ...res, carried: await api("POST", `/api/span/carry`, body()) });
+  const problemOf = (key) => res && !res.ok && (res.problems || []).find((p) => p.key === key);
   return html`<section class="grid2">
     <div class="card"><h2>Single pass${program ? `: ${program}` : ""}</h2>
       <p class="hint">One pass at the program's single depth, then measure the span and carry the depth left into the automatic program.</p>
@@ -168,13 +183,17 @@ export function Single({ conn, program }) {
         <${CmdButton} conn=${conn} op="stop" label="STOP" cls="stop" /></div>
       <div class="pos"><span class="label">state</span><b>${s ? s.state : "-"}</b></div></div>
     <div class="card"><h2>Span measurement</h2>
-      <div class="row">teeth spanned k <input type="number" data-key="span.k" value=${k} onInput=${(e) => setK(e.target.value)} /></div>
-      <div class="row">measured span W <input type="number" inputmode="decimal" data-key="span.measured_mm" value=${w} onInput=${(e) => setW(e.target.value)} /> mm</div>
+      <div class="row">measured after
+        ${["single", "whole"].map((a) => html`<button class=${`key small ${v.after === a ? "on" : ""}`} data-testid=${`span-after-${a}`} onClick=${() => setV({ ...v, after: a })}>${a === "single" ? "THE SINGLE PASS" : "THE WHOLE CUT"}</button>`)}</div>
+      ${SPAN_FIELDS.map(([name, key, label, unit]) => html`<div class=${`field ${problemOf(key) ? "problem" : ""}`}><span>${label}</span>
+        <input inputmode="decimal" data-key=${key} value=${v[name] || ""} onInput=${(e) => setV({ ...v, [name]: e.target.value })} /><span>${unit}</span>
+        ${problemOf(key) ? html`<em class="why">${problemOf(key).message}</em>` : ""}</div>`)}
       <div class="row"><button class="key" onClick=${compute} disabled=${!program} data-testid="span-compute">COMPUTE</button>
-        <button class="key primary" onClick=${carry} disabled=${!res || !res.ok} data-testid="span-carry">CARRY INTO PROGRAM</button></div>
-      ${res && !res.ok ? html`<p class="bad" data-testid="span-refused">${res.refused} ${(res.problems || []).map((p) => html`<br />${p.key}: ${p.message}`)}</p>` : ""}
-      ${res && res.ok ? html`<table class="kv" data-testid="span-result">${Object.entries(res.inputs || {}).map(([k2, v]) => html`<tr><td>${k2.replaceAll("_", " ").replace(/ mm$/, " (mm)").replace(/ deg$/, " (deg)")}</td><td>${typeof v === "number" && !Number.isInteger(v) ? fmt(v, 4) : v}</td></tr>`)}</table>
-        <p class="hint">depth to cut = (measured span − drawing's span) / (2 sin α<sub>n</sub>); new total depth = single pass depth + depth to cut</p>` : ""}
+        <button class="key primary" onClick=${carry} disabled=${!res || !res.ok || !(res.inputs && res.inputs.depth_to_cut_mm > 0)} data-testid="span-carry">CARRY INTO PROGRAM</button></div>
+      ${res && !res.ok ? html`<p class="bad" data-testid="span-refused">${res.refused} ${(res.problems || []).map((p) => html`<br />${SPAN_LABEL[p.key] || p.key}: ${p.message}`)}</p>` : ""}
+      ${res && res.ok ? html`<p class=${res.inputs.verdict === "good" ? "ok" : "warn"} data-testid="span-verdict"><b>${VERDICT[res.inputs.verdict]}</b>: W ${fmt(res.inputs.measured_span_mm, 4)} mm, allowed ${fmt(res.inputs.span_min_mm, 4)} .. ${fmt(res.inputs.span_max_mm, 4)} mm${res.inputs.depth_to_cut_mm > 0 ? `, ${fmt(res.inputs.depth_to_cut_mm, 3)} mm to cut to the middle` : ""}</p>
+        <table class="kv" data-testid="span-result">${Object.entries(res.inputs || {}).filter(([k2]) => k2 !== "verdict").map(([k2, val]) => html`<tr><td>${k2.replaceAll("_", " ").replace(/ mm$/, " (mm)").replace(/ deg$/, " (deg)")}</td><td>${typeof val === "number" && !Number.isInteger(val) ? fmt(val, 4) : val}</td></tr>`)}</table>
+        <p class="hint">depth to cut = (measured span − middle of the drawing's band) / (2 sin α<sub>n</sub>), none inside the band's lower half; new total depth = the depth cut + depth to cut</p>` : ""}
       ${res && res.carried ? html`<p class=${res.carried.ok ? "ok" : "bad"}>${res.carried.ok ? `saved: total depth ${fmt(res.carried.total_depth_mm, 3)} mm` : res.carried.refused}</p>` : ""}
     </div></section>`;
 }
