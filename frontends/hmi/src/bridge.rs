@@ -17,7 +17,8 @@ use tokio::sync::watch;
 pub const EVENT_RING: usize = 4096;
 /// How often the bridge drains the loop's streams.
 pub const DRAIN_EVERY: Duration = Duration::from_millis(5);
-/// How often a frame goes to the browsers (25 Hz).
+/// How often a frame goes to the browsers (25 Hz); a change of what the status line shows
+/// (the state, the alarm, feed hold) goes at once, at the next drain, between them.
 pub const FRAME_EVERY: Duration = Duration::from_millis(40);
 
 /// The events and what dates them.
@@ -73,6 +74,13 @@ pub struct Bridge {
     events: Arc<Mutex<EventBook>>,
     stats: watch::Sender<Option<Arc<StatsView>>>,
     recorder: Option<RecorderSample>,
+    /// A sample since the last frame changed what the status line shows.
+    changed: bool,
+}
+
+/// What the status line shows of a sample: a change of it is sent at once.
+fn headline(s: &StateSample) -> (u32, u32, u8, u8) {
+    (s.state, s.alarm.code, s.hold, s.program_loaded)
 }
 
 impl Bridge {
@@ -117,6 +125,7 @@ impl Bridge {
             events,
             stats,
             recorder: None,
+            changed: false,
         };
         (bridge, hub)
     }
@@ -136,7 +145,17 @@ impl Bridge {
             gap,
             s.state == hob_ipc::codec::State::Cut.code(),
         );
+        self.changed |= self
+            .newest
+            .as_ref()
+            .is_none_or(|(prev, _)| headline(prev) != headline(&s));
         self.newest = Some((s, now));
+    }
+
+    /// Whether a sample since the last frame changed the state, the alarm, feed hold or the
+    /// loaded program: its frame goes at once instead of at the next 25 Hz tick.
+    pub fn changed(&self) -> bool {
+        self.changed
     }
 
     pub fn event(&mut self, e: EventSample) {
@@ -167,6 +186,7 @@ impl Bridge {
 
     pub fn frame(&mut self, now: Instant, mono_ns: u64, utc_ms: u64) -> Arc<Frame> {
         self.frame_seq += 1;
+        self.changed = false;
         let silent_for = self
             .newest
             .as_ref()
@@ -217,7 +237,8 @@ pub fn utc_ms() -> u64 {
 
 /// The bridge thread: subscribes as `hob-hmi-PID` (or follows through `hob-gateway` when
 /// `HOB_GATEWAY` names it), drains every [`DRAIN_EVERY`], publishes
-/// a frame every [`FRAME_EVERY`], until `stop`.
+/// a frame every [`FRAME_EVERY`] and one at once when the status line's values changed
+/// ([`Bridge::changed`]), until `stop`.
 pub fn run(mut bridge: Bridge, stop: &AtomicBool) {
     // The bus or the gateway may not be there yet (the HMI started first, the gateway
     // restarting): the frames say the loop is silent meanwhile, and this tries again.
@@ -261,6 +282,9 @@ pub fn run(mut bridge: Bridge, stop: &AtomicBool) {
             if next_frame < now {
                 next_frame = now + FRAME_EVERY;
             }
+        } else if bridge.changed() {
+            // Between the ticks, which keep their pace.
+            bridge.frame(now, hob_rt_os::now_ns(), utc_ms());
         }
         std::thread::sleep(DRAIN_EVERY);
     }
@@ -312,6 +336,37 @@ mod tests {
         assert!(f.plot.is_none());
         assert_eq!(f.silent_ms, Some(150));
         assert!(f.state.is_some(), "the old values stay, marked silent");
+    }
+
+    /// A change of the state (or the alarm, feed hold, the loaded program) asks for a frame
+    /// at once; a sample that only moves the axes waits for the 25 Hz tick.
+    #[test]
+    fn a_change_of_the_status_line_asks_for_a_frame_at_once() {
+        let (mut b, _hub) = Bridge::new(io(), Duration::from_millis(100));
+        let t0 = Instant::now();
+        b.state(sample(1, 0.0), t0);
+        assert!(b.changed(), "the first sample");
+        b.frame(t0, 0, 0);
+        assert!(!b.changed());
+        b.state(sample(2, 3.0), t0);
+        assert!(!b.changed(), "the sync error alone is not the status line");
+        for (i, edit) in [
+            (|s: &mut StateSample| s.state = hob_ipc::codec::State::Cut.code()) as fn(&mut StateSample),
+            |s| s.alarm.code = 3,
+            |s| s.hold = 1,
+            |s| s.program_loaded = 1,
+        ]
+        .into_iter()
+        .enumerate()
+        {
+            let mut s = sample(3 + i as u64, 0.0);
+            edit(&mut s);
+            b.state(s, t0);
+            assert!(b.changed(), "change {i}");
+            b.frame(t0, 0, 0);
+            b.state(sample(10 + i as u64, 0.0), t0);
+            b.frame(t0, 0, 0);
+        }
     }
 
     #[test]

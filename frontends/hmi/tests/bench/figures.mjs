@@ -1,5 +1,7 @@
 // The HMI's figures (a benchmark, not a test): the state-to-screen latency (from a sample's
-// SYNC to the browser's next paint after its frame arrived), the command round trip (page
+// SYNC to the paint after its frame arrived, for every frame, and for each change of the
+// state to the first paint whose status line shows it: the table is jogged back and forth
+// every 1.5 s, idle -> jog -> idle), the command round trip (page
 // to loop and back, an accepted override), and the browser's JS heap over a run with the
 // live plot drawing. Run by bench/system-tests/tests/hmi.rs's `hmi_figures` (ignored,
 // not part of ci/test) against the same processes as the browser tests; writes JSON.
@@ -25,8 +27,16 @@ try {
   await page.evaluate(() => { window.hobConn.latency = []; });
   const heap = [], live = [];
   const t0 = Date.now();
+  let sign = 1, jogs = 0;
   while (Date.now() - t0 < seconds * 1000) {
-    await new Promise((r) => setTimeout(r, 5000));
+    for (let i = 0; i < 3; i++) {
+      // State changes to measure: the table (it needs no reference) 2 deg each way.
+      const r = await page.evaluate((d) => window.hobConn.cmd("jog", { axis: "b", distance: d }), 2 * sign);
+      if (r.ok) jogs++;
+      sign = -sign;
+      await new Promise((res) => setTimeout(res, 1500));
+    }
+    await new Promise((r) => setTimeout(r, 500));
     const [used, after] = await page.evaluate(() => {
       if (!performance.memory) return [null, null];
       const used = performance.memory.usedJSHeapSize;
@@ -37,6 +47,9 @@ try {
     live.push(after);
   }
   const latency = await page.evaluate(() => window.hobConn.latency);
+  const stateChange = await page.evaluate(() => window.hobConn.stateChange);
+  const notShown = await page.evaluate(() => window.hobConn.notShown || 0);
+  const arrival = await page.evaluate(() => window.hobConn.stateArrival);
   const rtt = await page.evaluate(async () => {
     const t = [];
     for (let i = 0; i < 200; i++) {
@@ -54,6 +67,8 @@ try {
   const figures = {
     seconds,
     state_to_screen_ms: summary(latency),
+    state_change_to_paint_ms: { ...summary(stateChange), jogs, changes_not_shown_at_their_paint: notShown },
+    state_change_arrival_ms: summary(arrival),
     command_round_trip_ms: summary(rtt),
     js_heap_mb: { first: mb[0] ?? null, last: mb[mb.length - 1] ?? null, max: mb.length ? Math.max(...mb) : null, samples: mb.length },
     js_live_heap_after_gc_mb: { first: liveMb[0] ?? null, last: liveMb[liveMb.length - 1] ?? null, max: liveMb.length ? Math.max(...liveMb) : null, per_minute: perMinute },

@@ -20,6 +20,10 @@ export class Conn {
     this.stats = null;
     this.lastFrameAt = 0;
     this.plot = [];
+    this.measure = [];
+    this.stateChange = [];
+    this.stateArrival = [];
+    this.paintQueued = false;
     this.connected = false;
     this.ws = null;
     this.open();
@@ -49,11 +53,12 @@ export class Conn {
         this.hello = m;
         break;
       case "frame":
-        this.frame = m;
-        this.lastFrameAt = performance.now();
-        if (this.latency && m.sample_utc_ms) {
-          // State to screen: from the sample's SYNC to the next paint after it arrived.
-          requestAnimationFrame(() => this.latency.push(performance.timeOrigin + performance.now() - m.sample_utc_ms));
+        {
+          const before = this.frame && this.frame.state;
+          this.frame = m;
+          this.lastFrameAt = performance.now();
+          // The page paints what a frame brings at the browser's next frame, not on a timer.
+          this.paintSoon(m, before && m.state && before.state !== m.state.state ? m.state.state : null);
         }
         if (m.plot) {
           this.plot.push({ c0: m.plot.c0, min: m.plot.min, max: m.plot.max, gap: m.skipped > 0 || m.plot.gap > 0, cut: m.plot.cut });
@@ -87,6 +92,40 @@ export class Conn {
       }
     }
     if (m.t !== "frame") this.notify();
+  }
+
+  /**
+   * Renders at the browser's next frame (one render for frames arriving together). With
+   * `latency` set (the HMI's benchmark), measures from the sample's SYNC to the paint: for
+   * every frame to the paint after it arrived (`latency`), and for a frame that changed
+   * the state to the first paint whose status line shows the new state (`stateChange`): a
+   * task queued in the frame's animation callback runs after that frame's paint.
+   */
+  paintSoon(m, newState) {
+    if (this.latency && m.sample_utc_ms) {
+      this.measure.push({ sent: m.sample_utc_ms, newState });
+      // Its arrival: what the servers took, apart from what the browser takes to paint.
+      if (newState !== null) this.stateArrival.push(performance.timeOrigin + performance.now() - m.sample_utc_ms);
+    }
+    if (this.paintQueued) return;
+    this.paintQueued = true;
+    requestAnimationFrame(() => {
+      this.paintQueued = false;
+      this.notify();
+      const measured = this.measure;
+      this.measure = [];
+      if (!measured.length) return;
+      setTimeout(() => {
+        const now = performance.timeOrigin + performance.now();
+        const shown = document.querySelector('[data-testid="state"]');
+        for (const x of measured) {
+          this.latency.push(now - x.sent);
+          if (x.newState === null) continue;
+          if (shown && shown.textContent === x.newState) this.stateChange.push(now - x.sent);
+          else this.notShown = (this.notShown || 0) + 1;
+        }
+      }, 0);
+    });
   }
 
   send(obj) {

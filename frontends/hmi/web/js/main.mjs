@@ -68,11 +68,9 @@ function App() {
   const asked = location.hash.slice(1);
   const [screen, setScreen] = useState(SCREENS.some(([k]) => k === asked) ? asked : first);
   const [program, setProgram] = useState(null); // the library program being defined/loaded
+  // Renders when the connection says so: each frame at the browser's next paint, each
+  // answer and event at once, and every 200 ms for the ages and the stale mark.
   useEffect(() => conn.subscribe(() => setTick((t) => t + 1)), []);
-  useEffect(() => {
-    const raf = setInterval(() => setTick((t) => t + 1), 40);
-    return () => clearInterval(raf);
-  }, []);
   // An answer belongs to the screen its command was given on: another screen starts clean.
   const go = (s) => { if (s !== screen) { conn.toasts = []; } setScreen(s); location.hash = s; };
   const props = { conn, program, setProgram, go };
