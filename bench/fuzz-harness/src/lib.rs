@@ -353,18 +353,19 @@ pub fn log(data: &[u8]) {
     }
     for line in String::from_utf8_lossy(data).lines() {
         if let Some(e) = parse_event_line(line) {
+            let args = e.args.map_or(String::new(), |(a, b)| format!("#{a}/{b}"));
             let kind = match e.alarm {
                 Some(a) => format!(
-                    "{}@{}/{}/{}/{}/{}",
+                    "{}{args}@{}/{}/{}/{}/{}",
                     e.kind, a.code, a.axis, a.end, a.value_a, a.value_b
                 ),
-                None => e.kind.to_string(),
+                None => format!("{}{args}", e.kind),
             };
             let again =
                 parse_event_line(&format!("{} {} {kind} {}", e.seq, e.cycle, e.text)).expect("written back");
             assert_eq!(
-                (again.seq, again.cycle, again.kind, again.alarm),
-                (e.seq, e.cycle, e.kind, e.alarm)
+                (again.seq, again.cycle, again.kind, again.alarm, again.args),
+                (e.seq, e.cycle, e.kind, e.alarm, e.args)
             );
         }
     }

@@ -101,6 +101,9 @@ fn the_hmi_reaches_the_loop_through_the_gateway_as_a_user_of_the_operators_group
         "the HMI's group commands"
     );
     assert_eq!(value("--viewers"), Some("hob-view"));
+    // The user levels' groups: setters change tools and corrections, builders everything.
+    assert_eq!(value("--setters"), Some("hob-set"));
+    assert_eq!(value("--builders"), Some("hob-build"));
     assert!(socket.starts_with("/run/hob/"), "{socket}");
     assert_eq!(gateway.get("RuntimeDirectory").map(String::as_str), Some("hob"));
     assert_eq!(

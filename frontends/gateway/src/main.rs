@@ -1,17 +1,20 @@
 //! `hob-gateway`: the frontends of other users reach the loop through it (`hob_ipc::gateway`).
 //!
 //! ```sh
-//! hob-gateway --socket /run/hob/gateway.sock --operators hob-ops --viewers hob-view
+//! hob-gateway --socket /run/hob/gateway.sock --operators hob-ops --setters hob-set \
+//!     --builders hob-build --viewers hob-view
 //! ```
 //!
 //! It runs as the bus's user, beside `hob-rt`. Each connection is asked the kernel who is on
-//! the other end (`SO_PEERCRED`): members of the operators' group may watch and command, of
-//! the viewers' group watch; anyone else is refused with a line saying why. Every command is
+//! the other end (`SO_PEERCRED`), and its groups give its user level (`Role`: viewer,
+//! operator, setter, builder; root and the bus's user are builders): a viewer watches, the
+//! others watch and command (what each level may change in the library is the HMI's to hold
+//! to, `Role::allows`); anyone in none is refused with a line saying why. Every command is
 //! forwarded to the loop, which checks and answers it as it does the CLI's; each is written
 //! to standard output with who sent it and the loop's answer (the journal keeps it). A slow
 //! watcher loses samples (it sees the gap in the cycle numbers), never slows anybody.
 
-use hob_ipc::gateway::{self as gw, FromGateway, Role, ToGateway};
+use hob_ipc::gateway::{self as gw, Action, FromGateway, Role, ToGateway};
 use hob_ipc::{CommandRequest, CommandResponse, EventSample};
 use nix::sys::socket::{getsockopt, sockopt::PeerCredentials};
 use nix::unistd::{Gid, Group, Uid, User};
@@ -43,13 +46,15 @@ const WRITE_TIMEOUT: Duration = Duration::from_secs(5);
 /// another user (the HMI's own user keeps its connections whatever an operator's shell does).
 const MAX_CONNECTIONS_PER_USER: usize = 16;
 
-const USAGE: &str = "usage: hob-gateway --socket PATH --operators GROUP [--viewers GROUP]";
+const USAGE: &str = "usage: hob-gateway --socket PATH --operators GROUP [--viewers GROUP] [--setters GROUP] [--builders GROUP]";
 
 #[derive(Debug)]
 struct Args {
     socket: PathBuf,
     operators: Group,
     viewers: Option<Group>,
+    setters: Option<Group>,
+    builders: Option<Group>,
 }
 
 /// Why the gateway cannot start, or a peer cannot be served: the facts, worded as the
@@ -61,8 +66,8 @@ enum Error {
     NeedsValue(&'static str),
     UnknownArgument(String),
     Required(&'static str),
-    /// The viewers' group is the operators' (its name).
-    SameGroup(String),
+    /// Two levels' options name one group (the options, the group).
+    SameGroup(&'static str, &'static str, String),
     NoSuchGroup {
         option: &'static str,
         value: String,
@@ -90,7 +95,7 @@ impl std::fmt::Display for Error {
             Error::NeedsValue(name) => write!(f, "{name} needs a value\n{USAGE}"),
             Error::UnknownArgument(other) => write!(f, "unknown argument {other}\n{USAGE}"),
             Error::Required(option) => write!(f, "{option} is required\n{USAGE}"),
-            Error::SameGroup(name) => write!(f, "--viewers {name}: the same group as --operators {name}"),
+            Error::SameGroup(a, b, name) => write!(f, "{b} {name}: the same group as {a} {name}"),
             Error::NoSuchGroup { option, value } => write!(f, "{option} {value}: no such group on this PC"),
             Error::Group { option, value, error } => write!(f, "{option} {value}: {error}"),
             Error::Socket { path, error } => write!(f, "--socket {}: {error}", path.display()),
@@ -125,25 +130,42 @@ fn group(option: &'static str, v: &str) -> Result<Group, Error> {
 }
 
 fn parse(mut it: impl Iterator<Item = String>) -> Result<Args, Error> {
-    let (mut socket, mut operators, mut viewers) = (None, None, None);
+    let (mut socket, mut operators, mut viewers, mut setters, mut builders) = (None, None, None, None, None);
     while let Some(a) = it.next() {
         let mut value = |name: &'static str| it.next().ok_or(Error::NeedsValue(name));
         match a.as_str() {
             "--socket" => socket = Some(PathBuf::from(value("--socket")?)),
             "--operators" => operators = Some(group("--operators", &value("--operators")?)?),
             "--viewers" => viewers = Some(group("--viewers", &value("--viewers")?)?),
+            "--setters" => setters = Some(group("--setters", &value("--setters")?)?),
+            "--builders" => builders = Some(group("--builders", &value("--builders")?)?),
             "-h" | "--help" => return Err(Error::Usage),
             other => return Err(Error::UnknownArgument(other.to_string())),
         }
     }
-    let operators = operators.ok_or(Error::Required("--operators"))?;
-    if viewers.as_ref().is_some_and(|v: &Group| v.gid == operators.gid) {
-        return Err(Error::SameGroup(operators.name));
+    let operators: Group = operators.ok_or(Error::Required("--operators"))?;
+    // Each level its own group: one group for two levels would give its members the higher.
+    let named = [
+        ("--operators", Some(&operators)),
+        ("--viewers", viewers.as_ref()),
+        ("--setters", setters.as_ref()),
+        ("--builders", builders.as_ref()),
+    ];
+    for (i, (a, ga)) in named.iter().enumerate() {
+        for (b, gb) in &named[i + 1..] {
+            if let (Some(ga), Some(gb)) = (ga, gb)
+                && ga.gid == gb.gid
+            {
+                return Err(Error::SameGroup(a, b, ga.name.clone()));
+            }
+        }
     }
     Ok(Args {
         socket: socket.ok_or(Error::Required("--socket"))?,
         operators,
         viewers,
+        setters,
+        builders,
     })
 }
 
@@ -427,11 +449,12 @@ impl Connection<'_> {
         w.queues.push((self.id, self.queue.clone()));
     }
 
-    /// A command: to the loop from an operator, refused to a viewer; journalled either way.
+    /// A command: to the loop from an operator (or a setter, a builder), refused to a
+    /// viewer; journalled either way.
     fn request(&self, req: Box<CommandRequest>) {
         let who = &self.peer.who;
         let what = hob_ipc::codec::command_name(req.command);
-        if self.peer.role != Role::Operate {
+        if !self.peer.role.allows(Action::Command) {
             println!("hob-gateway: {who}: {what} refused: may watch, not command");
             let _ = self.queue.send(Arc::new(FromGateway::Refused(format!(
                 "{} may watch, not command (not in the operators' group)",
@@ -470,7 +493,11 @@ fn serve(
     let Some(peer) = admit(&mut stream, policy, groups_named) else {
         return;
     };
-    println!("hob-gateway: {} connected, may {}", peer.who, peer.role.name());
+    println!(
+        "hob-gateway: {} connected, at the {} level",
+        peer.who,
+        peer.role.level()
+    );
     let (queue, frames) = mpsc::sync_channel::<Arc<FromGateway>>(WATCH_QUEUE);
     let _ = queue.send(Arc::new(FromGateway::Welcome {
         user: peer.user.clone(),
@@ -528,6 +555,29 @@ fn bind(path: &Path) -> Result<UnixListener, Error> {
     Ok(l)
 }
 
+/// The levels' groups as the gateway decides by them, and in words for its first line.
+fn policy_of(args: &Args) -> (Policy, String) {
+    let gid = |g: &Option<Group>| g.as_ref().map(|g| g.gid.as_raw());
+    let policy = Policy {
+        own_uid: Uid::effective().as_raw(),
+        operators_gid: args.operators.gid.as_raw(),
+        viewers_gid: gid(&args.viewers),
+        setters_gid: gid(&args.setters),
+        builders_gid: gid(&args.builders),
+    };
+    let named = [
+        (Some(&args.operators), Role::Operate),
+        (args.viewers.as_ref(), Role::Watch),
+        (args.setters.as_ref(), Role::Set),
+        (args.builders.as_ref(), Role::Build),
+    ]
+    .iter()
+    .filter_map(|(g, r)| g.map(|g| format!("{} ({})", g.name, r.level())))
+    .collect::<Vec<_>>()
+    .join(", ");
+    (policy, named)
+}
+
 fn main() {
     let args = match parse(std::env::args().skip(1)) {
         Ok(a) => a,
@@ -543,15 +593,7 @@ fn main() {
             std::process::exit(2);
         }
     };
-    let policy = Policy {
-        own_uid: Uid::effective().as_raw(),
-        operators_gid: args.operators.gid.as_raw(),
-        viewers_gid: args.viewers.as_ref().map(|g| g.gid.as_raw()),
-    };
-    let groups_named = match &args.viewers {
-        Some(v) => format!("{} (operate) and {} (watch)", args.operators.name, v.name),
-        None => format!("{} (operate)", args.operators.name),
-    };
+    let (policy, groups_named) = policy_of(&args);
     println!(
         "hob-gateway: instance {}, socket {}, groups {groups_named}",
         hob_ipc::instance(),
@@ -645,22 +687,30 @@ impl Drop for Slot {
     }
 }
 
-/// Who may do what, from the peer's user and groups (the gateway's `--operators` and
-/// `--viewers` groups): root and the bus's own user operate; a member of the operators'
-/// group operates, of the viewers' group watches; anyone else is refused.
+/// Who may do what, from the peer's user and groups (the gateway's `--builders`,
+/// `--setters`, `--operators` and `--viewers` groups): root and the bus's own user are
+/// builders; a member of several groups has the highest of their levels; anyone in none is
+/// refused. What each level may is `Role::allows`.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct Policy {
     pub own_uid: u32,
     pub operators_gid: u32,
     pub viewers_gid: Option<u32>,
+    pub setters_gid: Option<u32>,
+    pub builders_gid: Option<u32>,
 }
 
 impl Policy {
     /// `groups`: the peer's primary group and every group it is a member of.
     pub fn role(&self, uid: u32, groups: &[u32]) -> Option<Role> {
-        if uid == 0 || uid == self.own_uid || groups.contains(&self.operators_gid) {
+        let member = |g: Option<u32>| g.is_some_and(|g| groups.contains(&g));
+        if uid == 0 || uid == self.own_uid || member(self.builders_gid) {
+            Some(Role::Build)
+        } else if member(self.setters_gid) {
+            Some(Role::Set)
+        } else if member(Some(self.operators_gid)) {
             Some(Role::Operate)
-        } else if self.viewers_gid.is_some_and(|g| groups.contains(&g)) {
+        } else if member(self.viewers_gid) {
             Some(Role::Watch)
         } else {
             None
@@ -678,13 +728,27 @@ mod tests {
             own_uid: 998,
             operators_gid: 1001,
             viewers_gid: Some(1002),
+            setters_gid: Some(1003),
+            builders_gid: Some(1004),
         };
-        assert_eq!(p.role(0, &[0]), Some(Role::Operate));
-        assert_eq!(p.role(998, &[998]), Some(Role::Operate));
+        assert_eq!(p.role(0, &[0]), Some(Role::Build));
+        assert_eq!(p.role(998, &[998]), Some(Role::Build));
         assert_eq!(p.role(1500, &[1500, 1001]), Some(Role::Operate));
         assert_eq!(p.role(1500, &[1500, 1002]), Some(Role::Watch));
         assert_eq!(p.role(1500, &[1002, 1001]), Some(Role::Operate));
+        assert_eq!(
+            p.role(1500, &[1001, 1003]),
+            Some(Role::Set),
+            "the highest of its groups"
+        );
+        assert_eq!(p.role(1500, &[1004]), Some(Role::Build));
         assert_eq!(p.role(1500, &[1500]), None);
+        let only_operators = Policy {
+            setters_gid: None,
+            builders_gid: None,
+            ..p.clone()
+        };
+        assert_eq!(only_operators.role(1500, &[1003, 1004]), None);
         let no_viewers = Policy {
             viewers_gid: None,
             ..p

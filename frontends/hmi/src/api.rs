@@ -43,6 +43,14 @@ pub fn refusal(r: &Refusal) -> Response {
         .into_response()
 }
 
+/// What changing a library entry of this kind needs.
+fn editing(kind: Kind) -> hob_ipc::gateway::Action {
+    match kind {
+        Kind::Program => hob_ipc::gateway::Action::EditPrograms,
+        Kind::Tool => hob_ipc::gateway::Action::EditTools,
+    }
+}
+
 fn kind_of(what: &str) -> Option<Kind> {
     match what {
         "programs" => Some(Kind::Program),
@@ -111,6 +119,11 @@ pub async fn create(
     Path((what, name)): Path<(String, String)>,
     Json(body): Json<Body>,
 ) -> Response {
+    if let Some(k) = kind_of(&what)
+        && let Err(r) = app.may(editing(k))
+    {
+        return *r;
+    }
     let r = match kind_of(&what) {
         Some(Kind::Program) => app
             .library
@@ -134,6 +147,9 @@ pub async fn delete(State(app): Shared, Path((what, name)): Path<(String, String
     let Some(kind) = kind_of(&what) else {
         return not_found(&what);
     };
+    if let Err(r) = app.may(editing(kind)) {
+        return *r;
+    }
     match app.library.delete(kind, &name) {
         Ok(()) => Json(json!({"ok": true})).into_response(),
         Err(r) => refusal(&r),
@@ -155,6 +171,9 @@ pub async fn copy_or_rename(
     let Some(kind) = kind_of(&what) else {
         return not_found(&what);
     };
+    if let Err(r) = app.may(editing(kind)) {
+        return *r;
+    }
     let r = match action.as_str() {
         "copy" => app.library.copy(kind, &name, &to.to),
         "rename" => app.library.rename(kind, &name, &to.to),

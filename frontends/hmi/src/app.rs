@@ -6,6 +6,7 @@ use crate::bridge::Hub;
 use crate::commander::Commander;
 use crate::error::Error;
 use hob_ipc::CommandRequest;
+use hob_ipc::gateway::{Action, Role};
 use hob_setup::config::machine::MachineConfig;
 use hob_setup::planner::Plan;
 use hob_store::library::{Kind, Library};
@@ -29,8 +30,13 @@ pub struct App {
     pub library: Library,
     /// The logger's directory (cut reports), when given.
     pub log_dir: Option<PathBuf>,
-    /// The `hello` the page gets: the machine's name, limits and signal names.
+    /// The `hello` the page gets: the machine's name, limits and signal names, the panel's
+    /// level and what it may.
     pub hello: serde_json::Value,
+    /// The panel's user level (`hob-hmi --level`, at most its own user's at the gateway):
+    /// what it may change in the library ([`App::may`]); the loop's commands are the
+    /// gateway's to allow.
+    pub level: Role,
     /// The program this HMI loaded last (accepted by the loop): its name, plan and the
     /// [`hob_ipc::program_hash`] of the text sent; used while the loop publishes that hash.
     pub loaded: Mutex<Option<Loaded>>,
@@ -48,9 +54,11 @@ impl App {
         machine: MachineConfig,
         library: Library,
         log_dir: Option<PathBuf>,
+        level: Role,
     ) -> Self {
-        let hello = hello(&machine);
+        let hello = hello(&machine, level);
         Self {
+            level,
             hub,
             commands,
             machine,
@@ -60,6 +68,34 @@ impl App {
             loaded: Mutex::new(None),
             changed: Mutex::new(None),
         }
+    }
+
+    /// Whether the panel's level may `action`: else a refusal in words (HTTP 403) naming
+    /// the level and the one that may.
+    pub fn may(&self, action: Action) -> Result<(), Box<axum::response::Response>> {
+        use axum::response::IntoResponse;
+        if self.level.allows(action) {
+            return Ok(());
+        }
+        let needs = Role::ALL
+            .into_iter()
+            .find(|r| r.allows(action))
+            .unwrap_or(Role::Build);
+        Err(Box::new(
+            (
+                axum::http::StatusCode::FORBIDDEN,
+                axum::Json(serde_json::json!({
+                    "refused": format!(
+                        "this panel is at the {} level, which may not {}: a {}'s work",
+                        self.level.level(),
+                        action.words(),
+                        needs.level()
+                    ),
+                    "problems": [],
+                })),
+            )
+                .into_response(),
+        ))
     }
 
     /// A library program as `hob load --lib NAME` sends it: its text with the library tool
@@ -144,7 +180,14 @@ impl App {
     }
 }
 
-fn hello(m: &MachineConfig) -> serde_json::Value {
+fn hello(m: &MachineConfig, level: Role) -> serde_json::Value {
+    let words = |may: bool| {
+        Action::ALL
+            .iter()
+            .filter(|a| level.allows(**a) == may)
+            .map(|a| a.words())
+            .collect::<Vec<_>>()
+    };
     let names = |l: &[(&'static str, hob_setup::config::machine::DigitalBinding)]| {
         l.iter().map(|(n, _)| *n).collect::<Vec<_>>()
     };
@@ -164,6 +207,12 @@ fn hello(m: &MachineConfig) -> serde_json::Value {
         "signals": {
             "inputs": names(&m.io.inputs.bindings()),
             "outputs": names(&m.io.outputs.bindings()),
+        },
+        "level": {
+            "name": level.level(),
+            "may": words(true),
+            "may_not": words(false),
+            "allows": Action::ALL.iter().map(|a| (a.key().to_string(), serde_json::Value::Bool(level.allows(*a)))).collect::<serde_json::Map<_, _>>(),
         },
     })
 }

@@ -76,6 +76,8 @@ pub struct Bridge {
     recorder: Option<RecorderSample>,
     /// A sample since the last frame changed what the status line shows.
     changed: bool,
+    /// The newest sample of the previous frame (the speeds are over the frame's interval).
+    previous: Option<StateSample>,
 }
 
 /// What the status line shows of a sample: a change of it is sent at once.
@@ -95,6 +97,7 @@ impl Bridge {
             samples_missed: 0,
             loop_restarts: 0,
             state: None,
+            speeds: None,
             plot: None,
             events_head: 0,
             recorder: hob_ipc::codec::recorder_view(None, 0).into(),
@@ -126,6 +129,7 @@ impl Bridge {
             stats,
             recorder: None,
             changed: false,
+            previous: None,
         };
         (bridge, hub)
     }
@@ -208,6 +212,14 @@ impl Bridge {
             .newest
             .as_ref()
             .map(|(s, _)| mono_ns.saturating_sub(s.sync_time_ns) as f64 / 1e6);
+        let newest = self.newest.as_ref().map(|(s, _)| *s);
+        let speeds = match (&self.previous, &newest) {
+            (Some(a), Some(b)) => crate::protocol::Speeds::between(a, b),
+            _ => None,
+        };
+        if newest.is_some() {
+            self.previous = newest;
+        }
         let frame = Arc::new(Frame {
             seq: self.frame_seq,
             loop_age_ms,
@@ -219,6 +231,7 @@ impl Bridge {
                 .newest
                 .as_ref()
                 .map(|(s, _)| StateView::of(s, &self.io, self.period_ns)),
+            speeds,
             plot: self.interval.take(),
             events_head: *self.events_head.borrow(),
             recorder: hob_ipc::codec::recorder_view(self.recorder.as_ref(), mono_ns).into(),
@@ -367,6 +380,29 @@ mod tests {
             b.state(sample(10 + i as u64, 0.0), t0);
             b.frame(t0, 0, 0);
         }
+    }
+
+    /// AUTOMATIC's actual feed and table speed: over the frame's interval, from the samples'
+    /// positions and SYNC times; the table's angle across its turn counts the short way.
+    #[test]
+    fn the_speeds_are_over_the_frames_interval() {
+        let (mut b, _hub) = Bridge::new(io(), Duration::from_millis(100));
+        let t0 = Instant::now();
+        let at = |cycle: u64, y: f64, table: f64| {
+            let mut s = sample(cycle, 0.0);
+            s.y_mm.actual = y;
+            s.table_deg.actual = table;
+            s
+        };
+        b.state(at(1000, 10.0, 359.0), t0);
+        assert!(b.frame(t0, 0, 0).speeds.is_none(), "one frame: no interval yet");
+        b.state(at(1040, 10.1, 359.5), t0);
+        b.state(at(1080, 10.2, 0.2), t0);
+        let v = b.frame(t0, 0, 0).speeds.expect("speeds");
+        // 0.2 mm in 80 ms: 150 mm/min; 1.2 deg in 80 ms: 2.5 rpm.
+        assert!((v.y_feed_mm_min - 150.0).abs() < 1e-9, "{v:?}");
+        assert!((v.table_rpm - 2.5).abs() < 1e-9, "{v:?}");
+        assert_eq!(v.x_feed_mm_min, 0.0);
     }
 
     #[test]

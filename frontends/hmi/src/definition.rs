@@ -10,6 +10,7 @@ use axum::Json;
 use axum::extract::{Path, State};
 use axum::http::StatusCode;
 use axum::response::{IntoResponse, Response};
+use hob_ipc::gateway::Action;
 use hob_setup::config::LoadError;
 use hob_store::library::{Kind, Refusal};
 use serde::Deserialize;
@@ -99,6 +100,9 @@ pub struct Save {
 /// `POST /api/save`: a new program, or a changed one written over the old (checked first;
 /// refused, nothing is written).
 pub async fn save(State(app): Shared, Json(s): Json<Save>) -> Response {
+    if let Err(r) = app.may(Action::EditPrograms) {
+        return *r;
+    }
     let text = match form::to_toml(&s.fields) {
         Ok(t) => t,
         Err(e) => return bad_request(e),
@@ -238,6 +242,9 @@ pub async fn span(State(app): Shared, Json(s): Json<Span>) -> Response {
 /// `POST /api/span/carry`: the new total depth written into the library program (checked
 /// as any change; the file is rewritten from its fields, its comments are not kept).
 pub async fn span_carry(State(app): Shared, Json(s): Json<Span>) -> Response {
+    if let Err(r) = app.may(Action::Compensate) {
+        return *r;
+    }
     let (text, c) = match span_correction(&app, &s) {
         Ok(x) => x,
         Err(r) => return *r,
@@ -278,6 +285,9 @@ pub struct ToolFromForm {
 /// `POST /api/tool-from-form`: the definition's own tool fields stored as a new library
 /// tool (`hob lib tools create`'s checks; refused, nothing written).
 pub async fn tool_from_form(State(app): Shared, Json(t): Json<ToolFromForm>) -> Response {
+    if let Err(r) = app.may(Action::EditTools) {
+        return *r;
+    }
     let tool: Vec<Field> = t
         .fields
         .into_iter()

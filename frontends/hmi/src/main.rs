@@ -3,6 +3,7 @@
 use axum::serve::ListenerExt;
 use clap::Parser;
 use hob_hmi::{app::App, bridge, commander, web};
+use hob_ipc::gateway::Role;
 use hob_store::library::Library;
 use std::net::SocketAddr;
 use std::path::PathBuf;
@@ -44,6 +45,10 @@ struct Args {
     /// After this long without a sample the screen says the loop is silent, ms.
     #[arg(long, default_value_t = 100)]
     silence_ms: u64,
+    /// The panel's user level: viewer, operator, setter or builder (at most what the
+    /// gateway gives this process's user: `hob-gateway --operators/--setters/--builders`).
+    #[arg(long, default_value = "builder")]
+    level: String,
 }
 
 fn vendor_dir(given: Option<PathBuf>) -> PathBuf {
@@ -76,6 +81,28 @@ fn no_delay(tcp: &mut tokio::net::TcpStream) {
     }
 }
 
+/// The panel's level: `--level`, and through the gateway at most its user's level there
+/// (on the bus itself this process is the bus's own user, a builder).
+fn panel_level(asked: &str) -> Result<Role, String> {
+    let asked = Role::from_level(asked)
+        .ok_or_else(|| format!("--level {asked}: not viewer, operator, setter or builder"))?;
+    Ok(
+        match hob_ipc::gateway::gateway_role().map_err(|e| format!("the panel's level: {e}"))? {
+            Some((user, at_gateway)) => {
+                let level = asked.min(at_gateway);
+                println!(
+                    "hob-hmi: the panel at the {} level ({user} is {} at the gateway, --level {})",
+                    level.level(),
+                    at_gateway.level(),
+                    asked.level()
+                );
+                level
+            }
+            None => asked,
+        },
+    )
+}
+
 fn run(a: Args) -> Result<(), String> {
     if !a.bind.ip().is_loopback() {
         return Err(format!(
@@ -96,6 +123,7 @@ fn run(a: Args) -> Result<(), String> {
         ),
         None => None,
     };
+    let level = panel_level(&a.level)?;
     let machine = hob_store::files::load_machine(&a.machine).map_err(|e| e.to_string())?;
     let library_dir = a
         .library
@@ -117,7 +145,14 @@ fn run(a: Args) -> Result<(), String> {
         .name("commander".into())
         .spawn(move || commander::run(jobs))
         .map_err(|e| e.to_string())?;
-    let app = Arc::new(App::new(hub, commands, machine, library, a.log_dir.clone()));
+    let app = Arc::new(App::new(
+        hub,
+        commands,
+        machine,
+        library,
+        a.log_dir.clone(),
+        level,
+    ));
 
     let rt = tokio::runtime::Builder::new_current_thread()
         .enable_all()

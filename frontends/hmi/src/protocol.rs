@@ -233,6 +233,11 @@ pub struct EventView {
     pub alarm: Option<AlarmView>,
     /// Wall-clock time in ms since the epoch, from the cycle (the events carry none).
     pub utc_ms: Option<u64>,
+    /// For the event log's filters (`codec::event_class`): `alarm`, `operator`, `bus`,
+    /// `cycle` or `service`; `alarm`, `warning` or `info`; the axis where it names one.
+    pub group: &'static str,
+    pub severity: &'static str,
+    pub axis: Option<&'static str>,
 }
 
 impl EventView {
@@ -251,6 +256,23 @@ impl EventView {
                 None
             },
             utc_ms: clock.map(|c| c.utc_ms(e.cycle)),
+            ..Self::classed(codec::event_class(e))
+        }
+    }
+
+    /// The filter fields of an event's class; the rest is filled by the caller.
+    fn classed(c: codec::EventClass) -> Self {
+        Self {
+            seq: 0,
+            cycle: 0,
+            kind: "?",
+            operator: false,
+            text: String::new(),
+            alarm: None,
+            utc_ms: None,
+            group: c.group,
+            severity: c.severity.name(),
+            axis: c.axis.map(codec::Axis::name),
         }
     }
 }
@@ -272,6 +294,14 @@ impl EventView {
                 None
             },
             utc_ms: clock.map(|c| c.utc_ms(e.cycle)),
+            // The record keeps the kind, an alarm's code and another event's arguments.
+            ..Self::classed(codec::event_class(&hob_ipc::EventSample {
+                kind: e.kind,
+                a: e.args.0,
+                b: e.args.1,
+                alarm: e.alarm.unwrap_or_default(),
+                ..Default::default()
+            }))
         }
     }
 }
@@ -392,11 +422,38 @@ pub struct Frame {
     pub samples_missed: u64,
     pub loop_restarts: u32,
     pub state: Option<StateView>,
+    /// The axes' actual speeds over the frame's interval, from the newest samples' positions
+    /// and SYNC times (none before two frames with samples).
+    pub speeds: Option<Speeds>,
     pub plot: Option<PlotPoint>,
     pub events_head: u64,
     /// The recorder (`hob-logger`) as the operator is told of it: an alarm when it cannot
     /// write or stopped reporting (`hob_ipc::codec::recorder_view`, as `hob status`).
     pub recorder: RecorderView,
+}
+
+/// The actual feed of Y and the table's speed, for AUTOMATIC.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct Speeds {
+    pub y_feed_mm_min: f64,
+    pub x_feed_mm_min: f64,
+    pub table_rpm: f64,
+}
+
+impl Speeds {
+    /// From two samples' actual positions and SYNC times; none when no time passed between
+    /// them (the same sample, or a restarted loop's clock).
+    pub fn between(a: &StateSample, b: &StateSample) -> Option<Self> {
+        let dt_min = b.sync_time_ns.checked_sub(a.sync_time_ns).filter(|d| *d > 0)? as f64 / 60e9;
+        // The table's angle may be given modulo a turn: a frame's interval is far less.
+        let turned = b.table_deg.actual - a.table_deg.actual;
+        let turned = turned - 360.0 * (turned / 360.0).round();
+        Some(Self {
+            y_feed_mm_min: (b.y_mm.actual - a.y_mm.actual) / dt_min,
+            x_feed_mm_min: (b.x_mm.actual - a.x_mm.actual) / dt_min,
+            table_rpm: turned / 360.0 / dt_min,
+        })
+    }
 }
 
 /// [`hob_ipc::codec::RecorderView`] for the page.

@@ -23,6 +23,7 @@ pub const ASSETS: &[(&str, &str)] = &[
     ("ui.mjs", include_str!("../web/js/ui.mjs")),
     ("conn.mjs", include_str!("../web/js/conn.mjs")),
     ("hold.mjs", include_str!("../web/js/hold.mjs")),
+    ("keypad.mjs", include_str!("../web/js/keypad.mjs")),
     ("screens.mjs", include_str!("../web/js/screens.mjs")),
     ("library.mjs", include_str!("../web/js/library.mjs")),
     ("plot.mjs", include_str!("../web/js/plot.mjs")),

@@ -7,6 +7,7 @@ use hob_hmi::app::App;
 use hob_hmi::bridge::Bridge;
 use hob_hmi::commander::{Commander, Job};
 use hob_hmi::web::{self, Vendor};
+use hob_ipc::gateway::Role;
 use hob_ipc::{CommandResponse, EventSample, StateSample, command, event_kind};
 use hob_setup::config::machine::MachineConfig;
 use hob_store::library::Library;
@@ -54,8 +55,21 @@ async fn start(view: bool) -> Fixture {
     start_with(view, |_| None).await
 }
 
+/// [`start`] of a panel at a user level (`hob-hmi --level`).
+async fn start_at(level: Role) -> Fixture {
+    start_full(false, |_| None, level).await
+}
+
 /// [`start`] with the logger's directory `log(dir)` makes in the fixture's directory.
 async fn start_with(view: bool, log: impl FnOnce(&Path) -> Option<std::path::PathBuf>) -> Fixture {
+    start_full(view, log, Role::Build).await
+}
+
+async fn start_full(
+    view: bool,
+    log: impl FnOnce(&Path) -> Option<std::path::PathBuf>,
+    level: Role,
+) -> Fixture {
     let dir = std::env::temp_dir().join(format!(
         "hob-hmi-server-{}-{:?}",
         std::process::id(),
@@ -74,6 +88,7 @@ async fn start_with(view: bool, log: impl FnOnce(&Path) -> Option<std::path::Pat
         m,
         Library::open(&dir.join("library")).unwrap(),
         log_dir,
+        level,
     ));
     let listener = tokio::net::TcpListener::bind("127.0.0.1:0").await.unwrap();
     let addr = listener.local_addr().unwrap().to_string();
@@ -439,13 +454,78 @@ async fn a_foreign_origin_is_refused_and_the_view_screen_cannot_command() {
 }
 
 async fn raw_http(addr: &str, line: &str, origin: &str, extra_headers: &str) -> String {
+    raw_request(addr, line, origin, extra_headers, "").await
+}
+
+async fn raw_request(addr: &str, line: &str, origin: &str, extra_headers: &str, body: &str) -> String {
     use tokio::io::{AsyncReadExt, AsyncWriteExt};
     let mut s = tokio::net::TcpStream::connect(addr).await.unwrap();
     let req = format!(
-        "{line} HTTP/1.1\r\nHost: {addr}\r\nOrigin: {origin}\r\n{extra_headers}Connection: close\r\n\r\n"
+        "{line} HTTP/1.1\r\nHost: {addr}\r\nOrigin: {origin}\r\n{extra_headers}Connection: close\r\n\r\n{body}"
     );
     s.write_all(req.as_bytes()).await.unwrap();
     let mut out = String::new();
     s.read_to_string(&mut out).await.unwrap();
     out
+}
+
+/// A request with a JSON body, as the page sends it.
+async fn raw_post(addr: &str, line: &str, body: &str) -> String {
+    let headers = format!(
+        "Content-Type: application/json\r\nContent-Length: {}\r\n",
+        body.len()
+    );
+    raw_request(addr, line, &format!("http://{addr}"), &headers, body).await
+}
+
+/// An operator's panel defines programs but changes no tool and carries no correction:
+/// refused with the level in words (HTTP 403), nothing written; a setter's panel may.
+#[tokio::test]
+async fn an_operators_panel_changes_no_tool_and_carries_no_correction() {
+    let f = start_at(Role::Operate).await;
+    let body = json!({ "text": "format_version = 1\n" }).to_string();
+    for (line, body) in [
+        ("POST /api/tools/new-hob", body.as_str()),
+        ("DELETE /api/tools/new-hob", ""),
+        ("POST /api/tools/new-hob/copy", r#"{"to":"other"}"#),
+        ("POST /api/tool-from-form", r#"{"name":"t","fields":[]}"#),
+        (
+            "POST /api/span/carry",
+            r#"{"program":"p","k":"2","measured_mm":"24,1"}"#,
+        ),
+    ] {
+        let r = raw_post(&f.addr, line, body).await;
+        assert!(r.starts_with("HTTP/1.1 403"), "{line}: {r}");
+        assert!(
+            r.contains("this panel is at the operator level, which may not"),
+            "{line}: {r}"
+        );
+        assert!(r.contains("a setter's work"), "{line}: {r}");
+    }
+    assert!(!f._dir.0.join("library/tools/new-hob.toml").exists());
+    // A program is the operator's: the library's own check answers, not the level.
+    let r = raw_post(
+        &f.addr,
+        "POST /api/programs/p",
+        &json!({"text": "not toml ["}).to_string(),
+    )
+    .await;
+    assert!(!r.starts_with("HTTP/1.1 403"), "{r}");
+    // The hello says what the level may.
+    let origin = format!("http://{}", f.addr);
+    let mut ws = connect(&f, "/ws/panel", &origin).await.unwrap();
+    send(&mut ws, json!({"t": "hello", "last_event": 0})).await;
+    let hello = next(&mut ws, "hello", Duration::from_secs(2)).await;
+    assert_eq!(hello["level"]["name"], "operator");
+    assert!(
+        hello["level"]["may_not"]
+            .as_array()
+            .unwrap()
+            .contains(&json!("change tools")),
+        "{hello}"
+    );
+    // A setter's panel: the tool is the library's to check.
+    let s = start_at(Role::Set).await;
+    let r = raw_post(&s.addr, "DELETE /api/tools/new-hob", "").await;
+    assert!(!r.starts_with("HTTP/1.1 403"), "{r}");
 }

@@ -433,6 +433,7 @@ pub fn read_events(dir: &Path) -> Result<Vec<LoggedEvent>, Error> {
                 kind: l.kind,
                 text: l.text,
                 alarm: l.alarm,
+                args: l.args.unwrap_or_default(),
             })
         })
         .collect::<Result<Vec<_>, Error>>()?;

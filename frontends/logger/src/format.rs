@@ -384,6 +384,10 @@ pub fn event_line(e: &EventSample) -> String {
             "{} {} {}@{}/{}/{}/{}/{} {text}",
             e.seq, e.cycle, e.kind, a.code, a.axis, a.end, a.value_a, a.value_b
         )
+    } else if e.a != 0 || e.b != 0 {
+        // The event's arguments after the kind (`kind#a/b`: an axis, a command's code):
+        // the event log's filters read its axis from them.
+        format!("{} {} {}#{}/{} {text}", e.seq, e.cycle, e.kind, e.a, e.b)
     } else {
         format!("{} {} {} {text}", e.seq, e.cycle, e.kind)
     }
@@ -398,16 +402,26 @@ pub struct EventLine {
     /// The alarm's code and arguments, on an alarm's line (none on a line written before
     /// they were recorded).
     pub alarm: Option<AlarmCode>,
+    /// Another event's arguments `a` and `b` (none when both were 0, or on a line written
+    /// before they were recorded).
+    pub args: Option<(u32, u32)>,
     pub text: String,
 }
 
 /// The numbers and text of an `events.log` line (without its line end); `None` when it is
-/// not `seq cycle kind[@code/axis/end/a/b] text`.
+/// not `seq cycle kind[@code/axis/end/a/b|#a/b] text`.
 pub fn parse_event_line(line: &str) -> Option<EventLine> {
     let mut parts = line.splitn(4, ' ');
     let seq = parts.next()?.parse().ok()?;
     let cycle = parts.next()?.parse().ok()?;
     let kind_field = parts.next()?;
+    let (kind_field, args) = match kind_field.split_once('#') {
+        None => (kind_field, None),
+        Some((kind, args)) => {
+            let (a, b) = args.split_once('/')?;
+            (kind, Some((a.parse().ok()?, b.parse().ok()?)))
+        }
+    };
     let (kind, alarm) = match kind_field.split_once('@') {
         None => (kind_field.parse().ok()?, None),
         Some((kind, alarm)) => {
@@ -431,6 +445,7 @@ pub fn parse_event_line(line: &str) -> Option<EventLine> {
         cycle,
         kind,
         alarm,
+        args,
         text: parts.next().unwrap_or("").to_string(),
     })
 }
@@ -451,6 +466,9 @@ pub struct LoggedEvent {
     /// before they were recorded): the reaction, remedy and way to continue follow from it
     /// (`hob_ipc::codec::Fault`).
     pub alarm: Option<hob_ipc::AlarmCode>,
+    /// Another event's arguments `a` and `b` (an axis, a command's code; 0 when not
+    /// recorded).
+    pub args: (u32, u32),
 }
 
 impl LoggedEvent {
@@ -570,6 +588,19 @@ mod tests {
             ..e
         };
         assert_eq!(parse_event_line(&event_line(&other)).unwrap().alarm, None);
+        // Another event's arguments: its axis for the event log's filters.
+        let referenced = EventSample {
+            kind: hob_ipc::event_kind::REFERENCED,
+            a: 2,
+            b: 7,
+            ..e
+        };
+        let read = parse_event_line(&event_line(&referenced)).unwrap();
+        assert_eq!(
+            (read.kind, read.alarm, read.args),
+            (referenced.kind, None, Some((2, 7)))
+        );
+        assert_eq!(read.text, hob_ipc::codec::event_text(&referenced));
         // A line written before the codes were: the same text, no code.
         let old = format!("17 123456 {} following error", e.kind);
         let read = parse_event_line(&old).unwrap();
@@ -580,6 +611,8 @@ mod tests {
             "1 2 3@4/3/0/0.5/0/9 text",
             "1 2 3@x/3/0/0/0 text",
             "1 2 3@ text",
+            "1 2 3#4 text",
+            "1 2 3#4/x text",
         ] {
             assert_eq!(parse_event_line(bad), None, "{bad}");
         }

@@ -13,7 +13,7 @@
 //! shared-memory ports.
 
 use crate::ports::{Client, IpcError, Ports, STATE_BUFFER};
-pub use hob_wire::frame::{FromGateway, MAX_FRAME, Role, ToGateway, decode, encode, fixed_bytes};
+pub use hob_wire::frame::{Action, FromGateway, MAX_FRAME, Role, ToGateway, decode, encode, fixed_bytes};
 use hob_wire::{CommandRequest, CommandResponse, EventSample, RecorderSample, StateSample, StatsSample};
 use std::collections::VecDeque;
 use std::io::{ErrorKind, Read, Write};
@@ -95,6 +95,18 @@ pub fn follow(name: &str) -> Result<Box<dyn Feed>, IpcError> {
         }
         None => Box::new(Ports::subscribe(name)?),
     })
+}
+
+/// Who the gateway says this process is and its level, when `HOB_GATEWAY` is set (`None`:
+/// on the bus itself, as its own user).
+pub fn gateway_role() -> Result<Option<(String, Role)>, IpcError> {
+    match gateway_path() {
+        Some(p) => {
+            let g = GatewayClient::connect(&p)?;
+            Ok(Some((g.user.clone(), g.role)))
+        }
+        None => Ok(None),
+    }
 }
 
 /// A command channel for a frontend named `name`: through the gateway when `HOB_GATEWAY` is set.

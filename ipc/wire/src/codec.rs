@@ -165,6 +165,62 @@ pub fn loaded_program(words: &str) -> Option<(Option<String>, Option<String>)> {
     })
 }
 
+/// How serious an event is, for filtering the event log.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Severity {
+    Alarm,
+    Warning,
+    Info,
+}
+
+impl Severity {
+    pub const fn name(self) -> &'static str {
+        match self {
+            Severity::Alarm => "alarm",
+            Severity::Warning => "warning",
+            Severity::Info => "info",
+        }
+    }
+}
+
+/// What an event is about, for filtering the event log: its group (`alarm`, `operator`,
+/// `bus`, `cycle`, `service`), its severity and the axis it concerns, where it names one.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct EventClass {
+    pub group: &'static str,
+    pub severity: Severity,
+    pub axis: Option<Axis>,
+}
+
+/// The class of an event from its codes alone.
+pub fn event_class(e: &EventSample) -> EventClass {
+    use event_kind as k;
+    let axis_a = Axis::from_code(e.a.min(255) as u8);
+    let (group, severity, axis) = match e.kind {
+        k::ALARM => ("alarm", Severity::Alarm, Axis::from_code(e.alarm.axis)),
+        k::ALARM_CLEARED => ("alarm", Severity::Info, Axis::from_code(e.alarm.axis)),
+        // The command's axis is in `b`'s second byte.
+        k::ACCEPTED => ("operator", Severity::Info, Axis::from_code((e.b >> 8) as u8)),
+        k::REFUSED => ("operator", Severity::Warning, None),
+        k::BUS => {
+            let severity = match e.b {
+                bus_event::EMCY | bus_event::HEARTBEAT_LOST | bus_event::SEND_FAILED => Severity::Warning,
+                _ => Severity::Info,
+            };
+            ("bus", severity, None)
+        }
+        k::DEAD_MAN_STOP => ("operator", Severity::Warning, axis_a),
+        k::REFERENCED | k::OFFSET_CHANGED => ("cycle", Severity::Info, axis_a),
+        k::MESSAGE => ("service", Severity::Info, None),
+        _ => ("cycle", Severity::Info, None),
+    };
+    EventClass {
+        group,
+        severity,
+        axis,
+    }
+}
+
 /// One line for an event (logger, `hob status --watch`, HMI).
 pub fn event_text(e: &EventSample) -> String {
     match e.kind {
@@ -271,6 +327,47 @@ pub fn bus_kind_name(k: u8) -> &'static str {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Every event kind has a class; the event log's filters (kind, axis, severity) use it.
+    #[test]
+    fn every_event_has_a_group_a_severity_and_where_it_names_one_an_axis() {
+        let ev = |kind: u32, a: u32, b: u32| EventSample {
+            kind,
+            a,
+            b,
+            ..Default::default()
+        };
+        let mut alarm = ev(event_kind::ALARM, 0, 0);
+        alarm.alarm.axis = Axis::Y.code();
+        let c = event_class(&alarm);
+        assert_eq!(
+            (c.group, c.severity, c.axis),
+            ("alarm", Severity::Alarm, Some(Axis::Y))
+        );
+        let jog_x = ev(event_kind::ACCEPTED, command::JOG, u32::from(Axis::X.code()) << 8);
+        assert_eq!(event_class(&jog_x).axis, Some(Axis::X));
+        assert_eq!(
+            event_class(&ev(event_kind::REFUSED, command::JOG, 1)).severity,
+            Severity::Warning
+        );
+        assert_eq!(
+            event_class(&ev(event_kind::BUS, 4, bus_event::EMCY)).severity,
+            Severity::Warning
+        );
+        assert_eq!(
+            event_class(&ev(event_kind::BUS, 4, bus_event::TPDO_MISSING)).severity,
+            Severity::Info
+        );
+        let referenced = event_class(&ev(event_kind::REFERENCED, u32::from(Axis::Y.code()), 0));
+        assert_eq!((referenced.group, referenced.axis), ("cycle", Some(Axis::Y)));
+        for kind in 1..=16 {
+            let c = event_class(&ev(kind, 0, 0));
+            assert!(
+                ["alarm", "operator", "bus", "cycle", "service"].contains(&c.group),
+                "{kind}"
+            );
+        }
+    }
 
     #[test]
     fn the_recorder_is_an_alarm_when_it_cannot_write_or_stops_reporting() {

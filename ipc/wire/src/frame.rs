@@ -9,21 +9,125 @@ use serde::{Deserialize, Serialize};
 /// The largest frame either side accepts (a program's text is 16 KiB).
 pub const MAX_FRAME: usize = 64 * 1024;
 
-/// What a peer may do: decided by the gateway from the peer's user and groups.
+/// What a peer may do, its user level: decided by the gateway from the peer's user and
+/// groups (`--viewers`, `--operators`, `--setters`, `--builders`), and by `hob-hmi` for its
+/// panel (at most its own user's level). The numbers on the wire are the order of the
+/// variants here: never reorder them, only add at the end.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 pub enum Role {
-    /// Watch and command (the operators' group, the bus's own user, root).
+    /// The operator: watch and command the machine, define and edit programs (the
+    /// operators' group).
     Operate,
     /// Watch only (the viewers' group).
     Watch,
+    /// The setter: the operator's rights and tools and compensation (the span's depth
+    /// carried into a program) (the setters' group).
+    Set,
+    /// The machine builder: everything, machine data too (the builders' group, the bus's
+    /// own user, root).
+    Build,
+}
+
+/// What a level may or may not do.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Action {
+    Watch,
+    /// Any command to the loop.
+    Command,
+    EditPrograms,
+    EditTools,
+    /// A measured correction written into a program (the span's depth).
+    Compensate,
+    EditMachineData,
+}
+
+impl Action {
+    pub const ALL: [Action; 6] = [
+        Action::Watch,
+        Action::Command,
+        Action::EditPrograms,
+        Action::EditTools,
+        Action::Compensate,
+        Action::EditMachineData,
+    ];
+
+    /// Its name for programs (`edit_tools`).
+    pub fn key(self) -> &'static str {
+        match self {
+            Action::Watch => "watch",
+            Action::Command => "command",
+            Action::EditPrograms => "edit_programs",
+            Action::EditTools => "edit_tools",
+            Action::Compensate => "compensate",
+            Action::EditMachineData => "edit_machine_data",
+        }
+    }
+
+    /// In the operator's words.
+    pub fn words(self) -> &'static str {
+        match self {
+            Action::Watch => "watch the machine",
+            Action::Command => "command the machine",
+            Action::EditPrograms => "define and change programs",
+            Action::EditTools => "change tools",
+            Action::Compensate => "carry a measured correction into a program",
+            Action::EditMachineData => "change machine data",
+        }
+    }
 }
 
 impl Role {
+    /// Lowest first.
+    pub const ALL: [Role; 4] = [Role::Watch, Role::Operate, Role::Set, Role::Build];
+
     pub fn name(self) -> &'static str {
         match self {
             Role::Operate => "operate",
             Role::Watch => "watch",
+            Role::Set => "set",
+            Role::Build => "build",
         }
+    }
+
+    /// The level's name for people: viewer, operator, setter, builder.
+    pub fn level(self) -> &'static str {
+        match self {
+            Role::Watch => "viewer",
+            Role::Operate => "operator",
+            Role::Set => "setter",
+            Role::Build => "builder",
+        }
+    }
+
+    /// A level by its name (`operator`, ...), or `None`.
+    pub fn from_level(word: &str) -> Option<Role> {
+        Self::ALL.into_iter().find(|r| r.level() == word)
+    }
+
+    /// 0 for the viewer up to 3 for the builder.
+    pub fn rank(self) -> u8 {
+        match self {
+            Role::Watch => 0,
+            Role::Operate => 1,
+            Role::Set => 2,
+            Role::Build => 3,
+        }
+    }
+
+    /// The lower of two levels.
+    pub fn min(self, other: Role) -> Role {
+        if self.rank() <= other.rank() { self } else { other }
+    }
+
+    /// The one table of who may do what.
+    pub fn allows(self, a: Action) -> bool {
+        let least = match a {
+            Action::Watch => Role::Watch,
+            Action::Command | Action::EditPrograms => Role::Operate,
+            Action::EditTools | Action::Compensate => Role::Set,
+            Action::EditMachineData => Role::Build,
+        };
+        self.rank() >= least.rank()
     }
 }
 
@@ -127,6 +231,38 @@ mod tests {
             drive_statusword: [0x1237, 0x0637, 0xFFFF],
             ..Default::default()
         }
+    }
+
+    /// The levels' table: an operator commands and edits programs but changes no tools,
+    /// compensation or machine data; each level may what the one below may. The wire
+    /// numbers of the older two levels stay (a welcome from an older gateway decodes).
+    #[test]
+    fn each_level_may_what_the_table_says() {
+        let may = |r: Role| Action::ALL.iter().filter(|a| r.allows(**a)).count();
+        assert_eq!(Role::ALL.map(may), [1, 3, 5, 6]);
+        assert!(Role::Operate.allows(Action::EditPrograms) && !Role::Operate.allows(Action::EditTools));
+        assert!(!Role::Operate.allows(Action::Compensate) && !Role::Operate.allows(Action::EditMachineData));
+        assert!(Role::Set.allows(Action::Compensate) && !Role::Set.allows(Action::EditMachineData));
+        assert!(!Role::Watch.allows(Action::Command));
+        for r in Role::ALL {
+            assert_eq!(Role::from_level(r.level()), Some(r));
+            for a in Action::ALL {
+                for lower in Role::ALL.iter().filter(|l| l.rank() < r.rank()) {
+                    assert!(!lower.allows(a) || r.allows(a), "{r:?} {a:?}");
+                }
+            }
+        }
+        assert_eq!(Role::Set.min(Role::Operate), Role::Operate);
+        let wire = |r: Role| postcard::to_stdvec(&r).unwrap();
+        assert_eq!(
+            [
+                wire(Role::Operate),
+                wire(Role::Watch),
+                wire(Role::Set),
+                wire(Role::Build)
+            ],
+            [[0], [1], [2], [3]]
+        );
     }
 
     proptest! {

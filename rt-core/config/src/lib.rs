@@ -170,6 +170,66 @@ pub fn parse_toml<T: DeserializeOwned>(file: &Path, src: &str) -> Result<T, Load
     toml::from_str(src).map_err(|e| LoadError::Syntax {
         file: file.to_path_buf(),
         position: e.span().map(|s| position_of(src, s.start)),
-        message: e.message().trim().to_string(),
+        message: in_words(e.message().trim()),
     })
+}
+
+/// A value of the wrong type in the words of the person who typed it, not serde's
+/// (`invalid type: string "1O", expected i64` is `"1O" is not a whole number`); any other
+/// message as it is.
+pub fn in_words(message: &str) -> String {
+    let Some(rest) = message.strip_prefix("invalid type: ") else {
+        return message.to_string();
+    };
+    let Some((found, expected)) = rest.rsplit_once(", expected ") else {
+        return message.to_string();
+    };
+    let found = found
+        .strip_prefix("string ")
+        .or_else(|| found.strip_prefix("floating point "))
+        .or_else(|| found.strip_prefix("integer "))
+        .map_or(found, |v| v.trim_matches('`'));
+    let wanted = match expected {
+        "i8" | "i16" | "i32" | "i64" | "u8" | "u16" | "u32" | "u64" | "usize" | "isize" => "a whole number",
+        "f32" | "f64" => "a number (digits with one decimal point or comma)",
+        "a boolean" => "true or false",
+        "a string" => "text in quotes",
+        _ => return message.to_string(),
+    };
+    format!("{found} is not {wanted}")
+}
+
+#[cfg(test)]
+mod words_tests {
+    use super::*;
+
+    /// A typo's message names the value and what was wanted in words (the HMI showed
+    /// serde's `invalid type: string "94,94", expected f64`).
+    #[test]
+    fn a_value_of_the_wrong_type_is_said_in_words() {
+        assert_eq!(
+            in_words(r#"invalid type: string "1O", expected i64"#),
+            r#""1O" is not a whole number"#
+        );
+        assert_eq!(
+            in_words("invalid type: floating point `17.5`, expected u32"),
+            "17.5 is not a whole number"
+        );
+        assert_eq!(
+            in_words(r#"invalid type: string "9x", expected f64"#),
+            r#""9x" is not a number (digits with one decimal point or comma)"#
+        );
+        assert_eq!(in_words("missing field `teeth`"), "missing field `teeth`");
+        assert_eq!(
+            in_words("invalid type: map, expected a sequence"),
+            "invalid type: map, expected a sequence"
+        );
+        #[derive(Debug, serde::Deserialize)]
+        #[allow(dead_code)]
+        struct T {
+            teeth: i64,
+        }
+        let e = parse_toml::<T>(Path::new("p.toml"), "teeth = \"1O\"\n").unwrap_err();
+        assert!(e.to_string().ends_with(r#""1O" is not a whole number"#), "{e}");
+    }
 }

@@ -73,7 +73,7 @@ fn read_section<T: DeserializeOwned>(section: &str, table: &toml::Table) -> Resu
             (Some(f), None) => format!("{section}.{f}"),
             (None, None) => section.to_string(),
         };
-        vec![problem(key, message)]
+        vec![problem(key, hob_config::in_words(&message))]
     })
 }
 

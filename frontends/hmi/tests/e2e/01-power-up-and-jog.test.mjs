@@ -143,9 +143,23 @@ test("touch-off X: the offsets on the panel; a typo is refused with the offset i
   const onBlank = (blank + tip) / 2 + 0.1;
   hob("jog", "x", (onBlank - before.x_mm).toFixed(4));
   await waitFor("X on the blank", () => { const s = status(); return s.state === "idle" && Math.abs(s.x_mm - onBlank) < 0.01; }, 30000, 200);
-  // The blank's own diameter, typed with a decimal comma as a German shop types it:
-  // plausible, applied unasked; the answer names the change.
-  await touch(blank.toFixed(3).replace(".", ","));
+  // The blank's own diameter, typed on the panel's keypad with a decimal comma as a German
+  // shop types it: plausible, applied unasked; the answer names the change.
+  const field = page.locator('[data-testid="touch-x-value"]');
+  await field.fill("");
+  await field.tap();
+  await page.locator('[data-testid="keypad"]').waitFor({ timeout: 3000 });
+  const typed = blank.toFixed(3).replace(".", ",");
+  for (const k of typed) await page.locator(`[data-key-pad="${k}"]`).tap();
+  assert.equal(await field.inputValue(), typed);
+  for (const k of ["7", ",", "ENTER"]) {
+    const box = await page.locator(`[data-key-pad="${k}"]`).boundingBox();
+    assert.ok(box.width >= 48 && box.height >= 48, `keypad key ${k}: ${box.width} x ${box.height} px`);
+  }
+  await shot(page, "keypad");
+  await page.locator('[data-key-pad="ENTER"]').tap();
+  await page.locator('[data-testid="keypad"]').waitFor({ state: "detached", timeout: 3000 });
+  await page.locator('[data-testid="touch-x"]').tap();
   await waitFor("the offset near -0.1 mm", () => Math.abs(status().x_offset_mm - (before.x_offset_mm - 0.1)) < 0.01, 5000);
   const first = status().x_offset_mm;
   await waitFor("the accepted answer on the panel", async () => /touch-off X: accepted; X offset .* -> .* \(change -0\.\d{4} mm\)/.test(await page.locator('[data-testid="touch-answer"].ok').innerText()), 5000);
@@ -161,7 +175,7 @@ test("touch-off X: the offsets on the panel; a typo is refused with the offset i
   assert.match(asked, new RegExp(`the gauge, ${typo.toFixed(3)} mm, is 100\\.000 mm larger than the loaded blank's outside diameter, ${blank.toFixed(3)} mm`));
   const m = asked.match(FIGURES);
   assert.ok(m, `no figures in: ${asked}`);
-  const [named, change] = [Number(m[2]), Number(m[3])];
+  const change = Number(m[3]);
   assert.ok(Math.abs(Number(m[1]) - first) < 1e-4, `old ${m[1]}, the loop has ${first}`);
   assert.ok(Math.abs(change - 50) < 0.01, `change ${change}`);
   await shot(page, "touch-off-confirm");
@@ -174,16 +188,20 @@ test("touch-off X: the offsets on the panel; a typo is refused with the offset i
   await waitFor("the dialog closed", async () => (await dialog.count()) === 0, 5000);
   assert.match(await page.locator('[data-testid="touch-answer"]').innerText(), /CANCELLED, nothing changed/);
   assert.equal(status().x_offset_mm, first, "CANCEL changed the offset");
-  // Asked again, CONFIRM: the loop sets exactly the offset it named.
+  // Asked again, CONFIRM: the loop sets exactly the offset it named this time (X may
+  // stand a count further than at the first question: the offset follows it).
   await touch(typo);
   await dialog.waitFor({ timeout: 10000 });
+  const again = (await page.locator('[data-testid="touch-confirm-text"]').innerText()).match(FIGURES);
+  assert.ok(again, "no figures in the second question");
+  const named = Number(again[2]);
   await page.locator('[data-testid="touch-confirm-yes"]').tap();
   await waitFor("the dialog closed after CONFIRM", async () => (await dialog.count()) === 0, 10000);
   await waitFor("the confirmed offset in the loop", () => status().x_offset_mm !== first, 5000);
   const set = status().x_offset_mm;
   assert.equal(set.toFixed(4), named.toFixed(4), `the loop set ${set}, the dialog named ${named}`);
   const ok = await page.locator('[data-testid="touch-answer"].ok').innerText();
-  assert.match(ok, new RegExp(`touch-off X: accepted; X offset .* -> ${m[2].replace("+", "\\+")} mm`));
+  assert.match(ok, new RegExp(`touch-off X: accepted; X offset .* -> ${again[2].replace("+", "\\+")} mm`));
   await waitFor("the panel shows the new offset", async () => (await shown()).toFixed(4) === named.toFixed(4), 5000);
   // Put right: the blank's diameter again is a 50 mm change, asked about and confirmed.
   await touch(blank);

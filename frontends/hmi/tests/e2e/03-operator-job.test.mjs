@@ -106,11 +106,33 @@ test("a new program through the sub-menus, a single pass, the span, the automati
   await page.locator('[data-testid="start-auto"]').tap();
   await waitFor("the automatic cut", () => status().state === "cut", 180000, 200);
   await waitFor("the time left on AUTOMATIC", async () => /^\d+:\d\d$/.test(await page.locator('[data-testid="time-left"]').innerText()), 5000);
+  // AUTOMATIC shows where the axes are, the hob's and the table's speed and Y's actual feed.
+  const figure = async (id) => Number((await page.locator(`[data-testid="${id}"]`).innerText()).replace(",", "."));
+  // (The hob's speed carries its sense: negative on this machine.)
+  await waitFor("the hob turning on AUTOMATIC", async () => Math.abs(await figure("auto-rpm")) > 1, 5000);
+  await waitFor("Y feeding on AUTOMATIC", async () => Math.abs(await figure("auto-feed")) > 0.1, 10000);
+  assert.ok(Number.isFinite(await figure("auto-x")) && Number.isFinite(await figure("auto-y")) && Math.abs(await figure("auto-table-rpm")) > 0);
   await page.locator('[data-testid="feed-80"]').tap();
   await waitFor("feed override 80 % in the loop", () => status().feed_override_percent === 80, 5000);
+  // The steps go from the loop's value, and the value shown is the loop's (a slider showed
+  // 120 % after the 100 % preset).
+  await waitFor("80 % shown", async () => (await page.locator('[data-testid="feed-now"]').innerText()) === "80 %", 5000);
+  await page.locator('[data-testid="feed-step+5"]').tap();
+  await waitFor("feed override 85 % in the loop", () => status().feed_override_percent === 85, 5000);
+  await waitFor("85 % shown", async () => (await page.locator('[data-testid="feed-now"]').innerText()) === "85 %", 5000);
+  await page.locator('[data-testid="feed-80"]').tap();
+  await waitFor("80 % shown again", async () => (await page.locator('[data-testid="feed-now"]').innerText()) === "80 %", 5000);
   await page.locator('[data-testid="overrides"]').waitFor({ timeout: 3000 });
-  await page.locator('[data-testid="feed-hold"]').tap();
+  const holdKey = page.locator('[data-testid="feed-hold"]');
+  // (Where the finger finds it: the tap would scroll it into view first.)
+  await holdKey.scrollIntoViewIfNeeded();
+  const before = await holdKey.boundingBox();
+  await holdKey.tap();
   await waitFor("feed hold in the loop", () => status().hold, 5000);
+  await page.locator("header .warn", { hasText: "FEED HOLD" }).waitFor({ timeout: 3000 });
+  // Nothing moves under the finger when FEED HOLD appears on the status line (it dropped
+  // 41 px: the line wrapped).
+  assert.deepEqual(await holdKey.boundingBox(), before, "the layout moved on FEED HOLD");
   await shot(page, "automatic");
   await page.setViewportSize({ width: 1920, height: 1080 });
   await shot(page, "automatic-1920x1080");

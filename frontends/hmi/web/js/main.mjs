@@ -3,9 +3,10 @@
 // call; every message shown is the loop's or the Rust checks' own text.
 import { render } from "preact";
 import { useState, useEffect } from "preact/hooks";
-import { html, fmt, CmdButton, Toasts } from "./ui.mjs";
+import { html, fmt, CmdButton, Toasts, LevelNote } from "./ui.mjs";
 import { Conn } from "./conn.mjs";
 import { installReleaseOnLeave } from "./hold.mjs";
+import { Keypad } from "./keypad.mjs";
 import { PowerUp, Jog, Automatic, Single, Alarms, Diagnostics, Report } from "./screens.mjs";
 import { Programs, Definition } from "./library.mjs";
 
@@ -45,20 +46,24 @@ function Status({ conn }) {
   else if (silent) age = html`<span class="bad" data-testid="stale">NO DATA FROM THE LOOP for ${(f.silent_ms / 1000).toFixed(1)} s: the values below are old</span>`;
   else age = html`<span class="ok" data-testid="age">live, ${fmt(f.loop_age_ms, 1)} ms old</span>`;
   const ov = s && (s.feed_override_percent !== 100 || s.spindle_override_percent !== 100);
-  return html`<header class=${`status ${stale || silent || !s ? "is-stale" : ""}`} data-testid="status">
+  // One line of fixed height that never wraps (a FEED HOLD or an override appearing moved
+  // everything under the finger by 41 px), and under it the alarms, at most 132 px high,
+  // scrolling inside (a 260 px banner pushed the navigation off the screen).
+  return html`<header class=${`status ${stale || silent || !s ? "is-stale" : ""}`} data-testid="status"><div class="st-line">
     <div class="st-state"><span class="label">state</span><b data-testid="state">${s ? s.state : "-"}</b>${s && s.hold ? html` <b class="warn">FEED HOLD</b>` : ""}</div>
     <div><span class="label">pass</span><b data-testid="pass">${s && s.passes ? `${s.pass} of ${s.passes}` : "-"}</b></div>
-    <div><span class="label">program</span><b data-testid="loaded-program">${!s ? "-" : !s.program_loaded ? "none" : f.loaded_here ? (f.changed_since_load ? html`${f.loaded_here} <span class="warn" data-testid="changed-since-load">CHANGED SINCE LOAD</span>` : f.loaded_here) : html`<span class="warn">loaded elsewhere (plan unknown here)</span>`}</b></div>
+    <div class="st-program"><span class="label">program</span><b data-testid="loaded-program">${!s ? "-" : !s.program_loaded ? "none" : f.loaded_here ? (f.changed_since_load ? html`${f.loaded_here} <span class="warn" data-testid="changed-since-load">CHANGED SINCE LOAD</span>` : f.loaded_here) : html`<span class="warn">loaded elsewhere (plan unknown here)</span>`}</b></div>
     <div><span class="label">reference</span><b data-testid="referenced">X ${s && s.referenced.x ? "✓" : "✗"} Y ${s && s.referenced.y ? "✓" : "✗"}</b></div>
-    ${ov ? html`<div class="warn" data-testid="overrides">feed ${fmt(s.feed_override_percent, 0)} % spindle ${fmt(s.spindle_override_percent, 0)} %</div>` : ""}
+    ${ov ? html`<div class="warn" data-testid="overrides">feed ${fmt(s.feed_override_percent, 0)} % hob ${fmt(s.spindle_override_percent, 0)} %</div>` : ""}
     <div class="age">${age}</div>
-    <div class="st-reset">${conn.viewOnly ? html`<b class="warn" data-testid="view-only">VIEW ONLY</b>` : html`<${CmdButton} conn=${conn} op="reset" label="RESET" cls="reset" />`}</div>
+    <div class="st-reset">${conn.viewOnly ? html`<b class="warn" data-testid="view-only">VIEW ONLY</b>` : html`<${CmdButton} conn=${conn} op="reset" label="RESET" cls="reset" />`}</div></div>
+    ${(s && s.alarm) || (f && f.recorder && f.recorder.alarm) ? html`<div class="st-alarms" data-testid="alarms-bar">
     ${s && s.alarm ? html`<div class="alarm" data-testid="alarm">
       <div><b>ALARM</b> ${s.alarm.text}${s.alarm.drive_reported ? html`: <b data-testid="alarm-drive-reported">${s.alarm.drive_reported}</b>` : ""}</div>
       <div><span class="label">the machine</span> ${s.alarm.reaction}</div>
       <div><span class="label">remedy</span> ${s.alarm.remedy}</div>
       <div><span class="label">to continue</span> ${s.alarm.how_to_continue}</div></div>` : ""}
-    ${f && f.recorder && f.recorder.alarm ? html`<div class="alarm" data-testid="recorder-alarm"><b>RECORDER</b> ${f.recorder.text}</div>` : ""}
+    ${f && f.recorder && f.recorder.alarm ? html`<div class="alarm" data-testid="recorder-alarm"><b>RECORDER</b> ${f.recorder.text}</div>` : ""}</div>` : ""}
   </header>`;
 }
 
@@ -81,8 +86,9 @@ function App() {
   return html`<div class="shell">
     <${Status} conn=${conn} />
     <nav>${SCREENS.map(([k, label]) => html`<button class=${`nav ${k === screen ? "on" : ""}`} data-screen=${k} onClick=${() => go(k)}>${label}</button>`)}</nav>
-    <main data-testid=${`screen-${screen}`}><${body} ...${props} /></main>
+    <main data-testid=${`screen-${screen}`}>${conn.viewOnly ? "" : html`<${LevelNote} conn=${conn} />`}<${body} ...${props} /></main>
     <${Toasts} conn=${conn} />
+    <${Keypad} />
   </div>`;
 }
 

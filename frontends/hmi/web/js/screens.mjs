@@ -3,7 +3,7 @@
 // button is one loop command whose answer (accepted, or the loop's refusal) is shown.
 import { Component } from "preact";
 import { useState, useEffect } from "preact/hooks";
-import { html, fmt, CmdButton } from "./ui.mjs";
+import { html, fmt, CmdButton, allows } from "./ui.mjs";
 import { HoldKey } from "./hold.mjs";
 import { SyncPlot } from "./plot.mjs";
 import { api } from "./conn.mjs";
@@ -189,7 +189,8 @@ export function Single({ conn, program }) {
         <input inputmode="decimal" data-key=${key} value=${v[name] || ""} onInput=${(e) => setV({ ...v, [name]: e.target.value })} /><span>${unit}</span>
         ${problemOf(key) ? html`<em class="why">${problemOf(key).message}</em>` : ""}</div>`)}
       <div class="row"><button class="key" onClick=${compute} disabled=${!program} data-testid="span-compute">COMPUTE</button>
-        <button class="key primary" onClick=${carry} disabled=${!res || !res.ok || !(res.inputs && res.inputs.depth_to_cut_mm > 0)} data-testid="span-carry">CARRY INTO PROGRAM</button></div>
+        <button class="key primary" onClick=${carry} disabled=${!res || !res.ok || !(res.inputs && res.inputs.depth_to_cut_mm > 0) || !allows(conn, "compensate")} data-testid="span-carry">CARRY INTO PROGRAM</button>
+        ${allows(conn, "compensate") ? "" : html`<span class="hint" data-testid="carry-level">CARRY: a setter's work</span>`}</div>
       ${res && !res.ok ? html`<p class="bad" data-testid="span-refused">${res.refused} ${(res.problems || []).map((p) => html`<br />${SPAN_LABEL[p.key] || p.key}: ${p.message}`)}</p>` : ""}
       ${res && res.ok ? html`<p class=${res.inputs.verdict === "good" ? "ok" : "warn"} data-testid="span-verdict"><b>${VERDICT[res.inputs.verdict]}</b>: W ${fmt(res.inputs.measured_span_mm, 4)} mm, allowed ${fmt(res.inputs.span_min_mm, 4)} .. ${fmt(res.inputs.span_max_mm, 4)} mm${res.inputs.depth_to_cut_mm > 0 ? `, ${fmt(res.inputs.depth_to_cut_mm, 3)} mm to cut to the middle` : ""}</p>
         <table class="kv" data-testid="span-result">${Object.entries(res.inputs || {}).filter(([k2]) => k2 !== "verdict").map(([k2, val]) => html`<tr><td>${k2.replaceAll("_", " ").replace(/ mm$/, " (mm)").replace(/ deg$/, " (deg)")}</td><td>${typeof val === "number" && !Number.isInteger(val) ? fmt(val, 4) : val}</td></tr>`)}</table>
@@ -201,7 +202,11 @@ export function Single({ conn, program }) {
 export function Automatic({ conn, program }) {
   const s = conn.frame && conn.frame.state;
   const ranges = conn.hello ? conn.hello.overrides : { feed: [0, 120], spindle: [50, 120] };
-  const [feed, setFeed] = useState(100);
+  const v = conn.frame && conn.frame.speeds;
+  // The feed override's steps: from the loop's own value, within the machine's range; the
+  // value shown is always the loop's (a slider showed its own, not what the loop took).
+  const feedNow = s ? s.feed_override_percent : null;
+  const feedStep = (d) => Math.max(ranges.feed[0], Math.min(ranges.feed[1], Math.round(((feedNow ?? 100) + d) / 5) * 5));
   const progress = s && s.passes ? (100 * Math.max(0, s.pass - 1)) / s.passes : 0;
   return html`<section class="grid2">
     <div class="card wide"><h2>Automatic${program ? `: ${program}` : ""}</h2>
@@ -219,12 +224,17 @@ export function Automatic({ conn, program }) {
         <span class="label">time left</span><b data-testid="time-left">${conn.frame && conn.frame.time_left_s !== null && conn.frame.time_left_s !== undefined ? mmss(conn.frame.time_left_s) : s && s.pass ? "unknown (the program was not loaded here)" : "-"}</b>
         <span class="label">sync error</span><b>${s ? fmt(s.sync_error_arcsec, 2) : "-"}"</b>
         <span class="label">bound</span><b>${s && s.bound_arcsec ? `±${fmt(s.bound_arcsec, 1)}"` : "-"}</b></div>
-      <${SyncPlot} points=${conn.plot} bound=${s && s.bound_arcsec} version=${conn.frame && conn.frame.seq} /></div>
-    <div class="card"><h2>Feed override</h2>
+      <div class="axes" data-testid="auto-axes">
+        ${[["X", s && s.x_mm.act, 3, "mm", "auto-x"], ["Y", s && s.y_mm.act, 3, "mm", "auto-y"], ["B", s && s.b_deg.act, 3, "deg", "auto-b"],
+           ["hob", s && s.spindle_rpm, 1, `rpm (set ${s ? fmt(s.spindle_set_rpm, 0) : "-"})`, "auto-rpm"],
+           ["table", v && v.table_rpm, 3, "rpm", "auto-table-rpm"], ["feed Y", v && v.y_feed_mm_min, 1, "mm/min", "auto-feed"]]
+          .map(([label, x, d, unit, id]) => html`<div class="ax"><span class="label">${label}</span><b data-testid=${id}>${s && x !== null && x !== undefined ? fmt(x, d) : "-"}</b> <small>${unit}</small></div>`)}</div>
+      <${SyncPlot} points=${conn.plot} bound=${s && s.bound_arcsec} version=${conn.frame && conn.frame.seq} periodUs=${conn.stats && conn.stats.period_us} /></div>
+    <div class="card"><h2>Feed override <b data-testid="feed-now">${feedNow === null ? "-" : `${fmt(feedNow, 0)} %`}</b></h2>
       <div class="row">${[50, 80, 100, 120].filter((p) => p >= ranges.feed[0] && p <= ranges.feed[1]).map((p) => html`
         <${CmdButton} conn=${conn} op="override" fields=${{ what: "feed", percent: p }} label=${`${p} %`} testid=${`feed-${p}`} />`)}</div>
-      <div class="row"><input type="range" min=${ranges.feed[0]} max=${ranges.feed[1]} step="5" value=${feed} onInput=${(e) => setFeed(Number(e.target.value))} /> ${feed} %
-        <${CmdButton} conn=${conn} op="override" fields=${{ what: "feed", percent: feed }} label="SET" testid="feed-set" /></div></div>
+      <div class="row">${[-10, -5, 5, 10].map((d) => html`
+        <${CmdButton} conn=${conn} op="override" fields=${{ what: "feed", percent: feedStep(d) }} label=${`${d > 0 ? "+" : "−"}${Math.abs(d)} %`} testid=${`feed-step${d > 0 ? "+" : "-"}${Math.abs(d)}`} disabled=${feedNow === null} />`)}</div></div>
     <div class="card"><h2>Spindle override</h2>
       <div class="row">${[80, 100, 110, 120].filter((p) => p >= ranges.spindle[0] && p <= ranges.spindle[1]).map((p) => html`
         <${CmdButton} conn=${conn} op="override" fields=${{ what: "spindle", percent: p }} label=${`${p} %`} testid=${`spindle-${p}`} />`)}</div>
@@ -268,25 +278,52 @@ export function Report() {
 
 const time = (e) => (e.utc_ms ? new Date(e.utc_ms).toLocaleTimeString("en-GB", { hour12: false }) : `cycle ${e.cycle}`);
 
+// The event log's filters: by kind, severity and axis (each event's class comes from the
+// server, `codec::event_class`). Repeated bus noise is one line with its count.
+const EVENT_FILTERS = [
+  ["group", "kind", [["", "ALL"], ["alarm", "ALARMS"], ["operator", "OPERATOR"], ["bus", "BUS"], ["cycle", "CYCLE"]]],
+  ["severity", "severity", [["", "ANY"], ["alarm", "ALARM"], ["warning", "WARNING"]]],
+  ["axis", "axis", [["", "ANY"], ["X", "X"], ["Y", "Y"], ["B", "B"]]],
+];
+
 export function Alarms({ conn }) {
-  const [only, setOnly] = useState(false);
+  const [filter, setFilter] = useState({ group: "", severity: "", axis: "" });
+  const only = Object.values(filter).join("/");
   // Pages older than the live events: the server's ring, then the logger's record.
   const [older, setOlder] = useState({ list: [], done: false, note: "" });
   const live = [...conn.events].reverse();
   const oldest = [...live, ...older.list].reduce((m, e) => Math.min(m, e.seq), Infinity);
-  const more = () => api("GET", `/api/alarms/page?before=${Number.isFinite(oldest) ? oldest : 0}`).then((r) => {
+  const [loading, setLoading] = useState(false);
+  const more = () => { setLoading(true); return api("GET", `/api/alarms/page?before=${Number.isFinite(oldest) ? oldest : 0}`).then((r) => {
+    setLoading(false);
     if (!r.ok) { setOlder({ ...older, note: r.refused || `HTTP ${r.status}` }); return; }
     const seen = new Set([...live, ...older.list].map((e) => e.seq));
     const fresh = r.events.filter((e) => !seen.has(e.seq));
     setOlder({ list: [...older.list, ...fresh], done: fresh.length === 0, note: r.from_log ? `${r.from_log} from the logger's record` : "" });
-  });
-  const list = [...live, ...older.list].filter((e) => !only || e.kind === "alarm");
+  }); };
+  const severe = { alarm: 2, warning: 1, info: 0 };
+  const list = [...live, ...older.list].filter((e) => (!filter.group || e.group === filter.group)
+    && (!filter.severity || (severe[e.severity] ?? 0) >= severe[filter.severity])
+    && (!filter.axis || e.axis === filter.axis));
   return html`<section class="card"><h2>Alarms and events</h2>
-    <div class="row"><button class=${`key small ${only ? "on" : ""}`} onClick=${() => setOnly(!only)}>${only ? "ALL EVENTS" : "ALARMS ONLY"}</button>
-      <button class="key small" data-testid="older-events" disabled=${older.done} onClick=${more}>${older.done ? "NO OLDER EVENTS" : "OLDER"}</button>
+    ${EVENT_FILTERS.map(([key, label, options]) => html`<div class="row"><span class="label">${label}</span>${options.map(([value, text]) => html`
+      <button class=${`key small ${filter[key] === value ? "on" : ""}`} data-testid=${`filter-${key}-${value || "all"}`} onClick=${() => setFilter({ ...filter, [key]: value })}>${text}</button>`)}</div>`)}
+    <div class="row"><button class="key small" data-testid="older-events" data-loading=${loading ? "yes" : "no"} disabled=${older.done || loading} onClick=${more}>${older.done ? "NO OLDER EVENTS" : "OLDER"}</button>
       ${older.note ? html`<span class="small" data-testid="older-note">${older.note}</span>` : ""}
       ${conn.lost.length ? html`<span class="warn">events ${conn.lost.map((l) => `${l.from}..${l.to}`).join(", ")} are older than the HMI's memory: ${conn.lost[0].why}</span>` : ""}</div>
-    <${EventRows} list=${list} version=${`${only}:${list.length}:${list.length ? list[0].seq : ""}:${list.length ? list[list.length - 1].seq : ""}`} /></section>`;
+    <${EventRows} rows=${foldBus(list)} version=${`${only}:${list.length}:${list.length ? list[0].seq : ""}:${list.length ? list[list.length - 1].seq : ""}`} /></section>`;
+}
+
+// Consecutive bus events with the same words (a drive's TPDO late, over and over) as one
+// row with their count, newest first.
+function foldBus(list) {
+  const rows = [];
+  for (const e of list) {
+    const last = rows[rows.length - 1];
+    if (last && e.group === "bus" && last.e.group === "bus" && last.e.text === e.text) { last.count++; last.first = e.seq; }
+    else rows.push({ e, count: 1, first: e.seq });
+  }
+  return rows;
 }
 
 // The table of events is re-drawn when its events change, not with every frame of the loop:
@@ -296,10 +333,10 @@ class EventRows extends Component {
     return next.version !== this.props.version;
   }
 
-  render({ list }) {
+  render({ rows }) {
     return html`<table class="grid events"><tr><th>#</th><th>time</th><th>who</th><th>what</th></tr>
-      ${list.map((e) => html`<tr class=${e.kind} data-testid="event"><td>${e.seq}</td><td>${time(e)}</td><td>${e.operator ? "operator" : "machine"}</td>
-        <td>${e.text}${e.alarm ? html`<div class="small"><b>the machine:</b> ${e.alarm.reaction}<br /><b>remedy:</b> ${e.alarm.remedy}<br /><b>to continue:</b> ${e.alarm.how_to_continue}</div>` : ""}</td></tr>`)}</table>`;
+      ${rows.map(({ e, count, first }) => html`<tr class=${e.kind} data-testid="event" data-severity=${e.severity} data-axis=${e.axis || ""}><td>${count > 1 ? `${first}..${e.seq}` : e.seq}</td><td>${time(e)}</td><td>${e.operator ? "operator" : "machine"}</td>
+        <td>${e.text}${count > 1 ? html` <b class="warn" data-testid="folded">×${count}</b>` : ""}${e.alarm ? html`<div class="small"><b>the machine:</b> ${e.alarm.reaction}<br /><b>remedy:</b> ${e.alarm.remedy}<br /><b>to continue:</b> ${e.alarm.how_to_continue}</div>` : ""}</td></tr>`)}</table>`;
   }
 }
 

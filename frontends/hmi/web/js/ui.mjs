@@ -30,3 +30,15 @@ export function Toasts({ conn }) {
       <b>${t.label}:</b> ${t.ok ? t.text || "accepted" : html`REFUSED: ${t.text}`}</div>`,
   )}</div>`;
 }
+
+/** The panel's user level and what it may, from the server's hello (`hob-hmi --level`, at
+ *  most its user's level at the gateway): one line at the top of every screen. The server
+ *  refuses what the level may not; the page only says it. */
+export function LevelNote({ conn }) {
+  const l = conn.hello && conn.hello.level;
+  if (!l) return "";
+  return html`<p class="level" data-testid="level-note"><b data-testid="level">${l.name.toUpperCase()}</b> may ${l.may.filter((w) => w !== "watch the machine").join(", ") || "watch the machine"}${l.may_not.length ? html`; <span class="not">not ${l.may_not.join(", ")}</span>` : ""}</p>`;
+}
+
+/** Whether the panel's level may `action` (`edit_tools`, `compensate`, ...). */
+export const allows = (conn, action) => !!(conn.hello && conn.hello.level && conn.hello.level.allows[action]);
