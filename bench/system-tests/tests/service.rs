@@ -1850,7 +1850,7 @@ fn frontends_of_another_user_watch_and_command_through_the_gateway() {
         let (code, _, text) = as_nobody(b, nobody, true, &["status"]);
         assert_ne!(code, Some(0), "a stranger read the state: {text}");
         assert!(
-            text.contains("in none of the groups users (operate) and staff (watch)"),
+            text.contains("in none of the groups users (operator), staff (viewer)"),
             "{text}"
         );
         text.trim().to_string()
