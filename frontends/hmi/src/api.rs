@@ -119,18 +119,18 @@ pub async fn create(
     Path((what, name)): Path<(String, String)>,
     Json(body): Json<Body>,
 ) -> Response {
-    if let Some(k) = kind_of(&what)
-        && let Err(r) = app.may(editing(k))
-    {
+    let Some(kind) = kind_of(&what) else {
+        return not_found(&what);
+    };
+    if let Err(r) = app.may(editing(kind)) {
         return *r;
     }
-    let r = match kind_of(&what) {
-        Some(Kind::Program) => app
+    let r = match kind {
+        Kind::Program => app
             .library
             .create_program(&name, &body.text, &app.machine)
             .map(|p| json!({"plan": p})),
-        Some(Kind::Tool) => app.library.create_tool(&name, &body.text).map(|_| json!({})),
-        None => return not_found(&what),
+        Kind::Tool => app.library.create_tool(&name, &body.text).map(|_| json!({})),
     };
     match r {
         Ok(v) => (

@@ -158,16 +158,11 @@ fn span_reading(s: &Span) -> Result<hob_setup::job::span::SpanReading, Vec<Value
     };
     let k = num("span.k", "teeth spanned k", Some(&s.k));
     let measured = num("span.measured_mm", "measured span W", Some(&s.measured_mm));
-    let reading = hob_setup::job::span::SpanReading {
-        k: 0,
-        measured_mm: f64::NAN,
-        drawing_mm: num("span.drawing_mm", "drawing's span", s.drawing_mm.as_ref()),
-        upper_mm: num("span.upper_mm", "upper allowance", s.upper_mm.as_ref()),
-        lower_mm: num("span.lower_mm", "lower allowance", s.lower_mm.as_ref()),
-        profile_shift: num("span.profile_shift", "profile shift x", s.profile_shift.as_ref()),
-        after: s.after,
-    };
-    let (Some(k), Some(measured)) = (k, measured) else {
+    let drawing_mm = num("span.drawing_mm", "drawing's span", s.drawing_mm.as_ref());
+    let upper_mm = num("span.upper_mm", "upper allowance", s.upper_mm.as_ref());
+    let lower_mm = num("span.lower_mm", "lower allowance", s.lower_mm.as_ref());
+    let profile_shift = num("span.profile_shift", "profile shift x", s.profile_shift.as_ref());
+    let (Some(k), Some(measured_mm)) = (k, measured) else {
         if problems.is_empty() {
             problems.push(json!({"key": "span.measured_mm", "message": "the teeth spanned and the measured span are needed"}));
         }
@@ -183,8 +178,12 @@ fn span_reading(s: &Span) -> Result<hob_setup::job::span::SpanReading, Vec<Value
     }
     Ok(hob_setup::job::span::SpanReading {
         k: k as u32,
-        measured_mm: measured,
-        ..reading
+        measured_mm,
+        drawing_mm,
+        upper_mm,
+        lower_mm,
+        profile_shift,
+        after: s.after,
     })
 }
 
