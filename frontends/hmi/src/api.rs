@@ -5,6 +5,7 @@
 
 use crate::app::App;
 use crate::protocol::EventView;
+use crate::words::{Lang, tr};
 use axum::Json;
 use axum::extract::{Path, Query, State};
 use axum::http::StatusCode;
@@ -22,10 +23,10 @@ pub fn refusal(r: &Refusal) -> Response {
         Refusal::Invalid { error, .. } => {
             let list = error.problems();
             if list.is_empty() {
-                vec![json!({"key": "", "message": error.to_string()})]
+                vec![json!({"key": "", "message": tr(&error.to_string())})]
             } else {
                 list.iter()
-                    .map(|p| json!({"key": p.key, "message": p.message}))
+                    .map(|p| json!({"key": p.key, "message": tr(&p.message)}))
                     .collect()
             }
         }
@@ -38,7 +39,7 @@ pub fn refusal(r: &Refusal) -> Response {
     };
     (
         status,
-        Json(json!({"refused": r.to_string(), "problems": problems})),
+        Json(json!({"refused": tr(&r.to_string()), "problems": problems})),
     )
         .into_response()
 }
@@ -355,5 +356,47 @@ mod tests {
         assert_eq!(p["cut_time_s"].as_f64(), Some(r.passes[0].cut_time_s));
         assert_eq!(p["stood_s"].as_f64(), Some(r.passes[0].stood_s));
         assert!(r.passes[0].stood_s > 0.0, "{:?}", r.passes[0]);
+    }
+}
+
+/// `GET /api/words`: the panel's language, the languages this build has, and the
+/// catalogue the page looks its labels up in (empty for English).
+pub async fn words() -> Response {
+    let lang = crate::words::lang();
+    let langs: Vec<Value> = Lang::ALL
+        .iter()
+        .map(|l| json!({"code": l.code(), "name": l.own_name()}))
+        .collect();
+    let words = crate::words::catalogue(lang)
+        .map(|c| c.page())
+        .unwrap_or_default();
+    Json(json!({"lang": lang.code(), "languages": langs, "words": words})).into_response()
+}
+
+#[derive(Debug, Deserialize)]
+pub struct LanguageBody {
+    lang: String,
+}
+
+/// `POST /api/language`: the panel's language (any level: it changes the words, not the
+/// machine); an unknown language is refused and changes nothing.
+pub async fn language(Json(body): Json<LanguageBody>) -> Response {
+    match Lang::parse(&body.lang) {
+        Some(l) => {
+            crate::words::set(l);
+            words().await
+        }
+        None => (
+            StatusCode::UNPROCESSABLE_ENTITY,
+            Json(json!({
+                "refused": format!(
+                    "no language {:?} on this panel (it has {})",
+                    body.lang,
+                    Lang::ALL.map(Lang::code).join(", ")
+                ),
+                "problems": [],
+            })),
+        )
+            .into_response(),
     }
 }

@@ -85,12 +85,13 @@ impl App {
             (
                 axum::http::StatusCode::FORBIDDEN,
                 axum::Json(serde_json::json!({
-                    "refused": format!(
-                        "this panel is at the {} level, which may not {}: a {}'s work",
+                    "refused": crate::words::tr(&format!(
+                        "this panel is at the {} level, which may not {}: {} {}'s work",
                         self.level.level(),
                         action.words(),
+                        if needs.level().starts_with(['a', 'e', 'i', 'o', 'u']) { "an" } else { "a" },
                         needs.level()
-                    ),
+                    )),
                     "problems": [],
                 })),
             )

@@ -16,6 +16,7 @@ pub mod protocol;
 pub mod reduce;
 pub mod sections;
 pub mod web;
+pub mod words;
 pub mod ws;
 
 pub use error::Error;

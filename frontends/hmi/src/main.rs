@@ -49,6 +49,14 @@ struct Args {
     /// gateway gives this process's user: `hob-gateway --operators/--setters/--builders`).
     #[arg(long, default_value = "builder")]
     level: String,
+    /// The panel's language at start: en (English) or de (German); the page's language
+    /// key changes it.
+    #[arg(long, default_value = "en", value_parser = language)]
+    language: hob_hmi::words::Lang,
+}
+
+fn language(s: &str) -> Result<hob_hmi::words::Lang, String> {
+    hob_hmi::words::Lang::parse(s).ok_or_else(|| format!("no language {s:?}: en or de"))
 }
 
 fn vendor_dir(given: Option<PathBuf>) -> PathBuf {
@@ -113,6 +121,7 @@ fn run(a: Args) -> Result<(), String> {
     if a.silence_ms == 0 {
         return Err("--silence-ms must be above 0".into());
     }
+    hob_hmi::words::set(a.language);
     let view_token = match &a.view_token_file {
         Some(f) => Some(
             std::fs::read_to_string(f)

@@ -4,6 +4,7 @@
 
 use crate::error::Error;
 use crate::reduce::PlotPoint;
+use crate::words::tr;
 use hob_gearing::iso1328::single_pitch_tolerance_um;
 use hob_gearing::units::um_to_arcsec_at_radius;
 use hob_ipc::codec::{self, Axis};
@@ -28,9 +29,9 @@ pub struct AlarmView {
     /// What the alarm's drive reported itself (its last EMCY, by the drive's name), when
     /// the alarm names a drive that sent one.
     pub drive_reported: Option<String>,
-    pub reaction: &'static str,
-    pub remedy: &'static str,
-    pub how_to_continue: &'static str,
+    pub reaction: String,
+    pub remedy: String,
+    pub how_to_continue: String,
 }
 
 #[derive(Debug, Clone, PartialEq, Serialize)]
@@ -72,7 +73,7 @@ pub fn nodes(s: &StateSample, period_ns: u64) -> Vec<NodeView> {
             heartbeat_age_ms: f64::from(s.heartbeat_age_cycles[i]) * period_ns as f64 / 1e6,
             cia402: (i < 3).then(|| codec::cia402_state_name(s.drive_statusword[i])),
             statusword: (i < 3).then(|| format!("0x{:04X}", s.drive_statusword[i])),
-            emcy: codec::emcy_words(s.last_emcy_code[i]),
+            emcy: codec::emcy_words(s.last_emcy_code[i]).as_deref().map(tr),
         })
         .collect()
 }
@@ -82,6 +83,8 @@ pub fn nodes(s: &StateSample, period_ns: u64) -> Vec<NodeView> {
 pub struct StateView {
     pub cycle: u64,
     pub state: String,
+    /// The state in the operator's words (`State::words`; the page translates them).
+    pub state_words: &'static str,
     pub hold: bool,
     pub program_loaded: bool,
     pub pass: u32,
@@ -139,11 +142,11 @@ pub fn alarm_view(a: &hob_ipc::AlarmCode, last_emcy_code: &[u16; 4]) -> Option<A
     let drive_reported = codec::drive_reported(a, last_emcy_code);
     Some(AlarmView {
         code: a.code,
-        text: codec::alarm_text(a),
-        drive_reported,
-        reaction: f.map_or("", |f| f.reaction(a)),
-        remedy: f.map_or("", codec::Fault::remedy),
-        how_to_continue: f.map_or("", codec::Fault::how_to_continue),
+        text: tr(&codec::alarm_text(a)),
+        drive_reported: drive_reported.as_deref().map(tr),
+        reaction: tr(f.map_or("", |f| f.reaction(a))),
+        remedy: tr(f.map_or("", codec::Fault::remedy)),
+        how_to_continue: tr(f.map_or("", codec::Fault::how_to_continue)),
     })
 }
 
@@ -171,6 +174,7 @@ impl StateView {
         Self {
             cycle: s.cycle,
             state: codec::state_name(s.state),
+            state_words: codec::State::from_code(s.state).map_or("?", codec::State::words),
             hold: s.hold != 0,
             program_loaded: s.program_loaded != 0,
             pass: s.pass,
@@ -248,7 +252,7 @@ impl EventView {
             cycle: e.cycle,
             kind: codec::event_kind_name(e.kind).unwrap_or("?"),
             operator: matches!(e.kind, event_kind::ACCEPTED | event_kind::REFUSED),
-            text: codec::event_text(e),
+            text: tr(&codec::event_text(e)),
             alarm: if e.kind == event_kind::ALARM {
                 // What the drive reported is a bus event of its own in the list.
                 alarm_view(&e.alarm, &[0; 4])
@@ -287,7 +291,7 @@ impl EventView {
             cycle: e.cycle,
             kind: codec::event_kind_name(e.kind).unwrap_or("?"),
             operator: matches!(e.kind, event_kind::ACCEPTED | event_kind::REFUSED),
-            text: e.text.clone(),
+            text: tr(&e.text),
             alarm: if e.kind == event_kind::ALARM {
                 e.alarm.as_ref().and_then(|a| alarm_view(a, &[0; 4]))
             } else {
@@ -629,7 +633,7 @@ impl Answer {
             } else {
                 codec::Refusal::from_code(r.refusal).map(codec::Refusal::name)
             },
-            text: r.text(),
+            text: tr(&r.text()),
         }
     }
 
@@ -639,7 +643,7 @@ impl Answer {
             id,
             ok: false,
             refusal: None,
-            text: text.into(),
+            text: tr(&text.into()),
         }
     }
 }

@@ -131,6 +131,8 @@ pub fn panel_router(app: Arc<App>, vendor_files: Arc<Vendor>, host: String) -> R
         .route("/api/{what}/{name}/{action}", post(api::copy_or_rename))
         .route("/api/alarms/page", get(api::alarms))
         .route("/api/cut/report", get(api::report))
+        .route("/api/words", get(api::words))
+        .route("/api/language", post(api::language))
         .route("/api/form/{name}", get(definition::fields))
         .route("/api/plan/{name}", get(definition::plan))
         .route("/api/check", post(definition::check))
@@ -161,6 +163,7 @@ pub fn view_router(app: Arc<App>, vendor_files: Arc<Vendor>, token: ViewToken) -
     let api = Router::new()
         .route("/api/alarms/page", get(api::alarms))
         .route("/api/cut/report", get(api::report))
+        .route("/api/words", get(api::words))
         .with_state(app);
     Router::new()
         .route("/", get(view_index))

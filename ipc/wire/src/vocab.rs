@@ -108,6 +108,36 @@ impl State {
         }
     }
 
+    /// The state in the operator's words (the HMI's status line; translated there through
+    /// its message catalogue): [`Self::name`] is the short word of the trace and the CLI.
+    pub const fn words(self) -> &'static str {
+        match self {
+            State::Init => "power-up",
+            State::Idle => "idle",
+            State::Jog => "jog",
+            State::ToSafe => "to the safe position",
+            State::ToStart => "to the start position",
+            State::SpindleUp => "hob spindle starting",
+            State::Engage => "gearbox engaging",
+            State::Infeed => "infeed",
+            State::Plunge => "plunging",
+            State::ExtraRev => "extra revolution",
+            State::Clamp => "clamping X",
+            State::Cut => "cutting",
+            State::Unclamp => "unclamping X",
+            State::Retract => "retracting",
+            State::Return => "returning",
+            State::Index => "indexing",
+            State::Home => "to the home position",
+            State::Disengage => "gearbox disengaging",
+            State::SpindleDown => "hob spindle stopping",
+            State::FaultRetract => "FAULT: retracting X",
+            State::FaultStop => "FAULT: stopping",
+            State::Faulted => "FAULT",
+            State::Referencing => "referencing",
+        }
+    }
+
     /// Whether the tool may be in (or touching) the work.
     pub fn tool_in_work(self) -> bool {
         matches!(
