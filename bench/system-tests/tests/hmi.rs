@@ -63,8 +63,12 @@ fn stack(b: &mut Bench) -> Vec<(&'static str, String)> {
     ])
     .stdin(std::process::Stdio::piped());
     let sim = b.spawn_cmd("hob-sim", sim, "sim.txt");
-    // Kept open as long as the bench: hob-sim --control ends with its standard input.
-    std::mem::forget(b.stdin_of(sim));
+    // hob-sim --control reads faults on its standard input (and ends with it): the browser
+    // tests append theirs to a file (HOB_SIM_CONTROL), which this thread forwards line by
+    // line for as long as the bench runs.
+    let control = b.art.join("sim-control.txt");
+    std::fs::write(&control, "").unwrap();
+    forward_lines(control.clone(), b.stdin_of(sim));
     std::thread::sleep(Duration::from_millis(300));
     let state_file = b.art.join("machine-state.toml");
     b.spawn(
@@ -142,7 +146,35 @@ fn stack(b: &mut Bench) -> Vec<(&'static str, String)> {
         // the truth stays on the bus).
         ("HOB_HMI_USER", "65534:100".to_string()),
         ("HOB_HMI_GATEWAY", path(&socket)),
+        ("HOB_SIM_CONTROL", path(&control)),
     ]
+}
+
+/// Forwards what is appended to `file` into `to`, whole lines only, until the process ends.
+fn forward_lines(file: std::path::PathBuf, mut to: std::process::ChildStdin) {
+    use std::io::Write;
+    std::thread::spawn(move || {
+        let mut sent = 0;
+        loop {
+            std::thread::sleep(Duration::from_millis(100));
+            let Ok(text) = std::fs::read_to_string(&file) else {
+                continue;
+            };
+            let Some(end) = text.rfind('\n').map(|i| i + 1) else {
+                continue;
+            };
+            if end > sent {
+                if to
+                    .write_all(text[sent..end].as_bytes())
+                    .and_then(|()| to.flush())
+                    .is_err()
+                {
+                    return;
+                }
+                sent = end;
+            }
+        }
+    });
 }
 
 /// `dir` and everything under it.

@@ -245,10 +245,7 @@ fn every_label_of_the_page_has_its_german() {
         "{} labels found: is the page written with t(...)?",
         labels.len()
     );
-    let missing: Vec<_> = labels
-        .iter()
-        .filter(|s| !page.contains_key(s.as_str()))
-        .collect();
+    let missing: Vec<_> = labels.iter().filter(|s| !page.contains_key(s.as_str())).collect();
     assert!(
         missing.is_empty(),
         "{} of {} page labels have no German in lang/de.po:\n\n{}",

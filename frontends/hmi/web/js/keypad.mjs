@@ -5,7 +5,7 @@
 // field. It checks nothing: the field's text goes to the server as typed, read by the Rust
 // code the CLI uses.
 import { useState, useEffect } from "preact/hooks";
-import { html } from "./ui.mjs";
+import { html, t } from "./ui.mjs";
 
 const KEYS = ["7", "8", "9", "4", "5", "6", "1", "2", "3", ",", "0", "−", "⌫", "CLEAR", "ENTER"];
 
@@ -29,14 +29,14 @@ export function Keypad() {
   }, []);
   if (!field || !field.isConnected) return "";
   const press = (k) => {
-    const t = field.value;
+    const v = field.value;
     if (k === "ENTER") { field.blur(); setField(null); return; }
     if (k === "CLEAR") setText(field, "");
-    else if (k === "⌫") setText(field, t.slice(0, -1));
-    else if (k === "−") setText(field, t.startsWith("-") ? t.slice(1) : `-${t}`);
-    else setText(field, t + k);
+    else if (k === "⌫") setText(field, v.slice(0, -1));
+    else if (k === "−") setText(field, v.startsWith("-") ? v.slice(1) : `-${v}`);
+    else setText(field, v + k);
   };
   return html`<div class="keypad" data-testid="keypad" onPointerDown=${(e) => e.preventDefault()} onMouseDown=${(e) => e.preventDefault()}>
-    ${KEYS.map((k) => html`<button class=${`key pad ${k === "ENTER" ? "primary" : ""}`} tabindex="-1" data-key-pad=${k} onClick=${() => press(k)}>${k}</button>`)}
+    ${KEYS.map((k) => html`<button class=${`key pad ${k === "ENTER" ? "primary" : ""}`} tabindex="-1" data-key-pad=${k} onClick=${() => press(k)}>${k === "CLEAR" ? t("CLEAR") : k === "ENTER" ? t("ENTER") : k}</button>`)}
   </div>`;
 }

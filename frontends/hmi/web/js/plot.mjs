@@ -3,7 +3,7 @@
 // minimum to the maximum of its points (a one-cycle spike shows; plot-reduce.mjs), the
 // bound drawn in, gaps marked. The scale comes from the cut: a spike while engaging or
 // leaving is drawn clipped at the edge, in grey, not rescaling the cut.
-import { html } from "./ui.mjs";
+import { html, t } from "./ui.mjs";
 import { useRef, useEffect } from "preact/hooks";
 import { toTimeColumns, plotSpan, timeTicks } from "./plot-reduce.mjs";
 
@@ -33,17 +33,18 @@ export function SyncPlot({ points, bound, version, periodUs }) {
     g.fillText(`${span.toFixed(1)}"`, 4, 16); g.fillText(`${(-span).toFixed(1)}"`, 4, plotH - 6);
     // The time axis: seconds before now.
     g.strokeStyle = "#34475a"; g.fillStyle = "#8fa3b5";
-    for (const t of timeTicks(WINDOW_S, 10)) {
-      const x = w - 1 - (t.ago_s / WINDOW_S) * (plotW - 1);
+    for (const tick of timeTicks(WINDOW_S, 10)) {
+      const x = w - 1 - (tick.ago_s / WINDOW_S) * (plotW - 1);
       g.beginPath(); g.moveTo(x, 0); g.lineTo(x, plotH); g.stroke();
-      const tw = g.measureText(t.label).width;
-      g.fillText(t.label, Math.max(LEFT, Math.min(w - tw, x - tw / 2)), hgt - 4);
+      const label = tick.ago_s === 0 ? t("now") : tick.label;
+      const tw = g.measureText(label).width;
+      g.fillText(label, Math.max(LEFT, Math.min(w - tw, x - tw / 2)), hgt - 4);
     }
     if (bound) {
       g.strokeStyle = "#e0a030"; g.setLineDash([6, 4]);
       for (const b of [bound, -bound]) { g.beginPath(); g.moveTo(LEFT, y(b)); g.lineTo(w, y(b)); g.stroke(); }
       g.setLineDash([]);
-      g.fillStyle = "#e0a030"; g.fillText(`bound ±${bound.toFixed(1)}" in the cut`, LEFT + 4, y(bound) - 4);
+      g.fillStyle = "#e0a030"; g.fillText(t("bound ±{0}\" in the cut", bound.toFixed(1)), LEFT + 4, y(bound) - 4);
     }
     cols.forEach((p, i) => {
       if (!p) return;

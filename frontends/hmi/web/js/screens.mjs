@@ -3,7 +3,7 @@
 // button is one loop command whose answer (accepted, or the loop's refusal) is shown.
 import { Component } from "preact";
 import { useState, useEffect } from "preact/hooks";
-import { html, fmt, CmdButton, allows } from "./ui.mjs";
+import { html, fmt, t, CmdButton, allows } from "./ui.mjs";
 import { HoldKey } from "./hold.mjs";
 import { SyncPlot } from "./plot.mjs";
 import { api } from "./conn.mjs";
@@ -23,36 +23,36 @@ export function PowerUp({ conn }) {
   const on = (l, n) => sig(s, l, n);
   const drives = (a) => s && s.drives_enabled.includes(a);
   return html`<section class="grid2">
-    <div class="card"><h2>Safety chain</h2>
-      <p class="hint">Its reset needs: VFD ready, the PC's reset relay on, lube and coolant pumps off, e-stops released, then the RESET button on the panel.</p>
+    <div class="card"><h2>${t("Safety chain")}</h2>
+      <p class="hint">${t("Its reset needs: VFD ready, the PC's reset relay on, lube and coolant pumps off, e-stops released, then the RESET button on the panel.")}</p>
       <ul class="checks">
-        <${Check} ok=${on("inputs", "safety_chain_closed")} label="safety chain closed" testid="chain" />
-        <${Check} ok=${s && !on("inputs", "estop_pressed")} label="e-stop released" />
-        <${Check} ok=${on("inputs", "vfd_ready")} label="VFD ready" />
-        <${Check} ok=${s && !on("inputs", "vfd_fault")} label="no VFD fault" />
-        <${Check} ok=${on("outputs", "pc_reset_relay")} label="PC reset relay on" />
-        <${Check} ok=${on("outputs", "pc_ok_relay")} label="PC-OK relay on (controller healthy)" />
-        <${Check} ok=${s && !on("outputs", "coolant_pump")} label="coolant pump off" />
-        <${Check} ok=${s && s.io_valid} label="I/O coupler answering" />
+        <${Check} ok=${on("inputs", "safety_chain_closed")} label=${t("safety chain closed")} testid="chain" />
+        <${Check} ok=${s && !on("inputs", "estop_pressed")} label=${t("e-stop released")} />
+        <${Check} ok=${on("inputs", "vfd_ready")} label=${t("VFD ready")} />
+        <${Check} ok=${s && !on("inputs", "vfd_fault")} label=${t("no VFD fault")} />
+        <${Check} ok=${on("outputs", "pc_reset_relay")} label=${t("PC reset relay on")} />
+        <${Check} ok=${on("outputs", "pc_ok_relay")} label=${t("PC-OK relay on (controller healthy)")} />
+        <${Check} ok=${s && !on("outputs", "coolant_pump")} label=${t("coolant pump off")} />
+        <${Check} ok=${s && s.io_valid} label=${t("I/O coupler answering")} />
       </ul></div>
-    <div class="card"><h2>Lubrication and drives</h2>
+    <div class="card"><h2>${t("Lubrication and drives")}</h2>
       <ul class="checks">
         <li class="check info" data-testid="lube">lube pump <b>${s ? (on("outputs", "lube_pump") ? "running" : "off") : "-"}</b>, pressure switch <b>${s ? (on("inputs", "lube_pressure_ok") ? "on" : "off") : "-"}</b>
           <small>the pump runs at power-up and after every 5 m of travel; its pressure must come within the machine file's time, else the LUBE alarm</small></li>
-        <${Check} ok=${drives("B")} label="drive B (table) enabled" testid="drive-B" />
-        <${Check} ok=${drives("X")} label="drive X (radial) enabled" testid="drive-X" />
-        <${Check} ok=${drives("Y")} label="drive Y (axial) enabled" testid="drive-Y" />
+        <${Check} ok=${drives("B")} label=${t("drive B (table) enabled")} testid="drive-B" />
+        <${Check} ok=${drives("X")} label=${t("drive X (radial) enabled")} testid="drive-X" />
+        <${Check} ok=${drives("Y")} label=${t("drive Y (axial) enabled")} testid="drive-Y" />
       </ul></div>
-    <div class="card wide"><h2>Referencing</h2>
-      <p class="hint">X and Y find their home switch and index pulse (CiA 402 homing). Until then they jog only slowly, and no cycle starts.</p>
+    <div class="card wide"><h2>${t("Referencing")}</h2>
+      <p class="hint">${t("X and Y find their home switch and index pulse (CiA 402 homing). Until then they jog only slowly, and no cycle starts.")}</p>
       <ul class="checks">
-        <${Check} ok=${s && s.referenced.x} label="X referenced" testid="ref-x" />
-        <${Check} ok=${s && s.referenced.y} label="Y referenced" testid="ref-y" />
+        <${Check} ok=${s && s.referenced.x} label=${t("X referenced")} testid="ref-x" />
+        <${Check} ok=${s && s.referenced.y} label=${t("Y referenced")} testid="ref-y" />
       </ul>
       <div class="row">
-        <${CmdButton} conn=${conn} op="home" fields=${{ axis: "x" }} label="HOME X" testid="home-x" />
-        <${CmdButton} conn=${conn} op="home" fields=${{ axis: "y" }} label="HOME Y" testid="home-y" />
-        <${CmdButton} conn=${conn} op="home" fields=${{ axis: "all" }} label="HOME ALL" cls="primary" testid="home-all" />
+        <${CmdButton} conn=${conn} op="home" fields=${{ axis: "x" }} label=${t("HOME X")} testid="home-x" />
+        <${CmdButton} conn=${conn} op="home" fields=${{ axis: "y" }} label=${t("HOME Y")} testid="home-y" />
+        <${CmdButton} conn=${conn} op="home" fields=${{ axis: "all" }} label=${t("HOME ALL")} cls="primary" testid="home-all" />
       </div></div>
   </section>`;
 }
@@ -74,47 +74,47 @@ export function Jog({ conn, program }) {
   const unref = conn.hello && conn.hello.jog.unreferenced_mm_min;
   const pos = (label, v, unit, testid) => html`<div class="pos"><span class="label">${label}</span><b data-testid=${testid}>${s ? fmt(v, 3) : "-"}</b> ${unit}</div>`;
   return html`<section class="grid2">
-    <div class="card"><h2>Positions</h2>
+    <div class="card"><h2>${t("Positions")}</h2>
       ${pos("X", s && s.x_mm.act, "mm", "pos-x")}${pos("Y", s && s.y_mm.act, "mm", "pos-y")}
       ${pos("B", s && s.b_deg.act, "deg", "pos-b")}${pos("C", s && s.spindle_rpm, "rpm", "pos-c")}
-      <div class="hint">work offsets X ${fmt(s && s.x_offset_mm, 4)} mm, Y ${fmt(s && s.y_offset_mm, 4)} mm${s && s.moving_axis ? html` · <b data-testid="moving">${s.moving_axis} moving</b>` : ""}</div>
+      <div class="hint">${t("work offsets X {0} mm, Y {1} mm", fmt(s && s.x_offset_mm, 4), fmt(s && s.y_offset_mm, 4))}${s && s.moving_axis ? html` · <b data-testid="moving">${t("{0} moving", s.moving_axis)}</b>` : ""}</div>
     </div>
-    <div class="card"><h2>Continuous jog (hold the key)</h2>
-      <div class="row">speed <select value=${speed} onChange=${(e) => setSpeed(Number(e.target.value))} data-testid="jog-speed">
-        ${[60, 300, 1000, 3000].map((v) => html`<option value=${v}>${v} mm/min (deg/min B)</option>`)}</select></div>
-      ${s && (!s.referenced.x || !s.referenced.y) ? html`<p class="warn">Not referenced: X and Y jog at ${unref} mm/min at most, only the hardware limits protect.</p>` : ""}
+    <div class="card"><h2>${t("Continuous jog (hold the key)")}</h2>
+      <div class="row">${t("speed")} <select value=${speed} onChange=${(e) => setSpeed(Number(e.target.value))} data-testid="jog-speed">
+        ${[60, 300, 1000, 3000].map((v) => html`<option value=${v}>${t("{0} mm/min (deg/min B)", v)}</option>`)}</select></div>
+      ${s && (!s.referenced.x || !s.referenced.y) ? html`<p class="warn">${t("Not referenced: X and Y jog at {0} mm/min at most, only the hardware limits protect.", unref)}</p>` : ""}
       <div class="jogpad">
         ${["x", "y", "b"].map((a) => html`<div class="row">
           <${HoldKey} conn=${conn} axis=${a} dir="-" speed=${speed} label=${`${a.toUpperCase()} −`} />
           <${HoldKey} conn=${conn} axis=${a} dir="+" speed=${speed} label=${`${a.toUpperCase()} +`} /></div>`)}
       </div></div>
-    <div class="card"><h2>Incremental jog</h2>
+    <div class="card"><h2>${t("Incremental jog")}</h2>
       <div class="row">${STEPS.map((v) => html`<button class=${`key small ${v === step ? "on" : ""}`} onClick=${() => setStep(v)}>${v}</button>`)}</div>
       ${["x", "y", "b"].map((a) => html`<div class="row">
         <${CmdButton} conn=${conn} op="jog" fields=${{ axis: a, distance: -step }} label=${`${a.toUpperCase()} −${step}`} testid=${`step-${a}-minus`} />
         <${CmdButton} conn=${conn} op="jog" fields=${{ axis: a, distance: step }} label=${`${a.toUpperCase()} +${step}`} testid=${`step-${a}-plus`} /></div>`)}
     </div>
     <${TouchOff} conn=${conn} />
-    <div class="card"><h2>Hob spindle C</h2>
-      <p class="hint">HOLD C turns the hob while your finger is on it (dead-man, as the jog keys). SPINDLE ON latches it until SPINDLE OFF or STOP.</p>
+    <div class="card"><h2>${t("Hob spindle C")}</h2>
+      <p class="hint">${t("HOLD C turns the hob while your finger is on it (dead-man, as the jog keys). SPINDLE ON latches it until SPINDLE OFF or STOP.")}</p>
       <div class="row"><input inputmode="decimal" value=${rpm} data-testid="spindle-rpm" onInput=${(e) => setRpm(e.target.value)} /> rpm
-        <${HoldKey} conn=${conn} axis="c" dir="+" speed=${rpm} label="HOLD C" />
+        <${HoldKey} conn=${conn} axis="c" dir="+" speed=${rpm} label=${t("HOLD C")} />
         <b data-testid="spindle-actual">${s ? `${fmt(s.spindle_rpm, 1)} rpm` : "-"}</b></div>
-      <div class="row"><${CmdButton} conn=${conn} op="spindle" fields=${{ rpm: String(rpm) }} label="SPINDLE ON" />
-        <${CmdButton} conn=${conn} op="spindle" fields=${{ rpm: 0 }} label="SPINDLE OFF" /></div></div>
-    <div class="card"><h2>Align to cut gaps</h2>
-      ${s && !s.referenced.table ? html`<p class="warn" data-testid="table-lost">The table lost its position: CONTINUE would cut new gaps into this part. Align to its gaps (or NEW BLANK for a new part).</p>` : ""}
-      <p class="hint">For a part whose gaps are cut: spindle off, a hob tooth in a gap. Jog B − until a flank touches the tooth, tap FLANK AT B −; jog B + until the other flank touches, tap FLANK AT B +. The loop takes the middle as the part's tooth phase.</p>
-      <div class="row"><${CmdButton} conn=${conn} op="touch_flank" fields=${{ turned: "-" }} label="FLANK AT B −" testid="touch-flank-minus" />
-        <${CmdButton} conn=${conn} op="touch_flank" fields=${{ turned: "+" }} label="FLANK AT B +" testid="touch-flank-plus" /></div></div>
-    <div class="card"><h2>Set-up sheet${program ? `: ${program}` : ""}</h2>
-      ${plan && s && s.program_loaded && conn.frame.loaded_here !== program ? html`<p class="warn" data-testid="setup-not-loaded">The loop has another program loaded${conn.frame.loaded_here ? ` (${conn.frame.loaded_here})` : ""}: this sheet is for ${program}, load it before setting up.</p>` : ""}
+      <div class="row"><${CmdButton} conn=${conn} op="spindle" fields=${{ rpm: String(rpm) }} label=${t("SPINDLE ON")} />
+        <${CmdButton} conn=${conn} op="spindle" fields=${{ rpm: 0 }} label=${t("SPINDLE OFF")} /></div></div>
+    <div class="card"><h2>${t("Align to cut gaps")}</h2>
+      ${s && !s.referenced.table ? html`<p class="warn" data-testid="table-lost">${t("The table lost its position: CONTINUE would cut new gaps into this part. Align to its gaps (or NEW BLANK for a new part).")}</p>` : ""}
+      <p class="hint">${t("For a part whose gaps are cut: spindle off, a hob tooth in a gap. Jog B − until a flank touches the tooth, tap FLANK AT B −; jog B + until the other flank touches, tap FLANK AT B +. The loop takes the middle as the part's tooth phase.")}</p>
+      <div class="row"><${CmdButton} conn=${conn} op="touch_flank" fields=${{ turned: "-" }} label=${t("FLANK AT B −")} testid="touch-flank-minus" />
+        <${CmdButton} conn=${conn} op="touch_flank" fields=${{ turned: "+" }} label=${t("FLANK AT B +")} testid="touch-flank-plus" /></div></div>
+    <div class="card"><h2>${t("Set-up sheet")}${program ? `: ${program}` : ""}</h2>
+      ${plan && s && s.program_loaded && conn.frame.loaded_here !== program ? html`<p class="warn" data-testid="setup-not-loaded">${t("The loop has another program loaded ({0}): this sheet is for {1}, load it before setting up.", conn.frame.loaded_here || "?", program)}</p>` : ""}
       ${plan ? html`<table class="kv" data-testid="setup-sheet">
-        <tr><td>hob swivel A (set by hand)</td><td><b>${fmt(plan.hob_swivel_deg, 3)} deg</b> ${plan.hob_swivel_sense || ""}</td></tr>
-        <tr><td>gearbox ratio (table rev per hob rev)</td><td>${fmt(plan.egb_ratio, 6)}</td></tr>
-        <tr><td>differential</td><td>${fmt(plan.differential_deg_per_mm, 6)} deg/mm</td></tr>
+        <tr><td>${t("hob swivel A (set by hand)")}</td><td><b>${fmt(plan.hob_swivel_deg, 3)}°</b> ${plan.hob_swivel_sense ? t(plan.hob_swivel_sense) : ""}</td></tr>
+        <tr><td>${t("gearbox ratio (table rev per hob rev)")}</td><td>${fmt(plan.egb_ratio, 6)}</td></tr>
+        <tr><td>${t("differential")}</td><td>${fmt(plan.differential_deg_per_mm, 6)} deg/mm</td></tr>
         ${Object.entries(plan.signs || {}).map(([k, v]) => html`<tr><td>${k.replaceAll("_", " ")}</td><td>${String(v)}</td></tr>`)}
-      </table>` : html`<p class="hint">Pick a program in PROGRAMS to see its set-up.</p>`}</div>
+      </table>` : html`<p class="hint">${t("Pick a program in PROGRAMS to see its set-up.")}</p>`}</div>
   </section>`;
 }
 
@@ -133,37 +133,37 @@ function TouchOff({ conn }) {
   const ask = last && !last.cancelled && !last.answer.ok && last.answer.refusal === "offset-needs-confirmation" ? last : null;
   const offset = (axis) => s && (axis === "x" ? s.x_offset_mm : s.y_offset_mm);
   const gauge = (axis, label, value, set) => html`<div class="row">${label} <input inputmode="decimal" value=${value} data-testid=${`touch-${axis}-value`} onInput=${(e) => set(e.target.value)} /> mm
-    <${CmdButton} conn=${conn} op="touch_off" fields=${{ axis, value }} label=${`TOUCH OFF ${axis.toUpperCase()}`} testid=${`touch-${axis}`} disabled=${value === ""} onAnswer=${answered(axis, value)} quiet /></div>`;
-  return html`<div class="card"><h2>Touch-off</h2>
-    <div class="offsets" data-testid="touch-offsets"><span class="label">work offsets now</span>
+    <${CmdButton} conn=${conn} op="touch_off" fields=${{ axis, value }} label=${t("TOUCH OFF {0}", axis.toUpperCase())} testid=${`touch-${axis}`} disabled=${value === ""} onAnswer=${answered(axis, value)} quiet /></div>`;
+  return html`<div class="card"><h2>${t("Touch-off")}</h2>
+    <div class="offsets" data-testid="touch-offsets"><span class="label">${t("work offsets now")}</span>
       <span class="off">X <b data-testid="touch-offset-x">${fmt(offset("x"), 4)}</b> mm</span> <span class="off">Y <b data-testid="touch-offset-y">${fmt(offset("y"), 4)}</b> mm</span></div>
-    <p class="hint">Bring the hob onto a gauge of known size, then enter it: the loop sets the work offset and saves it. It asks first when the offset would move more than the machine allows, or the gauge does not fit the loaded blank.</p>
-    ${gauge("x", "X: gauge diameter", dia, setDia)}
-    ${gauge("y", "Y: gauge top above the table", height, setHeight)}
-    ${last && !ask ? html`<p class=${`answer ${last.answer.ok ? "ok" : "bad"}`} data-testid="touch-answer">${last.cancelled ? `CANCELLED, nothing changed: ` : last.answer.ok ? "" : "REFUSED: "}${last.answer.text}</p>` : ""}
+    <p class="hint">${t("Bring the hob onto a gauge of known size, then enter it: the loop sets the work offset and saves it. It asks first when the offset would move more than the machine allows, or the gauge does not fit the loaded blank.")}</p>
+    ${gauge("x", t("X: gauge diameter"), dia, setDia)}
+    ${gauge("y", t("Y: gauge top above the table"), height, setHeight)}
+    ${last && !ask ? html`<p class=${`answer ${last.answer.ok ? "ok" : "bad"}`} data-testid="touch-answer">${last.cancelled ? `${t("CANCELLED, nothing changed:")} ` : last.answer.ok ? "" : `${t("REFUSED:")} `}${last.answer.text}</p>` : ""}
     ${ask ? html`<div class="modal-back"><div class="modal" role="dialog" aria-modal="true" data-testid="touch-confirm">
-        <h2>Touch-off ${ask.axis.toUpperCase()}: the loop asks before it sets this offset</h2>
-        <div class="offsets">work offset ${ask.axis.toUpperCase()} now <b>${fmt(offset(ask.axis), 4)}</b> mm, gauge ${ask.value} mm</div>
+        <h2>${t("Touch-off {0}: the loop asks before it sets this offset", ask.axis.toUpperCase())}</h2>
+        <div class="offsets">${t("work offset {0} now", ask.axis.toUpperCase())} <b>${fmt(offset(ask.axis), 4)}</b> mm, ${t("gauge {0} mm", ask.value)}</div>
         <p class="loop-text" data-testid="touch-confirm-text">${ask.answer.text}</p>
-        <p class="hint">Check the gauge's value and where the hob stands. CONFIRM sets the offset named above; CANCEL changes nothing.</p>
+        <p class="hint">${t("Check the gauge's value and where the hob stands. CONFIRM sets the offset named above; CANCEL changes nothing.")}</p>
         <div class="row">
-          <button class="key" data-testid="touch-cancel" onClick=${() => setLast({ ...ask, cancelled: true })}>CANCEL</button>
-          <${CmdButton} conn=${conn} op="touch_off" fields=${{ axis: ask.axis, value: ask.value, confirm: true }} label=${`CONFIRM ${ask.axis.toUpperCase()} OFFSET`} cls="warnkey" testid="touch-confirm-yes" onAnswer=${answered(ask.axis, ask.value)} quiet /></div>
+          <button class="key" data-testid="touch-cancel" onClick=${() => setLast({ ...ask, cancelled: true })}>${t("CANCEL")}</button>
+          <${CmdButton} conn=${conn} op="touch_off" fields=${{ axis: ask.axis, value: ask.value, confirm: true }} label=${t("CONFIRM {0} OFFSET", ask.axis.toUpperCase())} cls="warnkey" testid="touch-confirm-yes" onAnswer=${answered(ask.axis, ask.value)} quiet /></div>
       </div></div>` : ""}
   </div>`;
 }
 
 // The span form's fields: the key the server names a problem by, and the operator's words.
 const SPAN_FIELDS = [
-  ["k", "span.k", "teeth spanned k", ""],
-  ["measured_mm", "span.measured_mm", "measured span W", "mm"],
-  ["drawing_mm", "span.drawing_mm", "drawing's span (empty: nominal)", "mm"],
-  ["upper_mm", "span.upper_mm", "upper allowance (e.g. -0,050)", "mm"],
-  ["lower_mm", "span.lower_mm", "lower allowance (e.g. -0,090)", "mm"],
-  ["profile_shift", "span.profile_shift", "profile shift x (empty: 0)", ""],
+  ["k", "span.k", () => t("teeth spanned k"), ""],
+  ["measured_mm", "span.measured_mm", () => t("measured span W"), "mm"],
+  ["drawing_mm", "span.drawing_mm", () => t("drawing's span (empty: nominal)"), "mm"],
+  ["upper_mm", "span.upper_mm", () => t("upper allowance (e.g. -0,050)"), "mm"],
+  ["lower_mm", "span.lower_mm", () => t("lower allowance (e.g. -0,090)"), "mm"],
+  ["profile_shift", "span.profile_shift", () => t("profile shift x (empty: 0)"), ""],
 ];
-const SPAN_LABEL = Object.fromEntries([...SPAN_FIELDS.map(([, key, label]) => [key, label]), ["span.after", "measured after"]]);
-const VERDICT = { good: "GOOD: within the drawing's allowances", over: "OVER: depth still to cut" };
+const spanLabel = (key) => (key === "span.after" ? t("measured after") : (SPAN_FIELDS.find((f) => f[1] === key) || [0, 0, () => key])[2]());
+const VERDICT = { good: () => t("GOOD: within the drawing's allowances"), over: () => t("OVER: depth still to cut") };
 
 export function Single({ conn, program }) {
   const s = conn.frame && conn.frame.state;
@@ -175,27 +175,27 @@ export function Single({ conn, program }) {
   const carry = async () => setRes({ ...res, carried: await api("POST", `/api/span/carry`, body()) });
   const problemOf = (key) => res && !res.ok && (res.problems || []).find((p) => p.key === key);
   return html`<section class="grid2">
-    <div class="card"><h2>Single pass${program ? `: ${program}` : ""}</h2>
-      <p class="hint">One pass at the program's single depth, then measure the span and carry the depth left into the automatic program.</p>
+    <div class="card"><h2>${t("Single pass")}${program ? `: ${program}` : ""}</h2>
+      <p class="hint">${t("One pass at the program's single depth, then measure the span and carry the depth left into the automatic program.")}</p>
       <div class="row">
-        <${CmdButton} conn=${conn} op="load" fields=${{ program: program || "" }} label="LOAD" disabled=${!program} />
-        <${CmdButton} conn=${conn} op="start" fields=${{ single: true }} label="START SINGLE" cls="primary" testid="start-single" />
-        <${CmdButton} conn=${conn} op="stop" label="STOP" cls="stop" /></div>
-      <div class="pos"><span class="label">state</span><b>${s ? s.state : "-"}</b></div></div>
-    <div class="card"><h2>Span measurement</h2>
-      <div class="row">measured after
-        ${["single", "whole"].map((a) => html`<button class=${`key small ${v.after === a ? "on" : ""}`} data-testid=${`span-after-${a}`} onClick=${() => setV({ ...v, after: a })}>${a === "single" ? "THE SINGLE PASS" : "THE WHOLE CUT"}</button>`)}</div>
-      ${SPAN_FIELDS.map(([name, key, label, unit]) => html`<div class=${`field ${problemOf(key) ? "problem" : ""}`}><span>${label}</span>
+        <${CmdButton} conn=${conn} op="load" fields=${{ program: program || "" }} label=${t("LOAD")} disabled=${!program} />
+        <${CmdButton} conn=${conn} op="start" fields=${{ single: true }} label=${t("START SINGLE")} cls="primary" testid="start-single" />
+        <${CmdButton} conn=${conn} op="stop" label=${t("STOP")} cls="stop" /></div>
+      <div class="pos"><span class="label">${t("state")}</span><b>${s ? t(s.state_words) : "-"}</b></div></div>
+    <div class="card"><h2>${t("Span measurement")}</h2>
+      <div class="row">${t("measured after")}
+        ${["single", "whole"].map((a) => html`<button class=${`key small ${v.after === a ? "on" : ""}`} data-testid=${`span-after-${a}`} onClick=${() => setV({ ...v, after: a })}>${a === "single" ? t("THE SINGLE PASS") : t("THE WHOLE CUT")}</button>`)}</div>
+      ${SPAN_FIELDS.map(([name, key, label, unit]) => html`<div class=${`field ${problemOf(key) ? "problem" : ""}`}><span>${label()}</span>
         <input inputmode="decimal" data-key=${key} value=${v[name] || ""} onInput=${(e) => setV({ ...v, [name]: e.target.value })} /><span>${unit}</span>
         ${problemOf(key) ? html`<em class="why">${problemOf(key).message}</em>` : ""}</div>`)}
-      <div class="row"><button class="key" onClick=${compute} disabled=${!program} data-testid="span-compute">COMPUTE</button>
-        <button class="key primary" onClick=${carry} disabled=${!res || !res.ok || !(res.inputs && res.inputs.depth_to_cut_mm > 0) || !allows(conn, "compensate")} data-testid="span-carry">CARRY INTO PROGRAM</button>
-        ${allows(conn, "compensate") ? "" : html`<span class="hint" data-testid="carry-level">CARRY: a setter's work</span>`}</div>
-      ${res && !res.ok ? html`<p class="bad" data-testid="span-refused">${res.refused} ${(res.problems || []).map((p) => html`<br />${SPAN_LABEL[p.key] || p.key}: ${p.message}`)}</p>` : ""}
-      ${res && res.ok ? html`<p class=${res.inputs.verdict === "good" ? "ok" : "warn"} data-testid="span-verdict"><b>${VERDICT[res.inputs.verdict]}</b>: W ${fmt(res.inputs.measured_span_mm, 4)} mm, allowed ${fmt(res.inputs.span_min_mm, 4)} .. ${fmt(res.inputs.span_max_mm, 4)} mm${res.inputs.depth_to_cut_mm > 0 ? `, ${fmt(res.inputs.depth_to_cut_mm, 3)} mm to cut to the middle` : ""}</p>
+      <div class="row"><button class="key" onClick=${compute} disabled=${!program} data-testid="span-compute">${t("COMPUTE")}</button>
+        <button class="key primary" onClick=${carry} disabled=${!res || !res.ok || !(res.inputs && res.inputs.depth_to_cut_mm > 0) || !allows(conn, "compensate")} data-testid="span-carry">${t("CARRY INTO PROGRAM")}</button>
+        ${allows(conn, "compensate") ? "" : html`<span class="hint" data-testid="carry-level">${t("CARRY: a setter's work")}</span>`}</div>
+      ${res && !res.ok ? html`<p class="bad" data-testid="span-refused">${res.refused} ${(res.problems || []).map((p) => html`<br />${spanLabel(p.key)}: ${p.message}`)}</p>` : ""}
+      ${res && res.ok ? html`<p class=${res.inputs.verdict === "good" ? "ok" : "warn"} data-testid="span-verdict"><b>${VERDICT[res.inputs.verdict]()}</b>: ${t("W {0} mm, allowed {1} .. {2} mm", fmt(res.inputs.measured_span_mm, 4), fmt(res.inputs.span_min_mm, 4), fmt(res.inputs.span_max_mm, 4))}${res.inputs.depth_to_cut_mm > 0 ? `, ${t("{0} mm to cut to the middle", fmt(res.inputs.depth_to_cut_mm, 3))}` : ""}</p>
         <table class="kv" data-testid="span-result">${Object.entries(res.inputs || {}).filter(([k2]) => k2 !== "verdict").map(([k2, val]) => html`<tr><td>${k2.replaceAll("_", " ").replace(/ mm$/, " (mm)").replace(/ deg$/, " (deg)")}</td><td>${typeof val === "number" && !Number.isInteger(val) ? fmt(val, 4) : val}</td></tr>`)}</table>
-        <p class="hint">depth to cut = (measured span − middle of the drawing's band) / (2 sin α<sub>n</sub>), none inside the band's lower half; new total depth = the depth cut + depth to cut</p>` : ""}
-      ${res && res.carried ? html`<p class=${res.carried.ok ? "ok" : "bad"}>${res.carried.ok ? `saved: total depth ${fmt(res.carried.total_depth_mm, 3)} mm` : res.carried.refused}</p>` : ""}
+        <p class="hint">${t("depth to cut = (measured span − middle of the drawing's band) / (2 sin αn), none inside the band's lower half; new total depth = the depth cut + depth to cut")}</p>` : ""}
+      ${res && res.carried ? html`<p class=${res.carried.ok ? "ok" : "bad"}>${res.carried.ok ? t("saved: total depth {0} mm", fmt(res.carried.total_depth_mm, 3)) : res.carried.refused}</p>` : ""}
     </div></section>`;
 }
 
@@ -209,47 +209,47 @@ export function Automatic({ conn, program }) {
   const feedStep = (d) => Math.max(ranges.feed[0], Math.min(ranges.feed[1], Math.round(((feedNow ?? 100) + d) / 5) * 5));
   const progress = s && s.passes ? (100 * Math.max(0, s.pass - 1)) / s.passes : 0;
   return html`<section class="grid2">
-    <div class="card wide"><h2>Automatic${program ? `: ${program}` : ""}</h2>
+    <div class="card wide"><h2>${t("Automatic")}${program ? `: ${program}` : ""}</h2>
       <div class="row">
-        <${CmdButton} conn=${conn} op="load" fields=${{ program: program || "" }} label="LOAD" disabled=${!program} />
-        <${CmdButton} conn=${conn} op="start" fields=${{ single: false }} label="CYCLE START" cls="primary" testid="start-auto" />
-        <${CmdButton} conn=${conn} op="hold" label="FEED HOLD" testid="feed-hold" />
-        <${CmdButton} conn=${conn} op="resume" label="RESUME" testid="resume" />
-        <${CmdButton} conn=${conn} op="stop" label="STOP" cls="stop" />
-        <${CmdButton} conn=${conn} op="continue" label=${s && s.continue_pass ? `CONTINUE FROM PASS ${s.continue_pass}${s.continue_from_y_mm != null ? ` AT Y ${s.continue_from_y_mm.toFixed(1)}` : ""}` : "CONTINUE"} disabled=${!(s && s.continue_pass)} />
-        <${CmdButton} conn=${conn} op="new_blank" label="NEW BLANK" /></div>
+        <${CmdButton} conn=${conn} op="load" fields=${{ program: program || "" }} label=${t("LOAD")} disabled=${!program} />
+        <${CmdButton} conn=${conn} op="start" fields=${{ single: false }} label=${t("CYCLE START")} cls="primary" testid="start-auto" />
+        <${CmdButton} conn=${conn} op="hold" label=${t("FEED HOLD")} testid="feed-hold" />
+        <${CmdButton} conn=${conn} op="resume" label=${t("RESUME")} testid="resume" />
+        <${CmdButton} conn=${conn} op="stop" label=${t("STOP")} cls="stop" />
+        <${CmdButton} conn=${conn} op="continue" label=${s && s.continue_pass ? (s.continue_from_y_mm != null ? t("CONTINUE FROM PASS {0} AT Y {1}", s.continue_pass, s.continue_from_y_mm.toFixed(1)) : t("CONTINUE FROM PASS {0}", s.continue_pass)) : t("CONTINUE")} disabled=${!(s && s.continue_pass)} />
+        <${CmdButton} conn=${conn} op="new_blank" label=${t("NEW BLANK")} /></div>
       <div class="progress"><div style=${`width:${progress}%`}></div></div>
-      <div class="row"><span class="label">state</span><b data-testid="auto-state">${s ? s.state : "-"}</b>
-        <span class="label">pass</span><b>${s ? `${s.pass} of ${s.passes}` : "-"}</b>
-        <span class="label">time left</span><b data-testid="time-left">${conn.frame && conn.frame.time_left_s !== null && conn.frame.time_left_s !== undefined ? mmss(conn.frame.time_left_s) : s && s.pass ? "unknown (the program was not loaded here)" : "-"}</b>
-        <span class="label">sync error</span><b>${s ? fmt(s.sync_error_arcsec, 2) : "-"}"</b>
-        <span class="label">bound</span><b>${s && s.bound_arcsec ? `±${fmt(s.bound_arcsec, 1)}"` : "-"}</b></div>
+      <div class="row"><span class="label">${t("state")}</span><b data-testid="auto-state">${s ? t(s.state_words) : "-"}</b>
+        <span class="label">${t("pass")}</span><b>${s ? t("{0} of {1}", s.pass, s.passes) : "-"}</b>
+        <span class="label">${t("time left")}</span><b data-testid="time-left">${conn.frame && conn.frame.time_left_s !== null && conn.frame.time_left_s !== undefined ? mmss(conn.frame.time_left_s) : s && s.pass ? t("unknown (the program was not loaded here)") : "-"}</b>
+        <span class="label">${t("sync error")}</span><b>${s ? fmt(s.sync_error_arcsec, 2) : "-"}"</b>
+        <span class="label">${t("bound")}</span><b>${s && s.bound_arcsec ? `±${fmt(s.bound_arcsec, 1)}"` : "-"}</b></div>
       <div class="axes" data-testid="auto-axes">
-        ${[["X", s && s.x_mm.act, 3, "mm", "auto-x"], ["Y", s && s.y_mm.act, 3, "mm", "auto-y"], ["B", s && s.b_deg.act, 3, "deg", "auto-b"],
-           ["hob", s && s.spindle_rpm, 1, `rpm (set ${s ? fmt(s.spindle_set_rpm, 0) : "-"})`, "auto-rpm"],
-           ["table", v && v.table_rpm, 3, "rpm", "auto-table-rpm"], ["feed Y", v && v.y_feed_mm_min, 1, "mm/min", "auto-feed"]]
+        ${[["X", s && s.x_mm.act, 3, "mm", "auto-x"], ["Y", s && s.y_mm.act, 3, "mm", "auto-y"], ["B", s && s.b_deg.act, 3, "°", "auto-b"],
+           [t("hob"), s && s.spindle_rpm, 1, t("rpm (set {0})", s ? fmt(s.spindle_set_rpm, 0) : "-"), "auto-rpm"],
+           [t("table"), v && v.table_rpm, 3, t("rpm"), "auto-table-rpm"], [t("feed Y"), v && v.y_feed_mm_min, 1, "mm/min", "auto-feed"]]
           .map(([label, x, d, unit, id]) => html`<div class="ax"><span class="label">${label}</span><b data-testid=${id}>${s && x !== null && x !== undefined ? fmt(x, d) : "-"}</b> <small>${unit}</small></div>`)}</div>
       <${SyncPlot} points=${conn.plot} bound=${s && s.bound_arcsec} version=${conn.frame && conn.frame.seq} periodUs=${conn.stats && conn.stats.period_us} /></div>
-    <div class="card"><h2>Feed override <b data-testid="feed-now">${feedNow === null ? "-" : `${fmt(feedNow, 0)} %`}</b></h2>
+    <div class="card"><h2>${t("Feed override")} <b data-testid="feed-now">${feedNow === null ? "-" : `${fmt(feedNow, 0)} %`}</b></h2>
       <div class="row">${[50, 80, 100, 120].filter((p) => p >= ranges.feed[0] && p <= ranges.feed[1]).map((p) => html`
         <${CmdButton} conn=${conn} op="override" fields=${{ what: "feed", percent: p }} label=${`${p} %`} testid=${`feed-${p}`} />`)}</div>
       <div class="row">${[-10, -5, 5, 10].map((d) => html`
         <${CmdButton} conn=${conn} op="override" fields=${{ what: "feed", percent: feedStep(d) }} label=${`${d > 0 ? "+" : "−"}${Math.abs(d)} %`} testid=${`feed-step${d > 0 ? "+" : "-"}${Math.abs(d)}`} disabled=${feedNow === null} />`)}</div></div>
-    <div class="card"><h2>Spindle override</h2>
+    <div class="card"><h2>${t("Spindle override")}</h2>
       <div class="row">${[80, 100, 110, 120].filter((p) => p >= ranges.spindle[0] && p <= ranges.spindle[1]).map((p) => html`
         <${CmdButton} conn=${conn} op="override" fields=${{ what: "spindle", percent: p }} label=${`${p} %`} testid=${`spindle-${p}`} />`)}</div>
-      <p class="hint">In the cut the spindle speed ramps to the new value (10 rpm/s) so the table keeps up.</p></div>
+      <p class="hint">${t("In the cut the spindle speed ramps to the new value (10 rpm/s) so the table keeps up.")}</p></div>
   </section>`;
 }
 
 // The gear each pass left, as ISO 1328-1 would measure it, from the simulated machine's
 // truth (the server's report; `hob log report` prints the same): the gear's deviations and
 // the controller's share of them.
-function PredictedGear(t, samples) {
+function PredictedGear(tr, samples) {
   const dev = (g, um, tol) => (g ? html`${fmt(g[um], 2)} um <span class="small">(${fmt((100 * g[um]) / g[tol], 0)} %)</span>` : "-");
-  return html`<h3 data-testid="report-truth">Graded by the simulated machine's truth (${t.joined} of ${samples} samples): predicted gear</h3>
-    <table class="grid"><tr><th>pass</th><th>true max um</th><th>grade</th><th>f<sub>pt</sub></th><th>F<sub>p</sub></th><th>helix</th><th>controller's f<sub>pt</sub></th><th>controller's F<sub>p</sub></th></tr>
-      ${t.passes.map((p) => html`<tr data-testid="report-predicted"><td>${p.pass}</td><td>${fmt(p.sync_err_max_um, 3)}</td><td>${p.predicted ? p.predicted.grade : "-"}</td>
+  return html`<h3 data-testid="report-truth">${t("Graded by the simulated machine's truth ({0} of {1} samples): predicted gear", tr.joined, samples)}</h3>
+    <table class="grid"><tr><th>${t("pass")}</th><th>${t("true max um")}</th><th>${t("grade")}</th><th>f<sub>pt</sub></th><th>F<sub>p</sub></th><th>${t("helix")}</th><th>${t("controller's")} f<sub>pt</sub></th><th>${t("controller's")} F<sub>p</sub></th></tr>
+      ${tr.passes.map((p) => html`<tr data-testid="report-predicted"><td>${p.pass}</td><td>${fmt(p.sync_err_max_um, 3)}</td><td>${p.predicted ? p.predicted.grade : "-"}</td>
         <td>${dev(p.predicted, "single_pitch_um", "single_pitch_tolerance_um")}</td><td>${dev(p.predicted, "cumulative_pitch_um", "cumulative_pitch_tolerance_um")}</td><td>${dev(p.predicted, "helix_um", "helix_tolerance_um")}</td>
         <td>${dev(p.controller_share, "single_pitch_um", "single_pitch_tolerance_um")}</td><td>${dev(p.controller_share, "cumulative_pitch_um", "cumulative_pitch_tolerance_um")}</td></tr>`)}</table>`;
 }
@@ -258,22 +258,22 @@ export function Report() {
   const [r, setR] = useState(null);
   const load = () => api("GET", "/api/cut/report").then(setR);
   useEffect(() => { load(); }, []);
-  if (!r) return html`<p>reading the logger's record...</p>`;
-  if (!r.ok) return html`<section class="card"><h2>Cut report</h2><p class="bad">${r.refused}</p><button class="key" onClick=${load}>READ AGAIN</button></section>`;
+  if (!r) return html`<p>${t("reading the logger's record...")}</p>`;
+  if (!r.ok) return html`<section class="card"><h2>${t("Cut report")}</h2><p class="bad">${r.refused}</p><button class="key" onClick=${load}>${t("READ AGAIN")}</button></section>`;
   const tol = r.grade5_single_pitch_um;
-  return html`<section class="card report" data-testid="report"><h2>Cut report</h2>
+  return html`<section class="card report" data-testid="report"><h2>${t("Cut report")}</h2>
     <p data-testid="report-what"><b>${r.what}</b></p>
     <div data-testid="report-header">${r.header_lines.map((l) => html`<p class=${l.startsWith("  ") ? "small report-alarm" : ""}>${l}</p>`)}</div>
-    <p>${r.samples} samples recorded, ${r.missing} missing (cycles ${r.first_cycle}..${r.last_cycle}); pitch radius ${fmt(r.pitch_radius_mm, 3)} mm; ISO 1328-1 single pitch tolerance, grade 5: ${fmt(tol, 2)} um; bound (a quarter): ${fmt(r.bound_um, 2)} um.</p>
-    <p class="small">Synchronisation error in the cut as the controller estimates it from its encoders:</p>
-    <table class="grid"><tr><th>pass</th><th>cut s</th><th>pass s</th><th>stood s</th><th>samples</th><th>RMS "</th><th>max "</th><th>RMS um</th><th>max um</th><th>max / tolerance</th><th>feed override %</th><th>spindle override %</th></tr>
+    <p>${t("{0} samples recorded, {1} missing (cycles {2}..{3}); pitch radius {4} mm; ISO 1328-1 single pitch tolerance, grade 5: {5} µm; bound (a quarter): {6} µm.", r.samples, r.missing, r.first_cycle, r.last_cycle, fmt(r.pitch_radius_mm, 3), fmt(tol, 2), fmt(r.bound_um, 2))}</p>
+    <p class="small">${t("Synchronisation error in the cut as the controller estimates it from its encoders:")}</p>
+    <table class="grid"><tr><th>${t("pass")}</th><th>${t("cut s")}</th><th>${t("pass s")}</th><th>${t("stood s")}</th><th>${t("samples")}</th><th>${t("RMS \"")}</th><th>${t("max \"")}</th><th>${t("RMS um")}</th><th>${t("max um")}</th><th>${t("max / tolerance")}</th><th>${t("feed override %")}</th><th>${t("spindle override %")}</th></tr>
       ${r.passes.map((p) => html`<tr data-testid="report-pass"><td>${p.pass}</td><td>${fmt(p.cut_time_s, 1)}</td><td>${fmt(p.pass_time_s, 1)}</td><td>${fmt(p.stood_s, 1)}</td><td>${p.samples}</td><td>${fmt(p.sync_err_rms_arcsec, 2)}</td><td>${fmt(p.sync_err_max_arcsec, 2)}</td>
         <td>${fmt(p.sync_err_rms_um, 3)}</td><td>${fmt(p.sync_err_max_um, 3)}</td><td class=${p.sync_err_max_um > r.bound_um ? "bad" : "ok"}>${fmt((100 * p.sync_err_max_um) / tol, 1)} %</td>
         <td>${p.feed_override_min_percent == null ? "-" : `${fmt(p.feed_override_min_percent, 0)}..${fmt(p.feed_override_max_percent, 0)}`}</td>
         <td>${p.spindle_override_min_percent == null ? "-" : `${fmt(p.spindle_override_min_percent, 0)}..${fmt(p.spindle_override_max_percent, 0)}`}</td></tr>`)}</table>
-    <p class="small" data-testid="report-durations">Durations: ${r.durations}.</p>
-    ${r.truth ? PredictedGear(r.truth, r.samples) : html`<p class="small" data-testid="report-no-truth">The error above is the controller's own estimate from its encoders (${r.truth_refused ? `no truth used: ${r.truth_refused}` : "no truth of a simulated machine beside the record"}).</p>`}
-    <div class="row noprint"><button class="key" onClick=${load}>READ AGAIN</button><button class="key" onClick=${() => window.print()}>PRINT</button></div></section>`;
+    <p class="small" data-testid="report-durations">${t("Durations:")} ${r.durations}.</p>
+    ${r.truth ? PredictedGear(r.truth, r.samples) : html`<p class="small" data-testid="report-no-truth">${t("The error above is the controller's own estimate from its encoders ({0}).", r.truth_refused ? t("no truth used: {0}", r.truth_refused) : t("no truth of a simulated machine beside the record"))}</p>`}
+    <div class="row noprint"><button class="key" onClick=${load}>${t("READ AGAIN")}</button><button class="key" onClick=${() => window.print()}>${t("PRINT")}</button></div></section>`;
 }
 
 const time = (e) => (e.utc_ms ? new Date(e.utc_ms).toLocaleTimeString("en-GB", { hour12: false }) : `cycle ${e.cycle}`);
@@ -281,9 +281,9 @@ const time = (e) => (e.utc_ms ? new Date(e.utc_ms).toLocaleTimeString("en-GB", {
 // The event log's filters: by kind, severity and axis (each event's class comes from the
 // server, `codec::event_class`). Repeated bus noise is one line with its count.
 const EVENT_FILTERS = [
-  ["group", "kind", [["", "ALL"], ["alarm", "ALARMS"], ["operator", "OPERATOR"], ["bus", "BUS"], ["cycle", "CYCLE"]]],
-  ["severity", "severity", [["", "ANY"], ["alarm", "ALARM"], ["warning", "WARNING"]]],
-  ["axis", "axis", [["", "ANY"], ["X", "X"], ["Y", "Y"], ["B", "B"]]],
+  ["group", () => t("kind"), [["", () => t("ALL")], ["alarm", () => t("ALARMS")], ["operator", () => t("OPERATOR")], ["bus", () => t("BUS")], ["cycle", () => t("CYCLE")]]],
+  ["severity", () => t("severity"), [["", () => t("ANY")], ["alarm", () => t("ALARM")], ["warning", () => t("WARNING")]]],
+  ["axis", () => t("axis"), [["", () => t("ANY")], ["X", () => "X"], ["Y", () => "Y"], ["B", () => "B"]]],
 ];
 
 export function Alarms({ conn }) {
@@ -299,18 +299,18 @@ export function Alarms({ conn }) {
     if (!r.ok) { setOlder({ ...older, note: r.refused || `HTTP ${r.status}` }); return; }
     const seen = new Set([...live, ...older.list].map((e) => e.seq));
     const fresh = r.events.filter((e) => !seen.has(e.seq));
-    setOlder({ list: [...older.list, ...fresh], done: fresh.length === 0, note: r.from_log ? `${r.from_log} from the logger's record` : "" });
+    setOlder({ list: [...older.list, ...fresh], done: fresh.length === 0, note: r.from_log ? t("{0} from the logger's record", r.from_log) : "" });
   }); };
   const severe = { alarm: 2, warning: 1, info: 0 };
   const list = [...live, ...older.list].filter((e) => (!filter.group || e.group === filter.group)
     && (!filter.severity || (severe[e.severity] ?? 0) >= severe[filter.severity])
     && (!filter.axis || e.axis === filter.axis));
-  return html`<section class="card"><h2>Alarms and events</h2>
-    ${EVENT_FILTERS.map(([key, label, options]) => html`<div class="row"><span class="label">${label}</span>${options.map(([value, text]) => html`
-      <button class=${`key small ${filter[key] === value ? "on" : ""}`} data-testid=${`filter-${key}-${value || "all"}`} onClick=${() => setFilter({ ...filter, [key]: value })}>${text}</button>`)}</div>`)}
-    <div class="row"><button class="key small" data-testid="older-events" data-loading=${loading ? "yes" : "no"} disabled=${older.done || loading} onClick=${more}>${older.done ? "NO OLDER EVENTS" : "OLDER"}</button>
+  return html`<section class="card"><h2>${t("Alarms and events")}</h2>
+    ${EVENT_FILTERS.map(([key, label, options]) => html`<div class="row"><span class="label">${label()}</span>${options.map(([value, text]) => html`
+      <button class=${`key small ${filter[key] === value ? "on" : ""}`} data-testid=${`filter-${key}-${value || "all"}`} onClick=${() => setFilter({ ...filter, [key]: value })}>${text()}</button>`)}</div>`)}
+    <div class="row"><button class="key small" data-testid="older-events" data-loading=${loading ? "yes" : "no"} disabled=${older.done || loading} onClick=${more}>${older.done ? t("NO OLDER EVENTS") : t("OLDER")}</button>
       ${older.note ? html`<span class="small" data-testid="older-note">${older.note}</span>` : ""}
-      ${conn.lost.length ? html`<span class="warn">events ${conn.lost.map((l) => `${l.from}..${l.to}`).join(", ")} are older than the HMI's memory: ${conn.lost[0].why}</span>` : ""}</div>
+      ${conn.lost.length ? html`<span class="warn">${t("events {0} are older than the HMI's memory: {1}", conn.lost.map((l) => `${l.from}..${l.to}`).join(", "), conn.lost[0].why)}</span>` : ""}</div>
     <${EventRows} rows=${foldBus(list)} version=${`${only}:${list.length}:${list.length ? list[0].seq : ""}:${list.length ? list[list.length - 1].seq : ""}`} /></section>`;
 }
 
@@ -334,9 +334,9 @@ class EventRows extends Component {
   }
 
   render({ rows }) {
-    return html`<table class="grid events"><tr><th>#</th><th>time</th><th>who</th><th>what</th></tr>
-      ${rows.map(({ e, count, first }) => html`<tr class=${e.kind} data-testid="event" data-severity=${e.severity} data-axis=${e.axis || ""}><td>${count > 1 ? `${first}..${e.seq}` : e.seq}</td><td>${time(e)}</td><td>${e.operator ? "operator" : "machine"}</td>
-        <td>${e.text}${count > 1 ? html` <b class="warn" data-testid="folded">×${count}</b>` : ""}${e.alarm ? html`<div class="small"><b>the machine:</b> ${e.alarm.reaction}<br /><b>remedy:</b> ${e.alarm.remedy}<br /><b>to continue:</b> ${e.alarm.how_to_continue}</div>` : ""}</td></tr>`)}</table>`;
+    return html`<table class="grid events"><tr><th>#</th><th>${t("time")}</th><th>${t("who")}</th><th>${t("what")}</th></tr>
+      ${rows.map(({ e, count, first }) => html`<tr class=${e.kind} data-testid="event" data-severity=${e.severity} data-axis=${e.axis || ""}><td>${count > 1 ? `${first}..${e.seq}` : e.seq}</td><td>${time(e)}</td><td>${e.operator ? t("operator") : t("machine")}</td>
+        <td>${e.text}${count > 1 ? html` <b class="warn" data-testid="folded">×${count}</b>` : ""}${e.alarm ? html`<div class="small"><b>${t("the machine")}:</b> ${e.alarm.reaction}<br /><b>${t("remedy")}:</b> ${e.alarm.remedy}<br /><b>${t("to continue")}:</b> ${e.alarm.how_to_continue}</div>` : ""}</td></tr>`)}</table>`;
   }
 }
 
@@ -346,7 +346,7 @@ function Bars({ title, bars, testid }) {
   if (!bars || !bars.length) return "";
   const top = Math.log10(Math.max(...bars.map((b) => b.count)) + 1);
   const us = (v) => (v >= 1000 ? `${fmt(v / 1000, 1)} ms` : `${fmt(v, v < 10 ? 1 : 0)} us`);
-  return html`<div class="bars" data-testid=${testid}><h3>${title} (cycles, log scale)</h3>
+  return html`<div class="bars" data-testid=${testid}><h3>${title} ${t("(cycles, log scale)")}</h3>
     ${bars.map((b) => html`<div class="bar"><span class="range">${us(b.lo_us)}–${us(b.hi_us)}</span>
       <span class="fill" style=${`width:${top > 0 ? (70 * Math.log10(b.count + 1)) / top : 0}%`}></span><span class="n">${b.count}</span></div>`)}</div>`;
 }
@@ -363,28 +363,28 @@ export function Diagnostics({ conn }) {
   }
   const bus = [...folded.values()].sort((a, b) => b.e.seq - a.e.seq).slice(0, 20);
   return html`<section class="grid2">
-    <div class="card"><h2>The loop</h2>${st ? html`
-      <table class="grid"><tr><th>us</th><th>min</th><th>p50</th><th>p99</th><th>p99.9</th><th>max</th><th>cycles</th></tr>
-        <tr><td>wake-up</td>${pct(st.wake_us)}</tr><tr><td>compute</td>${pct(st.compute_us)}</tr></table>
-      <${Bars} title="wake-up latency" bars=${st.wake_bars} testid="wake-histogram" />
-      <${Bars} title="compute time" bars=${st.compute_bars} testid="compute-histogram" />
-      <table class="kv"><tr><td>period</td><td>${fmt(st.period_us, 0)} us</td></tr><tr><td>overruns</td><td data-testid="overruns">${st.overruns}</td></tr>
-        <tr><td>heap allocations in cycles</td><td data-testid="allocations">${st.system_allocations_in_cycle} (pool ${st.pool_allocations_in_cycle})</td></tr>
-        <tr><td>scheduling</td><td>${st.fifo_priority > 0 ? `SCHED_FIFO ${st.fifo_priority}` : "NOT SCHED_FIFO"}, ${st.core >= 0 ? `core ${st.core}` : "not pinned"}, memory ${st.memory_locked ? "locked" : "NOT locked"}</td></tr>
-        <tr><td>bus</td><td>${st.bus}, ${st.tx_errors} frames not sent</td></tr>
-        <tr><td>samples the HMI missed</td><td>${conn.frame ? conn.frame.samples_missed : "-"}</td></tr>
-        <tr><td>recorder</td><td class=${conn.frame && conn.frame.recorder.alarm ? "warn" : ""} data-testid="recorder">${conn.frame ? conn.frame.recorder.text : "-"}</td></tr></table>` : html`<p>no stats from the loop yet</p>`}</div>
-    <div class="card"><h2>Drives and CAN nodes</h2>
-      <table class="grid" data-testid="nodes"><tr><th>node</th><th>NMT</th><th>heartbeat</th><th>CiA 402 (statusword)</th><th>last EMCY</th><th>feedback</th></tr>
-        ${s ? s.nodes.map((n) => html`<tr data-node=${n.name}><td>${n.name === "I/O" ? "I/O coupler" : `drive ${n.name}`}</td>
-          <td class=${n.nmt === "operational" ? "" : "warn"}>${n.nmt}</td><td>${n.nmt === "not heard" ? "-" : `${fmt(n.heartbeat_age_ms, 0)} ms ago`}</td>
-          <td class=${n.cia402 && n.cia402.includes("fault") ? "warn" : ""}>${n.cia402 || "-"}${n.statusword ? html`<div class="small">${n.statusword}</div>` : ""}</td>
+    <div class="card"><h2>${t("The loop")}</h2>${st ? html`
+      <table class="grid"><tr><th>us</th><th>${t("min")}</th><th>p50</th><th>p99</th><th>p99.9</th><th>${t("max")}</th><th>${t("cycles")}</th></tr>
+        <tr><td>${t("wake-up")}</td>${pct(st.wake_us)}</tr><tr><td>${t("compute")}</td>${pct(st.compute_us)}</tr></table>
+      <${Bars} title=${t("wake-up latency")} bars=${st.wake_bars} testid="wake-histogram" />
+      <${Bars} title=${t("compute time")} bars=${st.compute_bars} testid="compute-histogram" />
+      <table class="kv"><tr><td>${t("period")}</td><td>${fmt(st.period_us, 0)} us</td></tr><tr><td>${t("overruns")}</td><td data-testid="overruns">${st.overruns}</td></tr>
+        <tr><td>${t("heap allocations in cycles")}</td><td data-testid="allocations">${st.system_allocations_in_cycle} (pool ${st.pool_allocations_in_cycle})</td></tr>
+        <tr><td>${t("scheduling")}</td><td>${st.fifo_priority > 0 ? `SCHED_FIFO ${st.fifo_priority}` : t("NOT SCHED_FIFO")}, ${st.core >= 0 ? t("core {0}", st.core) : t("not pinned")}, ${st.memory_locked ? t("memory locked") : t("memory NOT locked")}</td></tr>
+        <tr><td>${t("bus")}</td><td>${st.bus}, ${t("{0} frames not sent", st.tx_errors)}</td></tr>
+        <tr><td>${t("samples the HMI missed")}</td><td>${conn.frame ? conn.frame.samples_missed : "-"}</td></tr>
+        <tr><td>${t("recorder")}</td><td class=${conn.frame && conn.frame.recorder.alarm ? "warn" : ""} data-testid="recorder">${conn.frame ? conn.frame.recorder.text : "-"}</td></tr></table>` : html`<p>${t("no stats from the loop yet")}</p>`}</div>
+    <div class="card"><h2>${t("Drives and CAN nodes")}</h2>
+      <table class="grid" data-testid="nodes"><tr><th>${t("node")}</th><th>${t("NMT")}</th><th>${t("heartbeat")}</th><th>${t("CiA 402 (statusword)")}</th><th>${t("last EMCY")}</th><th>${t("feedback")}</th></tr>
+        ${s ? s.nodes.map((n) => html`<tr data-node=${n.name}><td>${n.name === "I/O" ? t("I/O coupler") : t("drive {0}", n.name)}</td>
+          <td class=${n.nmt === "operational" ? "" : "warn"}>${t(n.nmt)}</td><td>${n.nmt === "not heard" ? "-" : t("{0} ms ago", fmt(n.heartbeat_age_ms, 0))}</td>
+          <td class=${n.cia402 && n.cia402.includes("fault") ? "warn" : ""}>${n.cia402 ? t(n.cia402) : "-"}${n.statusword ? html`<div class="small">${n.statusword}</div>` : ""}</td>
           <td class=${n.emcy ? "warn" : ""} data-testid=${`emcy-${n.name}`}>${n.emcy || "-"}</td>
-          <td>${n.name === "I/O" ? (s.io_valid ? "inputs current" : "NOT VALID") : s.drives_silent.includes(n.name) ? "SILENT" : "current"}</td></tr>`) : ""}</table>
-      <h3>Bus events (EMCY, heartbeats)</h3>
-      ${bus.length ? html`<ul data-testid="bus-events">${bus.map(({ e, count }) => html`<li>${time(e)} ${e.text}${count > 1 ? html` <b class="warn">(${count} times)</b>` : ""}</li>`)}</ul>` : html`<p class="hint">none since the HMI started</p>`}</div>
-    <div class="card wide"><h2>I/O signals</h2>
+          <td>${n.name === "I/O" ? (s.io_valid ? t("inputs current") : t("NOT VALID")) : s.drives_silent.includes(n.name) ? t("SILENT") : t("current")}</td></tr>`) : ""}</table>
+      <h3>${t("Bus events (EMCY, heartbeats)")}</h3>
+      ${bus.length ? html`<ul data-testid="bus-events">${bus.map(({ e, count }) => html`<li>${time(e)} ${e.text}${count > 1 ? html` <b class="warn">${t("({0} times)", count)}</b>` : ""}</li>`)}</ul>` : html`<p class="hint">${t("none since the HMI started")}</p>`}</div>
+    <div class="card wide"><h2>${t("I/O signals")}</h2>
       <div class="signals">${s ? [...s.inputs.map((x) => ({ ...x, dir: "in" })), ...s.outputs.map((x) => ({ ...x, dir: "out" }))].map((x) => html`
-        <div class=${`signal ${x.active ? "on" : ""}`} data-signal=${x.name}><span>${x.dir} ${x.bit}</span> ${x.name.replaceAll("_", " ")}</div>`) : "-"}</div></div>
+        <div class=${`signal ${x.active ? "on" : ""}`} data-signal=${x.name}><span>${x.dir === "in" ? t("in") : t("out")} ${x.bit}</span> ${x.name.replaceAll("_", " ")}</div>`) : "-"}</div></div>
   </section>`;
 }

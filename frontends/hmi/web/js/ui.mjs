@@ -4,6 +4,25 @@ import htm from "htm";
 
 export const html = htm.bind(h);
 
+// The panel's words (hob-hmi's catalogue, `GET /api/words`): t(msgid, ...values) gives
+// the text in the panel's language, `{0}`.. filled with the values; English as written when
+// the catalogue has none. Every label the page writes goes through it (a test reads each
+// literal call of t and checks lang/de.po has it).
+let words = {};
+export const lang = { code: "en", languages: [] };
+export function t(msgid, ...values) {
+  const w = words[msgid] ?? msgid;
+  return values.length ? w.replace(/\{(\d)\}/g, (m, i) => (values[i] ?? m)) : w;
+}
+/** Takes the server's answer of `/api/words` or `/api/language`. */
+export function setWords(r) {
+  if (!r || !r.ok) return;
+  words = r.words || {};
+  lang.code = r.lang;
+  lang.languages = r.languages || [];
+  document.documentElement.lang = r.lang;
+}
+
 export const fmt = (x, digits = 3) => (x === null || x === undefined || Number.isNaN(x) ? "-" : Number(x).toFixed(digits));
 
 /** A command button: sends, shows the loop's answer as a toast (refusals in red), or only
@@ -26,8 +45,8 @@ export function CmdButton({ conn, op, fields, label, cls = "", disabled, onAnswe
 export function Toasts({ conn }) {
   const list = (conn.toasts || []).slice(0, 2);
   return html`<div class="toasts" data-testid="answers">${list.map(
-    (t) => html`<div class=${`toast ${t.ok ? "ok" : "refused"}`} data-testid="toast" data-refusal=${t.refusal || ""} onClick=${() => conn.dismiss(t.key)}>
-      <b>${t.label}:</b> ${t.ok ? t.text || "accepted" : html`REFUSED: ${t.text}`}</div>`,
+    (a) => html`<div class=${`toast ${a.ok ? "ok" : "refused"}`} data-testid="toast" data-refusal=${a.refusal || ""} onClick=${() => conn.dismiss(a.key)}>
+      <b>${a.label}:</b> ${a.ok ? a.text || t("accepted") : html`${t("REFUSED:")} ${a.text}`}</div>`,
   )}</div>`;
 }
 
@@ -37,7 +56,8 @@ export function Toasts({ conn }) {
 export function LevelNote({ conn }) {
   const l = conn.hello && conn.hello.level;
   if (!l) return "";
-  return html`<p class="level" data-testid="level-note"><b data-testid="level">${l.name.toUpperCase()}</b> may ${l.may.filter((w) => w !== "watch the machine").join(", ") || "watch the machine"}${l.may_not.length ? html`; <span class="not">not ${l.may_not.join(", ")}</span>` : ""}</p>`;
+  const may = l.may.filter((w) => w !== "watch the machine");
+  return html`<p class="level" data-testid="level-note"><b data-testid="level" data-level=${l.name}>${t(l.name).toUpperCase()}</b> ${t("may")} ${(may.length ? may : ["watch the machine"]).map((w) => t(w)).join(", ")}${l.may_not.length ? html`; <span class="not">${t("not")} ${l.may_not.map((w) => t(w)).join(", ")}</span>` : ""}</p>`;
 }
 
 /** Whether the panel's level may `action` (`edit_tools`, `compensate`, ...). */
