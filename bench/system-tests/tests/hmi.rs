@@ -165,7 +165,7 @@ fn forward_lines(file: std::path::PathBuf, mut to: std::process::ChildStdin) {
             };
             if end > sent {
                 if to
-                    .write_all(text[sent..end].as_bytes())
+                    .write_all(&text.as_bytes()[sent..end])
                     .and_then(|()| to.flush())
                     .is_err()
                 {
