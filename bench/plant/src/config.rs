@@ -173,8 +173,30 @@ pub struct TablePlant {
     /// Friction in the table's own bearings, Nm at the table: the load that keeps the
     /// worm's play on its driving flank while the table turns without a cut.
     pub bearing_friction_nm: f64,
+    /// How the worm couples the B motor and the table (absent: `one-way`).
+    #[serde(default)]
+    pub coupling: WormCoupling,
+    /// The worm shaft and its coupling to the motor, kg m2 at the motor: with a `two-way`
+    /// coupling the motor carries them and the mesh, not the table (absent: 0).
+    #[serde(default)]
+    pub worm_inertia_kg_m2: f64,
     /// The worm drive between the motor and the table (`[table.worm]`).
     pub worm: WormPlant,
+}
+
+/// How the worm couples the B motor and the table ([`crate::worm`]).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Deserialize, Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum WormCoupling {
+    /// The motor drives the table's inertia as if rigidly reflected through the worm; the
+    /// table body hangs on the mesh behind it (the drive never feels the play or the mesh's
+    /// mode): the simulated machine before issue 33, kept to compare.
+    #[default]
+    OneWay,
+    /// The mesh's torque acts on both sides: the motor (with the worm) carries only its own
+    /// inertia and the torque the mesh transmits, so the drive's loops see the play and the
+    /// mesh's mode as a real drive does.
+    TwoWay,
 }
 
 /// The table's worm drive ([`crate::worm`]): a single-start worm, the wheel with as many
@@ -400,6 +422,7 @@ impl PlantConfig {
         );
         p.non_negative("table.friction_motor_nm", t.friction_motor_nm);
         p.non_negative("table.bearing_friction_nm", t.bearing_friction_nm);
+        p.non_negative("table.worm_inertia_kg_m2", t.worm_inertia_kg_m2);
         if let Some(j) = t.tuned_table_inertia_kg_m2 {
             p.positive("table.tuned_table_inertia_kg_m2", j);
         }

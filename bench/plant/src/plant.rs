@@ -2,7 +2,7 @@
 //! the safety chain, and fault injection. Exchanges with the controller exactly what the
 //! bus carries: raw counts, drive status, raw I/O images, the analog voltage.
 
-use crate::config::{DriveCounters, LinearPlant, PlantConfig, Side};
+use crate::config::{DriveCounters, LinearPlant, PlantConfig, Side, WormCoupling};
 use crate::drive::{Drive, DriveCommand, HomeGeometry, HomingParams, MODE_CSP};
 use crate::servo::{Servo, ServoParams};
 use crate::spindle::Spindle;
@@ -223,9 +223,19 @@ impl Plant {
         let t = &cfg.table;
         let table_counts_per_rad = f64::from(machine.table.encoder_counts_per_motor_rev) / TAU;
         let ratio = machine.table.worm_ratio;
+        // One-way: the table rigidly reflected on the motor; two-way: the motor and the worm
+        // alone, the table reaching them through the mesh's torque.
+        // (The worm's own inertia belongs to the two-way model; the one-way plant is kept as
+        // it was, to compare.)
+        let (carried_kg_m2, worm_kg_m2) = match t.coupling {
+            WormCoupling::OneWay => (t.table_inertia_kg_m2 / (ratio * ratio), 0.0),
+            WormCoupling::TwoWay => (t.worm_inertia_kg_m2, t.worm_inertia_kg_m2),
+        };
         let table_params = ServoParams {
-            inertia_kg_m2: t.motor_inertia_kg_m2 + t.table_inertia_kg_m2 / (ratio * ratio),
+            inertia_kg_m2: t.motor_inertia_kg_m2 + carried_kg_m2,
+            // The autotune's estimate: everything the motor turns, the table rigidly reflected.
             tuned_inertia_kg_m2: t.motor_inertia_kg_m2
+                + worm_kg_m2
                 + t.tuned_table_inertia_kg_m2.unwrap_or(t.table_inertia_kg_m2) / (ratio * ratio),
             counts_per_rad: table_counts_per_rad,
             peak_torque_nm: t.peak_motor_torque_nm,
@@ -372,6 +382,12 @@ impl Plant {
     /// measured on (the drive's motion, before the worm's errors).
     pub fn table_drive_deg(&self) -> f64 {
         self.table.motor_rad / self.table_motor_rad_per_deg * self.params.table.sign
+    }
+
+    /// The B motor's torque as its drive's loops command it, Nm (the peak is the drive's
+    /// limit: a loop that saturates there is not in control).
+    pub fn table_motor_torque_nm(&self) -> f64 {
+        self.table.torque_nm()
     }
 
     /// True table angle (deg, continuous): the table on its worm wheel, after the worm's
@@ -670,7 +686,6 @@ impl Plant {
         }
         let drag = self.cfg.table.bearing_friction_nm * (self.worm.table_rad_s / 0.01).tanh();
         let load_at_table_nm = resisting + drag;
-        self.table.disturbance_nm = load_at_table_nm / self.worm_ratio;
         // Both sides of the mesh at the start of the step (the worm as the motor stands
         // before its own step): a relative angle taken across different instants would
         // swing with the step's length.
@@ -680,6 +695,13 @@ impl Plant {
             load_at_table_nm,
             dt,
         );
+        self.table.disturbance_nm = match self.cfg.table.coupling {
+            // The load reflected as if the table were rigid on the worm.
+            WormCoupling::OneWay => load_at_table_nm / self.worm_ratio,
+            // What the mesh transmits, from the same instant the table felt it: nothing
+            // inside the play, the mesh's spring and damper on its flanks.
+            WormCoupling::TwoWay => self.worm.transmitted_nm / self.worm_ratio,
+        };
         self.table.advance(dt);
         self.x.advance(dt);
         self.y.advance(dt);

@@ -103,6 +103,11 @@ impl Servo {
         }
     }
 
+    /// The torque the loops hold since their last sample, Nm (0 while disabled).
+    pub fn torque_nm(&self) -> f64 {
+        self.torque_nm
+    }
+
     /// Encoder reading (quantised).
     pub fn position_counts(&self) -> i64 {
         (self.motor_rad * self.p.counts_per_rad).floor() as i64
