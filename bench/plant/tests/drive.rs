@@ -5,7 +5,7 @@
 
 mod common;
 
-use common::{machine, plant};
+use common::{holding as outputs, machine, plant};
 use hob_control::{CycleOutputs, DriveMode, HomingBits};
 use hob_plant::config::DriveCounters;
 use hob_plant::plant::{Plant, Start};
@@ -15,19 +15,6 @@ const START: Start = Start {
     y_mm: 200.0,
     table_deg: 30.0,
 };
-
-/// PC-OK on and the drives enabled, standing where they are (targets = their counters).
-fn outputs(p: &Plant) -> CycleOutputs {
-    let i = p.latch();
-    CycleOutputs {
-        table_target_counts: i.table.position_counts,
-        x_target_counts: i.x.position_counts,
-        y_target_counts: i.y.position_counts,
-        drives_enabled: true,
-        digital_outputs: 0x01,
-        ..CycleOutputs::default()
-    }
-}
 
 fn period(p: &mut Plant, o: &CycleOutputs) {
     let t = p.time_s() + 0.001;

@@ -9,8 +9,7 @@
 
 mod common;
 
-use common::{machine, plant};
-use hob_control::CycleOutputs;
+use common::{holding, machine, plant};
 use hob_plant::config::{PlantConfig, WormCoupling};
 use hob_plant::plant::{Plant, Start};
 
@@ -26,15 +25,7 @@ const START: Start = Start {
 fn held(cfg: &PlantConfig) -> (f64, f64, f64) {
     let m = machine();
     let mut p = Plant::new(cfg, &m, START, 10);
-    let i = p.latch();
-    let mut o = CycleOutputs {
-        table_target_counts: i.table.position_counts,
-        x_target_counts: i.x.position_counts,
-        y_target_counts: i.y.position_counts,
-        drives_enabled: true,
-        digital_outputs: 0x01,
-        ..CycleOutputs::default()
-    };
+    let mut o = holding(&p);
     let (mut motor, mut table) = ((f64::MAX, f64::MIN), (f64::MAX, f64::MIN));
     let (mut saturated, mut samples) = (0, 0);
     let peak = cfg.table.peak_motor_torque_nm;

@@ -146,3 +146,16 @@ pub fn repair_and_reset(sim: &mut Simulation) {
     );
     assert_eq!(sim.controller.status().fault, None);
 }
+
+/// PC-OK on and the drives enabled, standing where they are (targets = their counters).
+pub fn holding(p: &hob_plant::plant::Plant) -> hob_control::CycleOutputs {
+    let i = p.latch();
+    hob_control::CycleOutputs {
+        table_target_counts: i.table.position_counts,
+        x_target_counts: i.x.position_counts,
+        y_target_counts: i.y.position_counts,
+        drives_enabled: true,
+        digital_outputs: 0x01,
+        ..hob_control::CycleOutputs::default()
+    }
+}
