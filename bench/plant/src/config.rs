@@ -31,6 +31,13 @@ pub struct DrivesPlant {
     /// First-order low-pass on the speed estimate (the feedback's difference over a loop
     /// sample), Hz.
     pub velocity_filter_hz: f64,
+    /// Hidden from the controller: the drives' true delay, us, from the SYNC that brings a
+    /// target to where their interpolated reference reaches it (linear between the
+    /// targets, extrapolated when shorter than a period). Absent: one control period, what
+    /// the machine file's `control.drive_delay_us` says of the shipped drives. What a
+    /// commissioning must find (issue 33): a controller told another delay predicts wrong.
+    #[serde(default)]
+    pub delay_us: Option<u32>,
 }
 
 impl DrivesPlant {
@@ -323,6 +330,11 @@ impl PlantConfig {
                 )
             },
         );
+        if let Some(us) = d.delay_us {
+            p.require((200..=5000).contains(&us), "drives.delay_us", || {
+                format!("{us}: must be 200 to 5000 us (leave it out for one control period)")
+            });
+        }
         p.require(
             (12..=32).contains(&d.feedback_bits),
             "drives.feedback_bits",

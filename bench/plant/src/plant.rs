@@ -166,6 +166,7 @@ fn linear_servo(
         loop_period_s: f64::from(drives.loop_us) * 1e-6,
         feedback_counts_per_rad: drives.feedback_counts_per_rad(),
         velocity_filter_hz: drives.velocity_filter_hz,
+        extra_delay_s: drives.delay_us.map_or(0.0, |us| f64::from(us) * 1e-6 - period_s),
     };
     (Servo::new(params, start_mm * rad_per_mm, period_s), rad_per_mm)
 }
@@ -250,6 +251,10 @@ impl Plant {
             loop_period_s: f64::from(cfg.drives.loop_us) * 1e-6,
             feedback_counts_per_rad: cfg.drives.feedback_counts_per_rad(),
             velocity_filter_hz: cfg.drives.velocity_filter_hz,
+            extra_delay_s: cfg
+                .drives
+                .delay_us
+                .map_or(0.0, |us| f64::from(us) * 1e-6 - period_s),
         };
         let table_motor_rad_per_deg = ratio * TAU / 360.0;
         let table = Servo::new(table_params, start.table_deg * table_motor_rad_per_deg, period_s);

@@ -36,6 +36,9 @@ pub struct ServoParams {
     pub feedback_counts_per_rad: f64,
     /// Low-pass on the speed estimate, Hz.
     pub velocity_filter_hz: f64,
+    /// How much later than one period after its SYNC the reference reaches a target, s
+    /// (negative: sooner, extrapolating): the drive's delay beyond the interpolation.
+    pub extra_delay_s: f64,
 }
 
 /// One servo axis in motor coordinates (rad).
@@ -48,6 +51,8 @@ pub struct Servo {
     pub motor_rad: f64,
     pub motor_rad_s: f64,
     integral: f64,
+    /// The targets of the last three SYNCs, oldest first.
+    target_prev2_counts: f64,
     target_prev_counts: f64,
     target_counts: f64,
     since_sync_s: f64,
@@ -86,6 +91,7 @@ impl Servo {
             motor_rad: position_rad,
             motor_rad_s: 0.0,
             integral: 0.0,
+            target_prev2_counts: counts,
             target_prev_counts: counts,
             target_counts: counts,
             since_sync_s: 0.0,
@@ -120,15 +126,36 @@ impl Servo {
 
     /// At SYNC: the new target takes effect, interpolated over the next period.
     pub fn apply_target(&mut self, target_counts: i64) {
+        self.target_prev2_counts = self.target_prev_counts;
         self.target_prev_counts = self.target_counts;
         self.target_counts = target_counts as f64;
         self.since_sync_s = 0.0;
         if !self.enabled || self.fault {
             // A disabled drive follows its actual position (no jump on enable).
             let c = self.position_counts() as f64;
+            self.target_prev2_counts = c;
             self.target_prev_counts = c;
             self.target_counts = c;
         }
+    }
+
+    /// The interpolated reference, counts, and its segment's speed, counts/s, at
+    /// `since_sync_s` after the last SYNC: the segment from the previous target to this
+    /// SYNC's, reached one period (plus `extra_delay_s`) after it; later, held at the
+    /// target; earlier, the segment before; with a negative extra delay, extrapolated.
+    fn reference_counts(&self, since_sync_s: f64) -> (f64, f64) {
+        let share = (since_sync_s - self.p.extra_delay_s) / self.period_s;
+        let (from, to, f) = if share < 0.0 {
+            (
+                self.target_prev2_counts,
+                self.target_prev_counts,
+                (share + 1.0).max(0.0),
+            )
+        } else {
+            let most = 1.0 + (-self.p.extra_delay_s / self.period_s).max(0.0);
+            (self.target_prev_counts, self.target_counts, share.min(most))
+        };
+        (from + (to - from) * f, (to - from) / self.period_s)
     }
 
     /// Advances the physics by `dt_s`. The drive's loops sample at the start of the step
@@ -138,7 +165,7 @@ impl Servo {
     /// at the end of the step applied each target one step early: a delay of `period - dt`
     /// instead of the period the controller predicts for.)
     pub fn advance(&mut self, dt_s: f64) {
-        let share = (self.since_sync_s / self.period_s).min(1.0);
+        let (reference, ff_counts_s) = self.reference_counts(self.since_sync_s);
         self.since_sync_s += dt_s;
         let active = self.enabled && !self.fault;
         if self.since_loop_s + 1e-12 >= self.p.loop_period_s {
@@ -150,9 +177,7 @@ impl Servo {
             self.feedback_prev_rad = feedback_rad;
             let a = 1.0 - (-TAU * self.p.velocity_filter_hz * elapsed).exp();
             self.speed_estimate_rad_s += (raw - self.speed_estimate_rad_s) * a;
-            let reference = self.target_prev_counts + (self.target_counts - self.target_prev_counts) * share;
-            let ff_rad_s =
-                (self.target_counts - self.target_prev_counts) / self.period_s / self.p.counts_per_rad;
+            let ff_rad_s = ff_counts_s / self.p.counts_per_rad;
             self.torque_nm = if active {
                 let pos_err = reference / self.p.counts_per_rad - feedback_rad;
                 let w_ref = self.kv * pos_err + self.p.velocity_feed_forward * ff_rad_s;

@@ -159,3 +159,43 @@ pub fn holding(p: &hob_plant::plant::Plant) -> hob_control::CycleOutputs {
         ..hob_control::CycleOutputs::default()
     }
 }
+
+/// The table drive's delay, us after the SYNC that applies a target, identified as `hob log
+/// delay` does from the recording of the demo cut on `plant`, with `machine`'s
+/// `control.drive_delay_us` predicted.
+pub fn identified_drive_delay_us(machine: &MachineConfig, plant: &PlantConfig) -> f64 {
+    use hob_logger::delay::{TableSample, identify};
+    let (job, cycle, plan) = program_on(machine, "demo-short-spur-z17-m5.toml", &[]);
+    // A trace row carries the command applied at its SYNC, computed the cycle before; a
+    // recording carries each cycle's own command: shifted by one row to read as a log.
+    let mut rows: Vec<(f64, f64, bool)> = Vec::new();
+    let s = hob_plant::sim::run_program(
+        machine,
+        plant,
+        &cycle,
+        &plan,
+        &job,
+        &hob_plant::sim::SimOptions::default(),
+        &mut |row| {
+            rows.push((
+                row.table_cmd_deg,
+                row.table_deg,
+                row.state == State::Cut && row.sync_err_arcsec.is_some(),
+            ));
+        },
+    )
+    .unwrap();
+    let samples: Vec<TableSample> = rows
+        .windows(2)
+        .map(|w| TableSample {
+            command_deg: w[1].0,
+            actual_deg: w[0].1,
+            in_cut: w[0].2 && w[1].2,
+        })
+        .collect();
+    assert!(s.completed, "{:?}", s.fault);
+    let assumed_s = f64::from(machine.control.drive_delay_us) * 1e-6;
+    let d = identify(&samples, 1e-3, assumed_s).expect("a cut to identify from");
+    println!("{}", hob_logger::delay::text(&d, assumed_s));
+    d.drive_delay_s * 1e6
+}
