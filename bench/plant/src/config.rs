@@ -223,7 +223,8 @@ pub struct WormPlant {
     pub backlash_arcsec: f64,
     /// The drive's torsional stiffness at the table (worm shaft, bearings, mesh), Nm/rad.
     pub stiffness_nm_rad: f64,
-    /// The mesh's damping as a share of critical, with the table's inertia on it.
+    /// The mesh's damping as a share of critical of its mode: with the table's inertia on
+    /// it (one-way coupling), or the table's and the motor side's in series (two-way).
     pub damping_ratio: f64,
 }
 

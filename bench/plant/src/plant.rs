@@ -256,6 +256,15 @@ impl Plant {
                 .delay_us
                 .map_or(0.0, |us| f64::from(us) * 1e-6 - period_s),
         };
+        // The mesh's mode: the table against the motor held rigidly (one-way), or against
+        // the motor and the worm, free, reflected to the table (two-way: the two in series).
+        let modal_kg_m2 = match t.coupling {
+            WormCoupling::OneWay => t.table_inertia_kg_m2,
+            WormCoupling::TwoWay => {
+                let motor_side = (t.motor_inertia_kg_m2 + t.worm_inertia_kg_m2) * ratio * ratio;
+                motor_side * t.table_inertia_kg_m2 / (motor_side + t.table_inertia_kg_m2)
+            }
+        };
         let table_motor_rad_per_deg = ratio * TAU / 360.0;
         let table = Servo::new(table_params, start.table_deg * table_motor_rad_per_deg, period_s);
         let (x, x_rad_per_mm) = linear_servo(&machine.x, &cfg.x, &cfg.drives, false, period_s, start.x_mm);
@@ -287,6 +296,7 @@ impl Plant {
                 &t.worm,
                 ratio,
                 t.table_inertia_kg_m2,
+                modal_kg_m2,
                 cfg.simulation.seed,
                 start.table_deg * table_motor_rad_per_deg / ratio,
             ),

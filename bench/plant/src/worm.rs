@@ -83,7 +83,17 @@ impl WormDrive {
     /// The drive of a table of `table_inertia_kg_m2` turned by a single-start worm through
     /// `ratio` (the wheel has `ratio` teeth), its errors drawn from `seed`, the table at
     /// rest where the worm at `wheel_rad` (the motor over the ratio) puts it.
-    pub fn new(p: &WormPlant, ratio: f64, table_inertia_kg_m2: f64, seed: u64, wheel_rad: f64) -> Self {
+    /// `modal_inertia_kg_m2`: the inertia of the mesh's mode, at the table, that
+    /// `damping_ratio` is a share of critical of (the table's alone when the motor holds the
+    /// worm rigidly; with the motor free on the other side, the two in series).
+    pub fn new(
+        p: &WormPlant,
+        ratio: f64,
+        table_inertia_kg_m2: f64,
+        modal_inertia_kg_m2: f64,
+        seed: u64,
+        wheel_rad: f64,
+    ) -> Self {
         let teeth = ratio.round().max(1.0) as u32;
         let rad = |arcsec: f64| arcsec / 3600.0 * std::f64::consts::PI / 180.0;
         let (fpt_arcsec, fp_arcsec) = if p.wheel_grade == 0 {
@@ -105,7 +115,7 @@ impl WormDrive {
             runout_phase_rad: uniform() * tau,
             half_backlash_rad: rad(p.backlash_arcsec) / 2.0,
             stiffness_nm_rad: p.stiffness_nm_rad,
-            damping_nm_s_rad: 2.0 * p.damping_ratio * (p.stiffness_nm_rad * table_inertia_kg_m2).sqrt(),
+            damping_nm_s_rad: 2.0 * p.damping_ratio * (p.stiffness_nm_rad * modal_inertia_kg_m2).sqrt(),
             table_inertia_kg_m2,
             ratio,
             table_rad: 0.0,
@@ -194,7 +204,7 @@ mod tests {
 
     #[test]
     fn a_wheel_of_its_grade_has_its_tolerances_and_no_more() {
-        let w = WormDrive::new(&plant(4, 0.0, 0.0), 75.0, 20.0, 7, 0.0);
+        let w = WormDrive::new(&plant(4, 0.0, 0.0), 75.0, 20.0, 20.0, 7, 0.0);
         let (fpt, fp) = wheel_tolerances_arcsec(300.0, 75, 4);
         // Sample the error at each tooth's place around one revolution.
         let at: Vec<f64> = (0..75)
@@ -216,13 +226,13 @@ mod tests {
             "{single} of f_pt {fpt}"
         );
         // Grade 0: a perfect wheel.
-        let perfect = WormDrive::new(&plant(0, 0.0, 0.0), 75.0, 20.0, 7, 0.0);
+        let perfect = WormDrive::new(&plant(0, 0.0, 0.0), 75.0, 20.0, 20.0, 7, 0.0);
         assert_eq!(perfect.kinematic_error_rad(1.234), 0.0);
     }
 
     #[test]
     fn the_worms_runout_repeats_every_worm_revolution() {
-        let w = WormDrive::new(&plant(0, 2.0, 0.0), 75.0, 20.0, 3, 0.0);
+        let w = WormDrive::new(&plant(0, 2.0, 0.0), 75.0, 20.0, 20.0, 3, 0.0);
         let worm_rev = TAU / 75.0;
         let (a, b) = (w.kinematic_error_rad(0.3), w.kinematic_error_rad(0.3 + worm_rev));
         assert!((a - b).abs() < 1e-15);
@@ -248,7 +258,7 @@ mod tests {
 
     #[test]
     fn the_table_lags_by_half_the_play_and_the_deflection_and_crosses_the_play_when_the_load_turns() {
-        let mut w = WormDrive::new(&plant(0, 0.0, 10.0), 75.0, 20.0, 1, 0.0);
+        let mut w = WormDrive::new(&plant(0, 0.0, 10.0), 75.0, 20.0, 20.0, 1, 0.0);
         // Turning against 200 Nm at 1 rpm of the table: settled on the driving flank, 5 arcsec
         // of play plus 200 / 2e6 rad behind the worm.
         let rate = std::f64::consts::TAU / 60.0;
@@ -268,7 +278,7 @@ mod tests {
     #[test]
     fn the_table_rings_at_the_meshs_resonance_and_settles() {
         // sqrt(2e6 / 20) = 316 rad/s = 50.3 Hz; a step of the worm, no play, no load.
-        let mut w = WormDrive::new(&plant(0, 0.0, 0.0), 75.0, 20.0, 1, 0.0);
+        let mut w = WormDrive::new(&plant(0, 0.0, 0.0), 75.0, 20.0, 20.0, 1, 0.0);
         let step = 1e-5;
         let (dt, mut crossings, mut above) = (1e-4, 0, false);
         for i in 0..10_000 {
@@ -285,7 +295,7 @@ mod tests {
         // 0.364 s of a 50.3 Hz ringing, crossing twice per cycle: 36.6.
         assert!((33..=40).contains(&crossings), "{crossings}");
         assert!((w.table_rad - step).abs() < 1e-9, "settled at {}", w.table_rad);
-        let mut w2 = WormDrive::new(&plant(0, 0.0, 0.0), 75.0, 20.0, 1, 0.0);
+        let mut w2 = WormDrive::new(&plant(0, 0.0, 0.0), 75.0, 20.0, 20.0, 1, 0.0);
         let mut first_peak = 0.0f64;
         for _ in 0..200 {
             w2.advance(step, 0.0, 0.0, dt);
