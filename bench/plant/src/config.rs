@@ -153,6 +153,17 @@ pub struct SpindlePlant {
     /// The spindle encoder's error, amplitude of a once-per-turn sine (the code disc's
     /// eccentricity), arcsec of the spindle: what the controller reads is off by it.
     pub encoder_error_arcsec: f64,
+    /// Hidden: the encoder's error at twice and three times per turn, arcsec (the disc's
+    /// graduation, its mounting), phases drawn from `simulation.seed`. Absent: 0.
+    #[serde(default)]
+    pub encoder_error_2_arcsec: f64,
+    #[serde(default)]
+    pub encoder_error_3_arcsec: f64,
+    /// Hidden: a true once-per-turn torque on the spindle, Nm (an unbalance, an eccentric
+    /// pulley): the spindle's speed truly varies once per turn, and its encoder reads that
+    /// correctly. Absent: 0.
+    #[serde(default)]
+    pub once_per_turn_torque_nm: f64,
     /// The hob's axial runout on its arbor, amplitude of a once-per-turn sine, um: the
     /// generating rack moves along the hob axis, nearly the gear's tangent, so the blank
     /// is cut as if turned by it over the pitch radius. Nothing measures it.
@@ -383,12 +394,19 @@ impl PlantConfig {
             );
         }
         let sp = &self.spindle;
+        for (k, v) in [
+            ("spindle.encoder_error_arcsec", sp.encoder_error_arcsec),
+            ("spindle.encoder_error_2_arcsec", sp.encoder_error_2_arcsec),
+            ("spindle.encoder_error_3_arcsec", sp.encoder_error_3_arcsec),
+        ] {
+            p.within(k, v, 0.0, 600.0, "arcsec");
+        }
         p.within(
-            "spindle.encoder_error_arcsec",
-            sp.encoder_error_arcsec,
+            "spindle.once_per_turn_torque_nm",
+            sp.once_per_turn_torque_nm,
             0.0,
-            600.0,
-            "arcsec",
+            50.0,
+            "Nm",
         );
         p.within(
             "spindle.hob_axial_runout_um",

@@ -108,7 +108,8 @@ pub struct Plant {
     worm_ratio: f64,
     spindle_counts_per_rad: f64,
     /// The spindle encoder's once-per-turn error: amplitude (rad) and phase (rad).
-    spindle_encoder_error: (f64, f64),
+    /// The spindle encoder's error: (amplitude rad, phase rad) once, twice, three times per turn.
+    spindle_encoder_error: [(f64, f64); 3],
     /// The hob's axial runout: amplitude (mm) and phase (rad).
     hob_axial_runout: (f64, f64),
     table_motor_rad_per_deg: f64,
@@ -220,6 +221,12 @@ impl Plant {
         // The phases of the spindle encoder's and the hob's once-per-turn errors.
         let mut rng = cfg.simulation.seed.wrapping_mul(0xD1B5_4A32_D192_ED03) | 1;
         let phases = [crate::rng::uniform(&mut rng), crate::rng::uniform(&mut rng)];
+        // Drawn after those two, so that a plant without them is as it was.
+        let hidden_phases = [
+            crate::rng::uniform(&mut rng),
+            crate::rng::uniform(&mut rng),
+            crate::rng::uniform(&mut rng),
+        ];
         let period_s = params.period_s;
         let t = &cfg.table;
         let table_counts_per_rad = f64::from(machine.table.encoder_counts_per_motor_rev) / TAU;
@@ -286,6 +293,7 @@ impl Plant {
                 s.motor_to_spindle_ratio,
                 s.vfd_hz_at_full_scale / s.vfd_ramp_s,
                 gashes,
+                TAU * hidden_phases[2],
             ),
             table,
             x,
@@ -302,10 +310,20 @@ impl Plant {
             ),
             worm_ratio: ratio,
             spindle_counts_per_rad: f64::from(s.encoder_counts_per_rev) / TAU,
-            spindle_encoder_error: (
-                (cfg.spindle.encoder_error_arcsec / 3600.0).to_radians(),
-                TAU * phases[0],
-            ),
+            spindle_encoder_error: [
+                (
+                    (cfg.spindle.encoder_error_arcsec / 3600.0).to_radians(),
+                    TAU * phases[0],
+                ),
+                (
+                    (cfg.spindle.encoder_error_2_arcsec / 3600.0).to_radians(),
+                    TAU * hidden_phases[0],
+                ),
+                (
+                    (cfg.spindle.encoder_error_3_arcsec / 3600.0).to_radians(),
+                    TAU * hidden_phases[1],
+                ),
+            ],
             hob_axial_runout: (cfg.spindle.hob_axial_runout_um * 1e-3, TAU * phases[1]),
             table_motor_rad_per_deg,
             x_rad_per_mm,
@@ -534,8 +552,13 @@ impl Plant {
 
     /// The spindle encoder reading (counts, wrapping; B drive's auxiliary input).
     pub fn spindle_counts(&self) -> i32 {
-        let (amplitude, phase) = self.spindle_encoder_error;
-        let read_rad = self.spindle.angle_rad + amplitude * (self.spindle.angle_rad + phase).sin();
+        let a = self.spindle.angle_rad;
+        let [(a1, p1), (a2, p2), (a3, p3)] = self.spindle_encoder_error;
+        // The first term alone as before (a plant without harmonics reads bit for bit the same).
+        let mut read_rad = a + a1 * (a + p1).sin();
+        if a2 != 0.0 || a3 != 0.0 {
+            read_rad += a2 * (2.0 * a + p2).sin() + a3 * (3.0 * a + p3).sin();
+        }
         let c = (read_rad * self.spindle_counts_per_rad).floor() as i64;
         (c * self.params.spindle.sign as i64) as i32
     }

@@ -33,11 +33,15 @@ struct SpindleLaw {
     ripple: f64,
     gashes: f64,
     ramp_hz_per_s: f64,
+    /// A true once-per-turn torque, Nm, and its phase, rad.
+    turn_nm: f64,
+    turn_phase_rad: f64,
 }
 
 impl Spindle {
-    /// `ratio`: motor turns per spindle turn; `ramp_hz_per_s`: VFD ramp; `gashes` of the hob.
-    pub fn new(p: &SpindlePlant, ratio: f64, ramp_hz_per_s: f64, gashes: u32) -> Self {
+    /// `ratio`: motor turns per spindle turn; `ramp_hz_per_s`: VFD ramp; `gashes` of the hob;
+    /// `turn_phase_rad`: the phase of the true once-per-turn torque.
+    pub fn new(p: &SpindlePlant, ratio: f64, ramp_hz_per_s: f64, gashes: u32, turn_phase_rad: f64) -> Self {
         Self {
             p: SpindleLaw {
                 pole_pairs: f64::from(p.motor_pole_pairs),
@@ -50,6 +54,8 @@ impl Spindle {
                 ripple: p.cutting_ripple,
                 gashes: f64::from(gashes),
                 ramp_hz_per_s,
+                turn_nm: p.once_per_turn_torque_nm,
+                turn_phase_rad,
             },
             angle_rad: 0.0,
             speed_rad_s: 0.0,
@@ -77,7 +83,8 @@ impl Spindle {
         let ripple = 1.0 + p.ripple * (p.gashes * self.angle_rad).sin();
         self.cutting_torque_nm = p.cutting_nm * self.load_share * ripple * (self.speed_rad_s / 0.05).tanh();
         let friction = p.friction * (self.speed_rad_s / 0.05).tanh();
-        let acc = (motor_nm * p.ratio - friction - self.cutting_torque_nm) / p.inertia;
+        let turn = p.turn_nm * (self.angle_rad + p.turn_phase_rad).sin();
+        let acc = (motor_nm * p.ratio - friction - self.cutting_torque_nm + turn) / p.inertia;
         self.speed_rad_s += acc * dt_s;
         self.angle_rad += self.speed_rad_s * dt_s;
     }

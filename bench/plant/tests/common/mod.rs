@@ -63,7 +63,12 @@ pub fn short_spur(extra: &[(&str, &str)]) -> (Program, CycleProgram, Plan) {
 
 /// A powered-up machine with `cycle` loaded; power-up rows are dropped.
 pub fn powered_up(job: &Program, cycle: &CycleProgram, plan: &Plan) -> Simulation {
-    let mut sim = Simulation::new(&machine(), &plant(), start_for(cycle), job.tool.gashes as u32);
+    powered_up_on(&plant(), job, cycle, plan)
+}
+
+/// [`powered_up`] on another plant.
+pub fn powered_up_on(plant: &PlantConfig, job: &Program, cycle: &CycleProgram, plan: &Plan) -> Simulation {
+    let mut sim = Simulation::new(&machine(), plant, start_for(cycle), job.tool.gashes as u32);
     sim.plant.set_workpiece(workpiece_for(
         cycle,
         plan,
