@@ -44,6 +44,12 @@ impl DrivesPlant {
     pub fn feedback_counts_per_rad(&self) -> f64 {
         2f64.powi(self.feedback_bits as i32) / std::f64::consts::TAU
     }
+
+    /// How much later than one control period of `period_s` the drives' reference reaches
+    /// a target (`delay_us` less the period; 0 when absent), s.
+    pub fn extra_delay_s(&self, period_s: f64) -> f64 {
+        self.delay_us.map_or(0.0, |us| f64::from(us) * 1e-6 - period_s)
+    }
 }
 
 #[derive(Debug, Clone, PartialEq, Deserialize, Serialize)]

@@ -107,7 +107,6 @@ pub struct Plant {
     pub worm: WormDrive,
     worm_ratio: f64,
     spindle_counts_per_rad: f64,
-    /// The spindle encoder's once-per-turn error: amplitude (rad) and phase (rad).
     /// The spindle encoder's error: (amplitude rad, phase rad) once, twice, three times per turn.
     spindle_encoder_error: [(f64, f64); 3],
     /// The hob's axial runout: amplitude (mm) and phase (rad).
@@ -167,7 +166,7 @@ fn linear_servo(
         loop_period_s: f64::from(drives.loop_us) * 1e-6,
         feedback_counts_per_rad: drives.feedback_counts_per_rad(),
         velocity_filter_hz: drives.velocity_filter_hz,
-        extra_delay_s: drives.delay_us.map_or(0.0, |us| f64::from(us) * 1e-6 - period_s),
+        extra_delay_s: drives.extra_delay_s(period_s),
     };
     (Servo::new(params, start_mm * rad_per_mm, period_s), rad_per_mm)
 }
@@ -231,13 +230,23 @@ impl Plant {
         let t = &cfg.table;
         let table_counts_per_rad = f64::from(machine.table.encoder_counts_per_motor_rev) / TAU;
         let ratio = machine.table.worm_ratio;
-        // One-way: the table rigidly reflected on the motor; two-way: the motor and the worm
-        // alone, the table reaching them through the mesh's torque.
-        // (The worm's own inertia belongs to the two-way model; the one-way plant is kept as
-        // it was, to compare.)
-        let (carried_kg_m2, worm_kg_m2) = match t.coupling {
-            WormCoupling::OneWay => (t.table_inertia_kg_m2 / (ratio * ratio), 0.0),
-            WormCoupling::TwoWay => (t.worm_inertia_kg_m2, t.worm_inertia_kg_m2),
+        // What the motor carries besides itself, the worm's inertia, and the inertia at the
+        // table of the mesh's mode. One-way: the table rigidly reflected on the motor, which
+        // holds the worm rigidly against the table's mode (the worm's own inertia belongs
+        // to the two-way model: the one-way plant is kept as it was, to compare). Two-way:
+        // the motor and the worm alone, the table reaching them through the mesh's torque;
+        // the mode is the two sides in series.
+        let (carried_kg_m2, worm_kg_m2, modal_kg_m2) = match t.coupling {
+            WormCoupling::OneWay => (
+                t.table_inertia_kg_m2 / (ratio * ratio),
+                0.0,
+                t.table_inertia_kg_m2,
+            ),
+            WormCoupling::TwoWay => {
+                let motor_side = (t.motor_inertia_kg_m2 + t.worm_inertia_kg_m2) * ratio * ratio;
+                let modal = motor_side * t.table_inertia_kg_m2 / (motor_side + t.table_inertia_kg_m2);
+                (t.worm_inertia_kg_m2, t.worm_inertia_kg_m2, modal)
+            }
         };
         let table_params = ServoParams {
             inertia_kg_m2: t.motor_inertia_kg_m2 + carried_kg_m2,
@@ -258,19 +267,7 @@ impl Plant {
             loop_period_s: f64::from(cfg.drives.loop_us) * 1e-6,
             feedback_counts_per_rad: cfg.drives.feedback_counts_per_rad(),
             velocity_filter_hz: cfg.drives.velocity_filter_hz,
-            extra_delay_s: cfg
-                .drives
-                .delay_us
-                .map_or(0.0, |us| f64::from(us) * 1e-6 - period_s),
-        };
-        // The mesh's mode: the table against the motor held rigidly (one-way), or against
-        // the motor and the worm, free, reflected to the table (two-way: the two in series).
-        let modal_kg_m2 = match t.coupling {
-            WormCoupling::OneWay => t.table_inertia_kg_m2,
-            WormCoupling::TwoWay => {
-                let motor_side = (t.motor_inertia_kg_m2 + t.worm_inertia_kg_m2) * ratio * ratio;
-                motor_side * t.table_inertia_kg_m2 / (motor_side + t.table_inertia_kg_m2)
-            }
+            extra_delay_s: cfg.drives.extra_delay_s(period_s),
         };
         let table_motor_rad_per_deg = ratio * TAU / 360.0;
         let table = Servo::new(table_params, start.table_deg * table_motor_rad_per_deg, period_s);

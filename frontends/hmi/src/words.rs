@@ -23,14 +23,16 @@ use std::sync::atomic::{AtomicU8, Ordering};
 /// A language of the panel.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
 #[serde(rename_all = "lowercase")]
+#[repr(u8)]
 pub enum Lang {
     /// English: the words as written.
-    En,
+    En = 0,
     /// German (`lang/de.po`).
-    De,
+    De = 1,
 }
 
 impl Lang {
+    /// Every language, in code order (`ALL[l as usize] == l`).
     pub const ALL: [Lang; 2] = [Lang::En, Lang::De];
 
     /// The ISO 639-1 code (`en`, `de`).
@@ -320,21 +322,13 @@ fn words() -> &'static Words {
 
 /// The panel's language.
 pub fn lang() -> Lang {
-    match words().lang.load(Ordering::Relaxed) {
-        1 => Lang::De,
-        _ => Lang::En,
-    }
+    let i = usize::from(words().lang.load(Ordering::Relaxed));
+    Lang::ALL.get(i).copied().unwrap_or(Lang::En)
 }
 
 /// Sets the panel's language (every panel and view of this server).
 pub fn set(l: Lang) {
-    words().lang.store(
-        match l {
-            Lang::En => 0,
-            Lang::De => 1,
-        },
-        Ordering::Relaxed,
-    );
+    words().lang.store(l as u8, Ordering::Relaxed);
 }
 
 /// The catalogue of a language (`None`: English, the words as written).
@@ -419,8 +413,9 @@ msgstr ""
 
     #[test]
     fn languages_by_code() {
-        for l in Lang::ALL {
+        for (i, l) in Lang::ALL.into_iter().enumerate() {
             assert_eq!(Lang::parse(l.code()), Some(l));
+            assert_eq!(l as usize, i);
         }
         assert_eq!(Lang::parse("fr"), None);
     }
