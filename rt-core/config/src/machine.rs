@@ -54,6 +54,9 @@ pub struct MachineConfig {
     pub library: LibraryConfig,
     pub state: StateConfig,
     pub setup: SetupConfig,
+    /// What `hob commission` measured (absent until it ran).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub commissioning: Option<commissioning::Commissioning>,
 }
 
 /// The operator's program and tool library (`hob lib`, later the HMI): a directory with
@@ -631,6 +634,9 @@ impl MachineConfig {
         p.positive("lube.pump_run_s", self.lube.pump_run_s);
         self.validate_io(p);
         self.validate_node_ids(p);
+        if let Some(c) = &self.commissioning {
+            c.validate(self.control.drive_delay_us, 10 * self.control.cycle_period_us, p);
+        }
         absolute_path(p, "library.dir", &self.library.dir);
         absolute_path(p, "state.file", &self.state.file);
         // Below 0.01 mm every re-touch would ask (a touch scatters by a few um and the
@@ -1033,5 +1039,6 @@ pub fn shipped_for_tests() -> MachineConfig {
     MachineConfig::parse(&path, src).unwrap_or_else(|e| panic!("{e}"))
 }
 
+pub mod commissioning;
 #[cfg(test)]
 mod tests;

@@ -8,6 +8,8 @@
 //!   file, `fsync`, rename, `fsync` of the directory; `hob_rt_os::durable`, where the
 //!   logger finds it too); every write of this crate goes through it.
 //! - [`machine_state`]: `hob-rt`'s machine state file (work offsets from touch-off).
+//! - [`machine_edit`]: the machine file changed by a tool (`hob commission`): only the
+//!   changed keys' lines, checked as `hob-rt` loads it, shown as a diff, the old file kept.
 //! - [`library`]: the operator's program and tool library (`programs/`, `tools/`), the
 //!   names it accepts, and [`library::Library::resolve`], which fills a program's library
 //!   tool in.
@@ -18,6 +20,7 @@
 pub use hob_rt_os::durable as atomic;
 pub mod files;
 pub mod library;
+pub mod machine_edit;
 pub mod machine_state;
 pub mod utc;
 
