@@ -197,6 +197,8 @@ pub struct Status {
     #[serde(default)]
     pub alarm_drive_reported: Option<String>,
     pub stats: Option<LoopStats>,
+    /// The table's angle, deg.
+    pub table_deg: f64,
     /// Work positions (machine position plus the work offset).
     pub x_mm: f64,
     pub y_mm: f64,

@@ -7,6 +7,7 @@
 //! `hob-lab` (crate `bench/lab`), which `hob` runs for them ([`lab`]).
 
 pub mod can;
+pub mod commission;
 pub mod cutter;
 pub mod doctor;
 pub mod error;

@@ -193,6 +193,12 @@ enum Command {
         #[arg(long, value_name = "FILE")]
         machine: Option<PathBuf>,
     },
+    /// Commissioning: measure on the machine what the controller must know, and write it
+    /// into the machine file on confirmation (the diff shown, the old file kept).
+    Commission {
+        #[command(subcommand)]
+        command: CommissionCommand,
+    },
     /// Commissioning tools for the CAN bus (scan, SDO, dump; `can run` is in hob-lab).
     Can {
         #[command(subcommand)]
@@ -429,6 +435,27 @@ impl EntryAction {
 }
 
 #[derive(Debug, Subcommand)]
+enum CommissionCommand {
+    /// The table drive's delay (control.drive_delay_us): the table jogged at a constant
+    /// speed one way and back (hob-rt idle, the table clear), its position fitted against
+    /// the command shifted in time. Restart hob-rt after writing.
+    Delay {
+        /// Machine configuration to measure for and write [default: config/machine.toml, then /etc/hob/machine.toml].
+        #[arg(long, value_name = "FILE")]
+        machine: Option<PathBuf>,
+        /// The table's jog speed, deg/min.
+        #[arg(long, default_value_t = 240.0)]
+        speed: f64,
+        /// How long each way, s.
+        #[arg(long, default_value_t = 3.0)]
+        seconds: f64,
+        /// Write the changes without asking (the diff is still shown).
+        #[arg(long)]
+        yes: bool,
+    },
+}
+
+#[derive(Debug, Subcommand)]
 enum CanCommand {
     /// The nodes that answer: NMT state, device type, identity, name, CSP support.
     Scan,
@@ -533,6 +560,23 @@ fn run(command: Command) -> Result<(), Failure> {
             cyclictest_seconds,
             json,
         } => doctor(machine, cyclictest_seconds, json),
+        Command::Commission {
+            command:
+                CommissionCommand::Delay {
+                    machine,
+                    speed,
+                    seconds,
+                    yes,
+                },
+        } => {
+            let file = machine_path(machine.as_deref())?;
+            let o = hob_cli::commission::DelayOptions {
+                speed_deg_min: speed,
+                seconds,
+                yes,
+            };
+            emit(&hob_cli::commission::delay(&file, &o)?)
+        }
         Command::Status { watch, json } => service_result(service::status(watch, json)),
         Command::Load {
             program,

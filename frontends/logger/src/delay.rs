@@ -40,9 +40,19 @@ pub struct DriveDelay {
 pub fn from_log(dir: &std::path::Path) -> Result<(Vec<TableSample>, f64), crate::error::Error> {
     let states = crate::format::read_dir_states(dir)?;
     let period_s = crate::export::cycle_period_s(&states);
+    Ok((from_states(&states, crate::export::synchronised_cut), period_s))
+}
+
+/// State samples in the order they came as table samples, one per cycle: a missing cycle
+/// is a sample marked outside (so that the index stays the cycle); `counts` says which
+/// samples the fit may use.
+pub fn from_states(
+    states: &[hob_ipc::StateSample],
+    counts: impl Fn(&hob_ipc::StateSample) -> bool,
+) -> Vec<TableSample> {
     let mut out: Vec<TableSample> = Vec::with_capacity(states.len());
     let mut last_cycle: Option<u64> = None;
-    for s in &states {
+    for s in states {
         if let Some(last) = last_cycle {
             // A gap of a few cycles keeps the index; a restart (the counter goes back) or a
             // long gap ends the run: nothing is aligned across it.
@@ -66,10 +76,10 @@ pub fn from_log(dir: &std::path::Path) -> Result<(Vec<TableSample>, f64), crate:
         out.push(TableSample {
             command_deg: s.table_deg.command,
             actual_deg: s.table_deg.actual,
-            in_cut: crate::export::synchronised_cut(s),
+            in_cut: counts(s),
         });
     }
-    Ok((out, period_s))
+    out
 }
 
 /// The longest delay scanned, in cycles.

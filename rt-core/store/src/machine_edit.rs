@@ -58,26 +58,26 @@ pub fn set_value(text: &str, table: &str, key: &str, value: &str) -> Result<Stri
         let trimmed = line.trim_start();
         if let Some(header) = table_header(trimmed) {
             in_table = header == table;
-        } else if in_table && !done {
-            if let Some(rest) = trimmed.strip_prefix(key)
-                && let Some(after_eq) = rest.trim_start().strip_prefix('=')
-            {
-                let indent = &line[..line.len() - trimmed.len()];
-                let comment = comment_of(after_eq);
-                let eol = if line.ends_with('\n') { "\n" } else { "" };
-                let lhs = format!("{indent}{key} = {value}");
-                out.push_str(&match comment {
-                    // The comment stays in its column where the new value leaves room.
-                    Some(c) => {
-                        let column = line.len() - eol.len() - c.len();
-                        let pad = column.saturating_sub(lhs.len()).max(1);
-                        format!("{lhs}{}{c}{eol}", " ".repeat(pad))
-                    }
-                    None => format!("{lhs}{eol}"),
-                });
-                done = true;
-                continue;
-            }
+        } else if in_table
+            && !done
+            && let Some(rest) = trimmed.strip_prefix(key)
+            && let Some(after_eq) = rest.trim_start().strip_prefix('=')
+        {
+            let indent = &line[..line.len() - trimmed.len()];
+            let comment = comment_of(after_eq);
+            let eol = if line.ends_with('\n') { "\n" } else { "" };
+            let lhs = format!("{indent}{key} = {value}");
+            out.push_str(&match comment {
+                // The comment stays in its column where the new value leaves room.
+                Some(c) => {
+                    let column = line.len() - eol.len() - c.len();
+                    let pad = column.saturating_sub(lhs.len()).max(1);
+                    format!("{lhs}{}{c}{eol}", " ".repeat(pad))
+                }
+                None => format!("{lhs}{eol}"),
+            });
+            done = true;
+            continue;
         }
         out.push_str(line);
     }
@@ -174,7 +174,7 @@ pub fn diff(old: &str, new: &str) -> String {
         if i < a.len() && j < b.len() && a[i] == b[j] {
             i += 1;
             j += 1;
-        } else if j < b.len() && (i == a.len() || lcs[i][j + 1] >= lcs[i + 1][j]) {
+        } else if j < b.len() && (i == a.len() || lcs[i][j + 1] > lcs[i + 1][j]) {
             out.push_str(&format!("+{:>4}  {}\n", j + 1, b[j]));
             j += 1;
         } else {
