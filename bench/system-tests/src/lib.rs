@@ -407,6 +407,8 @@ impl Bench {
         if let Some(us) = env_num::<i64>("HOB_CYCLE_US", None) {
             m.set("control.cycle_period_us", us);
             m.set("control.drive_delay_us", us);
+            // The simulated drives' delay is the file's: its commissioning record moves with it.
+            m.set("commissioning.drive_delay.found_us", us as f64);
         }
         m
     }

@@ -1718,10 +1718,13 @@ fn operator_path_from_power_on_to_a_continued_cut() {
 fn commissioning_finds_the_hidden_drive_delay_over_the_bus() {
     use std::io::Write as _;
     let mut b = Bench::new("commission");
-    let m = b.session_machine();
+    let mut m = b.session_machine();
+    // A file commissioned on another drive: a copy from another machine, or a drive replaced.
+    m.set("commissioning.drive_delay.table_drive_serial", 0x0000_9999);
     let machine = m.write(&b.art.join("machine.toml"));
     let original = std::fs::read_to_string(&machine).unwrap();
     let told_us = m.int("control.drive_delay_us");
+    let cycle_us = m.int("control.cycle_period_us") as u64;
     let hidden_us = told_us + 250;
     let plant_text = std::fs::read_to_string(b.root.join("config/plant.toml")).unwrap();
     assert!(
@@ -1747,6 +1750,8 @@ fn commissioning_finds_the_hidden_drive_delay_over_the_bus() {
         &program,
         "--rt-priority",
         "75",
+        "--power-on-near-home",
+        SHORT_HOMING_MM,
         "--control",
     ])
     .stdin(std::process::Stdio::piped());
@@ -1809,6 +1814,16 @@ fn commissioning_finds_the_hidden_drive_delay_over_the_bus() {
     b.step("power-up to idle", |b| {
         b.wait_state("idle", STATE_TIMEOUT);
         String::new()
+    });
+    b.step("before commissioning: START refused, the drive named", |b| {
+        let log = std::fs::read_to_string(b.log_of(rt)).unwrap();
+        assert!(log.contains("measured on another drive"), "{log}");
+        b.hob_ok(&["load", &program_arg()]);
+        let o = b.hob(&["start"]);
+        assert_eq!(o.code, Some(2), "hob start: {}", o.text);
+        assert!(o.text.contains("hob commission delay"), "hob start: {}", o.text);
+        assert_eq!(b.status().state, "idle");
+        o.text
     });
     b.step(
         "refused: a jog speed beyond the command's limits, nothing moves",
@@ -1876,6 +1891,10 @@ fn commissioning_finds_the_hidden_drive_delay_over_the_bus() {
         );
         let written = TomlDoc::load(&machine);
         assert_eq!(written.int("control.drive_delay_us"), found_us.round() as i64);
+        assert_eq!(
+            written.int("commissioning.drive_delay.table_drive_serial"),
+            0x1002
+        );
         assert!(
             written
                 .get("commissioning.drive_delay.found_us")
@@ -1915,7 +1934,36 @@ fn commissioning_finds_the_hidden_drive_delay_over_the_bus() {
             "rt2.txt",
         );
         b.wait_state("idle", STATE_TIMEOUT);
+        let log = std::fs::read_to_string(b.art.join("rt2.txt")).unwrap();
+        assert!(log.contains("was measured on this drive"), "{log}");
         String::new()
+    });
+    b.step("commissioned: the cut starts and engages without a fault", |b| {
+        b.reference(STATE_TIMEOUT);
+        b.hob_ok(&["load", &program_arg()]);
+        b.hob_ok(&["start"]);
+        let cut = b.wait_state("cut", STATE_TIMEOUT);
+        // Two seconds of the loop's cycles into the cut: past the gearbox's engagement.
+        let s = b.wait_for("two seconds of cut", STATE_TIMEOUT, |b| {
+            let s = b.try_status()?;
+            if !s.alarm.is_empty() || s.state != "cut" {
+                return Ok(s);
+            }
+            if s.cycle > cut.cycle + 2_000_000 / cycle_us {
+                Ok(s)
+            } else {
+                Err(format!("cycle {}", s.cycle))
+            }
+        });
+        assert!(
+            s.alarm.is_empty() && s.state == "cut",
+            "state {}, alarm '{}'",
+            s.state,
+            s.alarm
+        );
+        b.hob_ok(&["stop"]);
+        b.wait_state("idle", STATE_TIMEOUT);
+        format!("pass {} at cycle {}, no alarm", s.pass, s.cycle)
     });
 }
 

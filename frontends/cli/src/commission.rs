@@ -71,11 +71,11 @@ pub fn delay(machine_file: &Path, o: &DelayOptions) -> Result<String, Failure> {
         o.seconds,
         o.speed_deg_min / 60.0 * o.seconds
     );
-    let states = jog_both_ways(o)?;
+    let (states, drive) = jog_both_ways(o)?;
     let m = measure(&states, period_s, f64::from(assumed_us) * 1e-6)?;
     let found_us = m.delay.drive_delay_s * 1e6;
     let utc = hob_store::utc::now();
-    let new_text = proposal(&text, &m.delay, &utc)?;
+    let new_text = proposal(&text, &m.delay, &utc, drive)?;
     // The proposal is checked as hob-rt will load it before it is shown.
     machine_edit::check(machine_file, &new_text).map_err(Failure::other)?;
     let mut out = format!(
@@ -130,9 +130,24 @@ fn check_options(o: &DelayOptions) -> Result<(), Failure> {
     Ok(())
 }
 
+/// A drive as it names itself: vendor id, product code, serial number (CiA 301 0x1018).
+pub type DriveIdentity = (u32, u32, u32);
+
+/// The table drive's identity from `hob-rt`'s answer to NODES.
+pub fn table_drive(nodes_text: &str) -> Option<DriveIdentity> {
+    let line = nodes_text.lines().find(|l| l.starts_with("B "))?;
+    let hex = |w: &str| u32::from_str_radix(w.trim_start_matches("0x"), 16).ok();
+    let w: Vec<&str> = line.split_whitespace().collect();
+    match w[..] {
+        [_, _, vendor, product, _, serial] => Some((hex(vendor)?, hex(product)?, hex(serial)?)),
+        _ => None,
+    }
+}
+
 /// Jogs the table + then - (each released and left to come to rest), reading every state
-/// sample meanwhile. Stops at the loop's refusal or an alarm.
-fn jog_both_ways(o: &DelayOptions) -> Result<Vec<StateSample>, Failure> {
+/// sample meanwhile; with the table drive's identity (the one measured). Stops at the
+/// loop's refusal or an alarm.
+fn jog_both_ways(o: &DelayOptions) -> Result<(Vec<StateSample>, DriveIdentity), Failure> {
     let me = format!("hob-commission-{}", std::process::id());
     let mut feed = hob_ipc::follow(&me).map_err(Failure::other)?;
     let mut client = hob_ipc::commands(&me).map_err(Failure::other)?;
@@ -142,6 +157,15 @@ fn jog_both_ways(o: &DelayOptions) -> Result<Vec<StateSample>, Failure> {
             hob_ipc::instance()
         )));
     }
+    let answer = client
+        .request(&hob_ipc::request::nodes(), ANSWER)
+        .map_err(|e| Failure::Other(format!("hob-rt did not answer: {e}")))?;
+    let drive = table_drive(&answer.text()).ok_or_else(|| {
+        Failure::Other(format!(
+            "hob-rt named no table drive among the nodes on the bus:\n{}",
+            answer.text()
+        ))
+    })?;
     let mut states = Vec::new();
     for direction in ["+", "-"] {
         let jog =
@@ -159,10 +183,12 @@ fn jog_both_ways(o: &DelayOptions) -> Result<Vec<StateSample>, Failure> {
                 break Ok(());
             }
         };
-        // Released in every case (a refused jog leaves nothing to release: harmless).
-        let released = ask(client.as_mut(), &hob_ipc::request::jog_release());
-        result?;
-        released?;
+        // Released in every case; after a refusal or a fault its answer adds nothing.
+        if let Err(e) = result {
+            let _ = client.request(&hob_ipc::request::jog_release(), ANSWER);
+            return Err(e);
+        }
+        ask(client.as_mut(), &hob_ipc::request::jog_release())?;
         // At rest before the other direction: the drive's lag runs out.
         let rest = Instant::now() + Duration::from_millis(600);
         while Instant::now() < rest {
@@ -170,7 +196,7 @@ fn jog_both_ways(o: &DelayOptions) -> Result<Vec<StateSample>, Failure> {
             drain(feed.as_mut(), &mut states)?;
         }
     }
-    Ok(states)
+    Ok((states, drive))
 }
 
 fn ask(client: &mut dyn Commands, req: &CommandRequest) -> Result<(), Failure> {
@@ -276,8 +302,8 @@ fn keep_steady(samples: &mut [TableSample], period_s: f64) -> (usize, usize) {
     (pos, neg)
 }
 
-/// The machine file's text with the found delay and its record.
-pub fn proposal(text: &str, d: &DriveDelay, utc: &str) -> Result<String, Failure> {
+/// The machine file's text with the found delay and its record (on `drive`).
+pub fn proposal(text: &str, d: &DriveDelay, utc: &str, drive: DriveIdentity) -> Result<String, Failure> {
     let found_us = d.drive_delay_s * 1e6;
     let text = machine_edit::set_value(
         text,
@@ -292,8 +318,11 @@ pub fn proposal(text: &str, d: &DriveDelay, utc: &str) -> Result<String, Failure
          utc = {utc}\n\
          found_us = {found_us:.1}\n\
          residual_arcsec = {:.2}\n\
-         samples = {}\n",
-        d.residual_rms_arcsec, d.samples
+         samples = {}\n\
+         table_drive_vendor_id = 0x{:08X}\n\
+         table_drive_product_code = 0x{:08X}\n\
+         table_drive_serial = 0x{:08X}\n",
+        d.residual_rms_arcsec, d.samples, drive.0, drive.1, drive.2
     );
     Ok(machine_edit::replace_table(
         &text,

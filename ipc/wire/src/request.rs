@@ -83,6 +83,10 @@ pub fn touch_flank(dir: &str) -> Result<CommandRequest, Error> {
 }
 
 /// `JOG_RELEASE`: the continuous jog stops.
+pub fn nodes() -> CommandRequest {
+    CommandRequest::new(command::NODES)
+}
+
 pub fn jog_release() -> CommandRequest {
     CommandRequest::new(command::JOG_RELEASE)
 }

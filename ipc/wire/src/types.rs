@@ -418,6 +418,10 @@ code_table! {
         /// `direction`: the way the table was turned until a flank of the cut gap touched the
         /// hob's tooth (aligning to a part whose gaps are cut).
         TOUCH_FLANK = 20, "touch flank";
+        /// What the nodes on the bus told about themselves at boot (answered by `hob-rt`'s
+        /// command thread, not the loop): one line per node in the answer's text,
+        /// `AXIS NODE VENDOR PRODUCT REVISION SERIAL` (hex), AXIS `B`, `X`, `Y` or `IO`.
+        NODES = 21, "nodes";
     }
 }
 

@@ -202,11 +202,12 @@ pub enum Refusal {
     FlanksCrossed = 15,
     ProgramChanged = 16,
     OffsetNeedsConfirmation = 17,
+    DelayNotCommissioned = 18,
 }
 
 impl Refusal {
     /// Every refusal, in code order (`ALL[i].code() == i + 1`).
-    pub const ALL: [Refusal; 17] = [
+    pub const ALL: [Refusal; 18] = [
         Refusal::NoProgram,
         Refusal::CycleRunning,
         Refusal::Faulted,
@@ -224,6 +225,7 @@ impl Refusal {
         Refusal::FlanksCrossed,
         Refusal::ProgramChanged,
         Refusal::OffsetNeedsConfirmation,
+        Refusal::DelayNotCommissioned,
     ];
 
     pub const fn code(self) -> u32 {
@@ -253,6 +255,7 @@ impl Refusal {
             Refusal::FlanksCrossed => "flanks-crossed",
             Refusal::ProgramChanged => "program-changed",
             Refusal::OffsetNeedsConfirmation => "offset-needs-confirmation",
+            Refusal::DelayNotCommissioned => "delay-not-commissioned",
         }
     }
 
@@ -287,6 +290,9 @@ impl Refusal {
             }
             Refusal::OffsetNeedsConfirmation => {
                 "this touch-off does not fit what the machine knows (the loaded blank, the previous offset, where the hob stands): check the gauge's value and the hob's position, and confirm the new offset only if both are right; nothing was changed"
+            }
+            Refusal::DelayNotCommissioned => {
+                "the table drive's delay was not measured on this machine's table drive: run hob commission delay, then restart hob-rt (a wrong delay faults the cut at engagement)"
             }
         }
     }

@@ -51,6 +51,7 @@ const REFUSALS: &[(u32, &str)] = &[
     (15, "flanks-crossed"),
     (16, "program-changed"),
     (17, "offset-needs-confirmation"),
+    (18, "delay-not-commissioned"),
 ];
 
 const FAULTS: &[(u32, &str)] = &[
@@ -127,6 +128,7 @@ const COMMANDS: &[(u32, &str)] = &[
     (18, "spindle hold"),
     (19, "record"),
     (20, "touch flank"),
+    (21, "nodes"),
 ];
 
 #[test]
@@ -210,7 +212,7 @@ fn events_bus_events_and_commands_keep_their_codes_and_words() {
     }
     assert_eq!((event_kind::STATE_CHANGED, event_kind::PHASE_ALIGNED), (1, 16));
     assert_eq!((bus_event::EMCY, bus_event::SEND_FAILED), (1, 4));
-    assert_eq!((command::LOAD_PROGRAM, command::TOUCH_FLANK), (1, 20));
+    assert_eq!((command::LOAD_PROGRAM, command::NODES), (1, 21));
     assert_eq!(
         (send_error::QUEUE_FULL, send_error::INTERFACE_DOWN, send_error::OS),
         (1, 2, 3)

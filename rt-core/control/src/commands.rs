@@ -223,6 +223,9 @@ impl Controller {
     /// drives enabled, the program's moves within the soft limits.
     fn check_can_start(&self, program: &CycleProgram, single: bool) -> Result<(), Refusal> {
         idle(self.sequencer.state)?;
+        if !self.params.delay_commissioned {
+            return Err(Refusal::DelayNotCommissioned);
+        }
         if single && program.single().is_none() {
             return Err(Refusal::NoSingleDepth);
         }

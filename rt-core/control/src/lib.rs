@@ -150,6 +150,11 @@ pub struct ControlParams {
     /// A touch-off that moves the work more than this needs the operator's confirmation
     /// (`setup.touch_off_confirm_mm`, mm).
     pub touch_off_confirm_mm: f64,
+    /// The drive delay (`horizon_s`) was measured on this machine's table drive
+    /// (`[commissioning.drive_delay]`, its drive the one on the bus: `hob-rt` checks the
+    /// identity at boot); until it is, START and CONTINUE are refused
+    /// (`Refusal::DelayNotCommissioned`): a delay 250 us wrong faults the cut at engagement.
+    pub delay_commissioned: bool,
 }
 
 impl ControlParams {
@@ -228,6 +233,7 @@ impl ControlParams {
                 spindle_max: m.overrides.spindle_max_percent / 100.0,
             },
             touch_off_confirm_mm: m.setup.touch_off_confirm_mm,
+            delay_commissioned: m.commissioning.as_ref().is_some_and(|c| c.drive_delay.is_some()),
         }
     }
 }

@@ -290,11 +290,16 @@ pub fn refusal_text(what: &str, r: Refusal, touch: Option<TouchOff>) -> String {
 pub fn answer(
     req: &CommandRequest,
     machine: &MachineConfig,
+    nodes_text: &str,
     state_file: &Path,
     flight_dir: &Path,
     mailbox: &ThreadMailbox,
 ) -> CommandResponse {
     let what = codec::command_name(req.command);
+    // What the nodes said at boot: this thread knows it, the loop has nothing to decide.
+    if req.command == command::NODES {
+        return CommandResponse::new(true, 0, nodes_text);
+    }
     let mail = match to_mail(req, machine) {
         Ok(m) => m,
         Err(text) => return CommandResponse::new(false, 0, &format!("{what} refused: {text}")),
@@ -328,6 +333,7 @@ pub fn answer(
 /// Serves the `command` service until `stop`; `ready` is called once the server exists.
 pub fn serve(
     machine: &MachineConfig,
+    nodes_text: &str,
     state_file: &Path,
     flight_dir: &Path,
     mailbox: &ThreadMailbox,
@@ -340,7 +346,14 @@ pub fn serve(
     while !stop.load(Ordering::Relaxed) {
         match server.receive() {
             Ok(Some(active)) => {
-                let response = answer(active.payload(), machine, state_file, flight_dir, mailbox);
+                let response = answer(
+                    active.payload(),
+                    machine,
+                    nodes_text,
+                    state_file,
+                    flight_dir,
+                    mailbox,
+                );
                 let _ = active.send_copy(response);
             }
             Ok(None) => std::thread::sleep(Duration::from_millis(2)),
@@ -497,7 +510,7 @@ mod tests {
         });
         let ask = |confirm| {
             let r = hob_ipc::request::touch_off_value("x", 194.94, confirm).unwrap();
-            answer(&r, &m, &file, &dir, &thread)
+            answer(&r, &m, "", &file, &dir, &thread)
         };
         let refused = ask(false);
         assert_eq!(

@@ -210,6 +210,68 @@ pub fn configure(machine: MachineConfig, settings: &Settings) -> Result<Configur
     })
 }
 
+/// Whether the machine file's drive delay was measured on the table drive on the bus
+/// (`[commissioning.drive_delay]` naming the drive that answered at boot); says why not.
+fn delay_commissioned(machine: &MachineConfig, nodes: &[hob_master::NodeInfo]) -> bool {
+    use hob_setup::config::machine::commissioning::identity_text;
+    let table = nodes.iter().find(|n| n.node == machine.table.can_node_id);
+    let record = machine
+        .commissioning
+        .as_ref()
+        .and_then(|c| c.drive_delay.as_ref());
+    let why_not = match (record, table) {
+        (None, _) => "the machine file has no [commissioning.drive_delay]".to_string(),
+        (Some(_), None) => "the table drive did not answer at boot".to_string(),
+        (Some(r), Some(t)) if !r.is_of(t.vendor_id, t.product_code, t.serial) => format!(
+            "it was measured on another drive ({}); the table drive on the bus is {}",
+            identity_text(
+                r.table_drive_vendor_id,
+                r.table_drive_product_code,
+                r.table_drive_serial
+            ),
+            identity_text(t.vendor_id, t.product_code, t.serial)
+        ),
+        (Some(r), Some(_)) => {
+            eprintln!(
+                "hob-rt: the table drive's delay ({} us) was measured on this drive at {}",
+                machine.control.drive_delay_us, r.utc
+            );
+            return true;
+        }
+    };
+    eprintln!(
+        "hob-rt: the table drive's delay is not commissioned: {why_not}; START and CONTINUE \
+         are refused until `hob commission delay` has measured it (then restart hob-rt)"
+    );
+    false
+}
+
+/// The answer to [`hob_ipc::command::NODES`]: `AXIS NODE VENDOR PRODUCT REVISION SERIAL`
+/// per node that answered at boot.
+fn nodes_text(machine: &MachineConfig, nodes: &[hob_master::NodeInfo]) -> String {
+    let role = |id: u8| match id {
+        _ if id == machine.table.can_node_id => "B",
+        _ if id == machine.x.can_node_id => "X",
+        _ if id == machine.y.can_node_id => "Y",
+        _ if id == machine.io.can_node_id => "IO",
+        _ => "?",
+    };
+    nodes
+        .iter()
+        .map(|n| {
+            format!(
+                "{} {} 0x{:08X} 0x{:08X} 0x{:08X} 0x{:08X}\n",
+                role(n.node),
+                n.node,
+                n.vendor_id,
+                n.product_code,
+                n.revision,
+                n.serial
+            )
+        })
+        .collect()
+}
+
 /// The loop's shared-memory ports (made before the memory lock: with `MCL_FUTURE` and a
 /// small `RLIMIT_MEMLOCK` later mappings would fail).
 pub struct LoopPorts {
@@ -254,6 +316,7 @@ impl Helpers {
     #[allow(clippy::too_many_arguments)]
     fn start(
         machine: &MachineConfig,
+        nodes_text: &str,
         iface: &str,
         state_file: &std::path::Path,
         flight_dir: &std::path::Path,
@@ -267,7 +330,7 @@ impl Helpers {
         let (ready_tx, ready_rx) = std::sync::mpsc::channel::<()>();
         let commands = {
             let stop = Arc::clone(&stop);
-            let machine = machine.clone();
+            let (machine, nodes_text) = (machine.clone(), nodes_text.to_string());
             let state_file = state_file.to_path_buf();
             let flight_dir = flight_dir.to_path_buf();
             let ready_tx = ready_tx.clone();
@@ -278,9 +341,15 @@ impl Helpers {
                         let _ = ready_tx.send(());
                     };
                     hob_rt_os::keep_off_core(machine.service.loop_core);
-                    if let Err(e) =
-                        commands::serve(&machine, &state_file, &flight_dir, &thread_box, &stop, ready)
-                    {
+                    if let Err(e) = commands::serve(
+                        &machine,
+                        &nodes_text,
+                        &state_file,
+                        &flight_dir,
+                        &thread_box,
+                        &stop,
+                        ready,
+                    ) {
                         eprintln!("hob-rt: {e}");
                     }
                 })
@@ -446,12 +515,16 @@ impl Configured {
         let (thread_box, loop_box) = commands::mailboxes();
         let (loop_timing, stats_timing): (LoopTiming, StatsTiming) = stats::circulation();
         let counters = Arc::new(LoopCounters::default());
-        let mut controller = Controller::new(ControlParams::from_machine(&machine));
+        let mut params = ControlParams::from_machine(&machine);
+        params.delay_commissioned = delay_commissioned(&machine, &booted.nodes);
+        let nodes_text = nodes_text(&machine, &booted.nodes);
+        let mut controller = Controller::new(params);
         controller.set_offsets(offsets);
         // The flight recorder's rings, before the memory lock.
         let (flight, flight_writer) = recorder::recorder(&controller, recorder::SEGMENT_CYCLES);
         let helpers = Helpers::start(
             &machine,
+            &nodes_text,
             &iface,
             &state_file,
             &flight_dir,

@@ -73,15 +73,22 @@ fn too_short_a_jog_or_a_table_that_does_not_follow_is_not_a_measurement() {
 fn the_proposal_sets_the_delay_and_its_record_and_loads_as_hob_rt_loads_it() {
     let states = jogs(2.13e-3, 4.0, 3000, &[]);
     let m = measure(&states, 1e-3, 1e-3).unwrap();
-    let new = proposal(SHIPPED, &m.delay, "2026-11-28T23:10:05Z").unwrap();
+    let new = proposal(
+        SHIPPED,
+        &m.delay,
+        "2026-11-28T23:10:05Z",
+        (0xB0B, 0x20192, 0x1002),
+    )
+    .unwrap();
     let path = Path::new("config/machine.toml");
     let machine = machine_edit::check(path, &new).unwrap();
     assert_eq!(machine.control.drive_delay_us, 1130);
     let rec = machine.commissioning.unwrap().drive_delay.unwrap();
     assert!((rec.found_us - 1130.0).abs() < 2.0, "{rec:?}");
     assert_eq!(rec.utc.to_string(), "2026-11-28T23:10:05Z");
+    assert!(rec.is_of(0xB0B, 0x20192, 0x1002));
     // Commissioned again: the record replaced, not repeated.
-    let again = proposal(&new, &m.delay, "2026-11-29T08:00:00Z").unwrap();
+    let again = proposal(&new, &m.delay, "2026-11-29T08:00:00Z", (0xB0B, 0x20192, 0x1002)).unwrap();
     assert_eq!(again.matches("[commissioning.drive_delay]").count(), 1);
     assert_eq!(again.matches("Written by `hob commission delay`").count(), 1);
     assert_eq!(machine_edit::diff(&new, &again).lines().count(), 2);
@@ -106,4 +113,14 @@ fn settings_outside_their_limits_are_refused_before_anything_moves() {
             "{speed} {seconds}"
         );
     }
+}
+
+#[test]
+fn the_table_drive_is_read_from_the_nodes_answer() {
+    let text =
+        "B 2 0x00000B0B 0x00020192 0x00010000 0x00001002\nX 3 0x00000B0B 0x00020192 0x00010000 0x00001003\n";
+    assert_eq!(table_drive(text), Some((0xB0B, 0x20192, 0x1002)));
+    assert_eq!(table_drive("X 3 0x1 0x2 0x3 0x4\n"), None);
+    assert_eq!(table_drive("B 2 0x1 zz 0x3 0x4\n"), None);
+    assert_eq!(table_drive("B 2 0x1\n"), None);
 }

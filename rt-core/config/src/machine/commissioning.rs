@@ -8,7 +8,14 @@
 //! found_us = 1128.6              # the delay the jogs showed
 //! residual_arcsec = 0.4          # the table's angle against the shifted command, RMS
 //! samples = 3998                 # cycles of steady jog the fit used
+//! table_drive_vendor_id = 0x00000B0B     # the drive it was measured on (its 0x1018)
+//! table_drive_product_code = 0x00020192
+//! table_drive_serial = 0x00001002
 //! ```
+//!
+//! `hob-rt` compares the table drive on the bus with the one the record names at boot: a
+//! record of another drive (a file copied from another machine, a drive replaced) is no
+//! commissioning, and START is refused until `hob commission delay` has run.
 
 use crate::Problems;
 use serde::{Deserialize, Serialize};
@@ -33,6 +40,26 @@ pub struct DriveDelayRecord {
     pub residual_arcsec: f64,
     /// Cycles of steady jog the fit used.
     pub samples: u32,
+    /// The table drive it was measured on, as it names itself (CiA 301 0x1018 sub 1, 2, 4).
+    pub table_drive_vendor_id: u32,
+    pub table_drive_product_code: u32,
+    pub table_drive_serial: u32,
+}
+
+impl DriveDelayRecord {
+    /// Whether it was measured on the drive that names itself so.
+    pub fn is_of(&self, vendor_id: u32, product_code: u32, serial: u32) -> bool {
+        (
+            self.table_drive_vendor_id,
+            self.table_drive_product_code,
+            self.table_drive_serial,
+        ) == (vendor_id, product_code, serial)
+    }
+}
+
+/// A drive's identity as the record writes it.
+pub fn identity_text(vendor_id: u32, product_code: u32, serial: u32) -> String {
+    format!("vendor 0x{vendor_id:08X}, product 0x{product_code:08X}, serial 0x{serial:08X}")
 }
 
 /// How far `control.drive_delay_us` may stand from the measured delay: the measurement's

@@ -104,6 +104,9 @@ mod old {
             Refusal::OffsetNeedsConfirmation => {
                 "this touch-off does not fit what the machine knows (the loaded blank, the previous offset, where the hob stands): check the gauge's value and the hob's position, and confirm the new offset only if both are right; nothing was changed"
             }
+            Refusal::DelayNotCommissioned => {
+                "the table drive's delay was not measured on this machine's table drive: run hob commission delay, then restart hob-rt (a wrong delay faults the cut at engagement)"
+            }
         }
     }
 
