@@ -65,11 +65,18 @@ const ALLOWED: &[(&str, &[&str])] = &[
             "hob-rt-os",
         ],
     ),
+    // The commissioning procedures (the CLI's and the HMI's): the loop's commands and
+    // streams, the delay's fit, the machine file's edit; no control core.
+    (
+        "hob-commission",
+        &["hob-ipc", "hob-logger", "hob-store"],
+    ),
     // The gateway for the frontends of other users: forwards the wire, no control core.
     ("hob-gateway", &["hob-ipc", "hob-rt-os"]),
     (
         "hob-cli",
         &[
+            "hob-commission",
             "hob-gearing",
             "hob-cutters",
             "hob-setup",
@@ -88,6 +95,7 @@ const ALLOWED: &[(&str, &[&str])] = &[
     (
         "hob-hmi",
         &[
+            "hob-commission",
             "hob-gearing",
             "hob-setup",
             "hob-ipc",
@@ -210,6 +218,7 @@ const MUST_NOT_LINK: &[(&str, &[&str])] = &[
         ],
     ),
     ("hob-gateway", &["hob-control", "hob-setup", "hob-master"]),
+    ("hob-commission", &["hob-control", "hob-master"]),
     // CANopen knows no control core and no machine.
     ("hob-canopen", &["hob-control", "hob-setup", "hob-process-image"]),
     // The bus plan borrows nothing from the control core.

@@ -570,12 +570,11 @@ fn run(command: Command) -> Result<(), Failure> {
                 },
         } => {
             let file = machine_path(machine.as_deref())?;
-            let o = hob_cli::commission::DelayOptions {
+            let o = hob_commission::delay::DelayOptions {
                 speed_deg_min: speed,
                 seconds,
-                yes,
             };
-            emit(&hob_cli::commission::delay(&file, &o)?)
+            emit(&hob_cli::commission::delay(&file, &o, yes)?)
         }
         Command::Status { watch, json } => service_result(service::status(watch, json)),
         Command::Load {

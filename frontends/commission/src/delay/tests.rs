@@ -106,10 +106,9 @@ fn settings_outside_their_limits_are_refused_before_anything_moves() {
         let o = DelayOptions {
             speed_deg_min: speed,
             seconds,
-            yes: true,
         };
         assert!(
-            matches!(check_options(&o), Err(Failure::Exit(2))),
+            matches!(check_options(&o), Err(Stop::Refused(_))),
             "{speed} {seconds}"
         );
     }

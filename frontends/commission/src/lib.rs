@@ -1,0 +1,34 @@
+//! # hob-commission: measuring on the machine what the controller must know
+//!
+//! The procedures of commissioning, written once for every frontend that offers them (the
+//! CLI's `hob commission`, the touch HMI's DIAGNOSTICS page). Each moves the machine only
+//! by the loop's own commands, which the loop checks as it checks an operator's (a jog is
+//! refused while a cycle runs, in fault, before power-up; a continuous jog stops by its
+//! dead-man when its sender stops renewing it), reads the loop's state stream, and changes
+//! the machine file only through [`hob_store::machine_edit`]: the change shown as a diff,
+//! written on the builder's confirmation, whole or not at all, the old file kept.
+//!
+//! - [`delay`]: the table drive's delay (`control.drive_delay_us`), from constant-speed
+//!   jogs of the table one way and back.
+
+pub mod delay;
+
+/// Why a procedure stopped without a result (nothing was written).
+#[derive(Debug, Clone, PartialEq)]
+pub enum Stop {
+    /// Refused before anything moved, or by the loop (its words): exit status 2.
+    Refused(String),
+    /// Stopped on the way (an alarm, the enable let go, a measurement that does not hold,
+    /// the loop unreachable): exit status 1.
+    Failed(String),
+}
+
+impl std::fmt::Display for Stop {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Stop::Refused(t) | Stop::Failed(t) => f.write_str(t),
+        }
+    }
+}
+
+impl std::error::Error for Stop {}
