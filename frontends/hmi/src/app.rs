@@ -27,6 +27,8 @@ pub struct App {
     pub hub: Hub,
     pub commands: Commander,
     pub machine: MachineConfig,
+    /// The machine file (as hob-rt's): what commissioning measures for and writes.
+    pub machine_file: PathBuf,
     pub library: Library,
     /// The logger's directory (cut reports), when given.
     pub log_dir: Option<PathBuf>,
@@ -52,6 +54,7 @@ impl App {
         hub: Hub,
         commands: Commander,
         machine: MachineConfig,
+        machine_file: PathBuf,
         library: Library,
         log_dir: Option<PathBuf>,
         level: Role,
@@ -62,6 +65,7 @@ impl App {
             hub,
             commands,
             machine,
+            machine_file,
             library,
             log_dir,
             hello,
@@ -70,33 +74,46 @@ impl App {
         }
     }
 
-    /// Whether the panel's level may `action`: else a refusal in words (HTTP 403) naming
-    /// the level and the one that may.
-    pub fn may(&self, action: Action) -> Result<(), Box<axum::response::Response>> {
-        use axum::response::IntoResponse;
+    /// Why the panel's level may not `action`, naming the level and the one that may
+    /// (`None`: it may).
+    pub fn not_allowed(&self, action: Action) -> Option<String> {
         if self.level.allows(action) {
-            return Ok(());
+            return None;
         }
         let needs = Role::ALL
             .into_iter()
             .find(|r| r.allows(action))
             .unwrap_or(Role::Build);
-        Err(Box::new(
-            (
-                axum::http::StatusCode::FORBIDDEN,
-                axum::Json(serde_json::json!({
-                    "refused": crate::words::tr(&format!(
-                        "this panel is at the {} level, which may not {}: {} {}'s work",
-                        self.level.level(),
-                        action.words(),
-                        if needs.level().starts_with(['a', 'e', 'i', 'o', 'u']) { "an" } else { "a" },
-                        needs.level()
-                    )),
-                    "problems": [],
-                })),
-            )
-                .into_response(),
-        ))
+        Some(crate::words::tr(&format!(
+            "this panel is at the {} level, which may not {}: {} {}'s work",
+            self.level.level(),
+            action.words(),
+            if needs.level().starts_with(['a', 'e', 'i', 'o', 'u']) {
+                "an"
+            } else {
+                "a"
+            },
+            needs.level()
+        )))
+    }
+
+    /// Whether the panel's level may `action`: else a refusal in words (HTTP 403) naming
+    /// the level and the one that may.
+    pub fn may(&self, action: Action) -> Result<(), Box<axum::response::Response>> {
+        use axum::response::IntoResponse;
+        match self.not_allowed(action) {
+            None => Ok(()),
+            Some(refused) => Err(Box::new(
+                (
+                    axum::http::StatusCode::FORBIDDEN,
+                    axum::Json(serde_json::json!({
+                        "refused": refused,
+                        "problems": [],
+                    })),
+                )
+                    .into_response(),
+            )),
+        }
     }
 
     /// A library program as `hob load --lib NAME` sends it: its text with the library tool

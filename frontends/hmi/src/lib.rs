@@ -8,6 +8,7 @@ pub mod api;
 pub mod app;
 pub mod bridge;
 pub mod commander;
+pub mod commission;
 pub mod definition;
 pub mod error;
 pub mod form;

@@ -158,6 +158,7 @@ fn run(a: Args) -> Result<(), String> {
         hub,
         commands,
         machine,
+        a.machine.clone(),
         library,
         a.log_dir.clone(),
         level,

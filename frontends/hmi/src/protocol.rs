@@ -562,6 +562,16 @@ pub enum ClientMsg {
     },
     JogRenew,
     JogRelease,
+    /// The commissioning key held (the first starts the measurement of the table drive's
+    /// delay; each renews its enable, every 100 ms) and let go.
+    CommissionHold {
+        id: u64,
+    },
+    CommissionRelease,
+    /// Write the measured proposal into the machine file.
+    CommissionWrite {
+        id: u64,
+    },
     Visibility {
         visible: bool,
     },

@@ -6,6 +6,7 @@
 
 use crate::app::App;
 use crate::commander::Reply;
+use crate::commission::{CommissionSession, View};
 use crate::error::Error;
 use crate::jog::{JogSession, Sent};
 use crate::protocol::{Answer, ClientMsg, EventView, Frame, Op};
@@ -52,6 +53,8 @@ enum Out<'a> {
         stats: &'a crate::protocol::StatsView,
     },
     Answer(&'a Answer),
+    /// Commissioning from DIAGNOSTICS: the step, the result, the proposal.
+    Commission(&'a View),
 }
 
 struct Socket {
@@ -129,6 +132,7 @@ struct Session {
     panel: bool,
     waiting: Waiting,
     jog: JogSession,
+    commission: CommissionSession,
     /// The newest event the page has; none until it says hello (it gets nothing before).
     last_event: Option<u64>,
     /// The event log's generation (a restarted loop starts a new one).
@@ -188,8 +192,25 @@ impl Session {
                 }
                 true
             }
-            ClientMsg::JogRelease | ClientMsg::Visibility { visible: false } => {
+            ClientMsg::JogRelease => {
                 let _ = self.jog.release();
+                true
+            }
+            ClientMsg::Visibility { visible: false } => {
+                let _ = self.jog.release();
+                self.commission.release();
+                true
+            }
+            ClientMsg::CommissionHold { id } => {
+                self.commission.hold(id, &self.app);
+                true
+            }
+            ClientMsg::CommissionRelease => {
+                self.commission.release();
+                true
+            }
+            ClientMsg::CommissionWrite { id } => {
+                self.commission.write(id, &self.app);
                 true
             }
             ClientMsg::Visibility { visible: true } => true,
@@ -294,11 +315,13 @@ pub async fn serve(ws: WebSocket, app: Arc<App>, panel: bool) {
     let mut events_head = app.hub.events_head.clone();
     let mut stats = app.hub.stats.clone();
     let (tx, mut answers) = mpsc::unbounded_channel();
+    let (commission_tx, mut commission_views) = mpsc::unbounded_channel();
     let jog = JogSession::new(app.commands.clone());
     let generation = app.hub.book().log.generation;
     let mut c = Session {
         s: Socket { ws },
         jog,
+        commission: CommissionSession::new(commission_tx),
         generation,
         app,
         panel,
@@ -324,14 +347,17 @@ pub async fn serve(ws: WebSocket, app: Arc<App>, panel: bool) {
                 }
             }
             Some((a, is_jog)) = answers.recv() => c.answer(a, is_jog).await,
+            Some(v) = commission_views.recv() => c.s.send(&Out::Commission(&v)).await,
             _ = tick.tick() => c.stats(&mut stats).await,
         };
         if !open {
             break;
         }
     }
-    // Whatever ended the socket, a running jog stops now (also by Drop).
+    // Whatever ended the socket, a running jog stops now (also by Drop), and so does a
+    // measurement's enable.
     let _ = c.jog.release();
+    c.commission.release();
 }
 
 /// Every event after `last` (nothing before the page's hello). A restarted HMI server

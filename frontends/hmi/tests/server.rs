@@ -86,6 +86,7 @@ async fn start_full(
         hub,
         commands,
         m,
+        dir.join("machine.toml"),
         Library::open(&dir.join("library")).unwrap(),
         log_dir,
         level,

@@ -84,6 +84,9 @@ export class Conn {
       case "stats":
         this.stats = m;
         break;
+      case "commission":
+        this.commission = m;
+        break;
       case "answer": {
         const p = this.pending.get(m.id);
         if (p) { this.pending.delete(m.id); p(m); }

@@ -2,9 +2,9 @@
 // automatic, the cut report, alarms, diagnostics. Values come from the loop's frames; every
 // button is one loop command whose answer (accepted, or the loop's refusal) is shown.
 import { Component } from "preact";
-import { useState, useEffect } from "preact/hooks";
+import { useState, useEffect, useRef } from "preact/hooks";
 import { html, fmt, t, CmdButton, allows } from "./ui.mjs";
-import { HoldKey } from "./hold.mjs";
+import { HoldKey, RENEW_MS } from "./hold.mjs";
 import { SyncPlot } from "./plot.mjs";
 import { api } from "./conn.mjs";
 
@@ -351,6 +351,57 @@ function Bars({ title, bars, testid }) {
       <span class="fill" style=${`width:${top > 0 ? (70 * Math.log10(b.count + 1)) / top : 0}%`}></span><span class="n">${b.count}</span></div>`)}</div>`;
 }
 
+/** Commissioning: the table drive's delay, measured while the key is held (the server's
+ *  hob_commission, the procedure of `hob commission delay`), the proposal and its diff;
+ *  WRITE at the builder's level. */
+function CommissionKey({ conn }) {
+  const ref = useRef(null);
+  useEffect(() => {
+    const el = ref.current;
+    let timer = null;
+    const stop = () => {
+      if (!timer) return;
+      clearInterval(timer); timer = null;
+      el.classList.remove("held");
+      conn.send({ t: "commission_release" });
+    };
+    const down = (ev) => {
+      ev.preventDefault();
+      stop();
+      try { el.setPointerCapture(ev.pointerId); } catch { /* a synthetic pointer */ }
+      const hold = () => conn.send({ t: "commission_hold", id: conn.newId() });
+      hold();
+      el.classList.add("held");
+      timer = setInterval(hold, RENEW_MS);
+    };
+    el.addEventListener("pointerdown", down);
+    for (const k of ["pointerup", "pointercancel", "lostpointercapture"]) el.addEventListener(k, stop);
+    el.addEventListener("contextmenu", (e) => e.preventDefault());
+    window.addEventListener("blur", stop);
+    return () => {
+      stop();
+      el.removeEventListener("pointerdown", down);
+      for (const k of ["pointerup", "pointercancel", "lostpointercapture"]) el.removeEventListener(k, stop);
+      window.removeEventListener("blur", stop);
+    };
+  }, [conn]);
+  return html`<button ref=${ref} class="key hold" data-testid="commission-hold" disabled=${!allows(conn, "command")}>${t("HOLD TO MEASURE")}</button>`;
+}
+
+function Commissioning({ conn }) {
+  const c = conn.commission;
+  const p = c && c.proposal;
+  const write = () => conn.send({ t: "commission_write", id: conn.newId() });
+  return html`<div class="card wide" data-testid="commissioning"><h2>${t("Commissioning: the table drive's delay")}</h2>
+    <p class="hint">${t("The table turns + at 240 deg/min for 3 s, then - as long (12 deg each way, back to where it stands): keep the table clear and hold the key until the result shows; letting go stops the table. The found delay is written into the machine file only by WRITE (a builder's work); restart hob-rt after it.")}</p>
+    <div class="row"><${CommissionKey} conn=${conn} />
+      <button class="key primary" onClick=${write} disabled=${!p || !allows(conn, "edit_machine_data")} data-testid="commission-write">${t("WRITE")}</button>
+      ${allows(conn, "edit_machine_data") ? "" : html`<span class="hint" data-testid="commission-level">${t("WRITE: a builder's work")}</span>`}</div>
+    ${c ? html`<p class=${c.state === "stopped" || c.state === "refused" ? "warn" : ""} data-testid="commission-state" data-state=${c.state}>${c.text}</p>` : ""}
+    ${p ? html`<pre class="small" data-testid="commission-report">${p.report}</pre><pre class="small" data-testid="commission-diff">${p.diff}</pre>` : ""}
+  </div>`;
+}
+
 export function Diagnostics({ conn }) {
   const s = conn.frame && conn.frame.state, st = conn.stats;
   const pct = (p) => (p ? html`<td>${fmt(p.min, 1)}</td><td>${fmt(p.p50, 1)}</td><td>${fmt(p.p99, 1)}</td><td>${fmt(p.p999, 1)}</td><td>${fmt(p.max, 1)}</td><td>${p.count}</td>` : "");
@@ -386,5 +437,6 @@ export function Diagnostics({ conn }) {
     <div class="card wide"><h2>${t("I/O signals")}</h2>
       <div class="signals">${s ? [...s.inputs.map((x) => ({ ...x, dir: "in" })), ...s.outputs.map((x) => ({ ...x, dir: "out" }))].map((x) => html`
         <div class=${`signal ${x.active ? "on" : ""}`} data-signal=${x.name}><span>${x.dir === "in" ? t("in") : t("out")} ${x.bit}</span> ${x.name.replaceAll("_", " ")}</div>`) : "-"}</div></div>
+    <${Commissioning} conn=${conn} />
   </section>`;
 }
