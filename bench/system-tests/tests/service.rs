@@ -55,6 +55,18 @@ fn start_service(b: &mut Bench, machine: &Path, n: u32, homing: Homing) -> (Proc
     (sim, rt)
 }
 
+/// `hob-rt` on `machine` and this bench's bus, its work offsets in `state`, its log `log`.
+fn spawn_rt(b: &mut Bench, machine: &Path, state: &Path, log: &str) -> ProcId {
+    let iface = b.iface.clone();
+    let (machine, state) = (path(machine), path(state));
+    b.spawn(
+        "hob-rt",
+        "hob-rt",
+        &["--iface", &iface, "--machine", &machine, "--state-file", &state],
+        log,
+    )
+}
+
 /// Where the simulated drives power up: wherever the plant file says (referencing over
 /// the whole way, the operator path's subject), or within [`SHORT_HOMING_MM`] of home
 /// (tests whose subject is not referencing: each saves about 50 s of homing).
@@ -1758,20 +1770,8 @@ fn commissioning_finds_the_hidden_drive_delay_over_the_bus() {
     let sim = b.spawn_cmd("hob-sim", sim, "sim.txt");
     let mut control = b.stdin_of(sim);
     std::thread::sleep(Duration::from_millis(300));
-    let state = path(&b.art.join("machine-state.toml"));
-    let rt = b.spawn(
-        "hob-rt",
-        "hob-rt",
-        &[
-            "--iface",
-            &iface,
-            "--machine",
-            &path(&machine),
-            "--state-file",
-            &state,
-        ],
-        "rt.txt",
-    );
+    let state = b.art.join("machine-state.toml");
+    let rt = spawn_rt(&mut b, &machine, &state, "rt.txt");
     let commission = |yes: bool| {
         let mut a = vec![
             "commission".to_string(),
@@ -1920,19 +1920,7 @@ fn commissioning_finds_the_hidden_drive_delay_over_the_bus() {
             b.terminate(rt, Duration::from_secs(20)).is_some(),
             "hob-rt did not stop"
         );
-        b.spawn(
-            "hob-rt",
-            "hob-rt",
-            &[
-                "--iface",
-                &iface,
-                "--machine",
-                &path(&machine),
-                "--state-file",
-                &state,
-            ],
-            "rt2.txt",
-        );
+        spawn_rt(b, &machine, &state, "rt2.txt");
         b.wait_state("idle", STATE_TIMEOUT);
         let log = std::fs::read_to_string(b.art.join("rt2.txt")).unwrap();
         assert!(log.contains("was measured on this drive"), "{log}");
