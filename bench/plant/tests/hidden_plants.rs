@@ -6,8 +6,9 @@
 //! cross-coupling the machine file's 1000 us loses the synchronisation in the cut; with the
 //! found delay written into it, the thesis's spur meets the accuracy goal: the controller's
 //! share of f_pt and F_p within a quarter of grade 4. Without a cut, two constant-speed jogs
-//! of the table find it too. (The commissioning procedure over the bus, `hob commission`,
-//! is not built: this is what it would start from.)
+//! of the table find it too: what `hob commission delay` does over the bus
+//! (bench/system-tests, `commissioning_finds_the_hidden_drive_delay_over_the_bus`), and
+//! tests/commissioned.rs with its fit on every shipped gear.
 #![allow(clippy::unwrap_used)]
 
 mod common;
