@@ -335,18 +335,3 @@ fn late_readings_are_coasted_over_and_late_targets_show_in_the_table() {
         on_time.max_sync_err_um
     );
 }
-
-/// The worm coupled both ways (issue 33), the B drive tuned for it (74/16 Hz,
-/// docs/mechanism.md): the thesis's worst-case spur and the helical gear within the same
-/// goals as on the one-way plant. Measured 2026-11-27: spur max 1.50 um of 1.77, controller's
-/// f_pt 17 % and F_p 7 % of grade 4; helical 0.63 um of 1.57, 13 % and 6 %.
-#[test]
-fn on_the_two_way_worm_the_retuned_b_drive_cuts_within_the_goal() {
-    let mut plant = common::plant();
-    plant.table.coupling = WormCoupling::TwoWay;
-    plant.table.velocity_loop_hz = 74.0;
-    plant.table.position_loop_hz = 16.0;
-    for name in ["spur-z17-m5.toml", "helical-z31-m3.toml"] {
-        check_on(&plant, name);
-    }
-}

@@ -14,9 +14,11 @@ use hob_control::fault::{Axis, Fault, Refusal};
 use hob_control::program::CycleProgram;
 use hob_control::{Command, Direction};
 use hob_gearing::units::um_to_arcsec_at_radius;
+use hob_plant::config::{PlantConfig, WormCoupling};
 use hob_plant::drive::Drive;
 use hob_plant::plant::Injection;
 use hob_plant::sim::{RowState as State, SimOptions, Simulation, TraceRow, finish_summary, summary_builder};
+use hob_setup::config::machine::MachineConfig;
 use hob_setup::job::Program;
 use hob_setup::planner::Plan;
 use std::f64::consts::PI;
@@ -776,6 +778,27 @@ struct JogCase {
     count: f64,
     /// The axis' position loop in the plant (Hz).
     position_loop_hz: f64,
+    /// The time constant of a ringing the axis' drive cannot damp and the motor feels
+    /// (s): the table's on a worm coupled both ways, 0 elsewhere.
+    undamped_ring_s: f64,
+}
+
+/// On a worm coupled both ways the table rings against the held motor at
+/// sqrt(k / J_t) (50 Hz as shipped), where the B loop has almost no gain
+/// (docs/mechanism.md, section 2 (b)): that ringing is damped by the mesh alone, the
+/// plant's damping (a share of critical of the coupled mode: the motor side and the table
+/// in series) over the table, and it pulls the motor with it. Its time constant,
+/// 2 J_t / c (about 0.17 s as shipped); on the one-way worm the motor never feels it.
+fn table_ring_time_constant_s(m: &MachineConfig, p: &PlantConfig) -> f64 {
+    let t = &p.table;
+    if t.coupling != WormCoupling::TwoWay {
+        return 0.0;
+    }
+    let i = m.table.worm_ratio;
+    let motor_side = (t.motor_inertia_kg_m2 + t.worm_inertia_kg_m2) * i * i;
+    let modal = motor_side * t.table_inertia_kg_m2 / (motor_side + t.table_inertia_kg_m2);
+    let c = 2.0 * t.worm.damping_ratio * (t.worm.stiffness_nm_rad * modal).sqrt();
+    2.0 * t.table_inertia_kg_m2 / c
 }
 
 fn jog_cases() -> [JogCase; 2] {
@@ -791,6 +814,7 @@ fn jog_cases() -> [JogCase; 2] {
             accel_per_s2: m.x.max_accel_mm_s2,
             count: 1.0 / m.x.counts_per_mm(),
             position_loop_hz: p.x.position_loop_hz,
+            undamped_ring_s: 0.0,
         },
         JogCase {
             axis: Axis::B,
@@ -801,6 +825,7 @@ fn jog_cases() -> [JogCase; 2] {
             accel_per_s2: m.table.max_accel_deg_s2,
             count: 1.0 / m.table.counts_per_deg(),
             position_loop_hz: p.table.position_loop_hz,
+            undamped_ring_s: table_ring_time_constant_s(&m, &p),
         },
     ]
 }
@@ -823,11 +848,15 @@ impl JogCase {
     }
 
     /// What the drive adds to the command's stop: the command takes effect one cycle plus
-    /// the drive delay later, and the position loop settles in five time constants.
+    /// the drive delay later, the position loop settles in five time constants, and a
+    /// ringing the drive cannot damp decays by e in one of its own (on the shipped two-way
+    /// worm B, released at 4 deg/s, is still 0.168 s later, 0.020 s of it braking: the
+    /// drive's share 2 + 50 + 173 ms here; the position loop alone knew nothing of the
+    /// mesh, 2026-11-28).
     fn drive_lag_s(&self) -> f64 {
         let m = common::machine();
         let horizon_s = f64::from(m.control.cycle_period_us + m.control.drive_delay_us) * 1e-6;
-        horizon_s + 5.0 / (2.0 * PI * self.position_loop_hz)
+        horizon_s + 5.0 / (2.0 * PI * self.position_loop_hz) + self.undamped_ring_s
     }
 }
 
