@@ -629,7 +629,7 @@ impl Variation {
             Variation::InertiaHalf => "table inertia x0.5, drive tuned for x1",
             Variation::InertiaDouble => "table inertia x2, drive tuned for x1",
             Variation::TableUnit10000 => "table position unit 10 000 counts/turn (2^20)",
-            Variation::BandwidthHalf => "table servo loops x0.5 (60/400 Hz)",
+            Variation::BandwidthHalf => "table servo loops x0.5 (16/74 Hz)",
             Variation::BandwidthDouble => "table servo loops x2",
             Variation::WheelPerfect => "worm wheel perfect (grade 4)",
             Variation::WheelGrade6 => "worm wheel grade 6 (grade 4)",

@@ -353,9 +353,11 @@ pub fn accuracy_checks(r: &AccuracyBench, l: &AccuracyLimits) -> Vec<Check> {
                         // On the worst pass's RMS: the peak is an engagement transient that
                         // neither part addresses. The predictor must help. Cross-coupling
                         // takes out the table drive's following error: with the shipped
-                        // drives' 20-bit motor feedback there is little left (0.21 um RMS
-                        // with and without on the demo gear), with 13 bits it buys 0.33
-                        // against 1.18 um (bench/plant/tests/accuracy.rs); here it must do
+                        // drives' 20-bit motor feedback and velocity feed-forward there is
+                        // none left for it (on the two-way worm, 74/16 Hz: 0.198 um RMS with,
+                        // 0.197 without on the demo gear, 0-3 % worse on every gear,
+                        // docs/accuracy.md), with 13 bits on the one-way worm it buys 0.33
+                        // against 1.02 um (bench/plant/tests/accuracy.rs); here it must do
                         // no harm (within 5 %).
                         let (name, pass, limit) = if what == "CCC" {
                             (
