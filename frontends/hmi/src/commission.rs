@@ -1,7 +1,7 @@
 //! Commissioning from the panel (DIAGNOSTICS): the table drive's delay measured by
 //! `hob_commission::delay`, the same procedure as `hob commission delay`, with the panel's
-//! press-and-hold key as its enable. The page renews the hold every 100 ms while the finger
-//! is on the key; the procedure asks before every renewal of the table's jog whether the
+//! press-and-hold key as its enable. A press starts it; the page renews the hold every
+//! 100 ms while the finger is on the key (a renewal never starts another); the procedure asks before every renewal of the table's jog whether the
 //! last renewal is younger than [`ENABLE_S`], so lifting the finger, hiding the page or
 //! losing the socket stops the table (and the loop's own dead-man stops it if this server
 //! dies). The proposal (the delay, the fit, the diff of the machine file) is shown; WRITE
@@ -65,7 +65,8 @@ impl CommissionSession {
         });
     }
 
-    /// The finger on the key: starts the measurement (its enable held), or renews it.
+    /// The finger on the key: starts the measurement, its enable held (a press while one
+    /// runs only holds it).
     pub fn hold(&self, id: u64, app: &Arc<App>) {
         *lock(&self.enable) = Some(Instant::now());
         {
@@ -130,6 +131,15 @@ impl CommissionSession {
         if let Err(e) = spawned {
             *lock(&self.running) = false;
             self.send(id, "stopped", format!("the measurement could not start: {e}"));
+        }
+    }
+
+    /// The finger still on the key: the enable renewed (never a new measurement: one that
+    /// ended stays ended until the key is pressed again).
+    pub fn renew(&self) {
+        let mut enable = lock(&self.enable);
+        if enable.is_some() {
+            *enable = Some(Instant::now());
         }
     }
 

@@ -562,11 +562,12 @@ pub enum ClientMsg {
     },
     JogRenew,
     JogRelease,
-    /// The commissioning key held (the first starts the measurement of the table drive's
-    /// delay; each renews its enable, every 100 ms) and let go.
+    /// The commissioning key pressed (starts the measurement of the table drive's delay),
+    /// held (renewed every 100 ms: its enable) and let go.
     CommissionHold {
         id: u64,
     },
+    CommissionRenew,
     CommissionRelease,
     /// Write the measured proposal into the machine file.
     CommissionWrite {

@@ -205,6 +205,10 @@ impl Session {
                 self.commission.hold(id, &self.app);
                 true
             }
+            ClientMsg::CommissionRenew => {
+                self.commission.renew();
+                true
+            }
             ClientMsg::CommissionRelease => {
                 self.commission.release();
                 true

@@ -369,10 +369,9 @@ function CommissionKey({ conn }) {
       ev.preventDefault();
       stop();
       try { el.setPointerCapture(ev.pointerId); } catch { /* a synthetic pointer */ }
-      const hold = () => conn.send({ t: "commission_hold", id: conn.newId() });
-      hold();
+      conn.send({ t: "commission_hold", id: conn.newId() });
       el.classList.add("held");
-      timer = setInterval(hold, RENEW_MS);
+      timer = setInterval(() => conn.send({ t: "commission_renew" }), RENEW_MS);
     };
     el.addEventListener("pointerdown", down);
     for (const k of ["pointerup", "pointercancel", "lostpointercapture"]) el.addEventListener(k, stop);
@@ -398,7 +397,7 @@ function Commissioning({ conn }) {
       <button class="key primary" onClick=${write} disabled=${!p || !allows(conn, "edit_machine_data")} data-testid="commission-write">${t("WRITE")}</button>
       ${allows(conn, "edit_machine_data") ? "" : html`<span class="hint" data-testid="commission-level">${t("WRITE: a builder's work")}</span>`}</div>
     ${c ? html`<p class=${c.state === "stopped" || c.state === "refused" ? "warn" : ""} data-testid="commission-state" data-state=${c.state}>${c.text}</p>` : ""}
-    ${p ? html`<pre class="small" data-testid="commission-report">${p.report}</pre><pre class="small" data-testid="commission-diff">${p.diff}</pre>` : ""}
+    ${p ? html`<pre class="small" style="white-space: pre-wrap" data-testid="commission-report">${p.report}</pre><pre class="small" data-testid="commission-diff">${p.diff}</pre>` : ""}
   </div>`;
 }
 

@@ -16,13 +16,15 @@ export function need(name) {
 
 const BIN = () => need("HOB_BIN");
 
-/** Starts hob-hmi; resolves with {proc, url, port} once it says where it serves. */
-export function startHmi(port = 0) {
+/** Starts hob-hmi; resolves with {proc, url, port} once it says where it serves. With
+ *  `builder`: a builder's panel on the bus itself (the machine PC's own user, `--level
+ *  builder`), not the deployed panel through the gateway. */
+export function startHmi(port = 0, { builder = false } = {}) {
   const args = ["--machine", need("HOB_MACHINE"), "--library", need("HOB_LIBRARY"), "--log-dir", need("HOB_LOG_DIR"),
-    "--bind", `127.0.0.1:${port}`, "--vendor", need("HOB_VENDOR")];
+    "--bind", `127.0.0.1:${port}`, "--vendor", need("HOB_VENDOR"), ...(builder ? ["--level", "builder"] : [])];
   // As deployed: another user than the bus's, through hob-gateway (HOB_HMI_USER uid:gid,
   // HOB_HMI_GATEWAY its socket; bench/system-tests/tests/hmi.rs sets both).
-  const user = process.env.HOB_HMI_USER;
+  const user = builder ? undefined : process.env.HOB_HMI_USER;
   const [exe, argv, env] = user
     ? ["setpriv", ["--reuid", user.split(":")[0], "--regid", user.split(":")[1], "--clear-groups", "--",
         join(BIN(), "hob-hmi"), ...args], { ...process.env, HOB_GATEWAY: need("HOB_HMI_GATEWAY") }]
