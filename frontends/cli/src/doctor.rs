@@ -521,6 +521,42 @@ fn cyclictest(core: u32, priority: u32, seconds: u32) -> Finding {
     )
 }
 
+/// Whether the machine file's drive delay was measured on this machine (`hob commission
+/// delay`); hob-rt checks at boot that the drive the record names is the one on the bus.
+pub fn commissioning(machine: &MachineConfig) -> Finding {
+    use hob_setup::config::machine::commissioning::identity_text;
+    let delay_us = machine.control.drive_delay_us;
+    match machine
+        .commissioning
+        .as_ref()
+        .and_then(|c| c.drive_delay.as_ref())
+    {
+        None => finding(
+            "drive delay commissioned",
+            Level::Warn,
+            format!(
+                "control.drive_delay_us {delay_us} us was not measured on this machine: hob-rt refuses START and CONTINUE"
+            ),
+            "with hob-rt running, idle, the table clear: hob commission delay --machine FILE, then restart hob-rt",
+        ),
+        Some(r) => finding(
+            "drive delay commissioned",
+            Level::Ok,
+            format!(
+                "control.drive_delay_us {delay_us} us, measured {} ({:.1} us found) on the table drive {}; hob-rt checks at boot that it is the one on the bus",
+                r.utc,
+                r.found_us,
+                identity_text(
+                    r.table_drive_vendor_id,
+                    r.table_drive_product_code,
+                    r.table_drive_serial
+                )
+            ),
+            "",
+        ),
+    }
+}
+
 pub fn run(machine: &MachineConfig, cyclictest_seconds: u32) -> Vec<Finding> {
     let core = machine.service.loop_core;
     let prio = machine.service.loop_priority;
@@ -531,6 +567,7 @@ pub fn run(machine: &MachineConfig, cyclictest_seconds: u32) -> Vec<Finding> {
     v.extend(shared_memory());
     v.push(clocksource());
     v.push(cyclictest(core, prio, cyclictest_seconds));
+    v.push(commissioning(machine));
     v
 }
 
@@ -576,6 +613,19 @@ mod tests {
         assert!(verdict(35).1.starts_with("acceptable"));
         assert_eq!(verdict(120).0, Level::Warn);
         assert_eq!(verdict(5000).0, Level::Fail);
+    }
+
+    #[test]
+    fn the_drive_delay_is_commissioned_or_said_not_to_be() {
+        let shipped = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../config/machine.toml");
+        let mut m = hob_store::files::load_machine(&shipped).unwrap();
+        let f = commissioning(&m);
+        assert_eq!(f.level, Level::Ok, "{f:?}");
+        assert!(f.found.contains("serial 0x00001002"), "{f:?}");
+        m.commissioning = None;
+        let f = commissioning(&m);
+        assert_eq!(f.level, Level::Warn, "{f:?}");
+        assert!(f.fix.contains("hob commission delay"), "{f:?}");
     }
 
     #[test]
