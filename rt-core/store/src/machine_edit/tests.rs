@@ -102,7 +102,11 @@ fn commit_keeps_the_old_file_and_refuses_an_invalid_or_changed_one() {
 #[test]
 fn the_shipped_record_comes_out_whole_and_alone() {
     assert!(SHIPPED_COMMISSIONED.contains("[commissioning.drive_delay]"));
-    assert!(!SHIPPED.contains("[commissioning"), "{}", &SHIPPED[SHIPPED.len() - 300..]);
+    assert!(
+        !SHIPPED.contains("[commissioning"),
+        "{}",
+        &SHIPPED[SHIPPED.len() - 300..]
+    );
     let m = check(shipped_path(), &SHIPPED).unwrap();
     assert!(m.commissioning.is_none());
 }
