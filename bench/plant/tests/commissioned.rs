@@ -17,21 +17,12 @@ use hob_ipc::StateSample;
 use hob_plant::config::PlantConfig;
 use hob_plant::sim::{SimOptions, run_program};
 
-/// (hidden delay us, backlash arcsec, spindle encoder error arcsec): none the shipped.
-const PLANTS: [(u32, f64, f64); 3] = [(860, 6.0, 15.0), (1130, 25.0, 40.0), (1250, 50.0, 8.0)];
+use common::{HIDDEN_PLANTS, hidden_plant};
 const GEARS: [&str; 3] = [
     "spur-z17-m5.toml",
     "helical-z31-m3.toml",
     "helical-z41-m2-2start.toml",
 ];
-
-fn hidden(delay_us: u32, backlash_arcsec: f64, encoder_arcsec: f64) -> PlantConfig {
-    let mut plant = common::plant();
-    plant.drives.delay_us = Some(delay_us);
-    plant.table.worm.backlash_arcsec = backlash_arcsec;
-    plant.spindle.encoder_error_arcsec = encoder_arcsec;
-    plant
-}
 
 /// The table jogged at 240 deg/min 3 s each way as `hob commission delay` jogs it, the
 /// loop's state samples as it publishes them (each with the command it computed that
@@ -77,8 +68,8 @@ fn commissioned_delay_us(plant: &PlantConfig) -> f64 {
 
 #[test]
 fn once_commissioned_every_shipped_gear_meets_its_goal_with_and_without_cross_coupling() {
-    for (delay_us, backlash_arcsec, encoder_arcsec) in PLANTS {
-        let plant = hidden(delay_us, backlash_arcsec, encoder_arcsec);
+    for (delay_us, backlash_arcsec, encoder_arcsec) in HIDDEN_PLANTS {
+        let plant = hidden_plant(delay_us, backlash_arcsec, encoder_arcsec);
         let found_us = commissioned_delay_us(&plant);
         assert!(
             (found_us - f64::from(delay_us)).abs() <= 20.0,

@@ -16,24 +16,14 @@ mod common;
 use hob_control::fault::Axis;
 use hob_control::{Command, Direction};
 use hob_logger::delay::{TableSample, identify};
-use hob_plant::config::PlantConfig;
 use hob_plant::sim::{SimOptions, run_program};
 
-/// (hidden delay us, backlash arcsec, spindle encoder error arcsec)
-const PLANTS: [(u32, f64, f64); 3] = [(860, 6.0, 15.0), (1130, 25.0, 40.0), (1250, 50.0, 8.0)];
-
-fn hidden(delay_us: u32, backlash_arcsec: f64, encoder_arcsec: f64) -> PlantConfig {
-    let mut plant = common::plant();
-    plant.drives.delay_us = Some(delay_us);
-    plant.table.worm.backlash_arcsec = backlash_arcsec;
-    plant.spindle.encoder_error_arcsec = encoder_arcsec;
-    plant
-}
+use common::{HIDDEN_PLANTS, hidden_plant};
 
 #[test]
 fn on_three_hidden_plants_the_found_delay_brings_the_cut_to_its_goal() {
-    for (delay_us, backlash_arcsec, encoder_arcsec) in PLANTS {
-        let plant = hidden(delay_us, backlash_arcsec, encoder_arcsec);
+    for (delay_us, backlash_arcsec, encoder_arcsec) in HIDDEN_PLANTS {
+        let plant = hidden_plant(delay_us, backlash_arcsec, encoder_arcsec);
         let mut machine = common::machine();
         let found_us = common::identified_drive_delay_us(&machine, &plant);
         assert!(
@@ -82,8 +72,8 @@ fn on_three_hidden_plants_the_found_delay_brings_the_cut_to_its_goal() {
 /// delay` identifies a cut's (the first second of each jog, its acceleration, left out).
 #[test]
 fn the_delay_is_found_from_a_jog_of_the_table_without_a_cut() {
-    for (delay_us, backlash_arcsec, encoder_arcsec) in PLANTS {
-        let plant = hidden(delay_us, backlash_arcsec, encoder_arcsec);
+    for (delay_us, backlash_arcsec, encoder_arcsec) in HIDDEN_PLANTS {
+        let plant = hidden_plant(delay_us, backlash_arcsec, encoder_arcsec);
         let (job, cycle, plan) = common::short_spur(&[]);
         let mut sim = common::powered_up_on(&plant, &job, &cycle, &plan);
         let mut samples: Vec<TableSample> = Vec::new();
