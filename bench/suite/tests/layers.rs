@@ -66,8 +66,11 @@ const ALLOWED: &[(&str, &[&str])] = &[
         ],
     ),
     // The commissioning procedures (the CLI's and the HMI's): the loop's commands and
-    // streams, the delay's fit, the machine file's edit; no control core.
-    ("hob-commission", &["hob-ipc", "hob-logger", "hob-store"]),
+    // streams, the delay's fit, the machine file's edit and its records; no control core.
+    (
+        "hob-commission",
+        &["hob-ipc", "hob-logger", "hob-setup", "hob-store"],
+    ),
     // The gateway for the frontends of other users: forwards the wire, no control core.
     ("hob-gateway", &["hob-ipc", "hob-rt-os"]),
     (

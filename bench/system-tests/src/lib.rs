@@ -199,6 +199,8 @@ pub struct Status {
     pub stats: Option<LoopStats>,
     /// The table's angle, deg.
     pub table_deg: f64,
+    /// The spindle's speed as the loop measures it.
+    pub spindle_rpm: f64,
     /// Work positions (machine position plus the work offset).
     pub x_mm: f64,
     pub y_mm: f64,

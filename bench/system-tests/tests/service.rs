@@ -1743,10 +1743,33 @@ fn commissioning_finds_the_hidden_drive_delay_over_the_bus() {
         plant_text.contains("\n# delay_us = 1000\n"),
         "config/plant.toml's [drives] delay line moved"
     );
+    // The spindle encoder's error with its harmonics, hidden too (none the shipped; a true
+    // swing beside it is bench/plant/tests/spindle_encoder.rs's, in-process).
+    let hidden_error_arcsec = 15.0;
+    for line in [
+        "\nencoder_error_arcsec = 26.0\n",
+        "\n# encoder_error_2_arcsec = 6.0\n",
+        "\n# encoder_error_3_arcsec = 3.0\n",
+    ] {
+        assert!(plant_text.contains(line), "config/plant.toml's {line:?} moved");
+    }
     let plant = b.art.join("plant.toml");
     std::fs::write(
         &plant,
-        plant_text.replace("\n# delay_us = 1000\n", &format!("\ndelay_us = {hidden_us}\n")),
+        plant_text
+            .replace("\n# delay_us = 1000\n", &format!("\ndelay_us = {hidden_us}\n"))
+            .replace(
+                "\nencoder_error_arcsec = 26.0\n",
+                &format!("\nencoder_error_arcsec = {hidden_error_arcsec}\n"),
+            )
+            .replace(
+                "\n# encoder_error_2_arcsec = 6.0\n",
+                "\nencoder_error_2_arcsec = 4.0\n",
+            )
+            .replace(
+                "\n# encoder_error_3_arcsec = 3.0\n",
+                "\nencoder_error_3_arcsec = 2.0\n",
+            ),
     )
     .unwrap();
     let (iface, program) = (b.iface.clone(), program_arg());
@@ -1915,12 +1938,13 @@ fn commissioning_finds_the_hidden_drive_delay_over_the_bus() {
             told_us
         )
     });
+    let mut rt2 = None;
     b.step("hob-rt restarted on the commissioned file", |b| {
         assert!(
             b.terminate(rt, Duration::from_secs(20)).is_some(),
             "hob-rt did not stop"
         );
-        spawn_rt(b, &machine, &state, "rt2.txt");
+        rt2 = Some(spawn_rt(b, &machine, &state, "rt2.txt"));
         b.wait_state("idle", STATE_TIMEOUT);
         let log = std::fs::read_to_string(b.art.join("rt2.txt")).unwrap();
         assert!(log.contains("was measured on this drive"), "{log}");
@@ -1952,6 +1976,123 @@ fn commissioning_finds_the_hidden_drive_delay_over_the_bus() {
         b.hob_ok(&["stop"]);
         b.wait_state("idle", STATE_TIMEOUT);
         format!("pass {} at cycle {}, no alarm", s.pass, s.cycle)
+    });
+    // The spindle encoder (issue 33, step 4).
+    let encoder = |extra: &[&str]| {
+        let mut a: Vec<String> = ["commission", "encoder", "--machine", &path(&machine)]
+            .iter()
+            .map(|s| s.to_string())
+            .collect();
+        a.extend(extra.iter().map(|s| s.to_string()));
+        a
+    };
+    let commissioned = std::fs::read_to_string(&machine).unwrap();
+    let kept = |b: &Bench| {
+        std::fs::read_dir(&b.art)
+            .unwrap()
+            .filter_map(|e| e.ok())
+            .filter(|e| e.file_name().to_string_lossy().ends_with(".bak"))
+            .count()
+    };
+    let kept_before = kept(&b);
+    let same_files = |b: &Bench, what: &str| {
+        assert_eq!(
+            std::fs::read_to_string(&machine).unwrap(),
+            commissioned,
+            "{what}: the machine file changed"
+        );
+        assert_eq!(kept(b), kept_before, "{what}: a file was kept");
+    };
+    b.step(
+        "encoder: too few speeds, and a speed above the spindle's largest, refused",
+        |b| {
+            let o = b.hob(&encoder(&["--speeds", "60,130", "--yes"]));
+            assert_eq!(o.code, Some(2), "{}", o.text);
+            assert!(o.text.contains("at least 3"), "{}", o.text);
+            let o = b.hob(&encoder(&["--speeds", "60,130,400", "--yes"]));
+            assert_eq!(o.code, Some(2), "{}", o.text);
+            assert!(o.text.contains("max_spindle_rpm"), "{}", o.text);
+            same_files(b, "refused speeds");
+            String::new()
+        },
+    );
+    b.step("encoder: refused while cutting, the cut goes on", |b| {
+        b.hob_ok(&["start"]);
+        b.wait_state("cut", STATE_TIMEOUT);
+        let o = b.hob(&encoder(&["--yes"]));
+        assert_eq!(o.code, Some(2), "{}", o.text);
+        let s = b.status();
+        assert!(s.alarm.is_empty() && s.state == "cut", "{} {}", s.state, s.alarm);
+        b.hob_ok(&["stop"]);
+        b.wait_state("idle", STATE_TIMEOUT);
+        same_files(b, "while cutting");
+        o.text.lines().last().unwrap_or_default().to_string()
+    });
+    b.step(
+        "encoder: kill -9 of the CLI mid-run: the spindle stops, nothing written",
+        |b| {
+            let p = b.spawn("hob commission", "hob", &encoder(&["--yes"]), "encoder-kill.txt");
+            let turning = b.wait_for("the spindle turning", STATE_TIMEOUT, |b| {
+                let s = b.try_status()?;
+                if s.spindle_rpm.abs() > 30.0 {
+                    Ok(s)
+                } else {
+                    Err(format!("{:.1} rpm", s.spindle_rpm))
+                }
+            });
+            b.kill9(p);
+            let stopped = b.wait_for("the spindle stopped", STATE_TIMEOUT, |b| {
+                let s = b.try_status()?;
+                if s.spindle_rpm.abs() < 1.0 {
+                    Ok(s)
+                } else {
+                    Err(format!("{:.1} rpm", s.spindle_rpm))
+                }
+            });
+            assert_eq!(stopped.state, "idle");
+            same_files(b, "kill -9");
+            format!("{:.0} rpm when killed, at rest since", turning.spindle_rpm)
+        },
+    );
+    b.step(
+        "encoder: whole, the error found and written with its record",
+        |b| {
+            // Three speeds, 8 s each: about a minute (the default, six speeds 30 s each, takes
+            // five).
+            let o = b.hob_ok(&encoder(&["--speeds", "64,110,212", "--seconds", "8", "--yes"]));
+            let written = TomlDoc::load(&machine);
+            let get = |key: &str| {
+                written
+                    .get(&format!("commissioning.spindle_encoder.{key}"))
+                    .as_float()
+                    .unwrap_or_else(|| panic!("{key}: {}", o.text))
+            };
+            let (found, second, swing) = (get("error_arcsec"), get("error_2_arcsec"), get("swing_arcsec"));
+            assert!(
+                (found - hidden_error_arcsec).abs() <= 0.1 * hidden_error_arcsec,
+                "{hidden_error_arcsec} arcsec hidden, {found:.2} found:\n{}",
+                o.text
+            );
+            assert!((second - 4.0).abs() <= 1.5, "2nd: 4 hidden, {second:.2} found");
+            assert!(swing < 1.0, "a swing of {swing:.1} arcsec claimed:\n{}", o.text);
+            assert!(o.text.contains("restart hob-rt"), "{}", o.text);
+            format!(
+                "{hidden_error_arcsec} arcsec hidden, {found:.2} found (2nd: 4 hidden, {second:.2} \
+             found), no swing claimed"
+            )
+        },
+    );
+    b.step("hob-rt restarted: the record read, idle", |b| {
+        let rt2 = rt2.expect("hob-rt restarted");
+        assert!(
+            b.terminate(rt2, Duration::from_secs(20)).is_some(),
+            "hob-rt did not stop"
+        );
+        spawn_rt(b, &machine, &state, "rt3.txt");
+        b.wait_state("idle", STATE_TIMEOUT);
+        let log = std::fs::read_to_string(b.art.join("rt3.txt")).unwrap();
+        assert!(log.contains("told apart"), "{log}");
+        String::new()
     });
 }
 

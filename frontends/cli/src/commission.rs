@@ -6,6 +6,7 @@
 use crate::util::Failure;
 use hob_commission::Stop;
 use hob_commission::delay::{self, DelayOptions};
+use hob_commission::encoder::{self, EncoderOptions};
 use std::io::{BufRead, IsTerminal, Write};
 use std::path::Path;
 
@@ -15,7 +16,26 @@ pub fn delay(machine_file: &Path, o: &DelayOptions, yes: bool) -> Result<String,
         eprintln!("commission delay: {step}")
     })
     .map_err(stopped)?;
-    print!("{}", p.text());
+    confirm_and_write(machine_file, &p.text(), yes, || p.write())
+}
+
+/// `hob commission encoder`: measure, show, and write on confirmation.
+pub fn encoder(machine_file: &Path, o: &EncoderOptions, yes: bool) -> Result<String, Failure> {
+    let p = encoder::run(machine_file, o, &|| true, &mut |step| {
+        eprintln!("commission encoder: {step}")
+    })
+    .map_err(stopped)?;
+    confirm_and_write(machine_file, &p.text(), yes, || p.write())
+}
+
+/// Shows a proposal, and writes it on `--yes` or a typed yes.
+fn confirm_and_write(
+    machine_file: &Path,
+    proposal: &str,
+    yes: bool,
+    write: impl FnOnce() -> Result<std::path::PathBuf, Stop>,
+) -> Result<String, Failure> {
+    print!("{proposal}");
     let _ = std::io::stdout().flush();
     if !confirmed(yes)? {
         return Ok(format!(
@@ -23,7 +43,7 @@ pub fn delay(machine_file: &Path, o: &DelayOptions, yes: bool) -> Result<String,
             machine_file.display()
         ));
     }
-    let kept = p.write().map_err(stopped)?;
+    let kept = write().map_err(stopped)?;
     Ok(format!(
         "written: {} (the old file kept as {}); restart hob-rt for it to take effect\n",
         machine_file.display(),

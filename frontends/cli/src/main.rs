@@ -453,6 +453,25 @@ enum CommissionCommand {
         #[arg(long)]
         yes: bool,
     },
+    /// The spindle encoder's error (once, twice, three times per turn) told apart from a
+    /// true once-per-turn swing of the spindle: the spindle held at several speeds (hob-rt
+    /// idle, the hob clear of the work), each fitted. With the record the loop corrects only
+    /// the encoder's error. Restart hob-rt after writing.
+    Encoder {
+        /// Machine configuration to measure for and write [default: config/machine.toml, then /etc/hob/machine.toml].
+        #[arg(long, value_name = "FILE")]
+        machine: Option<PathBuf>,
+        /// The spindle's speeds, rpm, comma-separated (at least 3, spanning a factor 2)
+        /// [default: 30, 45, 65 and 95 % of spindle.max_spindle_rpm].
+        #[arg(long, value_delimiter = ',')]
+        speeds: Vec<f64>,
+        /// How long each speed is read, s.
+        #[arg(long, default_value_t = 12.0)]
+        seconds: f64,
+        /// Write the changes without asking (the diff is still shown).
+        #[arg(long)]
+        yes: bool,
+    },
 }
 
 #[derive(Debug, Subcommand)]
@@ -552,22 +571,14 @@ fn main() -> ExitCode {
 }
 
 /// Each command to the function that does it.
-fn run(command: Command) -> Result<(), Failure> {
-    use hob_ipc::command as code;
+/// `hob commission ...`.
+fn commission(command: CommissionCommand) -> Result<(), Failure> {
     match command {
-        Command::Doctor {
+        CommissionCommand::Delay {
             machine,
-            cyclictest_seconds,
-            json,
-        } => doctor(machine, cyclictest_seconds, json),
-        Command::Commission {
-            command:
-                CommissionCommand::Delay {
-                    machine,
-                    speed,
-                    seconds,
-                    yes,
-                },
+            speed,
+            seconds,
+            yes,
         } => {
             let file = machine_path(machine.as_deref())?;
             let o = hob_commission::delay::DelayOptions {
@@ -576,6 +587,31 @@ fn run(command: Command) -> Result<(), Failure> {
             };
             emit(&hob_cli::commission::delay(&file, &o, yes)?)
         }
+        CommissionCommand::Encoder {
+            machine,
+            speeds,
+            seconds,
+            yes,
+        } => {
+            let file = machine_path(machine.as_deref())?;
+            let o = hob_commission::encoder::EncoderOptions {
+                speeds_rpm: speeds,
+                seconds,
+            };
+            emit(&hob_cli::commission::encoder(&file, &o, yes)?)
+        }
+    }
+}
+
+fn run(command: Command) -> Result<(), Failure> {
+    use hob_ipc::command as code;
+    match command {
+        Command::Doctor {
+            machine,
+            cyclictest_seconds,
+            json,
+        } => doctor(machine, cyclictest_seconds, json),
+        Command::Commission { command } => commission(command),
         Command::Status { watch, json } => service_result(service::status(watch, json)),
         Command::Load {
             program,

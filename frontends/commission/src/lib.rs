@@ -10,8 +10,12 @@
 //!
 //! - [`delay`]: the table drive's delay (`control.drive_delay_us`), from constant-speed
 //!   jogs of the table one way and back.
+//! - [`encoder`]: the spindle encoder's error (once, twice, three times per turn) told apart
+//!   from a true once-per-turn swing of the spindle, from the spindle held at several
+//!   speeds (`[commissioning.spindle_encoder]`).
 
 pub mod delay;
+pub mod encoder;
 
 /// Why a procedure stopped without a result (nothing was written).
 #[derive(Debug, Clone, PartialEq)]

@@ -161,6 +161,10 @@ pub struct StateSample {
     /// Each node's last EMCY error code (same order; 0: none, or its error reset):
     /// what a drive reported about its own fault (`hob_wire::bus::emcy_text`).
     pub last_emcy_code: [u16; 4],
+    /// The spindle encoder's reading as latched, continuous, before the loop's once-per-turn
+    /// correction (deg): `spindle_deg` is the observer's estimate from the corrected
+    /// reading. Commissioning fits the encoder's error from this (`hob commission encoder`).
+    pub spindle_reading_deg: f64,
 }
 
 /// [`StateSample::nmt_state`] of a node not heard from yet.

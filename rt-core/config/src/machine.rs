@@ -635,7 +635,12 @@ impl MachineConfig {
         self.validate_io(p);
         self.validate_node_ids(p);
         if let Some(c) = &self.commissioning {
-            c.validate(self.control.drive_delay_us, 10 * self.control.cycle_period_us, p);
+            c.validate(
+                self.control.drive_delay_us,
+                10 * self.control.cycle_period_us,
+                self.spindle.max_spindle_rpm,
+                p,
+            );
         }
         absolute_path(p, "library.dir", &self.library.dir);
         absolute_path(p, "state.file", &self.state.file);

@@ -155,6 +155,10 @@ pub struct ControlParams {
     /// identity at boot); until it is, START and CONTINUE are refused
     /// (`Refusal::DelayNotCommissioned`): a delay 250 us wrong faults the cut at engagement.
     pub delay_commissioned: bool,
+    /// The spindle's true once-per-turn swing beside its encoder's error
+    /// (`[commissioning.spindle_encoder]`): the encoder identifier then corrects only the
+    /// encoder's share. None: all it identifies is taken for the encoder's error.
+    pub spindle_swing: Option<hob_setup::config::machine::commissioning::SpindleSwing>,
 }
 
 impl ControlParams {
@@ -234,6 +238,11 @@ impl ControlParams {
             },
             touch_off_confirm_mm: m.setup.touch_off_confirm_mm,
             delay_commissioned: m.commissioning.as_ref().is_some_and(|c| c.drive_delay.is_some()),
+            spindle_swing: m
+                .commissioning
+                .as_ref()
+                .and_then(|c| c.spindle_encoder.as_ref())
+                .map(|r| r.swing()),
         }
     }
 }
@@ -259,6 +268,10 @@ pub struct Status {
     /// Tooth being cut (tooth-by-tooth), 0-based.
     pub tooth: u32,
     pub spindle_deg: f64,
+    /// The spindle encoder's reading as latched, continuous, before the once-per-turn
+    /// correction: what commissioning fits the encoder's error from (`hob commission
+    /// encoder`).
+    pub spindle_reading_deg: f64,
     pub spindle_rpm: f64,
     pub spindle_set_rpm: f64,
     pub table_deg: f64,
@@ -301,6 +314,8 @@ pub struct Status {
 #[derive(Debug, Clone, Copy, Default, PartialEq, serde::Serialize, serde::Deserialize)]
 struct Measured {
     spindle_deg: f64,
+    /// The encoder's reading, continuous, uncorrected.
+    spindle_reading_deg: f64,
     spindle_speed_deg_s: f64,
     /// Angle the gearbox follows (predicted or last measured).
     spindle_for_gearbox_deg: f64,
@@ -373,7 +388,8 @@ impl Controller {
                 p.period_s,
                 p.encoder_identification_s,
                 1.0 / p.spindle.counts_per_unit,
-            ),
+            )
+            .with_swing(p.spindle_swing),
             gearbox: Gearbox::new(p.gearbox, 0.0),
             x: Profile::default(),
             y: Profile::default(),
@@ -551,6 +567,7 @@ impl Controller {
         };
         self.measured = Measured {
             spindle_deg: est.angle_deg,
+            spindle_reading_deg: reading,
             spindle_speed_deg_s: est.speed_deg_s,
             spindle_for_gearbox_deg: for_gearbox,
             table_deg: self
@@ -828,6 +845,7 @@ impl Controller {
             pass: self.sequencer.pass_number(),
             tooth: self.sequencer.tooth,
             spindle_deg: self.measured.spindle_deg,
+            spindle_reading_deg: self.measured.spindle_reading_deg,
             spindle_rpm: self.measured.spindle_speed_deg_s / 6.0,
             spindle_set_rpm: self.sequencer.spindle_set_rpm,
             table_deg: self.measured.table_deg,

@@ -246,6 +246,24 @@ fn delay_commissioned(machine: &MachineConfig, nodes: &[hob_master::NodeInfo]) -
     false
 }
 
+/// What the loop will do with the spindle encoder's once-per-turn sine it identifies.
+fn say_spindle_encoder(machine: &MachineConfig) {
+    let record = machine
+        .commissioning
+        .as_ref()
+        .and_then(|c| c.spindle_encoder.as_ref());
+    match record {
+        Some(r) => eprintln!(
+            "hob-rt: the spindle encoder's error ({:.1} arcsec once per turn) was told apart from              the spindle's true swing ({:.1} arcsec at {:.0} rpm) at {}: the loop corrects only              the encoder's share of what it identifies",
+            r.error_arcsec, r.swing_arcsec, r.reference_rpm, r.utc
+        ),
+        None if machine.control.spindle_encoder_identification_s > 0.0 => eprintln!(
+            "hob-rt: the spindle encoder is not commissioned ([commissioning.spindle_encoder]):              the loop takes all of the once-per-turn sine it identifies for the encoder's error              (a true swing of the spindle too); `hob commission encoder` tells them apart"
+        ),
+        None => {}
+    }
+}
+
 /// The answer to [`hob_ipc::command::NODES`]: `AXIS NODE VENDOR PRODUCT REVISION SERIAL`
 /// per node that answered at boot.
 fn nodes_text(machine: &MachineConfig, nodes: &[hob_master::NodeInfo]) -> String {
@@ -517,6 +535,7 @@ impl Configured {
         let counters = Arc::new(LoopCounters::default());
         let mut params = ControlParams::from_machine(&machine);
         params.delay_commissioned = delay_commissioned(&machine, &booted.nodes);
+        say_spindle_encoder(&machine);
         let nodes_text = nodes_text(&machine, &booted.nodes);
         let mut controller = Controller::new(params);
         controller.set_offsets(offsets);

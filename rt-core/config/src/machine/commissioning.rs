@@ -16,6 +16,28 @@
 //! `hob-rt` compares the table drive on the bus with the one the record names at boot: a
 //! record of another drive (a file copied from another machine, a drive replaced) is no
 //! commissioning, and START is refused until `hob commission delay` has run.
+//!
+//! ```toml
+//! [commissioning.spindle_encoder]
+//! utc = 2026-11-29T02:10:05Z     # when the spindle was run for it
+//! error_arcsec = 15.2            # the encoder's error once per turn (its disc's eccentricity)
+//! error_2_arcsec = 4.1           # ... twice and three times per turn (reported, not corrected)
+//! error_3_arcsec = 1.6
+//! swing_arcsec = 19.8            # the spindle's TRUE once-per-turn swing at reference_rpm
+//! swing_phase_deg = 131.0        # its phase against the error's once-per-turn sine
+//! swing_tau_s = 0.027            # J/D of the spindle against its drive: how the swing scales with speed
+//! reference_rpm = 200.0
+//! speeds_rpm = [60.0, 90.0, 130.0, 200.0]
+//! misfit_arcsec = 0.5            # the once-per-turn model against the speeds, RMS
+//! error_uncertainty_arcsec = 0.9 # how far error_arcsec may be off
+//! ```
+//!
+//! The loop identifies the once-per-turn part of the reading anew at each start (the counter
+//! is incremental, so its phase is new), and cannot tell an error of the disc from a true
+//! swing of the spindle at one speed. The record tells them apart: both are fixed to the
+//! spindle, so their ratio holds across power cycles, and the loop corrects only the
+//! encoder's share of what it identifies ([`SpindleEncoderRecord`]); the table follows the
+//! true swing. Without the record the loop corrects all of it (a swing taken for an error).
 
 use crate::Problems;
 use serde::{Deserialize, Serialize};
@@ -26,6 +48,35 @@ use serde::{Deserialize, Serialize};
 pub struct Commissioning {
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub drive_delay: Option<DriveDelayRecord>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub spindle_encoder: Option<SpindleEncoderRecord>,
+}
+
+/// The spindle encoder's error told apart from the spindle's true swing, as `hob commission
+/// encoder` found them over several speeds.
+#[derive(Debug, Clone, PartialEq, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct SpindleEncoderRecord {
+    pub utc: toml::value::Datetime,
+    /// The encoder's error once, twice, three times per turn, amplitude arcsec of spindle.
+    pub error_arcsec: f64,
+    pub error_2_arcsec: f64,
+    pub error_3_arcsec: f64,
+    /// The spindle's true once-per-turn swing at `reference_rpm`, arcsec of spindle ...
+    pub swing_arcsec: f64,
+    /// ... its phase against the error's once-per-turn sine, deg ...
+    pub swing_phase_deg: f64,
+    /// ... and how it scales with speed: the swing of a torque against the drive's slip
+    /// (D) and the spindle's inertia (J) goes as 1 / (W (1 + i W tau)), tau = J / D, s.
+    pub swing_tau_s: f64,
+    pub reference_rpm: f64,
+    /// The speeds it was measured at.
+    pub speeds_rpm: Vec<f64>,
+    /// RMS misfit of the once-per-turn model over those speeds, arcsec.
+    pub misfit_arcsec: f64,
+    /// How far `error_arcsec` may be from the truth, arcsec (its standard error, and its
+    /// spread over the swing's dynamics the speeds could not tell apart).
+    pub error_uncertainty_arcsec: f64,
 }
 
 /// The table drive's delay as `hob commission delay` found it.
@@ -68,19 +119,14 @@ pub const DELAY_AGREEMENT_US: f64 = 20.0;
 
 impl Commissioning {
     /// Checks the records, and that `drive_delay_us` (the value in use) is the measured one.
-    pub fn validate(&self, drive_delay_us: u32, max_delay_us: u32, p: &mut Problems) {
+    pub fn validate(&self, drive_delay_us: u32, max_delay_us: u32, max_spindle_rpm: f64, p: &mut Problems) {
+        if let Some(e) = &self.spindle_encoder {
+            e.validate(max_spindle_rpm, p);
+        }
         let Some(d) = &self.drive_delay else {
             return;
         };
-        let whole_utc = d.utc.date.is_some()
-            && d.utc.time.is_some()
-            && matches!(d.utc.offset, Some(toml::value::Offset::Z));
-        p.require(whole_utc, "commissioning.drive_delay.utc", || {
-            format!(
-                "must be a date and time in UTC, as 2026-11-28T23:10:05Z (is {})",
-                d.utc
-            )
-        });
+        utc_whole(&d.utc, "commissioning.drive_delay.utc", p);
         p.within(
             "commissioning.drive_delay.found_us",
             d.found_us,
@@ -111,6 +157,271 @@ impl Commissioning {
                     )
                 },
             );
+        }
+    }
+}
+
+fn utc_whole(utc: &toml::value::Datetime, key: &str, p: &mut Problems) {
+    let whole =
+        utc.date.is_some() && utc.time.is_some() && matches!(utc.offset, Some(toml::value::Offset::Z));
+    p.require(whole, key, || {
+        format!("must be a date and time in UTC, as 2026-11-28T23:10:05Z (is {utc})")
+    });
+}
+
+/// The largest once-per-turn figure a record may hold, arcsec: a tenth of a degree, the
+/// loop's largest correction (`hob_control::eccentricity::MAX_CORRECTION_DEG`); more is a
+/// broken encoder or a spindle that is not fit to cut.
+pub const MAX_ENCODER_RECORD_ARCSEC: f64 = 360.0;
+
+impl SpindleEncoderRecord {
+    fn validate(&self, max_spindle_rpm: f64, p: &mut Problems) {
+        const K: &str = "commissioning.spindle_encoder";
+        utc_whole(&self.utc, &format!("{K}.utc"), p);
+        for (key, v) in [
+            ("error_arcsec", self.error_arcsec),
+            ("error_2_arcsec", self.error_2_arcsec),
+            ("error_3_arcsec", self.error_3_arcsec),
+            ("swing_arcsec", self.swing_arcsec),
+        ] {
+            p.within(&format!("{K}.{key}"), v, 0.0, MAX_ENCODER_RECORD_ARCSEC, "arcsec");
+        }
+        p.within(
+            &format!("{K}.swing_phase_deg"),
+            self.swing_phase_deg,
+            -180.0,
+            180.0,
+            "deg",
+        );
+        p.within(&format!("{K}.swing_tau_s"), self.swing_tau_s, 0.0, 100.0, "s");
+        p.within(
+            &format!("{K}.reference_rpm"),
+            self.reference_rpm,
+            1.0,
+            max_spindle_rpm,
+            "rpm",
+        );
+        p.within(
+            &format!("{K}.misfit_arcsec"),
+            self.misfit_arcsec,
+            0.0,
+            3600.0,
+            "arcsec",
+        );
+        p.within(
+            &format!("{K}.error_uncertainty_arcsec"),
+            self.error_uncertainty_arcsec,
+            0.0,
+            MAX_ENCODER_RECORD_ARCSEC,
+            "arcsec",
+        );
+        p.require(self.speeds_rpm.len() >= 3, &format!("{K}.speeds_rpm"), || {
+            format!("must name at least 3 speeds (names {})", self.speeds_rpm.len())
+        });
+        for (n, v) in self.speeds_rpm.iter().enumerate() {
+            p.within(&format!("{K}.speeds_rpm[{n}]"), *v, 1.0, max_spindle_rpm, "rpm");
+        }
+    }
+
+    /// What the loop needs of it.
+    pub fn swing(&self) -> SpindleSwing {
+        let (s, c) = self.swing_phase_deg.to_radians().sin_cos();
+        SpindleSwing {
+            error_arcsec: self.error_arcsec,
+            swing_sin_arcsec: self.swing_arcsec * c,
+            swing_cos_arcsec: self.swing_arcsec * s,
+            tau_s: self.swing_tau_s,
+            reference_rpm: self.reference_rpm,
+        }
+    }
+}
+
+/// The spindle's true once-per-turn swing beside its encoder's error, in the error's own
+/// phase: what lets the loop keep only the encoder's share of a once-per-turn sine it
+/// identified at one speed.
+///
+/// Complex numbers here are a once-per-turn sine `S sin(theta) + C cos(theta)` written
+/// `S + iC` (`amplitude e^(i phase)` for `amplitude sin(theta + phase)`): the response of a
+/// linear system to it is the product, and moving the counter's zero turns every such
+/// number by the same angle, so their ratios hold across power cycles.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct SpindleSwing {
+    /// The encoder's error once per turn, arcsec (real: the phase reference).
+    pub error_arcsec: f64,
+    /// The swing at `reference_rpm`, its sine and cosine parts in the error's phase, arcsec.
+    pub swing_sin_arcsec: f64,
+    pub swing_cos_arcsec: f64,
+    pub tau_s: f64,
+    pub reference_rpm: f64,
+}
+
+impl SpindleSwing {
+    /// How the swing at `rpm` stands to the swing at `reference_rpm`, complex (re, im): a
+    /// torque once per turn against the spindle's inertia J and the drive's slip D moves it
+    /// by `T / (i W D (1 + i W tau))` (W the turn's angular frequency, tau = J / D). The
+    /// loop's slow trim of the VFD's reference does not act on it: while the loop identifies
+    /// the once-per-turn sine, it takes it out of the speed the trim sees.
+    pub fn scale(&self, rpm: f64) -> (f64, f64) {
+        let w = |rpm: f64| rpm * std::f64::consts::TAU / 60.0;
+        // i w (1 + i w tau) = -tau w^2 + i w, at the reference over the same at rpm.
+        let d = |rpm: f64| (-self.tau_s * w(rpm) * w(rpm), w(rpm));
+        let ((nr, ni), (dr, di)) = (d(self.reference_rpm), d(rpm));
+        let d2 = dr * dr + di * di;
+        ((nr * dr + ni * di) / d2, (ni * dr - nr * di) / d2)
+    }
+
+    /// The factor (complex, re and im) that leaves the encoder's share of a once-per-turn
+    /// sine identified at `rpm` (which is the error plus the swing at that speed), for a
+    /// reading that counts up (one that counts down sees the conjugate of every
+    /// once-per-turn sine, and of this factor): `a /
+    /// (a + b g(rpm))`. None where the two all but cancel at that speed (what is left is
+    /// under a tenth of the larger): the identified sine then says nothing of either, and
+    /// the caller learns nothing from it.
+    pub fn encoder_share(&self, rpm: f64) -> Option<(f64, f64)> {
+        if !(rpm.is_finite() && rpm > 0.0) {
+            return None;
+        }
+        let (gr, gi) = self.scale(rpm);
+        let (bs, bc) = (self.swing_sin_arcsec, self.swing_cos_arcsec);
+        let (sr, si) = (bs * gr - bc * gi, bs * gi + bc * gr);
+        let (tr, ti) = (self.error_arcsec + sr, si);
+        let total = tr.hypot(ti);
+        if total.is_nan() || total < 0.1 * self.error_arcsec.max(sr.hypot(si)) || total == 0.0 {
+            return None;
+        }
+        let t2 = total * total;
+        Some((self.error_arcsec * tr / t2, -self.error_arcsec * ti / t2))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn record() -> SpindleEncoderRecord {
+        SpindleEncoderRecord {
+            utc: "2026-11-29T02:10:05Z".parse().unwrap_or_else(|e| panic!("{e}")),
+            error_arcsec: 15.2,
+            error_2_arcsec: 4.1,
+            error_3_arcsec: 1.6,
+            swing_arcsec: 19.8,
+            swing_phase_deg: 131.0,
+            swing_tau_s: 0.027,
+            reference_rpm: 200.0,
+            speeds_rpm: vec![60.0, 90.0, 130.0, 200.0],
+            misfit_arcsec: 0.5,
+            error_uncertainty_arcsec: 0.9,
+        }
+    }
+
+    fn problems(r: &SpindleEncoderRecord) -> Vec<String> {
+        let mut p = Problems::default();
+        r.validate(212.2, &mut p);
+        p.as_slice()
+            .iter()
+            .map(|m| format!("{}: {}", m.key, m.message))
+            .collect()
+    }
+
+    /// (re, im) products, for the checks.
+    fn mul(a: (f64, f64), b: (f64, f64)) -> (f64, f64) {
+        (a.0 * b.0 - a.1 * b.1, a.0 * b.1 + a.1 * b.0)
+    }
+
+    proptest::proptest! {
+        #[test]
+        fn the_share_of_error_plus_swing_is_the_error(
+            error in 0.5f64..200.0,
+            swing in 0.0f64..200.0,
+            phase in -180.0f64..180.0,
+            tau in 0.0f64..1.0,
+            reference in 20.0f64..212.0,
+            rpm in 20.0f64..212.0,
+            turn in 0.0f64..6.3,
+        ) {
+            let r = SpindleEncoderRecord {
+                error_arcsec: error,
+                swing_arcsec: swing,
+                swing_phase_deg: phase,
+                swing_tau_s: tau,
+                reference_rpm: reference,
+                ..record()
+            };
+            let sw = r.swing();
+            // What the loop identifies at rpm, in a counter frame turned by `turn`: the
+            // error plus the swing's response at that speed, independently written as
+            // T / (i w D (1 + i w tau)) normalised at the reference.
+            let resp = |rpm: f64| {
+                let w = rpm * std::f64::consts::TAU / 60.0;
+                let (re, im) = (-w * w * tau, w); // i w (1 + i w tau)
+                let n = re * re + im * im;
+                (re / n, -im / n)
+            };
+            let (g1, g0) = (resp(rpm), resp(reference));
+            let n0 = g0.0 * g0.0 + g0.1 * g0.1;
+            let g = mul(g1, (g0.0 / n0, -g0.1 / n0));
+            let b = (swing * phase.to_radians().cos(), swing * phase.to_radians().sin());
+            let seen_ref = (error + mul(b, g).0, mul(b, g).1);
+            let rot = (turn.cos(), turn.sin());
+            let seen = mul(seen_ref, rot);
+            if let Some(f) = sw.encoder_share(rpm) {
+                let a = mul(seen, f);
+                let want = mul((error, 0.0), rot);
+                proptest::prop_assert!((a.0 - want.0).hypot(a.1 - want.1) < 1e-9 * (1.0 + error + swing * 10.0));
+            } else {
+                proptest::prop_assert!(seen.0.hypot(seen.1) < 0.1 * error.max(mul(b, g).0.hypot(mul(b, g).1)) + 1e-12);
+            }
+        }
+    }
+
+    #[test]
+    fn without_a_swing_all_of_it_is_the_error() {
+        let r = SpindleEncoderRecord {
+            swing_arcsec: 0.0,
+            ..record()
+        };
+        for rpm in [30.0, 100.0, 212.0] {
+            let f = r.swing().encoder_share(rpm).unwrap_or((f64::NAN, f64::NAN));
+            assert!((f.0 - 1.0).abs() < 1e-12 && f.1.abs() < 1e-12, "{f:?}");
+        }
+    }
+
+    #[test]
+    fn a_measured_record_passes() {
+        assert!(problems(&record()).is_empty(), "{:?}", problems(&record()));
+    }
+
+    #[test]
+    fn each_bad_value_is_refused_naming_its_key() {
+        type Edit = fn(&mut SpindleEncoderRecord);
+        let cases: [(&str, Edit); 7] = [
+            ("commissioning.spindle_encoder.error_arcsec", |r| {
+                r.error_arcsec = -1.0
+            }),
+            ("commissioning.spindle_encoder.error_3_arcsec", |r| {
+                r.error_3_arcsec = f64::NAN
+            }),
+            ("commissioning.spindle_encoder.swing_arcsec", |r| {
+                r.swing_arcsec = 400.0
+            }),
+            ("commissioning.spindle_encoder.swing_phase_deg", |r| {
+                r.swing_phase_deg = 200.0
+            }),
+            ("commissioning.spindle_encoder.reference_rpm", |r| {
+                r.reference_rpm = 300.0
+            }),
+            ("commissioning.spindle_encoder.speeds_rpm", |r| {
+                r.speeds_rpm.truncate(2)
+            }),
+            ("commissioning.spindle_encoder.utc", |r| {
+                r.utc = "2026-11-29T02:10:05".parse().unwrap_or_else(|e| panic!("{e}"))
+            }),
+        ];
+        for (key, edit) in cases {
+            let mut r = record();
+            edit(&mut r);
+            let found = problems(&r);
+            assert!(found.iter().any(|m| m.contains(key)), "{key}: {found:?}");
         }
     }
 }
