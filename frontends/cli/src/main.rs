@@ -466,7 +466,7 @@ enum CommissionCommand {
         #[arg(long, value_delimiter = ',')]
         speeds: Vec<f64>,
         /// How long each speed is read, s.
-        #[arg(long, default_value_t = 12.0)]
+        #[arg(long, default_value_t = 30.0)]
         seconds: f64,
         /// Write the changes without asking (the diff is still shown).
         #[arg(long)]

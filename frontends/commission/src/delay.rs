@@ -19,17 +19,14 @@
 //! machine file at its start: the new delay takes effect when it is restarted.
 
 use crate::Stop;
+use crate::link::{self, Edit, ask, connect, drain};
+use hob_ipc::StateSample;
 use hob_ipc::codec;
-use hob_ipc::{CommandRequest, CommandResponse, Commands, Feed, StateSample};
 use hob_logger::delay::{DriveDelay, TableSample};
 use hob_store::machine_edit;
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 
-/// How long a command may wait for the loop's answer.
-const ANSWER: Duration = Duration::from_secs(3);
-/// A continuous jog is renewed this often (the machine file's dead-man time is longer).
-const RENEWAL: Duration = Duration::from_millis(100);
 /// The command must have run at one speed this long before a cycle counts: the drive's
 /// velocity loop settles within it (a 16 Hz position loop: 5 time constants in 0.05 s;
 /// a second leaves room for a slower drive).
@@ -90,22 +87,14 @@ pub struct Proposal {
     pub diff: String,
     pub utc: String,
     #[serde(skip)]
-    read_text: String,
-    #[serde(skip)]
-    new_text: String,
+    edit: Edit,
 }
 
 impl Proposal {
     /// Writes the proposal (the file must still be as it was read), the old file kept;
     /// returns the kept file.
     pub fn write(&self) -> Result<PathBuf, Stop> {
-        machine_edit::commit(
-            &self.file,
-            &self.read_text,
-            &self.new_text,
-            &machine_edit::file_stamp(&self.utc),
-        )
-        .map_err(|e| Stop::Failed(format!("{e}")))
+        self.edit.commit(&self.file, &self.utc)
     }
 
     /// The proposal and the diff as the CLI prints them.
@@ -156,8 +145,10 @@ pub fn run(
         ),
         diff: machine_edit::diff(&text, &new_text),
         utc,
-        read_text: text,
-        new_text,
+        edit: Edit {
+            read_text: text,
+            new_text,
+        },
     })
 }
 
@@ -201,18 +192,9 @@ fn jog_both_ways(
     enabled: &dyn Fn() -> bool,
     say: &mut dyn FnMut(&str),
 ) -> Result<(Vec<StateSample>, DriveIdentity), Stop> {
-    let me = format!("hob-commission-{}", std::process::id());
-    let unreachable = |e: hob_ipc::IpcError| Stop::Failed(format!("hob-rt cannot be reached: {e}"));
-    let mut feed = hob_ipc::follow(&me).map_err(unreachable)?;
-    let mut client = hob_ipc::commands(&me).map_err(unreachable)?;
-    if feed.wait_state(Duration::from_secs(2)).is_none() {
-        return Err(Stop::Failed(format!(
-            "no state from hob-rt (instance {}): is it running?",
-            hob_ipc::instance()
-        )));
-    }
+    let (mut feed, mut client) = connect()?;
     let answer = client
-        .request(&hob_ipc::request::nodes(), ANSWER)
+        .request(&hob_ipc::request::nodes(), link::ANSWER)
         .map_err(|e| Stop::Failed(format!("hob-rt did not answer: {e}")))?;
     let drive = table_drive(&answer.text()).ok_or_else(|| {
         Stop::Failed(format!(
@@ -233,11 +215,11 @@ fn jog_both_ways(
                         .into(),
                 ));
             }
-            if let Err(e) = ask(client.as_mut(), &jog) {
+            if let Err(e) = ask(client.as_mut(), &jog, "the table") {
                 break Err(e);
             }
-            std::thread::sleep(RENEWAL);
-            if let Err(e) = drain(feed.as_mut(), &mut states) {
+            std::thread::sleep(link::RENEWAL);
+            if let Err(e) = drain(feed.as_mut(), |s| states.push(*s)) {
                 break Err(e);
             }
             if Instant::now() >= end {
@@ -246,47 +228,18 @@ fn jog_both_ways(
         };
         // Released in every case; after a refusal or a fault its answer adds nothing.
         if let Err(e) = result {
-            let _ = client.request(&hob_ipc::request::jog_release(), ANSWER);
+            let _ = client.request(&hob_ipc::request::jog_release(), link::ANSWER);
             return Err(e);
         }
-        ask(client.as_mut(), &hob_ipc::request::jog_release())?;
+        ask(client.as_mut(), &hob_ipc::request::jog_release(), "the table")?;
         // At rest before the other direction: the drive's lag runs out.
         let rest = Instant::now() + Duration::from_millis(600);
         while Instant::now() < rest {
             std::thread::sleep(Duration::from_millis(20));
-            drain(feed.as_mut(), &mut states)?;
+            drain(feed.as_mut(), |s| states.push(*s))?;
         }
     }
     Ok((states, drive))
-}
-
-fn ask(client: &mut dyn Commands, req: &CommandRequest) -> Result<(), Stop> {
-    let answer: CommandResponse = client.request(req, ANSWER).map_err(|e| {
-        Stop::Failed(format!(
-            "hob-rt did not answer: {e}; the table stops within the dead-man time"
-        ))
-    })?;
-    if answer.accepted == 0 {
-        return Err(Stop::Refused(format!(
-            "{}; nothing measured, the machine file unchanged",
-            answer.text()
-        )));
-    }
-    Ok(())
-}
-
-/// Takes every waiting state sample; an alarm stops the measurement.
-fn drain(feed: &mut dyn Feed, states: &mut Vec<StateSample>) -> Result<(), Stop> {
-    while let Some(s) = feed.next_state() {
-        if s.alarm.code != 0 {
-            return Err(Stop::Failed(format!(
-                "stopped: {}; nothing written, the machine file unchanged",
-                codec::alarm_text(&s.alarm)
-            )));
-        }
-        states.push(s);
-    }
-    Ok(())
 }
 
 /// A measurement from the jogs.

@@ -22,17 +22,13 @@
 pub mod fit;
 
 use crate::Stop;
+use crate::link::{self, Edit, ask, connect, drain};
 use fit::{Reading, Separation, SpeedFit};
-use hob_ipc::codec;
 use hob_ipc::{Commands, Feed};
 use hob_store::machine_edit;
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 
-/// How long a command may wait for the loop's answer.
-const ANSWER: Duration = Duration::from_secs(3);
-/// The spindle hold is renewed this often (the machine file's dead-man time is longer).
-const RENEWAL: Duration = Duration::from_millis(100);
 /// A speed is read once the spindle's mean speed over one window of whole turns (at least
 /// a second) differs from the window's before by at most [`SETTLED_SHARE`] of it (the
 /// VFD's ramp, then the loop's slow trim of the slip: 5-7 s in the simulated machine at
@@ -74,7 +70,7 @@ impl Default for EncoderOptions {
     fn default() -> Self {
         Self {
             speeds_rpm: Vec::new(),
-            seconds: 12.0,
+            seconds: 30.0,
         }
     }
 }
@@ -153,22 +149,14 @@ pub struct Proposal {
     pub diff: String,
     pub utc: String,
     #[serde(skip)]
-    read_text: String,
-    #[serde(skip)]
-    new_text: String,
+    edit: Edit,
 }
 
 impl Proposal {
     /// Writes the proposal (the file must still be as it was read), the old file kept;
     /// returns the kept file.
     pub fn write(&self) -> Result<PathBuf, Stop> {
-        machine_edit::commit(
-            &self.file,
-            &self.read_text,
-            &self.new_text,
-            &machine_edit::file_stamp(&self.utc),
-        )
-        .map_err(|e| Stop::Failed(format!("{e}")))
+        self.edit.commit(&self.file, &self.utc)
     }
 
     /// The proposal and the diff as the CLI prints them.
@@ -266,8 +254,10 @@ pub fn run(
         fits,
         diff: machine_edit::diff(&text, &new_text),
         utc,
-        read_text: text,
-        new_text,
+        edit: Edit {
+            read_text: text,
+            new_text,
+        },
     })
 }
 
@@ -326,16 +316,7 @@ fn hold_each_speed(
     enabled: &dyn Fn() -> bool,
     say: &mut dyn FnMut(&str),
 ) -> Result<Vec<(f64, Vec<Reading>)>, Stop> {
-    let me = format!("hob-commission-{}", std::process::id());
-    let unreachable = |e: hob_ipc::IpcError| Stop::Failed(format!("hob-rt cannot be reached: {e}"));
-    let mut feed = hob_ipc::follow(&me).map_err(unreachable)?;
-    let mut client = hob_ipc::commands(&me).map_err(unreachable)?;
-    if feed.wait_state(Duration::from_secs(2)).is_none() {
-        return Err(Stop::Failed(format!(
-            "no state from hob-rt (instance {}): is it running?",
-            hob_ipc::instance()
-        )));
-    }
+    let (mut feed, mut client) = connect()?;
     let mut held = false;
     let result = each_speed(o, pace, enabled, say, client.as_mut(), feed.as_mut(), &mut held);
     if !held {
@@ -344,7 +325,10 @@ fn hold_each_speed(
         return result;
     }
     // Stopped in every case; after a refusal or a fault its answer adds nothing.
-    let off = client.request(&hob_ipc::request::simple(hob_ipc::command::SPINDLE_OFF), ANSWER);
+    let off = client.request(
+        &hob_ipc::request::simple(hob_ipc::command::SPINDLE_OFF),
+        link::ANSWER,
+    );
     let runs = result?;
     off.map_err(|e| {
         Stop::Failed(format!(
@@ -386,9 +370,9 @@ fn each_speed(
                         .into(),
                 ));
             }
-            ask(client, &hold)?;
+            ask(client, &hold, "the spindle")?;
             *held = true;
-            std::thread::sleep(RENEWAL);
+            std::thread::sleep(link::RENEWAL);
             drain(feed, |s| {
                 // The drive latches the reading at each SYNC, a period apart: the cycle's
                 // count is its time. (The SYNC's own jitter, tens of us on PREEMPT_RT, is
@@ -504,35 +488,6 @@ pub fn take(readings: &mut Vec<Reading>, t_s: f64, deg: f64) {
         return;
     }
     readings.push(Reading { t_s, deg });
-}
-
-fn ask(client: &mut dyn Commands, req: &hob_ipc::CommandRequest) -> Result<(), Stop> {
-    let answer = client.request(req, ANSWER).map_err(|e| {
-        Stop::Failed(format!(
-            "hob-rt did not answer: {e}; the spindle stops within the dead-man time"
-        ))
-    })?;
-    if answer.accepted == 0 {
-        return Err(Stop::Refused(format!(
-            "{}; nothing measured, the machine file unchanged",
-            answer.text()
-        )));
-    }
-    Ok(())
-}
-
-/// Hands every waiting state sample to `take`; an alarm stops the measurement.
-fn drain(feed: &mut dyn Feed, mut take: impl FnMut(&hob_ipc::StateSample)) -> Result<(), Stop> {
-    while let Some(s) = feed.next_state() {
-        if s.alarm.code != 0 {
-            return Err(Stop::Failed(format!(
-                "stopped: {}; nothing written, the machine file unchanged",
-                codec::alarm_text(&s.alarm)
-            )));
-        }
-        take(&s);
-    }
-    Ok(())
 }
 
 /// The machine file's text with the record of `s`, measured at `speeds_rpm`.

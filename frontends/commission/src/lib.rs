@@ -16,6 +16,7 @@
 
 pub mod delay;
 pub mod encoder;
+mod link;
 
 /// Why a procedure stopped without a result (nothing was written).
 #[derive(Debug, Clone, PartialEq)]

@@ -226,11 +226,34 @@ fn hello(m: &MachineConfig, level: Role) -> serde_json::Value {
             "inputs": names(&m.io.inputs.bindings()),
             "outputs": names(&m.io.outputs.bindings()),
         },
+        "commissioning": commissioning(m),
         "level": {
             "name": level.level(),
             "may": words(true),
             "may_not": words(false),
             "allows": Action::ALL.iter().map(|a| (a.key().to_string(), serde_json::Value::Bool(level.allows(*a)))).collect::<serde_json::Map<_, _>>(),
+        },
+    })
+}
+
+/// What the DIAGNOSTICS card tells of the spindle encoder's procedure before it is pressed:
+/// the speeds the hob spindle will turn at (the panel runs its default options) and about
+/// how long (each speed read, and some 10 s to ramp and settle before it).
+fn commissioning(m: &MachineConfig) -> serde_json::Value {
+    use hob_commission::encoder::{EncoderOptions, default_speeds_rpm, read_s};
+    let o = EncoderOptions::default();
+    let speeds = if o.speeds_rpm.is_empty() {
+        default_speeds_rpm(m.spindle.max_spindle_rpm)
+    } else {
+        o.speeds_rpm.clone()
+    };
+    let about_s: f64 = speeds.iter().map(|&r| read_s(o.seconds, r) + 10.0).sum();
+    serde_json::json!({
+        "encoder": {
+            "speeds_rpm": speeds,
+            "max_rpm": speeds.iter().fold(0.0f64, |a, &r| a.max(r)),
+            "seconds": o.seconds,
+            "about_min": (about_s / 60.0).ceil(),
         },
     })
 }

@@ -1,20 +1,37 @@
-//! Commissioning from the panel (DIAGNOSTICS): the table drive's delay measured by
-//! `hob_commission::delay`, the same procedure as `hob commission delay`, with the panel's
-//! press-and-hold key as its enable. A press starts it; the page renews the hold every
-//! 100 ms while the finger is on the key (a renewal never starts another); the procedure asks before every renewal of the table's jog whether the
-//! last renewal is younger than [`ENABLE_S`], so lifting the finger, hiding the page or
-//! losing the socket stops the table (and the loop's own dead-man stops it if this server
-//! dies). The proposal (the delay, the fit, the diff of the machine file) is shown; WRITE
-//! writes it only at the builder's level, as the CLI's `--yes`, the old file kept.
+//! Commissioning from the panel (DIAGNOSTICS): two procedures of `hob_commission`, the same
+//! as the CLI's, with the panel's press-and-hold key as their enable:
+//!
+//! - `delay`: the table drive's delay (`hob commission delay`): the table jogs one way and
+//!   back;
+//! - `encoder`: the spindle encoder's error told apart from a true once-per-turn swing
+//!   (`hob commission encoder`): the hob spindle is held at six speeds up to the machine's
+//!   largest in turn, a few minutes in all.
+//!
+//! A press starts the procedure of its key; the page renews the hold every 100 ms while the
+//! finger is on the key (a renewal never starts another); the procedure asks before every
+//! renewal of its jog or spindle hold whether the last renewal is younger than
+//! [`ENABLE_S`], so lifting the finger, hiding the page or losing the socket stops the table
+//! or the spindle (and the loop's own dead-man stops it if this server dies).
+//!
+//! One procedure runs at a time: a press on the same key while it runs only holds its
+//! enable; a press on the other key is refused in words (nothing starts, and the press does
+//! not hold the running one's enable: its renewals, as every renewal, never revive an enable
+//! let go, and letting go of it drops the enable as letting go of the running key does:
+//! the enable stays exactly as strict as with one key). The proposal of whichever
+//! ran last (its fit, its words, the diff of the machine file) goes with every view while
+//! it is held; WRITE writes it only at the builder's level, as the CLI's `--yes`, the old
+//! file kept. Starting either procedure drops it.
 //!
 //! Measuring needs the level that may command the machine; writing the one that may edit
-//! machine data. The procedure's words are English (the catalogue does not hold them yet).
+//! machine data. The procedures' words are English (the catalogue does not hold them yet).
 
 use crate::app::App;
 use hob_commission::Stop;
-use hob_commission::delay::{self, DelayOptions, Proposal};
+use hob_commission::delay::{self, DelayOptions};
+use hob_commission::encoder::{self, EncoderOptions};
 use hob_ipc::gateway::Action;
 use serde::Serialize;
+use std::path::{Path, PathBuf};
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 use tokio::sync::mpsc;
@@ -22,16 +39,133 @@ use tokio::sync::mpsc;
 /// The enable holds this long after the page's last renewal (the page renews every 100 ms).
 pub const ENABLE_S: f64 = 0.3;
 
+/// A procedure the panel runs.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Procedure {
+    /// The table drive's delay (`hob_commission::delay`).
+    Delay,
+    /// The spindle encoder's error (`hob_commission::encoder`).
+    Encoder,
+}
+
+impl Procedure {
+    pub const ALL: [Procedure; 2] = [Procedure::Delay, Procedure::Encoder];
+
+    /// The procedure a page names (`delay`, `encoder`).
+    pub fn named(name: &str) -> Option<Self> {
+        Self::ALL.into_iter().find(|p| p.name() == name)
+    }
+
+    /// Its name in the protocol.
+    pub fn name(self) -> &'static str {
+        match self {
+            Procedure::Delay => "delay",
+            Procedure::Encoder => "encoder",
+        }
+    }
+
+    /// Its name in words.
+    pub fn title(self) -> &'static str {
+        match self {
+            Procedure::Delay => "the table drive's delay",
+            Procedure::Encoder => "the spindle encoder",
+        }
+    }
+}
+
+/// The proposal as the page shows it, whichever procedure made it.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct ProposalView {
+    /// `delay` or `encoder`.
+    pub procedure: &'static str,
+    /// The machine file WRITE writes.
+    pub file: PathBuf,
+    /// The fit in words.
+    pub report: String,
+    /// The lines that change (`-`/`+` with their line numbers).
+    pub diff: String,
+    /// The proposal and the diff as the CLI prints them.
+    pub text: String,
+    pub utc: String,
+}
+
+impl ProposalView {
+    fn of(procedure: Procedure, file: &Path, report: &str, diff: &str, utc: &str, text: String) -> Self {
+        Self {
+            procedure: procedure.name(),
+            file: file.to_path_buf(),
+            report: report.to_string(),
+            diff: diff.to_string(),
+            text,
+            utc: utc.to_string(),
+        }
+    }
+}
+
+/// A measured proposal, held for WRITE.
+#[derive(Debug, Clone)]
+enum Held {
+    Delay(delay::Proposal),
+    Encoder(encoder::Proposal),
+}
+
+impl Held {
+    fn view(&self) -> ProposalView {
+        match self {
+            Held::Delay(p) => {
+                ProposalView::of(Procedure::Delay, &p.file, &p.report, &p.diff, &p.utc, p.text())
+            }
+            Held::Encoder(p) => {
+                ProposalView::of(Procedure::Encoder, &p.file, &p.report, &p.diff, &p.utc, p.text())
+            }
+        }
+    }
+
+    /// What the page's state line says of it.
+    fn summary(&self) -> String {
+        match self {
+            Held::Delay(p) => format!(
+                "found {:.1} us; the machine file has {} us",
+                p.found_us, p.assumed_us
+            ),
+            Held::Encoder(p) => format!(
+                "the encoder's error found: {:.1} arcsec once per turn (+- {:.1}); proposed as \
+                 [commissioning.spindle_encoder], the fits and the diff below",
+                p.separation.encoder[0].amplitude_arcsec(),
+                p.separation.error_uncertainty_arcsec
+            ),
+        }
+    }
+
+    fn write(&self) -> Result<PathBuf, Stop> {
+        match self {
+            Held::Delay(p) => p.write(),
+            Held::Encoder(p) => p.write(),
+        }
+    }
+
+    fn file(&self) -> &Path {
+        match self {
+            Held::Delay(p) => &p.file,
+            Held::Encoder(p) => &p.file,
+        }
+    }
+}
+
 /// What the page shows of the procedure.
 #[derive(Debug, Clone, Serialize)]
 pub struct View {
     /// The hold or write that this answers.
     pub id: u64,
+    /// The procedure it is about (`delay`, `encoder`; a refused unknown name as the page
+    /// sent it).
+    pub procedure: String,
     /// `running`, `proposal`, `stopped`, `refused` or `written`.
     pub state: &'static str,
     /// The step under way, the reason it stopped, or where the file was written.
     pub text: String,
-    pub proposal: Option<Proposal>,
+    /// The proposal WRITE would write (the last procedure's, while it is held).
+    pub proposal: Option<ProposalView>,
 }
 
 /// One socket's commissioning.
@@ -39,9 +173,9 @@ pub struct View {
 pub struct CommissionSession {
     /// The page's last renewal of its hold (`None`: let go).
     enable: Arc<Mutex<Option<Instant>>>,
-    /// A procedure is under way.
-    running: Arc<Mutex<bool>>,
-    proposal: Arc<Mutex<Option<Proposal>>>,
+    /// The procedure under way.
+    running: Arc<Mutex<Option<Procedure>>>,
+    proposal: Arc<Mutex<Option<Held>>>,
     tx: mpsc::UnboundedSender<View>,
 }
 
@@ -50,35 +184,77 @@ impl CommissionSession {
     pub fn new(tx: mpsc::UnboundedSender<View>) -> Self {
         Self {
             enable: Arc::new(Mutex::new(None)),
-            running: Arc::new(Mutex::new(false)),
+            running: Arc::new(Mutex::new(None)),
             proposal: Arc::new(Mutex::new(None)),
             tx,
         }
     }
 
-    fn send(&self, id: u64, state: &'static str, text: String) {
+    fn send(&self, id: u64, procedure: &str, state: &'static str, text: String) {
         let _ = self.tx.send(View {
             id,
+            procedure: procedure.to_string(),
             state,
             text,
-            proposal: None,
+            proposal: lock(&self.proposal).as_ref().map(Held::view),
         });
     }
 
-    /// The finger on the key: starts the measurement, its enable held (a press while one
-    /// runs only holds it).
-    pub fn hold(&self, id: u64, app: &Arc<App>) {
-        *lock(&self.enable) = Some(Instant::now());
+    /// The finger on a procedure's key: starts it, its enable held (a press on its key
+    /// while it runs only holds it; on the other key, refused).
+    pub fn hold(&self, id: u64, procedure: &str, app: &Arc<App>) {
+        self.hold_as(
+            id,
+            procedure,
+            app.not_allowed(Action::Command),
+            app.machine_file.clone(),
+        );
+    }
+
+    /// [`Self::hold`] with the level's refusal (`None`: it may command) and the machine file.
+    fn hold_as(&self, id: u64, procedure: &str, not_allowed: Option<String>, file: PathBuf) {
+        let Some(which) = Procedure::named(procedure) else {
+            self.send(
+                id,
+                procedure,
+                "refused",
+                format!(
+                    "no commissioning procedure {procedure:?} on this panel (it has {}): nothing runs",
+                    Procedure::ALL.map(Procedure::name).join(", ")
+                ),
+            );
+            return;
+        };
         {
             let mut running = lock(&self.running);
-            if *running {
+            match *running {
+                Some(r) if r == which => {
+                    *lock(&self.enable) = Some(Instant::now());
+                    return;
+                }
+                Some(r) => {
+                    drop(running);
+                    self.send(
+                        id,
+                        which.name(),
+                        "refused",
+                        format!(
+                            "{} is being measured: one procedure at a time; let go of its key \
+                             and wait for its result, then press this one",
+                            r.title()
+                        ),
+                    );
+                    return;
+                }
+                None => {}
+            }
+            if let Some(refused) = not_allowed {
+                drop(running);
+                self.send(id, which.name(), "refused", refused);
                 return;
             }
-            if let Some(refused) = app.not_allowed(Action::Command) {
-                self.send(id, "refused", refused);
-                return;
-            }
-            *running = true;
+            *lock(&self.enable) = Some(Instant::now());
+            *running = Some(which);
         }
         *lock(&self.proposal) = None;
         let (enable, running, proposal, tx) = (
@@ -87,50 +263,24 @@ impl CommissionSession {
             self.proposal.clone(),
             self.tx.clone(),
         );
-        let file = app.machine_file.clone();
         let spawned = std::thread::Builder::new()
-            .name("commission".into())
+            .name(format!("commission-{}", which.name()))
             .spawn(move || {
-                let enabled =
-                    || lock(&enable).is_some_and(|t| t.elapsed() < Duration::from_secs_f64(ENABLE_S));
-                let mut say = |step: &str| {
-                    let _ = tx.send(View {
-                        id,
-                        state: "running",
-                        text: step.to_string(),
-                        proposal: None,
-                    });
-                };
-                let view = match delay::run(&file, &DelayOptions::default(), &enabled, &mut say) {
-                    Ok(p) => {
-                        *lock(&proposal) = Some(p.clone());
-                        View {
-                            id,
-                            state: "proposal",
-                            text: format!(
-                                "found {:.1} us; the machine file has {} us",
-                                p.found_us, p.assumed_us
-                            ),
-                            proposal: Some(p),
-                        }
-                    }
-                    Err(e) => View {
-                        id,
-                        state: if matches!(e, Stop::Refused(_)) {
-                            "refused"
-                        } else {
-                            "stopped"
-                        },
-                        text: e.to_string(),
-                        proposal: None,
-                    },
-                };
-                *lock(&running) = false;
+                let (view, held) = measure(which, id, &file, &enable, &tx);
+                if let Some(held) = held {
+                    *lock(&proposal) = Some(held);
+                }
+                *lock(&running) = None;
                 let _ = tx.send(view);
             });
         if let Err(e) = spawned {
-            *lock(&self.running) = false;
-            self.send(id, "stopped", format!("the measurement could not start: {e}"));
+            *lock(&self.running) = None;
+            self.send(
+                id,
+                which.name(),
+                "stopped",
+                format!("the measurement could not start: {e}"),
+            );
         }
     }
 
@@ -148,27 +298,36 @@ impl CommissionSession {
         *lock(&self.enable) = None;
     }
 
-    /// WRITE: the proposal into the machine file (the builder's level), the old file kept.
+    /// WRITE: the proposal of the procedure that ran last into the machine file (the
+    /// builder's level), the old file kept.
     pub fn write(&self, id: u64, app: &Arc<App>) {
+        let procedure = |held: Option<&Held>| match held {
+            Some(Held::Encoder(_)) => Procedure::Encoder.name(),
+            _ => Procedure::Delay.name(),
+        };
         if let Some(refused) = app.not_allowed(Action::EditMachineData) {
-            self.send(id, "refused", refused);
+            let which = procedure(lock(&self.proposal).as_ref());
+            self.send(id, which, "refused", refused);
             return;
         }
         let Some(p) = lock(&self.proposal).take() else {
-            self.send(id, "refused", "nothing measured to write".into());
+            let which = lock(&self.running).unwrap_or(Procedure::Delay).name();
+            self.send(id, which, "refused", "nothing measured to write".into());
             return;
         };
+        let which = procedure(Some(&p));
         match p.write() {
             Ok(kept) => self.send(
                 id,
+                which,
                 "written",
                 format!(
                     "written: {} (the old file kept as {}); restart hob-rt for it to take effect",
-                    p.file.display(),
+                    p.file().display(),
                     kept.display()
                 ),
             ),
-            Err(e) => self.send(id, "refused", e.to_string()),
+            Err(e) => self.send(id, which, "refused", e.to_string()),
         }
     }
 }
@@ -179,7 +338,186 @@ impl Drop for CommissionSession {
     }
 }
 
+/// Runs `which` on `file` with the panel's key as its enable (held while `enable` was
+/// renewed within [`ENABLE_S`]), each step sent to the page; the view of its end, and the
+/// proposal it made.
+fn measure(
+    which: Procedure,
+    id: u64,
+    file: &Path,
+    enable: &Mutex<Option<Instant>>,
+    tx: &mpsc::UnboundedSender<View>,
+) -> (View, Option<Held>) {
+    let enabled = || lock(enable).is_some_and(|t| t.elapsed() < Duration::from_secs_f64(ENABLE_S));
+    let mut say = |step: &str| {
+        let _ = tx.send(View {
+            id,
+            procedure: which.name().to_string(),
+            state: "running",
+            text: step.to_string(),
+            proposal: None,
+        });
+    };
+    let result = match which {
+        Procedure::Delay => delay::run(file, &DelayOptions::default(), &enabled, &mut say).map(Held::Delay),
+        Procedure::Encoder => {
+            encoder::run(file, &EncoderOptions::default(), &enabled, &mut say).map(Held::Encoder)
+        }
+    };
+    match result {
+        Ok(held) => (
+            View {
+                id,
+                procedure: which.name().to_string(),
+                state: "proposal",
+                text: held.summary(),
+                proposal: Some(held.view()),
+            },
+            Some(held),
+        ),
+        Err(e) => (
+            View {
+                id,
+                procedure: which.name().to_string(),
+                state: if matches!(e, Stop::Refused(_)) {
+                    "refused"
+                } else {
+                    "stopped"
+                },
+                text: e.to_string(),
+                proposal: None,
+            },
+            None,
+        ),
+    }
+}
+
 /// A poisoned lock is a panic elsewhere: its value is still the last one written.
 fn lock<T>(m: &Mutex<T>) -> std::sync::MutexGuard<'_, T> {
     m.lock().unwrap_or_else(std::sync::PoisonError::into_inner)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn session() -> (CommissionSession, mpsc::UnboundedReceiver<View>) {
+        let (tx, rx) = mpsc::unbounded_channel();
+        (CommissionSession::new(tx), rx)
+    }
+
+    fn file() -> PathBuf {
+        PathBuf::from("/nonexistent/machine.toml")
+    }
+
+    #[test]
+    fn procedures_are_named_as_the_page_names_them() {
+        assert_eq!(Procedure::named("delay"), Some(Procedure::Delay));
+        assert_eq!(Procedure::named("encoder"), Some(Procedure::Encoder));
+        assert_eq!(Procedure::named("Encoder"), None);
+        assert_eq!(Procedure::named(""), None);
+    }
+
+    #[test]
+    fn an_unknown_procedure_is_refused_and_nothing_runs() {
+        let (s, mut rx) = session();
+        s.hold_as(7, "spindle", None, file());
+        let v = rx.try_recv().expect("a view");
+        assert_eq!((v.id, v.state, v.procedure.as_str()), (7, "refused", "spindle"));
+        assert!(
+            v.text.contains("\"spindle\"") && v.text.contains("delay, encoder"),
+            "{}",
+            v.text
+        );
+        assert!(v.text.contains("nothing runs"), "{}", v.text);
+        assert_eq!(*lock(&s.running), None, "a procedure runs");
+        assert_eq!(*lock(&s.enable), None, "the enable is held");
+        assert!(rx.try_recv().is_err(), "more views: nothing should run");
+    }
+
+    #[test]
+    fn a_panel_that_may_not_command_starts_nothing() {
+        let (s, mut rx) = session();
+        s.hold_as(
+            3,
+            "encoder",
+            Some("a viewer's panel may not command".into()),
+            file(),
+        );
+        let v = rx.try_recv().expect("a view");
+        assert_eq!((v.state, v.procedure.as_str()), ("refused", "encoder"));
+        assert_eq!(v.text, "a viewer's panel may not command");
+        assert_eq!(*lock(&s.running), None);
+        assert_eq!(*lock(&s.enable), None, "the enable is held");
+    }
+
+    #[test]
+    fn the_other_key_while_one_runs_is_refused_and_never_holds_its_enable() {
+        let (s, mut rx) = session();
+        // The delay under way, its key let go (the procedure is about to stop): a press on
+        // the encoder's key must not hold the delay's enable again.
+        *lock(&s.running) = Some(Procedure::Delay);
+        s.hold_as(9, "encoder", None, file());
+        let v = rx.try_recv().expect("a view");
+        assert_eq!((v.id, v.state, v.procedure.as_str()), (9, "refused", "encoder"));
+        assert!(
+            v.text.starts_with("the table drive's delay is being measured"),
+            "{}",
+            v.text
+        );
+        assert_eq!(
+            *lock(&s.enable),
+            None,
+            "the other key held the running one's enable"
+        );
+        assert_eq!(*lock(&s.running), Some(Procedure::Delay));
+        // Its renewals do not revive a let-go enable either.
+        s.renew();
+        assert_eq!(*lock(&s.enable), None);
+        // A press on the running one's own key holds it (as before), nothing else starts.
+        s.hold_as(10, "delay", None, file());
+        assert!(
+            lock(&s.enable).is_some(),
+            "the running one's key does not hold it"
+        );
+        assert!(rx.try_recv().is_err(), "a press on the running key answered");
+        s.release();
+        assert_eq!(*lock(&s.enable), None);
+    }
+
+    #[test]
+    fn the_view_of_an_encoder_proposal_has_its_report_text_and_diff() {
+        // An encoder::Proposal is made only by a whole run on the machine; the view is made
+        // of its report, diff and text() as here.
+        let report = "speed    once      twice     three times per turn (arcsec)   residual\n 60.0 rpm   12.00     1.00     0.50                           0.3 arcsec\n";
+        let diff = "- 88 [commissioning.spindle_encoder]\n+ 88 [commissioning.spindle_encoder]\n+ 89 once_arcsec = 11.8\n";
+        let file = PathBuf::from("/etc/hob/machine.toml");
+        let text = format!("{report}changes to {}:\n{diff}", file.display());
+        let p = ProposalView::of(
+            Procedure::Encoder,
+            &file,
+            report,
+            diff,
+            "2026-11-29T02:00:00Z",
+            text,
+        );
+        let v = View {
+            id: 4,
+            procedure: "encoder".into(),
+            state: "proposal",
+            text: "the encoder's error found".into(),
+            proposal: Some(p),
+        };
+        let j = serde_json::to_value(&v).expect("json");
+        assert_eq!(j["procedure"], "encoder");
+        assert_eq!(j["state"], "proposal");
+        let p = &j["proposal"];
+        assert_eq!(p["procedure"], "encoder");
+        assert_eq!(p["report"], report);
+        assert_eq!(p["diff"], diff);
+        assert_eq!(p["file"], "/etc/hob/machine.toml");
+        let text = p["text"].as_str().expect("text");
+        assert!(text.starts_with(report) && text.ends_with(diff), "{text}");
+        assert!(text.contains("changes to /etc/hob/machine.toml:"), "{text}");
+    }
 }

@@ -562,10 +562,13 @@ pub enum ClientMsg {
     },
     JogRenew,
     JogRelease,
-    /// The commissioning key pressed (starts the measurement of the table drive's delay),
+    /// A commissioning key pressed (starts its procedure: `delay`, the table drive's delay,
+    /// or `encoder`, the spindle encoder's error; a page that names none means `delay`),
     /// held (renewed every 100 ms: its enable) and let go.
     CommissionHold {
         id: u64,
+        #[serde(default = "delay_procedure")]
+        procedure: String,
     },
     CommissionRenew,
     CommissionRelease,
@@ -576,6 +579,11 @@ pub enum ClientMsg {
     Visibility {
         visible: bool,
     },
+}
+
+/// The procedure of a commissioning hold that names none (the pages before the encoder's).
+fn delay_procedure() -> String {
+    "delay".into()
 }
 
 impl Op {
@@ -870,6 +878,31 @@ mod tests {
         assert!(
             v.operator && v.utc_ms == Some(999_000) && v.kind == "refused",
             "{v:?}"
+        );
+    }
+
+    #[test]
+    fn a_commissioning_hold_names_its_procedure_or_means_the_delay() {
+        let hold = |json: &str| match parse(json) {
+            ClientMsg::CommissionHold { id, procedure } => (id, procedure),
+            m => panic!("{json}: {m:?}"),
+        };
+        // A page from before the encoder's key names none: the table drive's delay.
+        assert_eq!(
+            hold(r#"{"t":"commission_hold","id":5}"#),
+            (5, "delay".to_string())
+        );
+        assert_eq!(
+            hold(r#"{"t":"commission_hold","id":6,"procedure":"encoder"}"#),
+            (6, "encoder".to_string())
+        );
+        // An unknown name is the session's to refuse in words (nothing runs).
+        assert_eq!(
+            hold(r#"{"t":"commission_hold","id":7,"procedure":"bogus"}"#),
+            (7, "bogus".to_string())
+        );
+        assert!(
+            serde_json::from_str::<ClientMsg>(r#"{"t":"commission_hold","id":8,"procedure":3}"#).is_err()
         );
     }
 }

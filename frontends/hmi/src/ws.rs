@@ -201,8 +201,8 @@ impl Session {
                 self.commission.release();
                 true
             }
-            ClientMsg::CommissionHold { id } => {
-                self.commission.hold(id, &self.app);
+            ClientMsg::CommissionHold { id, procedure } => {
+                self.commission.hold(id, &procedure, &self.app);
                 true
             }
             ClientMsg::CommissionRenew => {

@@ -4,7 +4,10 @@
 // table and writes nothing; held to the end, the found delay, the fit and the diff of the
 // machine file show; this panel (a setter's, through the gateway) may not WRITE: the key is
 // dark, the level says whose work it is, and the machine file stays as it was. A builder's
-// panel on the machine PC writes it: the record renewed, the old file kept beside it.
+// panel on the machine PC writes it: the record renewed, the old file kept beside it. The
+// spindle encoder's key (the procedure of `hob commission encoder`) on a builder's panel:
+// held, the loop holds the hob spindle at the first speed and it turns; let go, the spindle
+// stops, the card says the enable was let go and offers nothing to WRITE, the file as it was.
 import { test, after } from "node:test";
 import assert from "node:assert/strict";
 import { readFileSync, readdirSync } from "node:fs";
@@ -94,6 +97,42 @@ test("a builder's panel writes the proposal: the record renewed, the old file ke
     assert.notEqual(utc(after), utc(before), "the record was not renewed");
     await shot(p, "diagnostics-commissioning-written");
     console.log(said);
+  } finally {
+    await p.close();
+    builder.proc.kill("SIGTERM");
+  }
+});
+
+test("the spindle encoder's key: held, the spindle turns at its first speed; let go, it stops and nothing is written", async () => {
+  const builder = await startHmi(0, { builder: true });
+  const p = await ctx.newPage();
+  try {
+    await p.goto(`${builder.url}#diagnostics`);
+    await p.locator('[data-testid="commission-encoder-hold"]').waitFor({ timeout: 20000 });
+    const warning = await p.locator('[data-testid="commission-encoder-warning"]').innerText();
+    assert.match(warning, /turns at up to \d+ rpm for about \d+ min while the key is held: the hob must be clear of the work/);
+    assert.equal(status().state, "idle", "the machine is not idle before the test");
+    assert.ok(Math.abs(status().spindle_rpm) < 1, `the spindle turns before the test: ${status().spindle_rpm} rpm`);
+    const file = readFileSync(machine, "utf8");
+    const st = p.locator('[data-testid="commission-encoder-state"]');
+    const t0 = Date.now();
+    const hold = await touchHold(p, '[data-testid="commission-encoder-hold"]', 0);
+    await waitFor("the spindle held at its first speed", async () => /holding the spindle at \d+ rpm/.test(await st.innerText()), 10000, 50);
+    const first = Number((await st.innerText()).match(/holding the spindle at (\d+) rpm/)[1]);
+    assert.equal(await st.getAttribute("data-state"), "running");
+    // The loop's truth, not the page's: the spindle turns towards the speed held.
+    const turning = await waitFor("the spindle turning", () => { const s = status(); return Math.abs(s.spindle_rpm) > 0.5 * first ? s : null; }, 15000, 200);
+    await p.locator('[data-testid="commissioning"]').scrollIntoViewIfNeeded();
+    await shot(p, "diagnostics-commissioning-encoder");
+    const held = await hold.lift();
+    await waitFor("the measurement stopped", async () => (await st.getAttribute("data-state")) === "stopped", 5000, 50);
+    assert.match(await st.innerText(), /the enable was let go/);
+    await waitFor("the spindle at rest", () => Math.abs(status().spindle_rpm) < 1, 15000, 200);
+    assert.equal(await p.locator('[data-testid="commission-write"]').isDisabled(), true, "WRITE is offered after a stop");
+    assert.equal(await p.locator('[data-testid="commission-report"]').count(), 0, "a proposal shows after a stop");
+    assert.equal(readFileSync(machine, "utf8"), file, "the machine file changed");
+    await waitFor("the machine idle", () => status().state === "idle", 5000, 100);
+    console.log(`encoder: held ${held} ms; the spindle at ${turning.spindle_rpm.toFixed(1)} rpm (state ${turning.state}) for the first speed ${first} rpm; stopped ${((Date.now() - t0) / 1000).toFixed(1)} s after the press`);
   } finally {
     await p.close();
     builder.proc.kill("SIGTERM");

@@ -85,7 +85,9 @@ export class Conn {
         this.stats = m;
         break;
       case "commission":
+        // The last view, and each procedure's last (its step, result or refusal).
         this.commission = m;
+        this.commissionBy = { ...this.commissionBy, [m.procedure]: m };
         break;
       case "answer": {
         const p = this.pending.get(m.id);

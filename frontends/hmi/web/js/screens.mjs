@@ -351,10 +351,12 @@ function Bars({ title, bars, testid }) {
       <span class="fill" style=${`width:${top > 0 ? (70 * Math.log10(b.count + 1)) / top : 0}%`}></span><span class="n">${b.count}</span></div>`)}</div>`;
 }
 
-/** Commissioning: the table drive's delay, measured while the key is held (the server's
- *  hob_commission, the procedure of `hob commission delay`), the proposal and its diff;
- *  WRITE at the builder's level. */
-function CommissionKey({ conn }) {
+/** Commissioning: two procedures of the server's hob_commission (those of `hob commission
+ *  delay` and `hob commission encoder`), each run while its key is held (the held key its
+ *  enable: letting go stops the table or the spindle); one at a time (the server refuses the
+ *  other key's press while one runs, and says so); the proposal of the one that ran last,
+ *  its fit and its diff; WRITE at the builder's level. */
+function CommissionKey({ conn, procedure, testid }) {
   const ref = useRef(null);
   useEffect(() => {
     const el = ref.current;
@@ -369,7 +371,7 @@ function CommissionKey({ conn }) {
       ev.preventDefault();
       stop();
       try { el.setPointerCapture(ev.pointerId); } catch { /* a synthetic pointer */ }
-      conn.send({ t: "commission_hold", id: conn.newId() });
+      conn.send({ t: "commission_hold", id: conn.newId(), procedure });
       el.classList.add("held");
       timer = setInterval(() => conn.send({ t: "commission_renew" }), RENEW_MS);
     };
@@ -383,21 +385,43 @@ function CommissionKey({ conn }) {
       for (const k of ["pointerup", "pointercancel", "lostpointercapture"]) el.removeEventListener(k, stop);
       window.removeEventListener("blur", stop);
     };
-  }, [conn]);
-  return html`<button ref=${ref} class="key hold" data-testid="commission-hold" disabled=${!allows(conn, "command")}>${t("HOLD TO MEASURE")}</button>`;
+  }, [conn, procedure]);
+  return html`<button ref=${ref} class="key hold" data-testid=${testid} data-procedure=${procedure} disabled=${!allows(conn, "command")}>${t("HOLD TO MEASURE")}</button>`;
 }
+
+/** A procedure's last word: its step while it runs, its result, or why it stopped. */
+function CommissionState({ view, testid }) {
+  if (!view) return html`<p class="hint" data-testid=${testid} data-state="">${t("not run since the page opened")}</p>`;
+  const bad = view.state === "stopped" || view.state === "refused";
+  return html`<p class=${bad ? "warn" : view.state === "running" ? "ok" : ""} data-testid=${testid} data-state=${view.state}>${view.text}</p>`;
+}
+
+const PROCEDURES = { delay: "TABLE DRIVE DELAY", encoder: "SPINDLE ENCODER" };
 
 function Commissioning({ conn }) {
   const c = conn.commission;
+  const by = conn.commissionBy || {};
   const p = c && c.proposal;
+  const e = conn.hello && conn.hello.commissioning && conn.hello.commissioning.encoder;
   const write = () => conn.send({ t: "commission_write", id: conn.newId() });
-  return html`<div class="card wide" data-testid="commissioning"><h2>${t("Commissioning: the table drive's delay")}</h2>
-    <p class="hint">${t("The table turns + at 240 deg/min for 3 s, then - as long (12 deg each way, back to where it stands): keep the table clear and hold the key until the result shows; letting go stops the table. The found delay is written into the machine file only by WRITE (a builder's work); restart hob-rt after it.")}</p>
-    <div class="row"><${CommissionKey} conn=${conn} />
-      <button class="key primary" onClick=${write} disabled=${!p || !allows(conn, "edit_machine_data")} data-testid="commission-write">${t("WRITE")}</button>
+  return html`<div class="card wide" data-testid="commissioning"><h2>${t("Commissioning")}</h2>
+    ${c && !PROCEDURES[c.procedure] ? html`<p class="warn" data-testid="commission-other" data-state=${c.state}>${c.text}</p>` : ""}
+    <div class="procedures">
+      <div class="procedure" data-testid="commission-delay"><h3>${t("TABLE DRIVE DELAY")}</h3>
+        <p class="hint">${t("The table turns + at 240 deg/min for 3 s, then - as long (12 deg each way, back to where it stands): keep the table clear and hold the key until the result shows; letting go stops the table. The found delay is written into the machine file only by WRITE (a builder's work); restart hob-rt after it.")}</p>
+        <div class="row"><${CommissionKey} conn=${conn} procedure="delay" testid="commission-hold" /></div>
+        <${CommissionState} view=${by.delay} testid="commission-state" /></div>
+      <div class="procedure" data-testid="commission-encoder"><h3>${t("SPINDLE ENCODER")}</h3>
+        <p class="warn" data-testid="commission-encoder-warning">${e ? t("The hob spindle turns at up to {0} rpm for about {1} min while the key is held: the hob must be clear of the work.", fmt(e.max_rpm, 0), fmt(e.about_min, 0))
+          : t("The hob spindle turns at up to the machine's largest speed for some minutes while the key is held: the hob must be clear of the work.")}</p>
+        <p class="hint">${e ? t("{0} speeds in turn ({1} rpm), each read {2} s once steady; letting go stops the spindle. The encoder's error is written into the machine file only by WRITE (a builder's work); restart hob-rt after it.", e.speeds_rpm.length, e.speeds_rpm.map((r) => fmt(r, 0)).join(", "), fmt(e.seconds, 0)) : ""}</p>
+        <div class="row"><${CommissionKey} conn=${conn} procedure="encoder" testid="commission-encoder-hold" /></div>
+        <${CommissionState} view=${by.encoder} testid="commission-encoder-state" /></div>
+    </div>
+    <div class="row"><button class="key primary" onClick=${write} disabled=${!p || !allows(conn, "edit_machine_data")} data-testid="commission-write">${t("WRITE")}</button>
+      ${p ? html`<span data-testid="commission-proposal-of" data-procedure=${p.procedure}>${t("the proposal of {0}", t(PROCEDURES[p.procedure] || p.procedure))}</span>` : html`<span class="hint">${t("nothing measured to write")}</span>`}
       ${allows(conn, "edit_machine_data") ? "" : html`<span class="hint" data-testid="commission-level">${t("WRITE: a builder's work")}</span>`}</div>
-    ${c ? html`<p class=${c.state === "stopped" || c.state === "refused" ? "warn" : ""} data-testid="commission-state" data-state=${c.state}>${c.text}</p>` : ""}
-    ${p ? html`<pre class="small" style="white-space: pre-wrap" data-testid="commission-report">${p.report}</pre><pre class="small" data-testid="commission-diff">${p.diff}</pre>` : ""}
+    ${p ? html`<pre class="small" style=${p.procedure === "delay" ? "white-space: pre-wrap" : ""} data-testid="commission-report">${p.report}</pre><pre class="small" data-testid="commission-diff">${p.diff}</pre>` : ""}
   </div>`;
 }
 

@@ -1,0 +1,86 @@
+//! What every procedure does with the loop and the machine file alike: reaching `hob-rt`,
+//! asking it a command and taking its answer, reading its state stream until an alarm, and
+//! the proposed change of the machine file, written only as it was shown.
+
+use crate::Stop;
+use hob_ipc::codec;
+use hob_ipc::{CommandRequest, Commands, Feed, StateSample};
+use hob_store::machine_edit;
+use std::path::{Path, PathBuf};
+use std::time::Duration;
+
+/// How long a command may wait for the loop's answer.
+pub(crate) const ANSWER: Duration = Duration::from_secs(3);
+/// A held command (a continuous jog, the spindle's hold) is renewed this often (the machine
+/// file's dead-man time is longer).
+pub(crate) const RENEWAL: Duration = Duration::from_millis(100);
+
+/// The loop's state stream and its command channel.
+pub(crate) type Link = (Box<dyn Feed>, Box<dyn Commands>);
+
+/// The loop's [`Link`], once it has been heard.
+pub(crate) fn connect() -> Result<Link, Stop> {
+    let me = format!("hob-commission-{}", std::process::id());
+    let unreachable = |e: hob_ipc::IpcError| Stop::Failed(format!("hob-rt cannot be reached: {e}"));
+    let mut feed = hob_ipc::follow(&me).map_err(unreachable)?;
+    let client = hob_ipc::commands(&me).map_err(unreachable)?;
+    if feed.wait_state(Duration::from_secs(2)).is_none() {
+        return Err(Stop::Failed(format!(
+            "no state from hob-rt (instance {}): is it running?",
+            hob_ipc::instance()
+        )));
+    }
+    Ok((feed, client))
+}
+
+/// Asks `req`; the loop's refusal stops the procedure in its words. `moving` names what
+/// the dead-man stops if the loop does not answer ("the table", "the spindle").
+pub(crate) fn ask(client: &mut dyn Commands, req: &CommandRequest, moving: &str) -> Result<(), Stop> {
+    let answer = client.request(req, ANSWER).map_err(|e| {
+        Stop::Failed(format!(
+            "hob-rt did not answer: {e}; {moving} stops within the dead-man time"
+        ))
+    })?;
+    if answer.accepted == 0 {
+        return Err(Stop::Refused(format!(
+            "{}; nothing measured, the machine file unchanged",
+            answer.text()
+        )));
+    }
+    Ok(())
+}
+
+/// Hands every waiting state sample to `take`; an alarm stops the procedure.
+pub(crate) fn drain(feed: &mut dyn Feed, mut take: impl FnMut(&StateSample)) -> Result<(), Stop> {
+    while let Some(s) = feed.next_state() {
+        if s.alarm.code != 0 {
+            return Err(Stop::Failed(format!(
+                "stopped: {}; nothing written, the machine file unchanged",
+                codec::alarm_text(&s.alarm)
+            )));
+        }
+        take(&s);
+    }
+    Ok(())
+}
+
+/// A change of the machine file as it was read and as it is proposed.
+#[derive(Debug, Clone, PartialEq)]
+pub(crate) struct Edit {
+    pub read_text: String,
+    pub new_text: String,
+}
+
+impl Edit {
+    /// Writes the proposal into `file` (which must still be as it was read), the old file
+    /// kept under `utc`'s stamp; returns the kept file.
+    pub fn commit(&self, file: &Path, utc: &str) -> Result<PathBuf, Stop> {
+        machine_edit::commit(
+            file,
+            &self.read_text,
+            &self.new_text,
+            &machine_edit::file_stamp(utc),
+        )
+        .map_err(|e| Stop::Failed(format!("{e}")))
+    }
+}
