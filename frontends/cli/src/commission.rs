@@ -28,6 +28,33 @@ pub fn encoder(machine_file: &Path, o: &EncoderOptions, yes: bool) -> Result<Str
     confirm_and_write(machine_file, &p.text(), yes, || p.write())
 }
 
+/// `hob commission report`: the machine file's records in words; the encoder's plot to
+/// `svg` (refused when the file has no encoder record to plot).
+pub fn report(machine_file: &Path, svg: Option<&Path>) -> Result<String, Failure> {
+    let machine = hob_store::files::load_machine(machine_file).map_err(|e| {
+        eprintln!("hob: refused: {e}");
+        Failure::Exit(2)
+    })?;
+    let mut out = hob_commission::report::text(&machine);
+    if let Some(path) = svg {
+        let Some(e) = machine
+            .commissioning
+            .as_ref()
+            .and_then(|c| c.spindle_encoder.as_ref())
+        else {
+            eprintln!(
+                "hob: refused: --svg: {} has no [commissioning.spindle_encoder] to plot",
+                machine_file.display()
+            );
+            return Err(Failure::Exit(2));
+        };
+        let plot = hob_commission::report::encoder_svg(e, machine.spindle.max_spindle_rpm);
+        std::fs::write(path, plot).map_err(|e| Failure::Other(format!("{}: {e}", path.display())))?;
+        out.push_str(&format!("the spindle encoder's plot: {}\n", path.display()));
+    }
+    Ok(out)
+}
+
 /// Shows a proposal, and writes it on `--yes` or a typed yes.
 fn confirm_and_write(
     machine_file: &Path,

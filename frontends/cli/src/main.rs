@@ -472,6 +472,17 @@ enum CommissionCommand {
         #[arg(long)]
         yes: bool,
     },
+    /// The commissioning report of the machine file: what was measured, when and on what,
+    /// and what is not measured yet; with --svg, the spindle encoder's record over the
+    /// spindle's speeds as a plot.
+    Report {
+        /// Machine configuration to report on [default: config/machine.toml, then /etc/hob/machine.toml].
+        #[arg(long, value_name = "FILE")]
+        machine: Option<PathBuf>,
+        /// Write the spindle encoder's plot here (SVG).
+        #[arg(long, value_name = "FILE")]
+        svg: Option<PathBuf>,
+    },
 }
 
 #[derive(Debug, Subcommand)]
@@ -599,6 +610,10 @@ fn commission(command: CommissionCommand) -> Result<(), Failure> {
                 seconds,
             };
             emit(&hob_cli::commission::encoder(&file, &o, yes)?)
+        }
+        CommissionCommand::Report { machine, svg } => {
+            let file = machine_path(machine.as_deref())?;
+            emit(&hob_cli::commission::report(&file, svg.as_deref())?)
         }
     }
 }

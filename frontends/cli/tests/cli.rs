@@ -571,3 +571,50 @@ fn a_typed_number_takes_a_decimal_comma_and_refuses_a_thousands_separator() {
         "{err}"
     );
 }
+
+/// `hob commission report`: the shipped file's records in words; its plot refused without
+/// an encoder record, written with one.
+#[test]
+fn the_commissioning_report_says_what_was_measured_and_plots_the_encoder() {
+    let shipped = root().join("config/machine.toml");
+    let o = hob(&["commission", "report", "--machine", shipped.to_str().unwrap()]);
+    assert!(o.status.success(), "{}", text(&o.stderr));
+    let out = text(&o.stdout);
+    assert!(out.contains("found 999.9 us"), "{out}");
+    assert!(out.contains("Spindle encoder: not commissioned"), "{out}");
+    let svg = std::env::temp_dir().join(format!("hob-report-{}.svg", std::process::id()));
+    let svg_arg = svg.to_str().unwrap();
+    assert_refused(
+        &[
+            "commission",
+            "report",
+            "--machine",
+            shipped.to_str().unwrap(),
+            "--svg",
+            svg_arg,
+        ],
+        &["no [commissioning.spindle_encoder] to plot"],
+    );
+    assert!(!svg.exists());
+    let record = "\n[commissioning.spindle_encoder]\nutc = 2026-11-29T02:10:05Z\n\
+        error_arcsec = 15.2\nerror_2_arcsec = 4.1\nerror_3_arcsec = 1.6\nswing_arcsec = 12.0\n\
+        swing_phase_deg = 131.0\nswing_tau_s = 0.003\nreference_rpm = 212.0\n\
+        speeds_rpm = [64.0, 110.0, 212.0]\nmisfit_arcsec = 0.5\nerror_uncertainty_arcsec = 0.9\n";
+    let file = temp_program(
+        "machine-with-encoder.toml",
+        &(std::fs::read_to_string(&shipped).unwrap() + record),
+    );
+    let o = hob(&[
+        "commission",
+        "report",
+        "--machine",
+        file.to_str().unwrap(),
+        "--svg",
+        svg_arg,
+    ]);
+    assert!(o.status.success(), "{}", text(&o.stderr));
+    assert!(text(&o.stdout).contains("15.20 +- 0.90 arcsec once per turn"));
+    let plot = std::fs::read_to_string(&svg).unwrap();
+    assert_eq!(plot.matches("<polyline").count(), 3);
+    let _ = std::fs::remove_file(&svg);
+}

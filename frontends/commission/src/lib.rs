@@ -13,10 +13,13 @@
 //! - [`encoder`]: the spindle encoder's error (once, twice, three times per turn) told apart
 //!   from a true once-per-turn swing of the spindle, from the spindle held at several
 //!   speeds (`[commissioning.spindle_encoder]`).
+//! - [`report`]: the commissioning report of the machine file's records (text, and the
+//!   encoder's record over the spindle's speeds as SVG).
 
 pub mod delay;
 pub mod encoder;
 mod link;
+pub mod report;
 
 /// Why a procedure stopped without a result (nothing was written).
 #[derive(Debug, Clone, PartialEq)]
