@@ -282,15 +282,20 @@ pub fn precise_enough(s: &Separation) -> Result<(), String> {
 
 /// The fits and the separation in words.
 pub fn report(fits: &[SpeedFit], s: &Separation) -> String {
-    let mut t = String::from("speed    once      twice     three times per turn (arcsec)   residual\n");
+    let mut t = String::from(
+        "speed      once    twice    three times per turn (arcsec)  +- once  residual  blocks (left out)\n",
+    );
     for f in fits {
         t.push_str(&format!(
-            "{:>5.1} rpm {:>7.2}  {:>7.2}  {:>7.2}{:>30.1} arcsec\n",
+            "{:>6.1} rpm {:>7.2}  {:>7.2}  {:>7.2}{:>29.2}  {:>6.1} arcsec  {} ({})\n",
             f.rpm,
             f.harmonics[0].amplitude_arcsec(),
             f.harmonics[1].amplitude_arcsec(),
             f.harmonics[2].amplitude_arcsec(),
-            f.residual_arcsec
+            f.once_sigma_arcsec,
+            f.residual_arcsec,
+            f.blocks,
+            f.dropped_blocks
         ));
     }
     t.push_str(&s.text());
@@ -370,7 +375,9 @@ fn each_speed(
                         .into(),
                 ));
             }
-            ask(client, &hold, "the spindle")?;
+            // A refusal because the machine faulted names the fault (the state stream has it).
+            ask(client, &hold, "the spindle")
+                .map_err(|refused| drain(feed, |_| {}).err().unwrap_or(refused))?;
             *held = true;
             std::thread::sleep(link::RENEWAL);
             drain(feed, |s| {

@@ -254,11 +254,15 @@ fn say_spindle_encoder(machine: &MachineConfig) {
         .and_then(|c| c.spindle_encoder.as_ref());
     match record {
         Some(r) => eprintln!(
-            "hob-rt: the spindle encoder's error ({:.1} arcsec once per turn) was told apart from              the spindle's true swing ({:.1} arcsec at {:.0} rpm) at {}: the loop corrects only              the encoder's share of what it identifies",
+            "hob-rt: the spindle encoder's error ({:.1} arcsec once per turn) was told apart from \
+             the spindle's true swing ({:.1} arcsec at {:.0} rpm) at {}: the loop corrects only \
+             the encoder's share of what it identifies",
             r.error_arcsec, r.swing_arcsec, r.reference_rpm, r.utc
         ),
         None if machine.control.spindle_encoder_identification_s > 0.0 => eprintln!(
-            "hob-rt: the spindle encoder is not commissioned ([commissioning.spindle_encoder]):              the loop takes all of the once-per-turn sine it identifies for the encoder's error              (a true swing of the spindle too); `hob commission encoder` tells them apart"
+            "hob-rt: the spindle encoder is not commissioned ([commissioning.spindle_encoder]): \
+             the loop takes all of the once-per-turn sine it identifies for the encoder's error \
+             (a true swing of the spindle too); `hob commission encoder` tells them apart"
         ),
         None => {}
     }
