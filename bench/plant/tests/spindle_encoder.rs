@@ -138,7 +138,7 @@ fn commissioned(plant: &PlantConfig) -> fit::Separation {
         fits.push(fit::fit_speed(&readings, 1.0 / p.spindle.counts_per_unit).unwrap());
     }
     let top = speeds.iter().fold(0.0f64, |a, &r| a.max(r));
-    let s = fit::separate(&fits, top, 0.0).unwrap();
+    let s = fit::separate(&fits, top).unwrap();
     println!("{}", encoder::report(&fits, &s));
     s
 }

@@ -50,8 +50,6 @@ const SECONDS: (f64, f64) = (4.0, 60.0);
 /// meet it. Below, the trim would move the swing (15 % at 32 rpm) and the identification
 /// would not run at all.
 const LOWEST_RPM: f64 = 60.0;
-/// The trim the swing meets at those speeds (see [`LOWEST_RPM`]).
-const TRIM_SEEN_PER_S: f64 = 0.0;
 /// Each speed is read for at least this many turns (3 of the fit's blocks of 2 turns, and
 /// a margin for lost samples).
 const MIN_TURNS: f64 = 8.0;
@@ -84,7 +82,30 @@ pub fn default_speeds_rpm(max_spindle_rpm: f64) -> Vec<f64> {
         .collect()
 }
 
+/// Before each speed is read, the VFD's ramp and the settling take about this long, s (5-15 s
+/// measured on the simulated machine).
+const SETTLING_ABOUT_S: f64 = 10.0;
+
 impl EncoderOptions {
+    /// The options as they run on a machine whose spindle's largest speed is `max_rpm`: the
+    /// default speeds where none were asked for.
+    pub fn on_machine(&self, max_rpm: f64) -> EncoderOptions {
+        let mut o = self.clone();
+        if o.speeds_rpm.is_empty() {
+            o.speeds_rpm = default_speeds_rpm(max_rpm);
+        }
+        o
+    }
+
+    /// About how long the spindle is held, s: each speed read ([`read_s`]) after its ramp
+    /// and settling.
+    pub fn about_s(&self) -> f64 {
+        self.speeds_rpm
+            .iter()
+            .map(|&r| read_s(self.seconds, r) + SETTLING_ABOUT_S)
+            .sum()
+    }
+
     /// What the spindle will do, for the person beside it.
     pub fn announcement(&self) -> String {
         let speeds: Vec<String> = self.speeds_rpm.iter().map(|r| format!("{r:.0}")).collect();
@@ -94,7 +115,7 @@ impl EncoderOptions {
              spindle's hold; letting go stops the spindle.",
             speeds.join(", "),
             self.seconds,
-            self.speeds_rpm.len() as f64 * (self.seconds + 3.0)
+            self.about_s()
         )
     }
 }
@@ -182,10 +203,7 @@ pub fn run(
     let text = hob_store::files::read_text(machine_file).map_err(|e| Stop::Refused(e.to_string()))?;
     let machine = machine_edit::check(machine_file, &text).map_err(|e| Stop::Refused(e.to_string()))?;
     let max_rpm = machine.spindle.max_spindle_rpm;
-    let mut o = o.clone();
-    if o.speeds_rpm.is_empty() {
-        o.speeds_rpm = default_speeds_rpm(max_rpm);
-    }
+    let o = o.on_machine(max_rpm);
     check_options(&o, max_rpm)?;
     if machine.control.spindle_encoder_identification_s <= 0.0 {
         return Err(Stop::Refused(
@@ -230,7 +248,7 @@ pub fn run(
     // The top speed, in the direction the reading ran (the encoder's polarity decides it).
     let direction = fits.first().map_or(1.0, |f| f.rpm.signum());
     let reference_rpm = direction * o.speeds_rpm.iter().fold(0.0f64, |a, &r| a.max(r));
-    let separation = fit::separate(&fits, reference_rpm, TRIM_SEEN_PER_S).map_err(|e| {
+    let separation = fit::separate(&fits, reference_rpm).map_err(|e| {
         Stop::Failed(format!(
             "the error and the swing could not be told apart: {e}; nothing written, the machine \
              file unchanged"

@@ -240,20 +240,13 @@ fn hello(m: &MachineConfig, level: Role) -> serde_json::Value {
 /// the speeds the hob spindle will turn at (the panel runs its default options) and about
 /// how long (each speed read, and some 10 s to ramp and settle before it).
 fn commissioning(m: &MachineConfig) -> serde_json::Value {
-    use hob_commission::encoder::{EncoderOptions, default_speeds_rpm, read_s};
-    let o = EncoderOptions::default();
-    let speeds = if o.speeds_rpm.is_empty() {
-        default_speeds_rpm(m.spindle.max_spindle_rpm)
-    } else {
-        o.speeds_rpm.clone()
-    };
-    let about_s: f64 = speeds.iter().map(|&r| read_s(o.seconds, r) + 10.0).sum();
+    let o = hob_commission::encoder::EncoderOptions::default().on_machine(m.spindle.max_spindle_rpm);
     serde_json::json!({
         "encoder": {
-            "speeds_rpm": speeds,
-            "max_rpm": speeds.iter().fold(0.0f64, |a, &r| a.max(r)),
+            "max_rpm": o.speeds_rpm.iter().fold(0.0f64, |a, &r| a.max(r)),
             "seconds": o.seconds,
-            "about_min": (about_s / 60.0).ceil(),
+            "about_min": (o.about_s() / 60.0).ceil(),
+            "speeds_rpm": o.speeds_rpm,
         },
     })
 }

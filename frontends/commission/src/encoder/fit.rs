@@ -35,8 +35,8 @@
 //!
 //! Pure: no I/O, no clock; the caller latches the readings.
 
+use hob_setup::config::machine::commissioning::swing_scale;
 use nalgebra::{Cholesky, Complex, Matrix2, SMatrix, SVector, Vector2};
-use std::f64::consts::PI;
 
 /// Below this speed the spindle's slip and the VFD's own ripple dominate a run, and a block
 /// of whole turns takes so long that a cubic no longer holds the motion.
@@ -652,20 +652,12 @@ pub fn fit_speed(readings: &[Reading], count_deg: f64) -> Result<SpeedFit, FitEr
     })
 }
 
-/// `G(W) / G(W_ref)` (rad/s, signed: `G(-W)` is the conjugate of `G(W)`, a reversed
-/// spindle): how a true variation at `W` compares with the same torque's at `W_ref`. The
-/// spindle's swing answers a torque through its inertia J, the drive's slip D and the
-/// loop's integral trim of the VFD's reference (gain `trim_per_s` on the relative speed
-/// error: it moves the reference by `-trim_per_s` times the angle's swing, a spring):
-/// `J theta'' + D theta' + D trim theta = T`, so `G(W) = 1 / (D (trim + i W - tau W^2))`,
-/// `tau = J/D`. Without the trim that is `1 / (i W D (1 + i W tau))`.
-fn relative_response(w_rad_s: f64, w_ref_rad_s: f64, tau_s: f64, trim_per_s: f64) -> Complex<f64> {
-    let d = |w: f64| Complex::new(trim_per_s - tau_s * w * w, w);
-    d(w_ref_rad_s) / d(w_rad_s)
-}
-
-fn rad_s(rpm: f64) -> f64 {
-    rpm * 2.0 * PI / 60.0
+/// `G(W) / G(W_ref)` at signed speeds (hob-config's `swing_scale`, what the loop applies
+/// the record with): how a true variation at `rpm` compares with the same torque's at
+/// `reference_rpm`.
+fn relative_response(rpm: f64, reference_rpm: f64, tau_s: f64) -> Complex<f64> {
+    let (re, im) = swing_scale(rpm, reference_rpm, tau_s);
+    Complex::new(re, im)
 }
 
 /// The once-per-turn model fitted for one `tau`.
@@ -683,15 +675,14 @@ struct OncePerTurn {
 /// equations, solved by Cholesky. None where `g` does not vary over the speeds.
 fn fit_once_per_turn(
     c: &[Complex<f64>],
-    w_rad_s: &[f64],
+    rpm: &[f64],
     weights: &[f64],
-    w_ref_rad_s: f64,
+    reference_rpm: f64,
     tau_s: f64,
-    trim_per_s: f64,
 ) -> Option<OncePerTurn> {
-    let g: Vec<Complex<f64>> = w_rad_s
+    let g: Vec<Complex<f64>> = rpm
         .iter()
-        .map(|w| relative_response(*w, w_ref_rad_s, tau_s, trim_per_s))
+        .map(|r| relative_response(*r, reference_rpm, tau_s))
         .collect();
     let (mut s0, mut s1, mut s2) = (0.0, Complex::new(0.0, 0.0), 0.0);
     let (mut r0, mut r1) = (Complex::new(0.0, 0.0), Complex::new(0.0, 0.0));
@@ -789,10 +780,10 @@ fn check_speeds(fits: &[SpeedFit]) -> Result<(), FitError> {
 /// any span; with one, a wide span, the top speed above all, is what makes the separation
 /// hold, and the uncertainty says how well it did.
 ///
-/// `trim_per_s` is the loop's spindle trim as the swing met it (0 while the loop identifies
-/// the once-per-turn sine and so takes it out of what the trim sees; its gain, 0.5 /s,
-/// where it does not: at 32 rpm it moves the swing by 15 %, at 200 rpm by 2 %).
-pub fn separate(fits: &[SpeedFit], reference_rpm: f64, trim_per_s: f64) -> Result<Separation, FitError> {
+/// The loop's slow trim of the VFD's reference is not in the model: while the loop
+/// identifies the once-per-turn sine (from 60 rpm, where the procedure runs) it takes it out
+/// of what the trim sees (below, the trim moves the swing: 15 % at 32 rpm).
+pub fn separate(fits: &[SpeedFit], reference_rpm: f64) -> Result<Separation, FitError> {
     if !(reference_rpm.is_finite() && reference_rpm != 0.0) {
         return Err(FitError::Invalid {
             what: "the reference speed must be a non-zero number of rpm",
@@ -817,9 +808,8 @@ pub fn separate(fits: &[SpeedFit], reference_rpm: f64, trim_per_s: f64) -> Resul
         .map(|f| 1.0 / f.once_sigma_arcsec.max(1e-3).powi(2))
         .collect();
     let c: Vec<Complex<f64>> = fits.iter().map(|f| f.harmonics[0].complex()).collect();
-    let w: Vec<f64> = fits.iter().map(|f| rad_s(f.rpm)).collect();
-    let w_ref = rad_s(reference_rpm);
-    let solve = |tau_s: f64| fit_once_per_turn(&c, &w, &weights, w_ref, tau_s, trim_per_s);
+    let rpm: Vec<f64> = fits.iter().map(|f| f.rpm).collect();
+    let solve = |tau_s: f64| fit_once_per_turn(&c, &rpm, &weights, reference_rpm, tau_s);
 
     // Every tau on the grid; the least chi-square, and the smallest tau (the simplest
     // dynamics: a slip damper before an inertia) that the speeds cannot reject against it.
@@ -897,6 +887,7 @@ mod tests {
 
     use super::*;
     use proptest::prelude::*;
+    use std::f64::consts::PI;
     use std::sync::OnceLock;
 
     const COUNT_DEG: f64 = 0.036;
@@ -1145,7 +1136,7 @@ mod tests {
     /// Separates a case's fits, prints what it found beside the hidden values, and returns
     /// how far off a1 and the swing at the reference speed are (complex distances, arcsec).
     fn separate_and_show(name: &str, sp: &Spindle, fits: &[SpeedFit]) -> (f64, f64, f64) {
-        let sep = separate(fits, REFERENCE_RPM, 0.0).expect("separates");
+        let sep = separate(fits, REFERENCE_RPM).expect("separates");
         let a1 = sp.error(0);
         let swing = sp.swing(REFERENCE_RPM);
         let a1_miss = (complex(sep.encoder[0]) - a1).norm();
@@ -1231,14 +1222,14 @@ mod tests {
         for ((name, _), runs) in cases().iter().zip(runs()) {
             let fits = fits(runs);
             let c: Vec<Complex<f64>> = fits.iter().map(|f| complex(f.harmonics[0])).collect();
-            let w: Vec<f64> = fits.iter().map(|f| f.rpm * 2.0 * PI / 60.0).collect();
+            let rpm: Vec<f64> = fits.iter().map(|f| f.rpm).collect();
             let weights = vec![1.0; fits.len()];
             let row: Vec<String> = [
                 0.0, 0.001, 0.003, 0.01, 0.02, 0.027, 0.04, 0.07, 0.1, 0.3, 1.0, 10.0,
             ]
             .iter()
             .filter_map(|tau| {
-                fit_once_per_turn(&c, &w, &weights, 2.0 * PI * REFERENCE_RPM / 60.0, *tau, 0.0)
+                fit_once_per_turn(&c, &rpm, &weights, REFERENCE_RPM, *tau)
                     .map(|s| format!("{tau}: {:.2} (a1 {:.1})", s.misfit_arcsec, s.a1.norm()))
             })
             .collect();
@@ -1382,21 +1373,21 @@ mod tests {
             once_sigma_arcsec: 0.5,
             dropped_blocks: 0,
         };
-        let e = separate(&[fit(60.0), fit(200.0)], 200.0, 0.0).expect_err("two speeds");
+        let e = separate(&[fit(60.0), fit(200.0)], 200.0).expect_err("two speeds");
         println!("{e}");
         assert_eq!(e, FitError::TooFewSpeeds { speeds: 2, needed: 3 });
         // Three fits, two of them the same speed.
-        let e = separate(&[fit(60.0), fit(61.0), fit(200.0)], 200.0, 0.0).expect_err("two distinct");
+        let e = separate(&[fit(60.0), fit(61.0), fit(200.0)], 200.0).expect_err("two distinct");
         assert_eq!(e, FitError::TooFewSpeeds { speeds: 2, needed: 3 });
-        let e = separate(&[fit(100.0), fit(130.0), fit(180.0)], 200.0, 0.0).expect_err("narrow");
+        let e = separate(&[fit(100.0), fit(130.0), fit(180.0)], 200.0).expect_err("narrow");
         println!("{e}");
         assert!(
             matches!(e, FitError::NarrowSpan { span, .. } if (span - 1.8).abs() < 1e-9),
             "{e:?}"
         );
-        assert!(separate(&[fit(60.0), fit(90.0), fit(130.0)], 200.0, 0.0).is_ok());
+        assert!(separate(&[fit(60.0), fit(90.0), fit(130.0)], 200.0).is_ok());
         assert!(matches!(
-            separate(&[fit(60.0), fit(90.0), fit(130.0)], 0.0, 0.0),
+            separate(&[fit(60.0), fit(90.0), fit(130.0)], 0.0),
             Err(FitError::Invalid { .. })
         ));
     }
@@ -1441,8 +1432,8 @@ mod tests {
             }
         }
         let (p, m) = (
-            separate(&plain, REFERENCE_RPM, 0.0).expect("separates"),
-            separate(&mirrored, -REFERENCE_RPM, 0.0).expect("separates"),
+            separate(&plain, REFERENCE_RPM).expect("separates"),
+            separate(&mirrored, -REFERENCE_RPM).expect("separates"),
         );
         assert!((complex(p.encoder[0]).conj() - complex(m.encoder[0])).norm() < 1e-4);
         assert!((complex(p.variation).conj() - complex(m.variation)).norm() < 1e-4);
@@ -1463,7 +1454,7 @@ mod tests {
                 fit_speed(&shifted, COUNT_DEG).expect("fits")
             })
             .collect();
-        let sep = separate(&fits, REFERENCE_RPM, 0.0).expect("separates");
+        let sep = separate(&fits, REFERENCE_RPM).expect("separates");
         (fits, sep)
     }
 

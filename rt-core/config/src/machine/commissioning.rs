@@ -236,6 +236,22 @@ impl SpindleEncoderRecord {
     }
 }
 
+/// How a true once-per-turn swing at `rpm` stands to the same torque's swing at
+/// `reference_rpm`, complex (re, im): a torque once per turn against the spindle's inertia J
+/// and the drive's slip D moves it by `T / (i W D (1 + i W tau))` (W the turn's angular
+/// frequency, signed with the direction: a reversed spindle sees the conjugate; tau = J / D).
+/// The loop's slow trim of the VFD's reference does not act on it: while the loop identifies
+/// the once-per-turn sine, it takes it out of the speed the trim sees. Written once, for the
+/// commissioning's fit over the speeds and the loop's share of what it identifies.
+pub fn swing_scale(rpm: f64, reference_rpm: f64, tau_s: f64) -> (f64, f64) {
+    let w = |rpm: f64| rpm * std::f64::consts::TAU / 60.0;
+    // i w (1 + i w tau) = -tau w^2 + i w, at the reference over the same at rpm.
+    let d = |rpm: f64| (-tau_s * w(rpm) * w(rpm), w(rpm));
+    let ((nr, ni), (dr, di)) = (d(reference_rpm), d(rpm));
+    let d2 = dr * dr + di * di;
+    ((nr * dr + ni * di) / d2, (ni * dr - nr * di) / d2)
+}
+
 /// The spindle's true once-per-turn swing beside its encoder's error, in the error's own
 /// phase: what lets the loop keep only the encoder's share of a once-per-turn sine it
 /// identified at one speed.
@@ -256,18 +272,9 @@ pub struct SpindleSwing {
 }
 
 impl SpindleSwing {
-    /// How the swing at `rpm` stands to the swing at `reference_rpm`, complex (re, im): a
-    /// torque once per turn against the spindle's inertia J and the drive's slip D moves it
-    /// by `T / (i W D (1 + i W tau))` (W the turn's angular frequency, tau = J / D). The
-    /// loop's slow trim of the VFD's reference does not act on it: while the loop identifies
-    /// the once-per-turn sine, it takes it out of the speed the trim sees.
+    /// How the swing at `rpm` stands to the swing at `reference_rpm` ([`swing_scale`]).
     pub fn scale(&self, rpm: f64) -> (f64, f64) {
-        let w = |rpm: f64| rpm * std::f64::consts::TAU / 60.0;
-        // i w (1 + i w tau) = -tau w^2 + i w, at the reference over the same at rpm.
-        let d = |rpm: f64| (-self.tau_s * w(rpm) * w(rpm), w(rpm));
-        let ((nr, ni), (dr, di)) = (d(self.reference_rpm), d(rpm));
-        let d2 = dr * dr + di * di;
-        ((nr * dr + ni * di) / d2, (ni * dr - nr * di) / d2)
+        swing_scale(rpm, self.reference_rpm, self.tau_s)
     }
 
     /// The factor (complex, re and im) that leaves the encoder's share of a once-per-turn
