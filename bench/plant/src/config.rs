@@ -293,6 +293,27 @@ pub enum Side {
 #[serde(deny_unknown_fields)]
 pub struct PeripheralPlant {
     pub lube_pressure_delay_s: f64,
+    /// A displacement gauge touching the table's rim, wired to one of the I/O coupler's
+    /// analog inputs: what the machine builder mounts for `hob commission backlash`. The
+    /// coupler serves it only when the machine file names that input.
+    #[serde(default)]
+    pub table_gauge: Option<TableGaugePlant>,
+}
+
+/// The table gauge: it reads the table's true angle as a displacement at its radius,
+/// quantised by the coupler's 16-bit input, with a little noise; it reads 0 where the table
+/// stood at power-on, and saturates at the input's ends (the gauge's stroke).
+#[derive(Debug, Clone, Copy, PartialEq, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct TableGaugePlant {
+    /// The coupler's analog input (0-based).
+    pub channel: u8,
+    /// Where the gauge touches the table, mm from its axis.
+    pub radius_mm: f64,
+    /// The displacement of one count of the coupler's input, um.
+    pub um_per_count: f64,
+    /// The reading's noise, um RMS.
+    pub noise_um: f64,
 }
 
 impl PlantConfig {
@@ -530,6 +551,15 @@ impl PlantConfig {
             "peripherals.lube_pressure_delay_s",
             self.peripherals.lube_pressure_delay_s,
         );
+        if let Some(g) = &self.peripherals.table_gauge {
+            let k = |f: &str| format!("peripherals.table_gauge.{f}");
+            p.require(g.channel < 8, &k("channel"), || {
+                format!("must be 0 .. 7 (is {})", g.channel)
+            });
+            p.within(&k("radius_mm"), g.radius_mm, 10.0, 2000.0, "mm");
+            p.within(&k("um_per_count"), g.um_per_count, 0.001, 10.0, "um");
+            p.within(&k("noise_um"), g.noise_um, 0.0, 10.0, "um");
+        }
     }
 }
 

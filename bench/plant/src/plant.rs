@@ -116,6 +116,8 @@ pub struct Plant {
     y_rad_per_mm: f64,
     hz_per_volt: f64,
     t_s: f64,
+    /// The table's angle where the gauge reads 0 (where it stood at power-on), rad.
+    gauge_zero_rad: f64,
     inner_s: f64,
     outputs: Outputs,
     analog_v: f64,
@@ -344,6 +346,7 @@ impl Plant {
             chain_open_injected: false,
             limit: None,
             no_lube_pressure: false,
+            gauge_zero_rad: start.table_deg * table_motor_rad_per_deg / ratio,
         }
     }
 
@@ -582,7 +585,27 @@ impl Plant {
             y: fb(&self.y, &self.drives[2]),
             digital_inputs: self.io.encode_inputs(&self.inputs()),
             io_valid: true,
+            table_gauge_counts: self.table_gauge_counts().unwrap_or(0),
+            table_gauge_fresh: self.cfg.peripherals.table_gauge.is_some(),
         }
+    }
+
+    /// The table gauge, when one is mounted.
+    pub fn table_gauge(&self) -> Option<crate::config::TableGaugePlant> {
+        self.cfg.peripherals.table_gauge
+    }
+
+    /// The table gauge's reading now, when one is mounted
+    /// ([`crate::config::TableGaugePlant`]): the table's true angle since power-on as a
+    /// displacement at the gauge's radius, with its noise (drawn from the time, so a run
+    /// repeats), in the coupler's counts.
+    pub fn table_gauge_counts(&self) -> Option<i16> {
+        let g = self.cfg.peripherals.table_gauge?;
+        let mut state = self.t_s.to_bits() ^ self.cfg.simulation.seed.rotate_left(17) | 1;
+        // The sum of four uniforms: near-normal, variance 1/3.
+        let normal = ((0..4).map(|_| crate::rng::uniform(&mut state)).sum::<f64>() - 2.0) * 3f64.sqrt();
+        let um = (self.worm.table_rad - self.gauge_zero_rad) * g.radius_mm * 1000.0 + normal * g.noise_um;
+        Some((um / g.um_per_count).round().clamp(-32768.0, 32767.0) as i16)
     }
 
     fn inputs(&self) -> Inputs {

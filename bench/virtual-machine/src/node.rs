@@ -42,6 +42,8 @@ pub struct Node {
     pub silent: bool,
     last_tpdo: [Option<Vec<u8>>; 4],
     last_tpdo_s: [f64; 4],
+    /// SYNCs since each TPDO was last sent (a synchronous type n is sent on every n-th).
+    syncs_since_tpdo: [u32; 4],
     last_heartbeat_s: f64,
     /// When the master's heartbeat was last seen (s).
     pub master_seen_s: Option<f64>,
@@ -119,6 +121,7 @@ impl Node {
             silent: false,
             last_tpdo: Default::default(),
             last_tpdo_s: [f64::NEG_INFINITY; 4],
+            syncs_since_tpdo: [0; 4],
             last_heartbeat_s: 0.0,
             master_seen_s: None,
         }
@@ -272,7 +275,10 @@ impl Node {
                 data.extend_from_slice(&b);
             }
             let due = if synchronous(ttype) {
-                sync
+                if sync {
+                    self.syncs_since_tpdo[n] += 1;
+                }
+                sync && self.syncs_since_tpdo[n] >= ttype
             } else {
                 let inhibit_s = f64::from(self.od.u32(comm, 3)) * 1e-4;
                 let event_s = f64::from(self.od.u32(comm, 5)) * 1e-3;
@@ -284,6 +290,7 @@ impl Node {
                 out.push(Frame::new((cob & 0x7FF) as u16, &data));
                 self.last_tpdo[n] = Some(data);
                 self.last_tpdo_s[n] = now_s;
+                self.syncs_since_tpdo[n] = 0;
             }
         }
     }

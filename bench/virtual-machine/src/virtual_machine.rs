@@ -17,7 +17,7 @@ use hob_control::fault::Axis;
 use hob_plant::config::{DriveCounters, PlantConfig};
 use hob_plant::drive::{DriveCommand, HOMING_METHODS, HomingParams, MODE_HOMING};
 use hob_plant::plant::{Injection, Plant, Start};
-use hob_process_image::plan::{ANALOG_OUTPUTS, BusPlan, DIGITAL_INPUTS, DIGITAL_OUTPUTS};
+use hob_process_image::plan::{ANALOG_INPUTS, ANALOG_OUTPUTS, BusPlan, DIGITAL_INPUTS, DIGITAL_OUTPUTS};
 use hob_setup::config::machine::MachineConfig;
 use std::collections::VecDeque;
 
@@ -195,8 +195,17 @@ fn io_od(node: u8) -> Od {
     for s in 1..=2 {
         od.set(ANALOG_OUTPUTS, s, Access::Rw, &0i16.to_le_bytes());
     }
+    // Two analog inputs (a table gauge on one of them, when the plant has one), sent only
+    // when the master maps them (TPDO2 is disabled by default).
+    od.set(ANALOG_INPUTS, 0, Access::Ro, &[ANALOG_INPUT_CHANNELS]);
+    for s in 1..=ANALOG_INPUT_CHANNELS {
+        od.set(ANALOG_INPUTS, s, Access::Ro, &0i16.to_le_bytes());
+    }
     od
 }
+
+/// The virtual coupler's analog inputs.
+const ANALOG_INPUT_CHANNELS: u8 = 2;
 
 /// The virtual machine.
 #[derive(Debug)]
@@ -715,6 +724,13 @@ impl VirtualMachine {
             self.io
                 .od
                 .put(DIGITAL_INPUTS, s + 1, u64::from((din >> (8 * s)) & 0xFF));
+        }
+        if let (Some(g), Some(counts)) = (self.plant.table_gauge(), self.plant.table_gauge_counts())
+            && g.channel < ANALOG_INPUT_CHANNELS
+        {
+            self.io
+                .od
+                .put(ANALOG_INPUTS, g.channel + 1, u64::from(counts as u16));
         }
 
         // TPDOs, through the injected faults.

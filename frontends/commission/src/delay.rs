@@ -19,13 +19,12 @@
 //! machine file at its start: the new delay takes effect when it is restarted.
 
 use crate::Stop;
-use crate::link::{self, Edit, ask, connect, drain};
+use crate::link::{self, Edit, connect};
 use hob_ipc::StateSample;
 use hob_ipc::codec;
 use hob_logger::delay::{DriveDelay, TableSample};
 use hob_store::machine_edit;
 use std::path::{Path, PathBuf};
-use std::time::{Duration, Instant};
 
 /// The command must have run at one speed this long before a cycle counts: the drive's
 /// velocity loop settles within it (a 16 Hz position loop: 5 time constants in 0.05 s;
@@ -205,39 +204,14 @@ fn jog_both_ways(
     let mut states = Vec::new();
     for direction in ["+", "-"] {
         say(&format!("jogging the table {direction}"));
-        let jog = hob_ipc::request::jog_continuous("b", direction, o.speed_deg_min)
-            .map_err(|e| Stop::Refused(e.to_string()))?;
-        let end = Instant::now() + Duration::from_secs_f64(o.seconds);
-        let result = loop {
-            if !enabled() {
-                break Err(Stop::Failed(
-                    "the enable was let go: the table stopped; nothing written, the machine file unchanged"
-                        .into(),
-                ));
-            }
-            if let Err(e) = ask(client.as_mut(), &jog, "the table") {
-                break Err(e);
-            }
-            std::thread::sleep(link::RENEWAL);
-            if let Err(e) = drain(feed.as_mut(), |s| states.push(*s)) {
-                break Err(e);
-            }
-            if Instant::now() >= end {
-                break Ok(());
-            }
-        };
-        // Released in every case; after a refusal or a fault its answer adds nothing.
-        if let Err(e) = result {
-            let _ = client.request(&hob_ipc::request::jog_release(), link::ANSWER);
-            return Err(e);
-        }
-        ask(client.as_mut(), &hob_ipc::request::jog_release(), "the table")?;
-        // At rest before the other direction: the drive's lag runs out.
-        let rest = Instant::now() + Duration::from_millis(600);
-        while Instant::now() < rest {
-            std::thread::sleep(Duration::from_millis(20));
-            drain(feed.as_mut(), |s| states.push(*s))?;
-        }
+        link::held_jog(
+            feed.as_mut(),
+            client.as_mut(),
+            ("b", direction, o.speed_deg_min),
+            o.seconds,
+            enabled,
+            &mut |s| states.push(*s),
+        )?;
     }
     Ok((states, drive))
 }

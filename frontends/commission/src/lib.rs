@@ -13,9 +13,12 @@
 //! - [`encoder`]: the spindle encoder's error (once, twice, three times per turn) told apart
 //!   from a true once-per-turn swing of the spindle, from the spindle held at several
 //!   speeds (`[commissioning.spindle_encoder]`).
+//! - [`backlash`]: the table drive's lost motion at a reversal, against a gauge on the
+//!   table (`[commissioning.table_backlash]`).
 //! - [`report`]: the commissioning report of the machine file's records (text, and the
 //!   encoder's record over the spindle's speeds as SVG).
 
+pub mod backlash;
 pub mod delay;
 pub mod encoder;
 mod link;

@@ -7,7 +7,7 @@ use hob_ipc::codec;
 use hob_ipc::{CommandRequest, Commands, Feed, StateSample};
 use hob_store::machine_edit;
 use std::path::{Path, PathBuf};
-use std::time::Duration;
+use std::time::{Duration, Instant};
 
 /// How long a command may wait for the loop's answer.
 pub(crate) const ANSWER: Duration = Duration::from_secs(3);
@@ -63,6 +63,57 @@ pub(crate) fn drain(feed: &mut dyn Feed, mut take: impl FnMut(&StateSample)) -> 
     }
     Ok(())
 }
+
+/// Jogs `axis` (`"b"`, `"x"`, `"y"`) `direction` (`"+"`, `"-"`) at `speed_per_min` for
+/// `seconds`, renewing the loop's continuous jog while `enabled` holds; released in every
+/// case, then left [`REST`] to come to rest. Every state sample meanwhile goes to `take`.
+/// Stops at the loop's refusal, an alarm or the enable let go.
+pub(crate) fn held_jog(
+    feed: &mut dyn Feed,
+    client: &mut dyn Commands,
+    (axis, direction, speed_per_min): (&str, &str, f64),
+    seconds: f64,
+    enabled: &dyn Fn() -> bool,
+    take: &mut dyn FnMut(&StateSample),
+) -> Result<(), Stop> {
+    let moving = if axis == "b" { "the table" } else { "the axis" };
+    let jog = hob_ipc::request::jog_continuous(axis, direction, speed_per_min)
+        .map_err(|e| Stop::Refused(e.to_string()))?;
+    let end = Instant::now() + Duration::from_secs_f64(seconds);
+    let result = loop {
+        if !enabled() {
+            break Err(Stop::Failed(format!(
+                "the enable was let go: {moving} stopped; nothing written, the machine file unchanged"
+            )));
+        }
+        if let Err(e) = ask(client, &jog, moving) {
+            break Err(e);
+        }
+        std::thread::sleep(RENEWAL);
+        if let Err(e) = drain(feed, &mut *take) {
+            break Err(e);
+        }
+        if Instant::now() >= end {
+            break Ok(());
+        }
+    };
+    // Released in every case; after a refusal or a fault its answer adds nothing.
+    if let Err(e) = result {
+        let _ = client.request(&hob_ipc::request::jog_release(), ANSWER);
+        return Err(e);
+    }
+    ask(client, &hob_ipc::request::jog_release(), moving)?;
+    // At rest before what follows: the drive's lag runs out.
+    let rest = Instant::now() + REST;
+    while Instant::now() < rest {
+        std::thread::sleep(Duration::from_millis(20));
+        drain(feed, &mut *take)?;
+    }
+    Ok(())
+}
+
+/// How long a released jog is left to come to rest.
+const REST: Duration = Duration::from_millis(600);
 
 /// A change of the machine file as it was read and as it is proposed.
 #[derive(Debug, Clone, PartialEq)]

@@ -165,6 +165,10 @@ pub struct StateSample {
     /// correction (deg): `spindle_deg` is the observer's estimate from the corrected
     /// reading. Commissioning fits the encoder's error from this (`hob commission encoder`).
     pub spindle_reading_deg: f64,
+    /// The table gauge's analog input (CiA 401 counts, -32768 .. 32767) when one was
+    /// latched at this cycle's SYNC with the table drive's position, NaN otherwise (none
+    /// mounted, or not this cycle): `hob commission backlash` compares it with `table_deg`.
+    pub table_gauge_counts: f64,
 }
 
 /// [`StateSample::nmt_state`] of a node not heard from yet.

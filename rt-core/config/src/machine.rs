@@ -493,7 +493,7 @@ impl DigitalBinding {
     }
 }
 
-/// An analog output channel of the I/O coupler.
+/// An analog channel of the I/O coupler (0-based; the coupler's sub-index is one more).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize, Serialize)]
 #[serde(deny_unknown_fields)]
 pub struct AnalogBinding {
@@ -512,6 +512,9 @@ pub struct IoMap {
     pub inputs: DigitalInputs,
     pub outputs: DigitalOutputs,
     pub analog_outputs: AnalogOutputs,
+    /// What is wired to the coupler's analog inputs (none on a machine in production).
+    #[serde(default)]
+    pub analog_inputs: AnalogInputs,
 }
 
 /// Digital inputs.
@@ -600,6 +603,25 @@ pub struct AnalogOutputs {
     /// VFD speed reference, 0 .. full scale.
     pub spindle_speed: AnalogBinding,
 }
+
+/// Analog inputs (CiA 401 0x6401, 16-bit).
+#[derive(Debug, Clone, Default, PartialEq, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct AnalogInputs {
+    /// A displacement gauge (an LVDT and its conditioner, or a digital indicator with an
+    /// analog output) touching the table's rim, mounted for `hob commission backlash`. Its
+    /// scale and radius need not be known: the procedure compares the gauge with the table
+    /// drive's own travel. While it is named the coupler sends it every
+    /// [`TABLE_GAUGE_EVERY_SYNCS`] SYNCs.
+    pub table_gauge: Option<AnalogBinding>,
+}
+
+/// The table gauge's transmission (CiA 301 synchronous, every n-th SYNC): latched at a
+/// SYNC like the drives' positions, so a reading pairs with the motor's of the same SYNC;
+/// rare enough (20 Hz at 1 ms) that the shipped schedule stays under its load limit.
+pub const TABLE_GAUGE_EVERY_SYNCS: u8 = 50;
+/// Analog input channels a gauge may name.
+pub const ANALOG_INPUT_CHANNELS: u8 = 8;
 
 impl MachineConfig {
     /// Parses and validates `src`, a machine file's text (`origin` names it in errors).
@@ -981,6 +1003,13 @@ impl MachineConfig {
                 )
             },
         );
+        if let Some(g) = io.analog_inputs.table_gauge {
+            p.require(
+                g.channel < ANALOG_INPUT_CHANNELS,
+                "io.analog_inputs.table_gauge.channel",
+                || format!("must be 0 .. {} (is {})", ANALOG_INPUT_CHANNELS - 1, g.channel),
+            );
+        }
     }
 
     fn validate_node_ids(&self, p: &mut Problems) {

@@ -72,6 +72,10 @@ pub struct CycleInputs {
     /// The input image is current: it arrived at least once and the coupler is alive.
     /// While false the inputs read as inactive with the safety chain open.
     pub io_valid: bool,
+    /// The table gauge's analog input (CiA 401, 16-bit), when it was latched at this
+    /// cycle's SYNC (`table_gauge_fresh`; a gauge is mounted for commissioning only).
+    pub table_gauge_counts: i16,
+    pub table_gauge_fresh: bool,
 }
 
 /// Everything to send for the next SYNC.
@@ -272,6 +276,9 @@ pub struct Status {
     /// correction: what commissioning fits the encoder's error from (`hob commission
     /// encoder`).
     pub spindle_reading_deg: f64,
+    /// The table gauge's reading latched with this cycle's `table_deg` (CiA 401 counts),
+    /// NaN when none was (`hob commission backlash`).
+    pub table_gauge_counts: f64,
     pub spindle_rpm: f64,
     pub spindle_set_rpm: f64,
     pub table_deg: f64,
@@ -316,6 +323,7 @@ struct Measured {
     spindle_deg: f64,
     /// The encoder's reading, continuous, uncorrected.
     spindle_reading_deg: f64,
+    table_gauge_counts: f64,
     spindle_speed_deg_s: f64,
     /// Angle the gearbox follows (predicted or last measured).
     spindle_for_gearbox_deg: f64,
@@ -568,6 +576,11 @@ impl Controller {
         self.measured = Measured {
             spindle_deg: est.angle_deg,
             spindle_reading_deg: reading,
+            table_gauge_counts: if input.table_gauge_fresh {
+                f64::from(input.table_gauge_counts)
+            } else {
+                f64::NAN
+            },
             spindle_speed_deg_s: est.speed_deg_s,
             spindle_for_gearbox_deg: for_gearbox,
             table_deg: self
@@ -846,6 +859,7 @@ impl Controller {
             tooth: self.sequencer.tooth,
             spindle_deg: self.measured.spindle_deg,
             spindle_reading_deg: self.measured.spindle_reading_deg,
+            table_gauge_counts: self.measured.table_gauge_counts,
             spindle_rpm: self.measured.spindle_speed_deg_s / 6.0,
             spindle_set_rpm: self.sequencer.spindle_set_rpm,
             table_deg: self.measured.table_deg,

@@ -483,6 +483,8 @@ pub struct Cyclic {
     miss_report_cycles: u64,
     inputs: [u8; 3],
     inputs_seen: bool,
+    /// The table gauge's reading received since the last cycle's inputs.
+    gauge: Option<i16>,
     /// Per drive: the last RPDO2 sent (mode of operation, controlword) and the cycles since.
     last_control: [Option<(i8, u16)>; 3],
     controlword_age: [u32; 3],
@@ -528,6 +530,7 @@ impl Cyclic {
             miss_report_cycles: (TPDO_REPORT_S / plan.cycle_s).ceil().max(1.0) as u64,
             inputs: [0; 3],
             inputs_seen: false,
+            gauge: None,
             last_control: [None; 3],
             controlword_age: [u32::MAX; 3],
             last_outputs: None,
@@ -693,6 +696,11 @@ impl Cyclic {
                 {
                     self.inputs = [v[0] as u8, v[1] as u8, v[2] as u8];
                     self.inputs_seen = true;
+                } else if node == self.plan.io.node
+                    && n == 2
+                    && let Some(v) = self.plan.io.gauge.and_then(|g| g.unpack(f))
+                {
+                    self.gauge = Some(v[0] as u16 as i16);
                 }
             }
             Cob::Emcy(_) => {
@@ -772,7 +780,12 @@ impl Cyclic {
             self.fresh[i] = false;
         }
         let io_alive = self.liveness[3].cycles_since_heartbeat < lost_at;
+        // Synchronous like the table drive's position: a reading that came with the table's
+        // current one was latched at the same SYNC (one without it is not paired).
+        let gauge = self.gauge.take().filter(|_| fb[0].fresh);
         CycleInputs {
+            table_gauge_counts: gauge.unwrap_or(0),
+            table_gauge_fresh: gauge.is_some(),
             io_valid: self.inputs_seen && io_alive,
             spindle_counts: self.spindle,
             table: fb[0],

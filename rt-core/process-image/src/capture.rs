@@ -155,7 +155,7 @@ impl<'a> ScheduleCheck<'a> {
                 .drives
                 .iter()
                 .flat_map(|d| [d.target, d.control, d.actual, d.status])
-                .chain([plan.io.inputs, plan.io.outputs, plan.io.analog])
+                .chain(plan.io.pdos())
                 .any(|p| p.cob_id == f.id && usize::from(f.len) == p.len_bytes()),
             _ => false,
         }

@@ -41,6 +41,7 @@ pub fn object_name(index: u16, plan: Option<&BusPlan>) -> &'static str {
         0x60B1 => "velocity offset",
         0x60C2 => "interpolation time period",
         0x6200 => "digital outputs",
+        0x6401 => "analog inputs",
         0x6411 => "analog outputs",
         0x6502 => "supported drive modes",
         _ => "object",
@@ -57,6 +58,7 @@ fn pdo_of(plan: &BusPlan, id: u16) -> Option<(&'static str, &Pdo)> {
     }
     [&plan.io.inputs, &plan.io.outputs, &plan.io.analog]
         .into_iter()
+        .chain(plan.io.gauge.as_ref())
         .find(|p| p.cob_id == id)
         .map(|p| ("I/O", p))
 }
@@ -162,7 +164,9 @@ pub fn describe(f: &Frame, plan: Option<&BusPlan>) -> String {
                             .map(|(e, raw)| {
                                 let value = match e.bits {
                                     32 => (raw as u32 as i32).to_string(),
-                                    16 if e.index == 0x6411 => (raw as u16 as i16).to_string(),
+                                    16 if matches!(e.index, 0x6401 | 0x6411) => {
+                                        (raw as u16 as i16).to_string()
+                                    }
                                     16 => format!("0x{:04X}", raw as u16),
                                     // Modes of operation and their display: the signed
                                     // code (8 cyclic synchronous position, 6 homing).

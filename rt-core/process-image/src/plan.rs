@@ -27,6 +27,7 @@ pub const MASTER_NODE: u8 = 0x7F;
 pub const DIGITAL_INPUTS: u16 = 0x6000;
 pub const DIGITAL_OUTPUTS: u16 = 0x6200;
 pub const ANALOG_OUTPUTS: u16 = 0x6411;
+pub const ANALOG_INPUTS: u16 = 0x6401;
 /// Event timer of the event-driven TPDOs (statusword, inputs): sent again after this
 /// long without a change, so a lost frame cannot leave the master with a stale state.
 /// Below the inhibit-time rate, so the worst case per cycle stays 1 / inhibit time.
@@ -136,6 +137,21 @@ pub struct IoPdos {
     pub outputs: Pdo,
     /// RPDO2: 2 analog outputs (16-bit), on change.
     pub analog: Pdo,
+    /// TPDO2: the table gauge's analog input (16-bit), synchronous every
+    /// [`TABLE_GAUGE_EVERY_SYNCS`] SYNCs; only while the machine file names a gauge
+    /// (`io.analog_inputs.table_gauge`, for `hob commission backlash`).
+    pub gauge: Option<Pdo>,
+}
+
+pub use hob_config::machine::TABLE_GAUGE_EVERY_SYNCS;
+
+impl IoPdos {
+    /// The coupler's PDOs, the gauge's when it is named.
+    pub fn pdos(&self) -> Vec<Pdo> {
+        let mut p = vec![self.inputs, self.outputs, self.analog];
+        p.extend(self.gauge);
+        p
+    }
 }
 
 /// The bus of this machine.
@@ -243,6 +259,15 @@ impl BusPlan {
                         MapEntry::new(ANALOG_OUTPUTS, 2, 16),
                     ],
                 ),
+                gauge: m.io.analog_inputs.table_gauge.map(|g| {
+                    Pdo::new(
+                        Direction::Tpdo,
+                        2,
+                        tpdo_id(2, io),
+                        TABLE_GAUGE_EVERY_SYNCS,
+                        &[MapEntry::new(ANALOG_INPUTS, g.channel + 1, 16)],
+                    )
+                }),
             },
             cycle_s: f64::from(m.control.cycle_period_us) * 1e-6,
             bitrate_bit_s: c.bitrate_bit_s,
@@ -299,7 +324,7 @@ impl BusPlan {
                 }
                 vec![d.target, d.control, d.actual, d.status]
             }
-            None if node == self.io.node => vec![self.io.inputs, self.io.outputs, self.io.analog],
+            None if node == self.io.node => self.io.pdos(),
             None => Vec::new(),
         };
         for p in pdos {
@@ -341,6 +366,13 @@ impl BusPlan {
             });
         }
         let io = &self.io;
+        if let Some(g) = io.gauge {
+            t.push(Traffic {
+                name: "I/O TPDO2 table gauge".into(),
+                bytes: g.len_bytes(),
+                per_cycle: 1.0 / f64::from(g.transmission_type),
+            });
+        }
         t.push(Traffic {
             name: "I/O TPDO1 inputs".into(),
             bytes: io.inputs.len_bytes(),

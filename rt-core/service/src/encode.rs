@@ -38,6 +38,7 @@ pub fn fill_state(s: &mut StateSample, st: &Status, passes_total: u32, program_l
     s.y_mm.command = st.y_cmd_mm;
     s.spindle_deg = st.spindle_deg;
     s.spindle_reading_deg = st.spindle_reading_deg;
+    s.table_gauge_counts = st.table_gauge_counts;
     s.spindle_rpm = st.spindle_rpm;
     s.spindle_set_rpm = st.spindle_set_rpm;
     s.sync_error_arcsec = st.sync_error_arcsec;

@@ -32,6 +32,20 @@
 //! error_uncertainty_arcsec = 0.9 # how far error_arcsec may be off
 //! ```
 //!
+//! ```toml
+//! [commissioning.table_backlash]
+//! utc = 2026-11-29T06:10:05Z     # when the table was reversed for it
+//! lost_motion_arcsec = 25.3      # the table drive's travel that did not reach the table
+//! uncertainty_arcsec = 0.2       # how far it may be off (the fit's standard error, and
+//!                                # the two directions' disagreement on the gauge's scale)
+//! speed_deg_min = 3.0            # how fast the table was turned
+//! samples = 412                  # gauge readings the fit used
+//! ```
+//!
+//! The backlash is recorded for the builder (the commissioning report, the machine's
+//! papers); the loop does not use it: a hobbing cut turns the table one way only, and every
+//! approach of the table (the tooth phase of an interrupted part) comes from the same side.
+//!
 //! The loop identifies the once-per-turn part of the reading anew at each start (the counter
 //! is incremental, so its phase is new), and cannot tell an error of the disc from a true
 //! swing of the spindle at one speed. The record tells them apart: both are fixed to the
@@ -50,6 +64,55 @@ pub struct Commissioning {
     pub drive_delay: Option<DriveDelayRecord>,
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub spindle_encoder: Option<SpindleEncoderRecord>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub table_backlash: Option<TableBacklashRecord>,
+}
+
+/// The table drive's lost motion at a reversal, as `hob commission backlash` found it
+/// against a gauge on the table: the worm's backlash and the mesh's wind-up under the
+/// table's friction (twice the friction torque over the mesh's stiffness).
+#[derive(Debug, Clone, PartialEq, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct TableBacklashRecord {
+    pub utc: toml::value::Datetime,
+    /// Arcsec of the table.
+    pub lost_motion_arcsec: f64,
+    pub uncertainty_arcsec: f64,
+    pub speed_deg_min: f64,
+    pub samples: u32,
+}
+
+/// The largest lost motion a record may hold, arcsec of the table: a tenth of a degree is
+/// a worm drive worn out, not one to commission.
+pub const MAX_BACKLASH_RECORD_ARCSEC: f64 = 360.0;
+
+impl TableBacklashRecord {
+    fn validate(&self, p: &mut Problems) {
+        const K: &str = "commissioning.table_backlash";
+        utc_whole(&self.utc, &format!("{K}.utc"), p);
+        for (key, v) in [
+            ("lost_motion_arcsec", self.lost_motion_arcsec),
+            ("uncertainty_arcsec", self.uncertainty_arcsec),
+        ] {
+            p.within(
+                &format!("{K}.{key}"),
+                v,
+                0.0,
+                MAX_BACKLASH_RECORD_ARCSEC,
+                "arcsec",
+            );
+        }
+        p.within(
+            &format!("{K}.speed_deg_min"),
+            self.speed_deg_min,
+            0.01,
+            1200.0,
+            "deg/min",
+        );
+        p.require(self.samples > 0, &format!("{K}.samples"), || {
+            "must be at least 1".into()
+        });
+    }
 }
 
 /// The spindle encoder's error told apart from the spindle's true swing, as `hob commission
@@ -122,6 +185,9 @@ impl Commissioning {
     pub fn validate(&self, drive_delay_us: u32, max_delay_us: u32, max_spindle_rpm: f64, p: &mut Problems) {
         if let Some(e) = &self.spindle_encoder {
             e.validate(max_spindle_rpm, p);
+        }
+        if let Some(b) = &self.table_backlash {
+            b.validate(p);
         }
         let Some(d) = &self.drive_delay else {
             return;

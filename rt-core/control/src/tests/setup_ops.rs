@@ -157,6 +157,7 @@ impl Rig {
             y: self.drives[2].feedback(),
             digital_inputs: self.inputs,
             io_valid: true,
+            ..CycleInputs::default()
         };
         self.out = self.c.step(&input);
     }
