@@ -5,6 +5,7 @@
 
 use crate::util::Failure;
 use hob_commission::Stop;
+use hob_commission::backlash::{self, BacklashOptions};
 use hob_commission::delay::{self, DelayOptions};
 use hob_commission::encoder::{self, EncoderOptions};
 use std::io::{BufRead, IsTerminal, Write};
@@ -23,6 +24,15 @@ pub fn delay(machine_file: &Path, o: &DelayOptions, yes: bool) -> Result<String,
 pub fn encoder(machine_file: &Path, o: &EncoderOptions, yes: bool) -> Result<String, Failure> {
     let p = encoder::run(machine_file, o, &|| true, &mut |step| {
         eprintln!("commission encoder: {step}")
+    })
+    .map_err(stopped)?;
+    confirm_and_write(machine_file, &p.text(), yes, || p.write())
+}
+
+/// `hob commission backlash`: measure, show, and write on confirmation.
+pub fn backlash(machine_file: &Path, o: &BacklashOptions, yes: bool) -> Result<String, Failure> {
+    let p = backlash::run(machine_file, o, &|| true, &mut |step| {
+        eprintln!("commission backlash: {step}")
     })
     .map_err(stopped)?;
     confirm_and_write(machine_file, &p.text(), yes, || p.write())

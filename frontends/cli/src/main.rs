@@ -472,6 +472,24 @@ enum CommissionCommand {
         #[arg(long)]
         yes: bool,
     },
+    /// The table drive's lost motion at a reversal (the worm's backlash), against a gauge
+    /// on the table's rim that the machine file names (io.analog_inputs.table_gauge): the
+    /// table jogged slowly +, - and + (hob-rt idle, the table clear), the motor compared
+    /// with the gauge. Recorded for the report; the loop does not use it.
+    Backlash {
+        /// Machine configuration to measure for and write [default: config/machine.toml, then /etc/hob/machine.toml].
+        #[arg(long, value_name = "FILE")]
+        machine: Option<PathBuf>,
+        /// The table's jog speed, deg/min.
+        #[arg(long, default_value_t = hob_commission::backlash::BacklashOptions::default().speed_deg_min)]
+        speed: f64,
+        /// How long each jog runs, s.
+        #[arg(long, default_value_t = hob_commission::backlash::BacklashOptions::default().seconds)]
+        seconds: f64,
+        /// Write the changes without asking (the diff is still shown).
+        #[arg(long)]
+        yes: bool,
+    },
     /// The commissioning report of the machine file: what was measured, when and on what,
     /// and what is not measured yet; with --svg, the spindle encoder's record over the
     /// spindle's speeds as a plot.
@@ -610,6 +628,19 @@ fn commission(command: CommissionCommand) -> Result<(), Failure> {
                 seconds,
             };
             emit(&hob_cli::commission::encoder(&file, &o, yes)?)
+        }
+        CommissionCommand::Backlash {
+            machine,
+            speed,
+            seconds,
+            yes,
+        } => {
+            let file = machine_path(machine.as_deref())?;
+            let o = hob_commission::backlash::BacklashOptions {
+                speed_deg_min: speed,
+                seconds,
+            };
+            emit(&hob_cli::commission::backlash(&file, &o, yes)?)
         }
         CommissionCommand::Report { machine, svg } => {
             let file = machine_path(machine.as_deref())?;

@@ -146,6 +146,57 @@ pub struct IoPdos {
 pub use hob_config::machine::TABLE_GAUGE_EVERY_SYNCS;
 
 impl IoPdos {
+    /// The coupler's PDOs for the machine file's node and signals.
+    pub fn from_machine(m: &MachineConfig) -> Self {
+        let c = &m.can;
+        let io = m.io.can_node_id;
+        Self {
+            node: io,
+            inputs: Pdo::new(
+                Direction::Tpdo,
+                1,
+                tpdo_id(1, io),
+                255,
+                &[
+                    MapEntry::new(DIGITAL_INPUTS, 1, 8),
+                    MapEntry::new(DIGITAL_INPUTS, 2, 8),
+                    MapEntry::new(DIGITAL_INPUTS, 3, 8),
+                ],
+            )
+            .with_inhibit_100us(c.inputs_inhibit_ms * 10)
+            .with_event_timer_ms(EVENT_TIMER_MS),
+            outputs: Pdo::new(
+                Direction::Rpdo,
+                1,
+                rpdo_id(1, io),
+                255,
+                &[
+                    MapEntry::new(DIGITAL_OUTPUTS, 1, 8),
+                    MapEntry::new(DIGITAL_OUTPUTS, 2, 8),
+                ],
+            ),
+            analog: Pdo::new(
+                Direction::Rpdo,
+                2,
+                rpdo_id(2, io),
+                255,
+                &[
+                    MapEntry::new(ANALOG_OUTPUTS, 1, 16),
+                    MapEntry::new(ANALOG_OUTPUTS, 2, 16),
+                ],
+            ),
+            gauge: m.io.analog_inputs.table_gauge.map(|g| {
+                Pdo::new(
+                    Direction::Tpdo,
+                    2,
+                    tpdo_id(2, io),
+                    TABLE_GAUGE_EVERY_SYNCS,
+                    &[MapEntry::new(ANALOG_INPUTS, g.channel + 1, 16)],
+                )
+            }),
+        }
+    }
+
     /// The coupler's PDOs, the gauge's when it is named.
     pub fn pdos(&self) -> Vec<Pdo> {
         let mut p = vec![self.inputs, self.outputs, self.analog];
@@ -217,58 +268,13 @@ impl BusPlan {
                 homing,
             }
         };
-        let io = m.io.can_node_id;
         Self {
             drives: [
                 drive(m.table.can_node_id, Axis::B, None),
                 drive(m.x.can_node_id, Axis::X, Some(DriveHoming::from_axis(&m.x))),
                 drive(m.y.can_node_id, Axis::Y, Some(DriveHoming::from_axis(&m.y))),
             ],
-            io: IoPdos {
-                node: io,
-                inputs: Pdo::new(
-                    Direction::Tpdo,
-                    1,
-                    tpdo_id(1, io),
-                    255,
-                    &[
-                        MapEntry::new(DIGITAL_INPUTS, 1, 8),
-                        MapEntry::new(DIGITAL_INPUTS, 2, 8),
-                        MapEntry::new(DIGITAL_INPUTS, 3, 8),
-                    ],
-                )
-                .with_inhibit_100us(c.inputs_inhibit_ms * 10)
-                .with_event_timer_ms(EVENT_TIMER_MS),
-                outputs: Pdo::new(
-                    Direction::Rpdo,
-                    1,
-                    rpdo_id(1, io),
-                    255,
-                    &[
-                        MapEntry::new(DIGITAL_OUTPUTS, 1, 8),
-                        MapEntry::new(DIGITAL_OUTPUTS, 2, 8),
-                    ],
-                ),
-                analog: Pdo::new(
-                    Direction::Rpdo,
-                    2,
-                    rpdo_id(2, io),
-                    255,
-                    &[
-                        MapEntry::new(ANALOG_OUTPUTS, 1, 16),
-                        MapEntry::new(ANALOG_OUTPUTS, 2, 16),
-                    ],
-                ),
-                gauge: m.io.analog_inputs.table_gauge.map(|g| {
-                    Pdo::new(
-                        Direction::Tpdo,
-                        2,
-                        tpdo_id(2, io),
-                        TABLE_GAUGE_EVERY_SYNCS,
-                        &[MapEntry::new(ANALOG_INPUTS, g.channel + 1, 16)],
-                    )
-                }),
-            },
+            io: IoPdos::from_machine(m),
             cycle_s: f64::from(m.control.cycle_period_us) * 1e-6,
             bitrate_bit_s: c.bitrate_bit_s,
             heartbeat_ms: c.heartbeat_ms,
@@ -490,6 +496,39 @@ mod tests {
         );
         let capacity = f64::from(c.bitrate_bit_s) * cycle_ms / 1000.0;
         assert!((load.load - bits / capacity).abs() < 1e-12, "{}", load.load);
+    }
+
+    #[test]
+    fn a_named_table_gauge_is_mapped_every_50th_sync_and_stays_under_the_limit() {
+        let mut m = shipped();
+        let plan = BusPlan::from_machine(&m);
+        assert_eq!(plan.io.gauge, None);
+        assert_eq!(
+            plan.node_configuration(m.io.can_node_id)
+                .iter()
+                .filter(|w| w.index == 0x1A01)
+                .count(),
+            0
+        );
+        let before = plan.load().bits_per_cycle;
+        m.io.analog_inputs.table_gauge = Some(hob_config::machine::AnalogBinding { channel: 1 });
+        let plan = BusPlan::from_machine(&m);
+        let g = plan.io.gauge.expect("the gauge's TPDO");
+        assert_eq!(
+            (g.cob_id, g.transmission_type),
+            (0x280 + u16::from(m.io.can_node_id), 50)
+        );
+        let writes = plan.node_configuration(m.io.can_node_id);
+        // 0x1A01 sub 1: 0x6401 sub 2 (channel 1), 16 bits.
+        assert!(
+            writes
+                .iter()
+                .any(|w| w.index == 0x1A01 && w.sub == 1 && w.value == 0x6401_0210),
+            "{writes:?}"
+        );
+        let load = plan.load();
+        assert!((load.bits_per_cycle - before - worst_case_frame_bits(2) / 50.0).abs() < 1e-9);
+        assert!(load.load <= plan.bus_load_limit, "{}", load.load);
     }
 
     #[test]

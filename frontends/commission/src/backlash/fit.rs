@@ -198,11 +198,11 @@ pub fn lost_motion(windows: &[Window]) -> Result<LostMotion, FitError> {
     if !windows.iter().any(|w| w.way == Way::Positive) || !windows.iter().any(|w| w.way == Way::Negative) {
         return Err(FitError::OneWay);
     }
-    let (l, sd, rms, readings, overlap) = joint(windows)?;
+    let whole = joint(windows)?;
     let per_reversal: Vec<f64> = windows
         .windows(2)
         .filter(|p| p[0].way != p[1].way)
-        .filter_map(|p| joint(p).ok().map(|r| r.0))
+        .filter_map(|p| joint(p).ok().map(|r| r.arcsec))
         .collect();
     let spread = per_reversal.iter().fold(f64::NEG_INFINITY, |a, &b| a.max(b))
         - per_reversal.iter().fold(f64::INFINITY, |a, &b| a.min(b));
@@ -212,18 +212,15 @@ pub fn lost_motion(windows: &[Window]) -> Result<LostMotion, FitError> {
         0.0
     };
     Ok(LostMotion {
-        arcsec: l,
-        uncertainty_arcsec: sd.max(spread),
+        uncertainty_arcsec: whole.uncertainty_arcsec.max(spread),
         per_reversal_arcsec: per_reversal,
-        residual_arcsec: rms,
-        readings,
-        overlap_counts: overlap,
+        ..whole
     })
 }
 
-/// The joint fit over the common gauge range: (L, its standard error, RMS residual,
-/// readings, the range).
-fn joint(windows: &[Window]) -> Result<(f64, f64, f64, usize, (f64, f64)), FitError> {
+/// The joint fit over the common gauge range (its uncertainty the standard error alone,
+/// no reversal apart).
+fn joint(windows: &[Window]) -> Result<LostMotion, FitError> {
     let lo = windows
         .iter()
         .map(|w| w.points.iter().map(|p| p.1).fold(f64::INFINITY, f64::min))
@@ -246,7 +243,7 @@ fn joint(windows: &[Window]) -> Result<(f64, f64, f64, usize, (f64, f64)), FitEr
         .map(|w| w.points.iter().filter(|p| p.1 >= lo && p.1 <= hi).count())
         .min()
         .unwrap_or(0);
-    if !(hi > lo) || per_window < MIN_READINGS / 2 {
+    if hi <= lo || hi.is_nan() || lo.is_nan() || per_window < MIN_READINGS / 2 {
         return Err(FitError::NoOverlap { readings: per_window });
     }
     // motor = p0 + p1 u + p2 u^2 + p3 u^3 + sign h, u the gauge scaled onto -1 .. 1.
@@ -265,13 +262,14 @@ fn joint(windows: &[Window]) -> Result<(f64, f64, f64, usize, (f64, f64)), FitEr
     let s2 = r.norm_squared() / dof;
     let h = x[4];
     let sd_h = (s2 * inv[(4, 4)]).sqrt();
-    Ok((
-        2.0 * h,
-        2.0 * sd_h,
-        (r.norm_squared() / n as f64).sqrt(),
-        n,
-        (lo, hi),
-    ))
+    Ok(LostMotion {
+        arcsec: 2.0 * h,
+        uncertainty_arcsec: 2.0 * sd_h,
+        per_reversal_arcsec: Vec::new(),
+        residual_arcsec: (r.norm_squared() / n as f64).sqrt(),
+        readings: n,
+        overlap_counts: (lo, hi),
+    })
 }
 
 #[cfg(test)]

@@ -238,3 +238,45 @@ fn the_touch_off_confirmation_limit_is_named_when_out_of_range_or_missing() {
     let e = load_src(&src).expect_err("no [setup]").to_string();
     assert!(e.contains("setup"), "{e}");
 }
+
+#[test]
+fn a_table_gauge_is_optional_and_its_channel_is_checked() {
+    let m = load_src(&shipped_src()).unwrap();
+    assert_eq!(m.io.analog_inputs.table_gauge, None);
+    let with = |channel: &str| {
+        shipped_with(&[(
+            "[io.analog_outputs]\nspindle_speed = { channel = 0 }\n",
+            &format!(
+                "[io.analog_outputs]\nspindle_speed = {{ channel = 0 }}\n\n[io.analog_inputs]\ntable_gauge = {{ channel = {channel} }}\n"
+            ),
+        )])
+    };
+    let m = load_src(&with("1")).unwrap();
+    assert_eq!(m.io.analog_inputs.table_gauge, Some(AnalogBinding { channel: 1 }));
+    let err = load_src(&with("8")).unwrap_err();
+    assert_eq!(err.problems()[0].key, "io.analog_inputs.table_gauge.channel");
+}
+
+#[test]
+fn a_backlash_record_out_of_its_ranges_is_refused_naming_the_key() {
+    let record = |lost: &str, speed: &str| {
+        format!(
+            "{}\n[commissioning.table_backlash]\nutc = 2026-11-29T06:10:05Z\nlost_motion_arcsec = {lost}\n\
+             uncertainty_arcsec = 0.1\nspeed_deg_min = {speed}\nsamples = 278\n",
+            shipped_src()
+        )
+    };
+    let m = load_src(&record("25.15", "3.0")).unwrap();
+    let b = m.commissioning.and_then(|c| c.table_backlash).unwrap();
+    assert_eq!(b.lost_motion_arcsec, 25.15);
+    let err = load_src(&record("-1.0", "3.0")).unwrap_err();
+    assert_eq!(
+        err.problems()[0].key,
+        "commissioning.table_backlash.lost_motion_arcsec"
+    );
+    let err = load_src(&record("25.0", "0.0")).unwrap_err();
+    assert_eq!(
+        err.problems()[0].key,
+        "commissioning.table_backlash.speed_deg_min"
+    );
+}

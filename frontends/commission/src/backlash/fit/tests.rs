@@ -29,7 +29,7 @@ fn jogs(play_arcsec: f64, scale: f64, deg_min: f64, seconds: f64, every: usize) 
             samples.push(GaugeSample {
                 table_deg: motor,
                 command_deg: command,
-                gauge_counts: if k % every == 0 { gauge } else { f64::NAN },
+                gauge_counts: if k.is_multiple_of(every) { gauge } else { f64::NAN },
             });
         }
         out.push(Jog { way, samples });
