@@ -25,6 +25,7 @@ use crate::Stop;
 use crate::link::{self, Edit, ask, connect, drain};
 use fit::{Reading, Separation, SpeedFit};
 use hob_ipc::{Commands, Feed};
+use hob_setup::config::machine::commissioning::HELD_SPINDLE_TRIM_FREEZE_S;
 use hob_store::machine_edit;
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
@@ -84,7 +85,11 @@ pub fn default_speeds_rpm(max_spindle_rpm: f64) -> Vec<f64> {
 
 /// Before each speed is read, the VFD's ramp and the settling take about this long, s (5-15 s
 /// measured on the simulated machine).
-const SETTLING_ABOUT_S: f64 = 10.0;
+const SETTLING_ABOUT_S: f64 = 14.0;
+/// No speed is read earlier than this after its hold began, s: the loop keeps its speed
+/// trim from [`HELD_SPINDLE_TRIM_FREEZE_S`] at speed on (the ramp and a margin after it), so
+/// the readings see a VFD whose reference stands still.
+pub const SETTLE_MIN_S: f64 = HELD_SPINDLE_TRIM_FREEZE_S + 4.0;
 
 impl EncoderOptions {
     /// The options as they run on a machine whose spindle's largest speed is `max_rpm`: the
@@ -457,6 +462,8 @@ pub struct Settling {
     window_start: Option<(f64, f64)>,
     last_deg_s: Option<f64>,
     settled_at_s: Option<f64>,
+    /// The first reading's time: none is settled before [`SETTLE_MIN_S`] after it.
+    first_s: Option<f64>,
     /// The last window's mean speed, rpm (0 before the first).
     pub last_rpm: f64,
 }
@@ -469,6 +476,7 @@ impl Settling {
             window_start: None,
             last_deg_s: None,
             settled_at_s: None,
+            first_s: None,
             last_rpm: 0.0,
         }
     }
@@ -478,6 +486,7 @@ impl Settling {
         if self.settled_at_s.is_some() {
             return true;
         }
+        let first_s = *self.first_s.get_or_insert(t_s);
         let Some((t0, d0)) = self.window_start else {
             self.window_start = Some((t_s, reading_deg));
             return false;
@@ -490,6 +499,7 @@ impl Settling {
         let near = (deg_s.abs() / 6.0 - self.rpm).abs() <= NEAR_SHARE * self.rpm;
         if let Some(before) = self.last_deg_s
             && near
+            && t_s - first_s >= SETTLE_MIN_S
             && (deg_s - before).abs() <= SETTLED_SHARE * deg_s.abs()
         {
             self.settled_at_s = Some(t_s);
@@ -622,8 +632,12 @@ mod tests {
             }
         }
         let at = settled.expect("settled");
-        // Within 0.05 % a second: 10 % e^(-t/2) / 2 s < 0.0005 from t = 9.2 s.
-        assert!((8.0..13.0).contains(&at), "settled at {at} s");
+        // Within 0.05 % a second: 10 % e^(-t/2) / 2 s < 0.0005 from t = 9.2 s; and not
+        // before SETTLE_MIN_S (12 s) after the first reading, when the loop's trim stands.
+        assert!(
+            (SETTLE_MIN_S..SETTLE_MIN_S + 3.0).contains(&at),
+            "settled at {at} s"
+        );
         assert_eq!(s.since_s(), Some(at));
         // A speed that never comes near the one held never settles.
         let mut far = Settling::new(130.0);

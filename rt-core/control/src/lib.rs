@@ -54,6 +54,9 @@ use program::CycleProgram;
 const SPINDLE_TRIM_PER_S: f64 = 0.5;
 /// Bounds of the trim factor on the VFD reference.
 const SPINDLE_TRIM_RANGE: (f64, f64) = (0.8, 1.25);
+/// A held spindle keeps its trim once it has been at speed this long (the constant's
+/// reasons are where it is shared with the commissioning).
+const SPINDLE_HOLD_TRIM_S: f64 = hob_setup::config::machine::commissioning::HELD_SPINDLE_TRIM_FREEZE_S;
 /// Time the drives may take to reach "operation enabled" once asked to.
 pub const DRIVE_ENABLE_TIMEOUT_S: f64 = 2.0;
 /// The spindle must hold its speed this long before the gearbox engages.
@@ -773,7 +776,9 @@ impl Controller {
         let set = self.sequencer.spindle_set_rpm;
         let sign = self.program.map_or(1.0, |p| p.spindle_sign);
         let actual = self.measured.spindle_speed_deg_s / 6.0 * sign;
-        if set > 0.0 && actual > 0.5 * set {
+        let held_steady = self.sequencer.jog.spindle_hold_renewed_s.is_some()
+            && self.spindle_at_speed_s >= SPINDLE_HOLD_TRIM_S;
+        if set > 0.0 && actual > 0.5 * set && !held_steady {
             let error = (set - actual) / set;
             self.spindle_trim = (self.spindle_trim + SPINDLE_TRIM_PER_S * self.params.period_s * error)
                 .clamp(SPINDLE_TRIM_RANGE.0, SPINDLE_TRIM_RANGE.1);

@@ -235,6 +235,15 @@ fn utc_whole(utc: &toml::value::Datetime, key: &str, p: &mut Problems) {
     });
 }
 
+/// A held spindle (the loop's SPINDLE HOLD, what `hob commission encoder` measures with)
+/// keeps its speed trim once it has been at speed this long, s: four of the trim's time
+/// constants; the VFD's reference then stands still, so the spindle turns as its drive and
+/// its inertia make it, not as the loop's reaction to the reading's once-per-turn error
+/// (through a coupler that updates the reference every 50 ms) would. The loop
+/// (`hob_control`) and the procedure (`hob_commission::encoder`, which reads no earlier)
+/// both take it from here.
+pub const HELD_SPINDLE_TRIM_FREEZE_S: f64 = 8.0;
+
 /// The largest once-per-turn figure a record may hold, arcsec: a tenth of a degree, the
 /// loop's largest correction (`hob_control::eccentricity::MAX_CORRECTION_DEG`); more is a
 /// broken encoder or a spindle that is not fit to cut.
