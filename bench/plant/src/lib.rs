@@ -13,11 +13,14 @@
 //! - [`worklink`]: the work's torsional deflection under the cut (seed 003, about 20 Hz);
 //! - [`machine`]: the whole machine with its I/O (limit switches, lube pressure switch,
 //!   clamp, safety chain with a stop-category-1 delay) and fault injection;
+//! - [`disturbance`]: the disturbance levels (none, nominal, heavy, measured SYNC) and
+//!   the goal grade each is held to;
 //! - [`sim`]: core against plant, faster than real time, with SYNC jitter; traces and
 //!   the accuracy summary of `hob simulate`.
 
 pub mod config;
 pub mod cutter;
+pub mod disturbance;
 pub mod drive;
 pub mod plant;
 pub mod rng;

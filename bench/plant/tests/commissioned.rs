@@ -2,9 +2,13 @@
 //! 33): the delay is found by the product's own procedure (`hob_commission::delay::measure`,
 //! what `hob commission delay` fits, here from the table jogged in the simulation as the
 //! loop records it), written into the machine file's `control.drive_delay_us`, and then
-//! every shipped hobbing gear is cut with cross-coupling on and off: each completes, its
-//! synchronisation error within the bound, the controller's share of f_pt and F_p within a
-//! quarter of grade 4. (The tooth-by-tooth program has no gearbox to synchronise and the
+//! every shipped hobbing gear is cut with cross-coupling on and off, at the nominal and the
+//! heavy disturbance (`hob_plant::disturbance`: cutting torque x1.5, ripple x3, SYNC jitter
+//! x2.5): each completes, the controller's share of f_pt and F_p within a quarter of grade 4
+//! (grade 5 under the heavy disturbance, the accuracy gate's goals), and at nominal its
+//! synchronisation error within the bound. One case misses the goal and is held to a looser
+//! limit, said where it is checked: the heavy disturbance without cross-coupling on the plant
+//! with 50 arcsec of play. (The tooth-by-tooth program has no gearbox to synchronise and the
 //! spline's plunge and the demo's short spur are variants of the gears below: left out to
 //! keep the test command's time.)
 #![allow(clippy::unwrap_used)]
@@ -15,6 +19,7 @@ use hob_control::fault::Axis;
 use hob_control::{Command, Direction, State};
 use hob_ipc::StateSample;
 use hob_plant::config::PlantConfig;
+use hob_plant::disturbance::Disturbance;
 use hob_plant::sim::{SimOptions, run_program};
 
 use common::{HIDDEN_PLANTS, hidden_plant};
@@ -67,7 +72,7 @@ fn commissioned_delay_us(plant: &PlantConfig) -> f64 {
 }
 
 #[test]
-fn once_commissioned_every_shipped_gear_meets_its_goal_with_and_without_cross_coupling() {
+fn once_commissioned_every_shipped_gear_meets_its_goal_nominal_and_heavy_with_and_without_ccc() {
     for (delay_us, backlash_arcsec, encoder_arcsec) in HIDDEN_PLANTS {
         let plant = hidden_plant(delay_us, backlash_arcsec, encoder_arcsec);
         let found_us = commissioned_delay_us(&plant);
@@ -77,18 +82,25 @@ fn once_commissioned_every_shipped_gear_meets_its_goal_with_and_without_cross_co
         );
         let mut machine = common::machine();
         machine.control.drive_delay_us = found_us.round() as u32;
-        for gear in GEARS {
-            for cross_coupling in [true, false] {
+        for (gear, d, cross_coupling) in GEARS.iter().flat_map(|g| {
+            [Disturbance::Nominal, Disturbance::Heavy]
+                .into_iter()
+                .flat_map(move |d| [true, false].map(|c| (*g, d, c)))
+        }) {
+            {
                 let options = SimOptions {
-                    grade: 4,
+                    grade: d.goal_grade(),
                     cross_coupling,
                     ..SimOptions::default()
                 };
+                let disturbed = d.apply(&plant);
                 let (job, cycle, plan) = common::program_on(&machine, gear, &[]);
-                let s = run_program(&machine, &plant, &cycle, &plan, &job, &options, &mut |_| {}).unwrap();
+                let s =
+                    run_program(&machine, &disturbed, &cycle, &plan, &job, &options, &mut |_| {}).unwrap();
                 let label = format!(
-                    "{gear}, hidden {delay_us} us ({found_us:.1} found), {backlash_arcsec} arcsec play, \
+                    "{gear}, {}, hidden {delay_us} us ({found_us:.1} found), {backlash_arcsec} arcsec play, \
                      encoder {encoder_arcsec} arcsec, ccc {}",
+                    d.name(),
                     if cross_coupling { "on" } else { "off" }
                 );
                 assert!(s.completed, "{label}: {:?}", s.fault);
@@ -100,12 +112,25 @@ fn once_commissioned_every_shipped_gear_meets_its_goal_with_and_without_cross_co
                     s.bound_um,
                     share.text()
                 );
+                // The peak against the bound (a quarter of grade 5's f_p) is the gate's at
+                // nominal; under the heavy disturbance the shipped plant's spur already peaks
+                // at 3.45 of 1.77 um (docs/accuracy.md), and the goal is the share of grade 5.
                 assert!(
-                    s.max_sync_err_um <= s.bound_um,
+                    d == Disturbance::Heavy || s.max_sync_err_um <= s.bound_um,
                     "{label}: {} um",
                     s.max_sync_err_um
                 );
-                assert!(fpt <= 0.25 && fp <= 0.25, "{label}: {}", share.text());
+                // Not met (issue 33 stays open on it): under the heavy disturbance, without
+                // cross-coupling, on the plant with 50 arcsec of play the spur's f_pt is 29 % of
+                // grade 5 (20 % with it; 14-17 % with 6 or 25 arcsec): the tripled ripple
+                // reverses the mesh's torque and the wheel crosses the play, which the motor
+                // feels. Held here to 35 % so that it cannot grow unseen.
+                let goal = if d == Disturbance::Heavy && !cross_coupling && backlash_arcsec >= 50.0 {
+                    0.35
+                } else {
+                    0.25
+                };
+                assert!(fpt <= goal && fp <= goal, "{label}: {}", share.text());
             }
         }
     }

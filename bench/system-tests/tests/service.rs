@@ -2054,69 +2054,38 @@ fn commissioning_finds_the_hidden_drive_delay_over_the_bus() {
             format!("{:.0} rpm when killed, at rest since", turning.spindle_rpm)
         },
     );
-    // Over this bus the procedure either writes the error or says how well it knows it and
-    // writes nothing. In-process the same plant's error is found within 10 % and its
-    // uncertainty holds the truth (bench/plant/tests/spindle_encoder.rs); over the bus the
-    // speeds' once-per-turn parts have come out biased by a few arcsec that change from run
-    // to run (written: 14.31, 14.75 and 17.25 +- 0.8 for 15; refused: 18.1 +- 3.0 and
-    // 21.4 +- 5.8, 19.8 +- 4.8, one 64 rpm run at 6.6): not explained yet (issue 33's note).
-    // So here a written error must be within 25 %, a refused one within its uncertainty
-    // and the same 25 %.
+    // The error is written within the issue's 10 %: over the bus it came out 13.6-21.4 for
+    // 15 (refused or written) while the loop trimmed the held spindle through the coupler's
+    // 50 ms analog updates; with the trim kept once at speed, 15.20, 15.48, 15.68 on the
+    // host's bus (docs/commands.md).
     let mut written_record = false;
-    b.step(
-        "encoder: whole, the error written (within 25 % here), or refused",
-        |b| {
-            // Three speeds, 12 s each: about a minute (the default, six speeds 30 s each, takes
-            // four).
-            let o = b.hob(&encoder(&["--speeds", "64,110,212", "--seconds", "12", "--yes"]));
-            if o.code == Some(0) {
-                let written = TomlDoc::load(&machine);
-                let get = |key: &str| {
-                    written
-                        .get(&format!("commissioning.spindle_encoder.{key}"))
-                        .as_float()
-                        .unwrap_or_else(|| panic!("{key}: {}", o.text))
-                };
-                let (found, second, swing) =
-                    (get("error_arcsec"), get("error_2_arcsec"), get("swing_arcsec"));
-                assert!(
-                    (found - hidden_error_arcsec).abs() <= 0.25 * hidden_error_arcsec,
-                    "{hidden_error_arcsec} arcsec hidden, {found:.2} found:\n{}",
-                    o.text
-                );
-                assert!((second - 4.0).abs() <= 2.0, "2nd: 4 hidden, {second:.2} found");
-                assert!(swing < 1.0, "a swing of {swing:.1} arcsec claimed:\n{}", o.text);
-                assert!(o.text.contains("restart hob-rt"), "{}", o.text);
-                written_record = true;
-                return format!(
-                    "written: {hidden_error_arcsec} arcsec hidden, {found:.2} found (2nd: 4 hidden, \
-                 {second:.2} found), no swing claimed"
-                );
-            }
-            assert_eq!(o.code, Some(1), "{}", o.text);
-            same_files(b, "a refused record");
-            // "known only to +- U arcsec of its F": the truth within it.
-            let tail = o
-                .text
-                .split("known only to +- ")
-                .nth(1)
-                .unwrap_or_else(|| panic!("neither written nor refused for its precision:\n{}", o.text));
-            let words: Vec<&str> = tail.split_whitespace().collect();
-            let uncertainty: f64 = words[0].parse().unwrap();
-            let found: f64 = words[4]
-                .trim_end_matches(|c: char| !c.is_ascii_digit())
-                .parse()
-                .unwrap();
-            assert!(
-                (found - hidden_error_arcsec).abs() <= uncertainty + 0.25 * hidden_error_arcsec,
-                "refused, but {found} +- {uncertainty} does not hold the {hidden_error_arcsec} hidden:\n{}",
-                o.text
-            );
-            format!(
-                "refused: {found} +- {uncertainty} arcsec ({hidden_error_arcsec} hidden), nothing written"
-            )
-        },
-    );
+    b.step("encoder: whole, the error written within 10 %", |b| {
+        // Three speeds, 12 s each: about a minute and a half (the default, six speeds 30 s
+        // each, takes five).
+        let o = b.hob(&encoder(&["--speeds", "64,110,212", "--seconds", "12", "--yes"]));
+        assert_eq!(o.code, Some(0), "{}", o.text);
+        let written = TomlDoc::load(&machine);
+        let get = |key: &str| {
+            written
+                .get(&format!("commissioning.spindle_encoder.{key}"))
+                .as_float()
+                .unwrap_or_else(|| panic!("{key}: {}", o.text))
+        };
+        let (found, second, swing) = (get("error_arcsec"), get("error_2_arcsec"), get("swing_arcsec"));
+        assert!(
+            (found - hidden_error_arcsec).abs() <= 0.1 * hidden_error_arcsec,
+            "{hidden_error_arcsec} arcsec hidden, {found:.2} found:\n{}",
+            o.text
+        );
+        assert!((second - 4.0).abs() <= 2.0, "2nd: 4 hidden, {second:.2} found");
+        assert!(swing < 1.0, "a swing of {swing:.1} arcsec claimed:\n{}", o.text);
+        assert!(o.text.contains("restart hob-rt"), "{}", o.text);
+        written_record = true;
+        format!(
+            "written: {hidden_error_arcsec} arcsec hidden, {found:.2} found (2nd: 4 hidden, \
+             {second:.2} found), no swing claimed"
+        )
+    });
     b.step(
         "hob-rt restarted: the record read (or its absence said), idle",
         |b| {
