@@ -67,6 +67,29 @@ fn spawn_rt(b: &mut Bench, machine: &Path, state: &Path, log: &str) -> ProcId {
     )
 }
 
+/// hob-sim on `machine` with the hidden values of `plant`, X and Y near home, its fault
+/// injection on standard input (`--control`).
+fn sim_on_plant(b: &Bench, machine: &Path, plant: &Path) -> std::process::Command {
+    let mut sim = b.command("hob-sim");
+    sim.args([
+        "--iface",
+        &b.iface,
+        "--machine",
+        &path(machine),
+        "--plant",
+        &path(plant),
+        "--program",
+        &program_arg(),
+        "--rt-priority",
+        "75",
+        "--power-on-near-home",
+        SHORT_HOMING_MM,
+        "--control",
+    ])
+    .stdin(std::process::Stdio::piped());
+    sim
+}
+
 /// Where the simulated drives power up: wherever the plant file says (referencing over
 /// the whole way, the operator path's subject), or within [`SHORT_HOMING_MM`] of home
 /// (tests whose subject is not referencing: each saves about 50 s of homing).
@@ -1772,25 +1795,7 @@ fn commissioning_finds_the_hidden_drive_delay_over_the_bus() {
             ),
     )
     .unwrap();
-    let (iface, program) = (b.iface.clone(), program_arg());
-    let mut sim = b.command("hob-sim");
-    sim.args([
-        "--iface",
-        &iface,
-        "--machine",
-        &path(&machine),
-        "--plant",
-        &path(&plant),
-        "--program",
-        &program,
-        "--rt-priority",
-        "75",
-        "--power-on-near-home",
-        SHORT_HOMING_MM,
-        "--control",
-    ])
-    .stdin(std::process::Stdio::piped());
-    let sim = b.spawn_cmd("hob-sim", sim, "sim.txt");
+    let sim = b.spawn_cmd("hob-sim", sim_on_plant(&b, &machine, &plant), "sim.txt");
     let mut control = b.stdin_of(sim);
     std::thread::sleep(Duration::from_millis(300));
     let state = b.art.join("machine-state.toml");
@@ -2151,24 +2156,7 @@ fn commissioning_finds_the_hidden_backlash_over_the_bus() {
         plant_text.replace(shipped_line, &format!("\nbacklash_arcsec = {hidden_arcsec}\n")),
     )
     .unwrap();
-    let (iface, program) = (b.iface.clone(), program_arg());
-    b.spawn(
-        "hob-sim",
-        "hob-sim",
-        &[
-            "--iface",
-            &iface,
-            "--machine",
-            &path(&machine),
-            "--plant",
-            &path(&plant),
-            "--program",
-            &program,
-            "--power-on-near-home",
-            SHORT_HOMING_MM,
-        ],
-        "sim.txt",
-    );
+    b.spawn_cmd("hob-sim", sim_on_plant(&b, &machine, &plant), "sim.txt");
     std::thread::sleep(Duration::from_millis(300));
     let state = b.art.join("machine-state.toml");
     spawn_rt(&mut b, &machine, &state, "rt.txt");
