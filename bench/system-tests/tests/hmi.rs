@@ -37,7 +37,17 @@ fn stack(b: &mut Bench) -> Vec<(&'static str, String)> {
         vendor.join("playwright-core").is_dir() && Path::new("/usr/bin/chromium").is_file(),
         "Chromium or the npm install is missing: run bash ci/hmi-setup"
     );
-    let m = b.session_machine();
+    let mut m = b.session_machine();
+    // The gauge on the table's rim that hob-sim's plant has on the coupler's analog input 0
+    // (config/plant.toml's peripherals.table_gauge), named so that TABLE BACKLASH measures.
+    m.table
+        .get_mut("io")
+        .and_then(toml::Value::as_table_mut)
+        .unwrap()
+        .insert(
+            "analog_inputs".into(),
+            toml::Value::Table(toml::toml! { table_gauge = { channel = 0 } }),
+        );
     let machine = m.write(&b.art.join("machine.toml"));
     let (iface, program) = (b.iface.clone(), session_program());
     // The logger's directory, where the simulator writes its truth beside the record (the

@@ -236,17 +236,27 @@ fn hello(m: &MachineConfig, level: Role) -> serde_json::Value {
     })
 }
 
-/// What the DIAGNOSTICS card tells of the spindle encoder's procedure before it is pressed:
-/// the speeds the hob spindle will turn at (the panel runs its default options) and about
-/// how long (each speed read, and some 10 s to ramp and settle before it).
+/// What the DIAGNOSTICS card tells of the procedures before they are pressed (the panel runs
+/// their default options): the speeds the hob spindle will turn at for the encoder and about
+/// how long (each speed read, and some 10 s to ramp and settle before it); the table's jogs
+/// for the backlash (three, each left some 0.6 s to rest) and the gauge the machine file
+/// names (`null`: none, the measurement is refused).
 fn commissioning(m: &MachineConfig) -> serde_json::Value {
     let o = hob_commission::encoder::EncoderOptions::default().on_machine(m.spindle.max_spindle_rpm);
+    let b = hob_commission::backlash::BacklashOptions::default();
     serde_json::json!({
         "encoder": {
             "max_rpm": o.speeds_rpm.iter().fold(0.0f64, |a, &r| a.max(r)),
             "seconds": o.seconds,
             "about_min": (o.about_s() / 60.0).ceil(),
             "speeds_rpm": o.speeds_rpm,
+        },
+        "backlash": {
+            "speed_deg_min": b.speed_deg_min,
+            "seconds": b.seconds,
+            "travel_deg": b.travel_deg(),
+            "about_s": (3.0 * (b.seconds + 0.6)).ceil(),
+            "gauge_channel": m.io.analog_inputs.table_gauge.map(|g| g.channel),
         },
     })
 }

@@ -1,11 +1,14 @@
-//! Commissioning from the panel (DIAGNOSTICS): two procedures of `hob_commission`, the same
-//! as the CLI's, with the panel's press-and-hold key as their enable:
+//! Commissioning from the panel (DIAGNOSTICS): three procedures of `hob_commission`, the
+//! same as the CLI's, with the panel's press-and-hold key as their enable:
 //!
 //! - `delay`: the table drive's delay (`hob commission delay`): the table jogs one way and
 //!   back;
 //! - `encoder`: the spindle encoder's error told apart from a true once-per-turn swing
 //!   (`hob commission encoder`): the hob spindle is held at six speeds up to the machine's
-//!   largest in turn, a few minutes in all.
+//!   largest in turn, a few minutes in all;
+//! - `backlash`: the table drive's lost motion at a reversal against a gauge on the table
+//!   (`hob commission backlash`): the table jogs slowly +, - and + again (some 17 s); refused
+//!   when the machine file names no gauge.
 //!
 //! A press starts the procedure of its key; the page renews the hold every 100 ms while the
 //! finger is on the key (a renewal never starts another); the procedure asks before every
@@ -14,19 +17,20 @@
 //! or the spindle (and the loop's own dead-man stops it if this server dies).
 //!
 //! One procedure runs at a time: a press on the same key while it runs only holds its
-//! enable; a press on the other key is refused in words (nothing starts, and the press does
+//! enable; a press on another key is refused in words (nothing starts, and the press does
 //! not hold the running one's enable: its renewals, as every renewal, never revive an enable
 //! let go, and letting go of it drops the enable as letting go of the running key does:
 //! the enable stays exactly as strict as with one key). The proposal of whichever
 //! ran last (its fit, its words, the diff of the machine file) goes with every view while
 //! it is held; WRITE writes it only at the builder's level, as the CLI's `--yes`, the old
-//! file kept. Starting either procedure drops it.
+//! file kept. Starting any procedure drops it.
 //!
 //! Measuring needs the level that may command the machine; writing the one that may edit
 //! machine data. The procedures' words are English (the catalogue does not hold them yet).
 
 use crate::app::App;
 use hob_commission::Stop;
+use hob_commission::backlash::{self, BacklashOptions};
 use hob_commission::delay::{self, DelayOptions};
 use hob_commission::encoder::{self, EncoderOptions};
 use hob_ipc::gateway::Action;
@@ -46,12 +50,14 @@ pub enum Procedure {
     Delay,
     /// The spindle encoder's error (`hob_commission::encoder`).
     Encoder,
+    /// The table drive's lost motion against a gauge (`hob_commission::backlash`).
+    Backlash,
 }
 
 impl Procedure {
-    pub const ALL: [Procedure; 2] = [Procedure::Delay, Procedure::Encoder];
+    pub const ALL: [Procedure; 3] = [Procedure::Delay, Procedure::Encoder, Procedure::Backlash];
 
-    /// The procedure a page names (`delay`, `encoder`).
+    /// The procedure a page names (`delay`, `encoder`, `backlash`).
     pub fn named(name: &str) -> Option<Self> {
         Self::ALL.into_iter().find(|p| p.name() == name)
     }
@@ -61,6 +67,7 @@ impl Procedure {
         match self {
             Procedure::Delay => "delay",
             Procedure::Encoder => "encoder",
+            Procedure::Backlash => "backlash",
         }
     }
 
@@ -69,6 +76,7 @@ impl Procedure {
         match self {
             Procedure::Delay => "the table drive's delay",
             Procedure::Encoder => "the spindle encoder",
+            Procedure::Backlash => "the table's backlash",
         }
     }
 }
@@ -76,7 +84,7 @@ impl Procedure {
 /// The proposal as the page shows it, whichever procedure made it.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct ProposalView {
-    /// `delay` or `encoder`.
+    /// `delay`, `encoder` or `backlash`.
     pub procedure: &'static str,
     /// The machine file WRITE writes.
     pub file: PathBuf,
@@ -107,9 +115,19 @@ impl ProposalView {
 enum Held {
     Delay(delay::Proposal),
     Encoder(encoder::Proposal),
+    Backlash(backlash::Proposal),
 }
 
 impl Held {
+    /// The procedure that made it.
+    fn procedure(&self) -> Procedure {
+        match self {
+            Held::Delay(_) => Procedure::Delay,
+            Held::Encoder(_) => Procedure::Encoder,
+            Held::Backlash(_) => Procedure::Backlash,
+        }
+    }
+
     fn view(&self) -> ProposalView {
         match self {
             Held::Delay(p) => {
@@ -117,6 +135,9 @@ impl Held {
             }
             Held::Encoder(p) => {
                 ProposalView::of(Procedure::Encoder, &p.file, &p.report, &p.diff, &p.utc, p.text())
+            }
+            Held::Backlash(p) => {
+                ProposalView::of(Procedure::Backlash, &p.file, &p.report, &p.diff, &p.utc, p.text())
             }
         }
     }
@@ -134,6 +155,11 @@ impl Held {
                 p.separation.encoder[0].amplitude_arcsec(),
                 p.separation.error_uncertainty_arcsec
             ),
+            Held::Backlash(p) => format!(
+                "the table drive's lost motion found: {:.2} arcsec (+- {:.2}); proposed as \
+                 [commissioning.table_backlash], the fit and the diff below",
+                p.lost_motion_arcsec, p.uncertainty_arcsec
+            ),
         }
     }
 
@@ -141,6 +167,7 @@ impl Held {
         match self {
             Held::Delay(p) => p.write(),
             Held::Encoder(p) => p.write(),
+            Held::Backlash(p) => p.write(),
         }
     }
 
@@ -148,6 +175,7 @@ impl Held {
         match self {
             Held::Delay(p) => &p.file,
             Held::Encoder(p) => &p.file,
+            Held::Backlash(p) => &p.file,
         }
     }
 }
@@ -157,7 +185,7 @@ impl Held {
 pub struct View {
     /// The hold or write that this answers.
     pub id: u64,
-    /// The procedure it is about (`delay`, `encoder`; a refused unknown name as the page
+    /// The procedure it is about (`delay`, `encoder`, `backlash`; a refused unknown name as the page
     /// sent it).
     pub procedure: String,
     /// `running`, `proposal`, `stopped`, `refused` or `written`.
@@ -201,7 +229,7 @@ impl CommissionSession {
     }
 
     /// The finger on a procedure's key: starts it, its enable held (a press on its key
-    /// while it runs only holds it; on the other key, refused).
+    /// while it runs only holds it; on another key, refused).
     pub fn hold(&self, id: u64, procedure: &str, app: &Arc<App>) {
         self.hold_as(
             id,
@@ -301,10 +329,7 @@ impl CommissionSession {
     /// WRITE: the proposal of the procedure that ran last into the machine file (the
     /// builder's level), the old file kept.
     pub fn write(&self, id: u64, app: &Arc<App>) {
-        let procedure = |held: Option<&Held>| match held {
-            Some(Held::Encoder(_)) => Procedure::Encoder.name(),
-            _ => Procedure::Delay.name(),
-        };
+        let procedure = |held: Option<&Held>| held.map_or(Procedure::Delay, Held::procedure).name();
         if let Some(refused) = app.not_allowed(Action::EditMachineData) {
             let which = procedure(lock(&self.proposal).as_ref());
             self.send(id, which, "refused", refused);
@@ -363,6 +388,9 @@ fn measure(
         Procedure::Encoder => {
             encoder::run(file, &EncoderOptions::default(), &enabled, &mut say).map(Held::Encoder)
         }
+        Procedure::Backlash => {
+            backlash::run(file, &BacklashOptions::default(), &enabled, &mut say).map(Held::Backlash)
+        }
     };
     match result {
         Ok(held) => (
@@ -414,6 +442,8 @@ mod tests {
     fn procedures_are_named_as_the_page_names_them() {
         assert_eq!(Procedure::named("delay"), Some(Procedure::Delay));
         assert_eq!(Procedure::named("encoder"), Some(Procedure::Encoder));
+        assert_eq!(Procedure::named("backlash"), Some(Procedure::Backlash));
+        assert_eq!(Procedure::named("table_backlash"), None);
         assert_eq!(Procedure::named("Encoder"), None);
         assert_eq!(Procedure::named(""), None);
     }
@@ -425,7 +455,7 @@ mod tests {
         let v = rx.try_recv().expect("a view");
         assert_eq!((v.id, v.state, v.procedure.as_str()), (7, "refused", "spindle"));
         assert!(
-            v.text.contains("\"spindle\"") && v.text.contains("delay, encoder"),
+            v.text.contains("\"spindle\"") && v.text.contains("delay, encoder, backlash"),
             "{}",
             v.text
         );
@@ -483,6 +513,119 @@ mod tests {
         assert!(rx.try_recv().is_err(), "a press on the running key answered");
         s.release();
         assert_eq!(*lock(&s.enable), None);
+    }
+
+    #[test]
+    fn the_backlash_key_is_refused_while_another_runs_and_refuses_the_others_while_it_runs() {
+        let (s, mut rx) = session();
+        // The encoder under way, its key let go: a press on TABLE BACKLASH is refused and
+        // does not hold the encoder's enable.
+        *lock(&s.running) = Some(Procedure::Encoder);
+        s.hold_as(11, "backlash", None, file());
+        let v = rx.try_recv().expect("a view");
+        assert_eq!((v.id, v.state, v.procedure.as_str()), (11, "refused", "backlash"));
+        assert!(
+            v.text
+                .starts_with("the spindle encoder is being measured: one procedure at a time"),
+            "{}",
+            v.text
+        );
+        assert_eq!(
+            *lock(&s.enable),
+            None,
+            "the backlash key held the encoder's enable"
+        );
+        assert_eq!(*lock(&s.running), Some(Procedure::Encoder));
+        // The backlash under way: the delay's and the encoder's keys are refused in its words.
+        *lock(&s.running) = Some(Procedure::Backlash);
+        for (id, other) in [(12, "delay"), (13, "encoder")] {
+            s.hold_as(id, other, None, file());
+            let v = rx.try_recv().expect("a view");
+            assert_eq!((v.id, v.state, v.procedure.as_str()), (id, "refused", other));
+            assert!(
+                v.text.starts_with("the table's backlash is being measured"),
+                "{}",
+                v.text
+            );
+            assert_eq!(*lock(&s.enable), None, "{other}'s key held the backlash's enable");
+        }
+        // Its own key holds it, nothing else starts.
+        s.hold_as(14, "backlash", None, file());
+        assert!(
+            lock(&s.enable).is_some(),
+            "the running one's key does not hold it"
+        );
+        assert_eq!(*lock(&s.running), Some(Procedure::Backlash));
+        assert!(rx.try_recv().is_err(), "a press on the running key answered");
+    }
+
+    #[test]
+    fn the_backlash_on_a_machine_file_naming_no_gauge_is_refused_in_words() {
+        // The shipped machine file names no table gauge: the procedure runs and refuses
+        // before anything moves (it never reaches the loop), and nothing is held for WRITE.
+        let shipped = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../config/machine.toml");
+        let (s, mut rx) = session();
+        s.hold_as(21, "backlash", None, shipped);
+        let end = Instant::now() + Duration::from_secs(10);
+        let v = loop {
+            match rx.try_recv() {
+                Ok(v) => break v,
+                Err(_) if Instant::now() < end => std::thread::sleep(Duration::from_millis(10)),
+                Err(e) => panic!("no view in 10 s: {e}"),
+            }
+        };
+        assert_eq!((v.id, v.state, v.procedure.as_str()), (21, "refused", "backlash"));
+        assert!(
+            v.text
+                .contains("names no table gauge (io.analog_inputs.table_gauge)")
+                && v.text.contains("nothing measured"),
+            "{}",
+            v.text
+        );
+        assert!(v.proposal.is_none());
+        let end = Instant::now() + Duration::from_secs(5);
+        while lock(&s.running).is_some() && Instant::now() < end {
+            std::thread::sleep(Duration::from_millis(10));
+        }
+        assert_eq!(*lock(&s.running), None, "the procedure still runs");
+        assert!(lock(&s.proposal).is_none(), "a proposal is held");
+    }
+
+    #[test]
+    fn the_view_of_a_backlash_proposal_has_its_report_text_and_diff() {
+        // A backlash::Proposal is made only by a whole run on the machine; the view is made
+        // of its report, diff and text() as here.
+        let report = "lost motion of the table drive: 10.18 +- 0.03 arcsec (each reversal: 10.17, 10.19), at 3.0 deg/min; 42 gauge readings, the motor 0.05 arcsec RMS off the fit\n";
+        let diff = "+ 120 [commissioning.table_backlash]\n+ 122 lost_motion_arcsec = 10.18\n";
+        let file = PathBuf::from("/etc/hob/machine.toml");
+        let text = format!("{report}changes to {}:\n{diff}", file.display());
+        let p = ProposalView::of(
+            Procedure::Backlash,
+            &file,
+            report,
+            diff,
+            "2026-11-29T06:00:00Z",
+            text,
+        );
+        let v = View {
+            id: 5,
+            procedure: Procedure::Backlash.name().into(),
+            state: "proposal",
+            text: "the table drive's lost motion found".into(),
+            proposal: Some(p),
+        };
+        let j = serde_json::to_value(&v).expect("json");
+        assert_eq!(j["procedure"], "backlash");
+        assert_eq!(j["state"], "proposal");
+        let p = &j["proposal"];
+        assert_eq!(p["procedure"], "backlash");
+        assert_eq!(p["report"], report);
+        assert_eq!(p["diff"], diff);
+        assert_eq!(p["file"], "/etc/hob/machine.toml");
+        assert_eq!(p["utc"], "2026-11-29T06:00:00Z");
+        let text = p["text"].as_str().expect("text");
+        assert!(text.starts_with(report) && text.ends_with(diff), "{text}");
+        assert!(text.contains("changes to /etc/hob/machine.toml:"), "{text}");
     }
 
     #[test]

@@ -351,11 +351,11 @@ function Bars({ title, bars, testid }) {
       <span class="fill" style=${`width:${top > 0 ? (70 * Math.log10(b.count + 1)) / top : 0}%`}></span><span class="n">${b.count}</span></div>`)}</div>`;
 }
 
-/** Commissioning: two procedures of the server's hob_commission (those of `hob commission
- *  delay` and `hob commission encoder`), each run while its key is held (the held key its
- *  enable: letting go stops the table or the spindle); one at a time (the server refuses the
- *  other key's press while one runs, and says so); the proposal of the one that ran last,
- *  its fit and its diff; WRITE at the builder's level. */
+/** Commissioning: three procedures of the server's hob_commission (those of `hob commission
+ *  delay`, `hob commission encoder` and `hob commission backlash`), each run while its key
+ *  is held (the held key its enable: letting go stops the table or the spindle); one at a
+ *  time (the server refuses another key's press while one runs, and says so); the proposal
+ *  of the one that ran last, its fit and its diff; WRITE at the builder's level. */
 function CommissionKey({ conn, procedure, testid }) {
   const ref = useRef(null);
   useEffect(() => {
@@ -396,13 +396,14 @@ function CommissionState({ view, testid }) {
   return html`<p class=${bad ? "warn" : view.state === "running" ? "ok" : ""} data-testid=${testid} data-state=${view.state}>${view.text}</p>`;
 }
 
-const PROCEDURES = { delay: "TABLE DRIVE DELAY", encoder: "SPINDLE ENCODER" };
+const PROCEDURES = { delay: "TABLE DRIVE DELAY", encoder: "SPINDLE ENCODER", backlash: "TABLE BACKLASH" };
 
 function Commissioning({ conn }) {
   const c = conn.commission;
   const by = conn.commissionBy || {};
   const p = c && c.proposal;
   const e = conn.hello && conn.hello.commissioning && conn.hello.commissioning.encoder;
+  const b = conn.hello && conn.hello.commissioning && conn.hello.commissioning.backlash;
   const write = () => conn.send({ t: "commission_write", id: conn.newId() });
   return html`<div class="card wide" data-testid="commissioning"><h2>${t("Commissioning")}</h2>
     ${c && !PROCEDURES[c.procedure] ? html`<p class="warn" data-testid="commission-other" data-state=${c.state}>${c.text}</p>` : ""}
@@ -417,11 +418,17 @@ function Commissioning({ conn }) {
         <p class="hint">${e ? t("{0} speeds in turn ({1} rpm), each read {2} s once steady; letting go stops the spindle. The encoder's error is written into the machine file only by WRITE (a builder's work); restart hob-rt after it.", e.speeds_rpm.length, e.speeds_rpm.map((r) => fmt(r, 0)).join(", "), fmt(e.seconds, 0)) : ""}</p>
         <div class="row"><${CommissionKey} conn=${conn} procedure="encoder" testid="commission-encoder-hold" /></div>
         <${CommissionState} view=${by.encoder} testid="commission-encoder-state" /></div>
+      <div class="procedure" data-testid="commission-backlash"><h3>${t("TABLE BACKLASH")}</h3>
+        ${b && b.gauge_channel === null ? html`<p class="warn" data-testid="commission-backlash-gauge">${t("The machine file names no table gauge (io.analog_inputs.table_gauge): the measurement is refused until a gauge on the table's rim is wired to an analog input and named.")}</p>`
+          : b ? html`<p class="hint" data-testid="commission-backlash-gauge">${t("The gauge on the table's rim, on the coupler's analog input {0}, reads the table; the motor is compared with it.", b.gauge_channel)}</p>` : ""}
+        <p class="hint">${b ? t("The table turns + at {0} deg/min for {1} s, then - and + again as long ({2} deg each way, about {3} s in all): keep the table clear and hold the key until the result shows; letting go stops the table. The lost motion is written into the machine file only by WRITE (a builder's work), for the commissioning report; the loop does not use it.", fmt(b.speed_deg_min, 1), fmt(b.seconds, 0), fmt(b.travel_deg, 3), fmt(b.about_s, 0)) : ""}</p>
+        <div class="row"><${CommissionKey} conn=${conn} procedure="backlash" testid="commission-backlash-hold" /></div>
+        <${CommissionState} view=${by.backlash} testid="commission-backlash-state" /></div>
     </div>
     <div class="row"><button class="key primary" onClick=${write} disabled=${!p || !allows(conn, "edit_machine_data")} data-testid="commission-write">${t("WRITE")}</button>
       ${p ? html`<span data-testid="commission-proposal-of" data-procedure=${p.procedure}>${t("the proposal of {0}", t(PROCEDURES[p.procedure] || p.procedure))}</span>` : html`<span class="hint">${t("nothing measured to write")}</span>`}
       ${allows(conn, "edit_machine_data") ? "" : html`<span class="hint" data-testid="commission-level">${t("WRITE: a builder's work")}</span>`}</div>
-    ${p ? html`<pre class="small" style=${p.procedure === "delay" ? "white-space: pre-wrap" : ""} data-testid="commission-report">${p.report}</pre><pre class="small" data-testid="commission-diff">${p.diff}</pre>` : ""}
+    ${p ? html`<pre class="small" style=${p.procedure === "encoder" ? "" : "white-space: pre-wrap"} data-testid="commission-report">${p.report}</pre><pre class="small" data-testid="commission-diff">${p.diff}</pre>` : ""}
   </div>`;
 }
 
