@@ -18,12 +18,12 @@
 pub mod fit;
 
 use crate::Stop;
-use crate::link::{self, Edit, connect, drain};
+use crate::link::{self, connect, drain};
 use fit::{GaugeSample, Jog, LostMotion, Way};
 use hob_ipc::StateSample;
 use hob_ipc::codec;
 use hob_store::machine_edit;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::time::{Duration, Instant};
 
 /// The measurement's settings' limits.
@@ -60,6 +60,11 @@ impl BacklashOptions {
         self.speed_deg_min / 60.0 * self.seconds
     }
 
+    /// About how long the table moves, s: three jogs, each left to rest.
+    pub fn about_s(&self) -> f64 {
+        3.0 * (self.seconds + link::REST.as_secs_f64())
+    }
+
     /// What the table will do, for the person beside it.
     pub fn announcement(&self) -> String {
         format!(
@@ -75,19 +80,8 @@ impl BacklashOptions {
 
 /// Refuses settings outside their limits, before anything moves.
 pub fn check_options(o: &BacklashOptions) -> Result<(), Stop> {
-    let within = |v: f64, (lo, hi): (f64, f64)| v.is_finite() && (lo..=hi).contains(&v);
-    if !within(o.speed_deg_min, SPEED_DEG_MIN) {
-        return Err(Stop::Refused(format!(
-            "--speed must be within {} .. {} deg/min (is {})",
-            SPEED_DEG_MIN.0, SPEED_DEG_MIN.1, o.speed_deg_min
-        )));
-    }
-    if !within(o.seconds, SECONDS) {
-        return Err(Stop::Refused(format!(
-            "--seconds must be within {} .. {} s (is {})",
-            SECONDS.0, SECONDS.1, o.seconds
-        )));
-    }
+    link::within("--speed", o.speed_deg_min, SPEED_DEG_MIN, "deg/min")?;
+    link::within("--seconds", o.seconds, SECONDS, "s")?;
     if o.travel_deg() > MAX_TRAVEL_DEG {
         return Err(Stop::Refused(format!(
             "--speed x --seconds turns the table {:.2} deg each way, more than a gauge's stroke \
@@ -98,38 +92,9 @@ pub fn check_options(o: &BacklashOptions) -> Result<(), Stop> {
     Ok(())
 }
 
-/// What a whole measurement proposes for the machine file.
-#[derive(Debug, Clone, PartialEq, serde::Serialize)]
-pub struct Proposal {
-    pub file: PathBuf,
-    pub lost_motion_arcsec: f64,
-    pub uncertainty_arcsec: f64,
-    /// The fit in words.
-    pub report: String,
-    /// The lines that change (`-`/`+` with their line numbers).
-    pub diff: String,
-    pub utc: String,
-    #[serde(skip)]
-    edit: Edit,
-}
-
-impl Proposal {
-    /// Writes the proposal (the file must still be as it was read), the old file kept;
-    /// returns the kept file.
-    pub fn write(&self) -> Result<PathBuf, Stop> {
-        self.edit.commit(&self.file, &self.utc)
-    }
-
-    /// The proposal and the diff as the CLI prints them.
-    pub fn text(&self) -> String {
-        format!(
-            "{}changes to {}:\n{}",
-            self.report,
-            self.file.display(),
-            self.diff
-        )
-    }
-}
+/// What a whole measurement proposes: the lost motion found (its figures in
+/// [`LostMotion`]).
+pub type Proposal = crate::Proposal<LostMotion>;
 
 /// Measures the lost motion on the running machine and proposes the record; `enabled` is
 /// asked before every renewal of a jog (false stops the table), `say` is told each step.
@@ -139,8 +104,7 @@ pub fn run(
     enabled: &dyn Fn() -> bool,
     say: &mut dyn FnMut(&str),
 ) -> Result<Proposal, Stop> {
-    let text = hob_store::files::read_text(machine_file).map_err(|e| Stop::Refused(e.to_string()))?;
-    let machine = machine_edit::check(machine_file, &text).map_err(|e| Stop::Refused(e.to_string()))?;
+    let (text, machine) = link::read_machine(machine_file)?;
     check_options(o)?;
     let Some(gauge) = machine.io.analog_inputs.table_gauge else {
         return Err(Stop::Refused(format!(
@@ -165,18 +129,7 @@ pub fn run(
     let utc = hob_store::utc::now();
     let new_text = proposal(&text, &l, o, &utc);
     machine_edit::check(machine_file, &new_text).map_err(|e| Stop::Failed(e.to_string()))?;
-    Ok(Proposal {
-        file: machine_file.to_path_buf(),
-        lost_motion_arcsec: l.arcsec,
-        uncertainty_arcsec: l.uncertainty_arcsec,
-        report,
-        diff: machine_edit::diff(&text, &new_text),
-        utc,
-        edit: Edit {
-            read_text: text,
-            new_text,
-        },
-    })
+    Ok(Proposal::new(machine_file, l, report, text, new_text, utc))
 }
 
 /// Whether the figure may be written: known to 10 %, or to [`WRITABLE_ARCSEC`].

@@ -19,12 +19,12 @@
 //! machine file at its start: the new delay takes effect when it is restarted.
 
 use crate::Stop;
-use crate::link::{self, Edit, connect};
+use crate::link::{self, connect};
 use hob_ipc::StateSample;
 use hob_ipc::codec;
 use hob_logger::delay::{DriveDelay, TableSample};
 use hob_store::machine_edit;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 /// The command must have run at one speed this long before a cycle counts: the drive's
 /// velocity loop settles within it (a 16 Hz position loop: 5 time constants in 0.05 s;
@@ -72,42 +72,15 @@ impl DelayOptions {
     }
 }
 
-/// What a whole measurement proposes for the machine file.
-#[derive(Debug, Clone, PartialEq, serde::Serialize)]
-pub struct Proposal {
-    pub file: PathBuf,
-    /// The delay found, us, and the one the file has.
+/// The delay found, us, and the one the machine file has.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct DelayFound {
     pub found_us: f64,
     pub assumed_us: u32,
-    /// The fit in words (the delay, the cycles, the residual at the found and the assumed
-    /// delay).
-    pub report: String,
-    /// The lines that change (`-`/`+` with their line numbers).
-    pub diff: String,
-    pub utc: String,
-    #[serde(skip)]
-    edit: Edit,
 }
 
-impl Proposal {
-    /// Writes the proposal (the file must still be as it was read), the old file kept;
-    /// returns the kept file.
-    pub fn write(&self) -> Result<PathBuf, Stop> {
-        self.edit.commit(&self.file, &self.utc)
-    }
-
-    /// The proposal and the diff as the CLI prints them.
-    pub fn text(&self) -> String {
-        format!(
-            "{}found {:.1} us; the machine file has {} us.\nchanges to {}:\n{}",
-            self.report,
-            self.found_us,
-            self.assumed_us,
-            self.file.display(),
-            self.diff
-        )
-    }
-}
+/// What a whole measurement proposes for the machine file.
+pub type Proposal = crate::Proposal<DelayFound>;
 
 /// Measures the delay on the running machine and proposes the machine file's change;
 /// `enabled` is asked before every renewal of a jog (a frontend's dead-man: false stops
@@ -118,8 +91,7 @@ pub fn run(
     enabled: &dyn Fn() -> bool,
     say: &mut dyn FnMut(&str),
 ) -> Result<Proposal, Stop> {
-    let text = hob_store::files::read_text(machine_file).map_err(|e| Stop::Refused(e.to_string()))?;
-    let machine = machine_edit::check(machine_file, &text).map_err(|e| Stop::Refused(e.to_string()))?;
+    let (text, machine) = link::read_machine(machine_file)?;
     check_options(o)?;
     let period_s = f64::from(machine.control.cycle_period_us) * 1e-6;
     let assumed_us = machine.control.drive_delay_us;
@@ -131,41 +103,28 @@ pub fn run(
     let new_text = proposal(&text, &m.delay, &utc, drive)?;
     // The proposal is checked as hob-rt will load it before it is shown.
     machine_edit::check(machine_file, &new_text).map_err(|e| Stop::Failed(e.to_string()))?;
-    Ok(Proposal {
-        file: machine_file.to_path_buf(),
-        found_us: m.delay.drive_delay_s * 1e6,
-        assumed_us,
-        report: format!(
-            "{}  steady cycles: + {}, - {}\n",
-            hob_logger::delay::text(&m.delay, f64::from(assumed_us) * 1e-6)
-                .replace("synchronised cut", "steady jog"),
-            m.steady_positive,
-            m.steady_negative,
-        ),
-        diff: machine_edit::diff(&text, &new_text),
+    let found_us = m.delay.drive_delay_s * 1e6;
+    let report = format!(
+        "{}  steady cycles: + {}, - {}\nfound {found_us:.1} us; the machine file has {assumed_us} us.\n",
+        hob_logger::delay::text(&m.delay, f64::from(assumed_us) * 1e-6)
+            .replace("synchronised cut", "steady jog"),
+        m.steady_positive,
+        m.steady_negative,
+    );
+    Ok(Proposal::new(
+        machine_file,
+        DelayFound { found_us, assumed_us },
+        report,
+        text,
+        new_text,
         utc,
-        edit: Edit {
-            read_text: text,
-            new_text,
-        },
-    })
+    ))
 }
 
 /// Refuses settings outside their limits, before anything moves.
 pub fn check_options(o: &DelayOptions) -> Result<(), Stop> {
-    let within = |v: f64, (lo, hi): (f64, f64)| v.is_finite() && (lo..=hi).contains(&v);
-    if !within(o.speed_deg_min, SPEED_DEG_MIN) {
-        return Err(Stop::Refused(format!(
-            "--speed must be within {} .. {} deg/min (is {})",
-            SPEED_DEG_MIN.0, SPEED_DEG_MIN.1, o.speed_deg_min
-        )));
-    }
-    if !within(o.seconds, SECONDS) {
-        return Err(Stop::Refused(format!(
-            "--seconds must be within {} .. {} s (is {})",
-            SECONDS.0, SECONDS.1, o.seconds
-        )));
-    }
+    link::within("--speed", o.speed_deg_min, SPEED_DEG_MIN, "deg/min")?;
+    link::within("--seconds", o.seconds, SECONDS, "s")?;
     Ok(())
 }
 

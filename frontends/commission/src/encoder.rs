@@ -22,12 +22,12 @@
 pub mod fit;
 
 use crate::Stop;
-use crate::link::{self, Edit, ask, connect, drain};
+use crate::link::{self, ask, connect, drain};
 use fit::{Reading, Separation, SpeedFit};
 use hob_ipc::{Commands, Feed};
 use hob_setup::config::machine::commissioning::HELD_SPINDLE_TRIM_FREEZE_S;
 use hob_store::machine_edit;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::time::{Duration, Instant};
 
 /// A speed is read once the spindle's mean speed over one window of whole turns (at least
@@ -161,40 +161,16 @@ pub fn check_options(o: &EncoderOptions, max_spindle_rpm: f64) -> Result<(), Sto
     Ok(())
 }
 
-/// What a whole measurement proposes for the machine file.
-#[derive(Debug, Clone, PartialEq, serde::Serialize)]
-pub struct Proposal {
-    pub file: PathBuf,
-    #[serde(skip)]
+/// What the speeds showed: each speed's fit and their separation into the encoder's error
+/// and the spindle's swing.
+#[derive(Debug, Clone, PartialEq)]
+pub struct EncoderFound {
     pub separation: Separation,
-    #[serde(skip)]
     pub fits: Vec<SpeedFit>,
-    /// The fits and the separation in words.
-    pub report: String,
-    /// The lines that change (`-`/`+` with their line numbers).
-    pub diff: String,
-    pub utc: String,
-    #[serde(skip)]
-    edit: Edit,
 }
 
-impl Proposal {
-    /// Writes the proposal (the file must still be as it was read), the old file kept;
-    /// returns the kept file.
-    pub fn write(&self) -> Result<PathBuf, Stop> {
-        self.edit.commit(&self.file, &self.utc)
-    }
-
-    /// The proposal and the diff as the CLI prints them.
-    pub fn text(&self) -> String {
-        format!(
-            "{}changes to {}:\n{}",
-            self.report,
-            self.file.display(),
-            self.diff
-        )
-    }
-}
+/// What a whole measurement proposes for the machine file.
+pub type Proposal = crate::Proposal<EncoderFound>;
 
 /// Measures on the running machine and proposes the machine file's record; `enabled` is
 /// asked before every renewal of the hold (a frontend's dead-man: false stops the spindle
@@ -205,8 +181,7 @@ pub fn run(
     enabled: &dyn Fn() -> bool,
     say: &mut dyn FnMut(&str),
 ) -> Result<Proposal, Stop> {
-    let text = hob_store::files::read_text(machine_file).map_err(|e| Stop::Refused(e.to_string()))?;
-    let machine = machine_edit::check(machine_file, &text).map_err(|e| Stop::Refused(e.to_string()))?;
+    let (text, machine) = link::read_machine(machine_file)?;
     let max_rpm = machine.spindle.max_spindle_rpm;
     let o = o.on_machine(max_rpm);
     check_options(&o, max_rpm)?;
@@ -270,18 +245,15 @@ pub fn run(
     let new_text = proposal(&text, &separation, &o.speeds_rpm, &utc);
     // The proposal is checked as hob-rt will load it before it is shown.
     machine_edit::check(machine_file, &new_text).map_err(|e| Stop::Failed(e.to_string()))?;
-    Ok(Proposal {
-        file: machine_file.to_path_buf(),
-        report: report(&fits, &separation),
-        separation,
-        fits,
-        diff: machine_edit::diff(&text, &new_text),
+    let words = report(&fits, &separation);
+    Ok(Proposal::new(
+        machine_file,
+        EncoderFound { separation, fits },
+        words,
+        text,
+        new_text,
         utc,
-        edit: Edit {
-            read_text: text,
-            new_text,
-        },
-    })
+    ))
 }
 
 /// Whether the error is known well enough to be written: to [`MAX_UNCERTAINTY_SHARE`] of

@@ -24,6 +24,61 @@ pub mod encoder;
 mod link;
 pub mod report;
 
+/// What a whole measurement proposes for the machine file: the procedure's own figures
+/// (`measured`), the fit in words, the change as a line diff; written only by
+/// [`Proposal::write`], on the builder's confirmation, and only into the file as it was
+/// read.
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub struct Proposal<M> {
+    pub file: std::path::PathBuf,
+    #[serde(skip)]
+    pub measured: M,
+    /// The measurement and its fit in words.
+    pub report: String,
+    /// The lines that change (`-`/`+` with their line numbers).
+    pub diff: String,
+    pub utc: String,
+    #[serde(skip)]
+    edit: link::Edit,
+}
+
+impl<M> Proposal<M> {
+    /// The proposal of `new_text` for `file`, read as `read_text`.
+    pub(crate) fn new(
+        file: &std::path::Path,
+        measured: M,
+        report: String,
+        read_text: String,
+        new_text: String,
+        utc: String,
+    ) -> Self {
+        Self {
+            file: file.to_path_buf(),
+            measured,
+            report,
+            diff: hob_store::machine_edit::diff(&read_text, &new_text),
+            utc,
+            edit: link::Edit { read_text, new_text },
+        }
+    }
+
+    /// Writes the proposal (the file must still be as it was read), the old file kept;
+    /// returns the kept file.
+    pub fn write(&self) -> Result<std::path::PathBuf, Stop> {
+        self.edit.commit(&self.file, &self.utc)
+    }
+
+    /// The proposal and the diff as the CLI prints them.
+    pub fn text(&self) -> String {
+        format!(
+            "{}changes to {}:\n{}",
+            self.report,
+            self.file.display(),
+            self.diff
+        )
+    }
+}
+
 /// Why a procedure stopped without a result (nothing was written).
 #[derive(Debug, Clone, PartialEq)]
 pub enum Stop {

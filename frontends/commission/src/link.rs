@@ -112,8 +112,26 @@ pub(crate) fn held_jog(
     Ok(())
 }
 
+/// The machine file's text and its configuration, checked as hob-rt loads it; refused (before
+/// anything moves) when it cannot be read or does not hold.
+pub(crate) fn read_machine(file: &Path) -> Result<(String, hob_setup::config::machine::MachineConfig), Stop> {
+    let text = hob_store::files::read_text(file).map_err(|e| Stop::Refused(e.to_string()))?;
+    let machine = machine_edit::check(file, &text).map_err(|e| Stop::Refused(e.to_string()))?;
+    Ok((text, machine))
+}
+
+/// A setting within its limits, or refused naming its option.
+pub(crate) fn within(option: &str, value: f64, (lo, hi): (f64, f64), unit: &str) -> Result<(), Stop> {
+    if value.is_finite() && (lo..=hi).contains(&value) {
+        return Ok(());
+    }
+    Err(Stop::Refused(format!(
+        "{option} must be within {lo} .. {hi} {unit} (is {value})"
+    )))
+}
+
 /// How long a released jog is left to come to rest.
-const REST: Duration = Duration::from_millis(600);
+pub(crate) const REST: Duration = Duration::from_millis(600);
 
 /// A change of the machine file as it was read and as it is proposed.
 #[derive(Debug, Clone, PartialEq)]

@@ -238,8 +238,8 @@ fn hello(m: &MachineConfig, level: Role) -> serde_json::Value {
 
 /// What the DIAGNOSTICS card tells of the procedures before they are pressed (the panel runs
 /// their default options): the speeds the hob spindle will turn at for the encoder and about
-/// how long (each speed read, and some 10 s to ramp and settle before it); the table's jogs
-/// for the backlash (three, each left some 0.6 s to rest) and the gauge the machine file
+/// how long (each speed read, and some 14 s to ramp and settle before it); the table's jogs
+/// for the backlash (three, each left to rest) and the gauge the machine file
 /// names (`null`: none, the measurement is refused).
 fn commissioning(m: &MachineConfig) -> serde_json::Value {
     let o = hob_commission::encoder::EncoderOptions::default().on_machine(m.spindle.max_spindle_rpm);
@@ -255,7 +255,7 @@ fn commissioning(m: &MachineConfig) -> serde_json::Value {
             "speed_deg_min": b.speed_deg_min,
             "seconds": b.seconds,
             "travel_deg": b.travel_deg(),
-            "about_s": (3.0 * (b.seconds + 0.6)).ceil(),
+            "about_s": b.about_s().ceil(),
             "gauge_channel": m.io.analog_inputs.table_gauge.map(|g| g.channel),
         },
     })

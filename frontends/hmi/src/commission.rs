@@ -147,18 +147,18 @@ impl Held {
         match self {
             Held::Delay(p) => format!(
                 "found {:.1} us; the machine file has {} us",
-                p.found_us, p.assumed_us
+                p.measured.found_us, p.measured.assumed_us
             ),
             Held::Encoder(p) => format!(
                 "the encoder's error found: {:.1} arcsec once per turn (+- {:.1}); proposed as \
                  [commissioning.spindle_encoder], the fits and the diff below",
-                p.separation.encoder[0].amplitude_arcsec(),
-                p.separation.error_uncertainty_arcsec
+                p.measured.separation.encoder[0].amplitude_arcsec(),
+                p.measured.separation.error_uncertainty_arcsec
             ),
             Held::Backlash(p) => format!(
                 "the table drive's lost motion found: {:.2} arcsec (+- {:.2}); proposed as \
                  [commissioning.table_backlash], the fit and the diff below",
-                p.lost_motion_arcsec, p.uncertainty_arcsec
+                p.measured.arcsec, p.measured.uncertainty_arcsec
             ),
         }
     }

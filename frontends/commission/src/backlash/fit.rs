@@ -59,6 +59,9 @@ pub enum FitError {
     },
     /// The gauge did not move with the table (not touching, not wired, out of its range).
     GaugeStill { jog: usize },
+    /// The gauge read the end of the coupler's input range: beyond its stroke, or not set
+    /// to zero where the table stands.
+    GaugeAtItsEnd { jog: usize },
     /// The jogs covered too little of the same gauge range.
     NoOverlap { readings: usize },
     /// Not a jog each way.
@@ -89,6 +92,11 @@ impl std::fmt::Display for FitError {
                 "the jogs met on too little of the same table travel ({readings} readings): \
                  jog longer"
             ),
+            FitError::GaugeAtItsEnd { jog } => write!(
+                f,
+                "jog {jog}: the gauge reads the end of its input range (beyond its stroke): set \
+                 it to zero where the table stands, or jog less far"
+            ),
             FitError::OneWay => write!(f, "a jog each way is needed"),
             FitError::Singular => write!(f, "the gauge's readings do not span a range to fit"),
         }
@@ -104,6 +112,8 @@ pub struct Window {
 
 /// A jog needs this many steady gauge readings.
 pub const MIN_READINGS: usize = 12;
+/// The coupler's 16-bit input's ends, counts (-32768 and 32767).
+const INPUT_END: f64 = 32767.0;
 /// Readings kept off the start of the steady part (the table's last settling).
 const MARGIN: usize = 2;
 
@@ -133,6 +143,13 @@ pub fn window(jog: &Jog, n: usize) -> Result<Window, FitError> {
     };
     if pts.len() < MIN_READINGS {
         return Err(few(pts.len()));
+    }
+    let at_end = pts
+        .iter()
+        .filter(|p| p.1 >= INPUT_END || p.1 <= -INPUT_END - 1.0)
+        .count();
+    if 2 * at_end > pts.len() {
+        return Err(FitError::GaugeAtItsEnd { jog: n });
     }
     // A line through the last half, extended back while the readings stay on it.
     let half = &pts[pts.len() / 2..];

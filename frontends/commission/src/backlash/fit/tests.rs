@@ -89,3 +89,19 @@ fn one_way_only_is_refused() {
     let w = window(&j[0], 1).unwrap();
     assert_eq!(lost_motion(&[w.clone(), w]), Err(FitError::OneWay));
 }
+
+#[test]
+fn a_gauge_at_the_end_of_its_range_is_named() {
+    let mut j = jogs(25.0, 1.0, 3.0, 4.0, 50);
+    for s in &mut j[0].samples {
+        if s.gauge_counts.is_finite() {
+            s.gauge_counts = -32768.0;
+        }
+    }
+    assert_eq!(window(&j[0], 1), Err(FitError::GaugeAtItsEnd { jog: 1 }));
+    assert!(
+        FitError::GaugeAtItsEnd { jog: 1 }
+            .to_string()
+            .contains("set it to zero")
+    );
+}
