@@ -557,6 +557,32 @@ pub fn commissioning(machine: &MachineConfig) -> Finding {
     }
 }
 
+/// A table gauge named in the machine file (`hob commission backlash`): mounted for
+/// commissioning, not for production, where its TPDO only takes the bus's margin.
+pub fn table_gauge(machine: &MachineConfig) -> Option<Finding> {
+    let g = machine.io.analog_inputs.table_gauge?;
+    let measured = machine
+        .commissioning
+        .as_ref()
+        .and_then(|c| c.table_backlash.as_ref())
+        .map_or("not measured yet".to_string(), |b| {
+            format!(
+                "lost motion {:.2} arcsec measured {}",
+                b.lost_motion_arcsec, b.utc
+            )
+        });
+    Some(finding(
+        "table gauge",
+        Level::Info,
+        format!(
+            "io.analog_inputs.table_gauge names the coupler's analog input {}: the coupler sends it every {} SYNCs ({measured})",
+            g.channel,
+            hob_setup::config::machine::TABLE_GAUGE_EVERY_SYNCS
+        ),
+        "once the backlash is measured and the gauge is off the table: remove [io.analog_inputs] table_gauge, then restart hob-rt",
+    ))
+}
+
 pub fn run(machine: &MachineConfig, cyclictest_seconds: u32) -> Vec<Finding> {
     let core = machine.service.loop_core;
     let prio = machine.service.loop_priority;
@@ -568,6 +594,7 @@ pub fn run(machine: &MachineConfig, cyclictest_seconds: u32) -> Vec<Finding> {
     v.push(clocksource());
     v.push(cyclictest(core, prio, cyclictest_seconds));
     v.push(commissioning(machine));
+    v.extend(table_gauge(machine));
     v
 }
 
@@ -626,6 +653,21 @@ mod tests {
         let f = commissioning(&m);
         assert_eq!(f.level, Level::Warn, "{f:?}");
         assert!(f.fix.contains("hob commission delay"), "{f:?}");
+    }
+
+    #[test]
+    fn a_named_table_gauge_is_said_with_what_it_measured() {
+        let shipped = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../config/machine.toml");
+        let mut m = hob_store::files::load_machine(&shipped).unwrap();
+        assert!(table_gauge(&m).is_none());
+        m.io.analog_inputs.table_gauge = Some(hob_setup::config::machine::AnalogBinding { channel: 1 });
+        let f = table_gauge(&m).unwrap();
+        assert_eq!(f.level, Level::Info, "{f:?}");
+        assert!(
+            f.found.contains("analog input 1") && f.found.contains("not measured yet"),
+            "{f:?}"
+        );
+        assert!(f.fix.contains("remove [io.analog_inputs] table_gauge"), "{f:?}");
     }
 
     #[test]
