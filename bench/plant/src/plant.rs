@@ -585,8 +585,7 @@ impl Plant {
             y: fb(&self.y, &self.drives[2]),
             digital_inputs: self.io.encode_inputs(&self.inputs()),
             io_valid: true,
-            table_gauge_counts: self.table_gauge_counts().unwrap_or(0),
-            table_gauge_fresh: self.cfg.peripherals.table_gauge.is_some(),
+            table_gauge_counts: self.table_gauge_counts(),
         }
     }
 

@@ -82,18 +82,14 @@ fn once_commissioned_every_shipped_gear_meets_its_goal_nominal_and_heavy_with_an
         );
         let mut machine = common::machine();
         machine.control.drive_delay_us = found_us.round() as u32;
-        for (gear, d, cross_coupling) in GEARS.iter().flat_map(|g| {
-            [Disturbance::Nominal, Disturbance::Heavy]
-                .into_iter()
-                .flat_map(move |d| [true, false].map(|c| (*g, d, c)))
-        }) {
-            {
+        for d in [Disturbance::Nominal, Disturbance::Heavy] {
+            let disturbed = d.apply(&plant);
+            for (gear, cross_coupling) in GEARS.iter().flat_map(|g| [(*g, true), (*g, false)]) {
                 let options = SimOptions {
                     grade: d.goal_grade(),
                     cross_coupling,
                     ..SimOptions::default()
                 };
-                let disturbed = d.apply(&plant);
                 let (job, cycle, plan) = common::program_on(&machine, gear, &[]);
                 let s =
                     run_program(&machine, &disturbed, &cycle, &plan, &job, &options, &mut |_| {}).unwrap();

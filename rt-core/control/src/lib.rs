@@ -75,10 +75,9 @@ pub struct CycleInputs {
     /// The input image is current: it arrived at least once and the coupler is alive.
     /// While false the inputs read as inactive with the safety chain open.
     pub io_valid: bool,
-    /// The table gauge's analog input (CiA 401, 16-bit), when it was latched at this
-    /// cycle's SYNC (`table_gauge_fresh`; a gauge is mounted for commissioning only).
-    pub table_gauge_counts: i16,
-    pub table_gauge_fresh: bool,
+    /// The table gauge's analog input (CiA 401, 16-bit), when one was latched at this
+    /// cycle's SYNC (a gauge is mounted for commissioning only).
+    pub table_gauge_counts: Option<i16>,
 }
 
 /// Everything to send for the next SYNC.
@@ -579,11 +578,7 @@ impl Controller {
         self.measured = Measured {
             spindle_deg: est.angle_deg,
             spindle_reading_deg: reading,
-            table_gauge_counts: if input.table_gauge_fresh {
-                f64::from(input.table_gauge_counts)
-            } else {
-                f64::NAN
-            },
+            table_gauge_counts: input.table_gauge_counts.map_or(f64::NAN, f64::from),
             spindle_speed_deg_s: est.speed_deg_s,
             spindle_for_gearbox_deg: for_gearbox,
             table_deg: self

@@ -782,10 +782,8 @@ impl Cyclic {
         let io_alive = self.liveness[3].cycles_since_heartbeat < lost_at;
         // Synchronous like the table drive's position: a reading that came with the table's
         // current one was latched at the same SYNC (one without it is not paired).
-        let gauge = self.gauge.take().filter(|_| fb[0].fresh);
         CycleInputs {
-            table_gauge_counts: gauge.unwrap_or(0),
-            table_gauge_fresh: gauge.is_some(),
+            table_gauge_counts: self.gauge.take().filter(|_| fb[0].fresh),
             io_valid: self.inputs_seen && io_alive,
             spindle_counts: self.spindle,
             table: fb[0],
