@@ -23,6 +23,7 @@ pub mod delay;
 pub mod encoder;
 mod link;
 pub mod report;
+pub mod response;
 
 /// What a whole measurement proposes for the machine file: the procedure's own figures
 /// (`measured`), the fit in words, the change as a line diff; written only by
