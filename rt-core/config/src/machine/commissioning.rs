@@ -46,6 +46,31 @@
 //! papers); the loop does not use it: a hobbing cut turns the table one way only, and every
 //! approach of the table (the tooth phase of an interrupted part) comes from the same side.
 //!
+//! ```toml
+//! [commissioning.table_drive_gains]
+//! utc = 2026-11-29T09:10:05Z               # when the table's frequency response was measured
+//! velocity_kp_nm_s_per_rad = 1.91          # written to the drive (0x60F9:01) ...
+//! velocity_integral_time_ms = 8.6          # ... (0x60F9:02, Ti = kp / ki) ...
+//! position_kv_per_s = 100.5                # ... (0x60FB:01)
+//! previous_velocity_kp_nm_s_per_rad = 7.5  # the drive's own values when measured: the old
+//! previous_velocity_integral_time_ms = 1.6 # values kept, to go back to by hand
+//! previous_position_kv_per_s = 377.0
+//! velocity_gain_margin_db = 9.1            # the margins of the written gains on the fitted model
+//! velocity_phase_margin_deg = 45.0
+//! position_gain_margin_db = 8.9
+//! position_phase_margin_deg = 41.0
+//! mesh_antiresonance_hz = 50.3             # the mechanism as the measurement found it
+//! mesh_resonance_hz = 137.0
+//! table_drive_vendor_id = 0x00000B0B       # the drive it was measured on (0x1018), as drive_delay's
+//! table_drive_product_code = 0x00020192
+//! table_drive_serial = 0x00001002
+//! ```
+//!
+//! `hob-rt`'s boot writes the three gains to the table drive (and reads them back) only when
+//! the record names the table drive on the bus; a record of another drive is not written,
+//! and hob-rt says so. A record of a proposal with less than [`MIN_GAIN_MARGIN_DB`] or
+//! [`MIN_PHASE_MARGIN_DEG`] is refused: an unstable or barely stable tuning is never written.
+//!
 //! The loop identifies the once-per-turn part of the reading anew at each start (the counter
 //! is incremental, so its phase is new), and cannot tell an error of the disc from a true
 //! swing of the spindle at one speed. The record tells them apart: both are fixed to the
@@ -66,6 +91,149 @@ pub struct Commissioning {
     pub spindle_encoder: Option<SpindleEncoderRecord>,
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub table_backlash: Option<TableBacklashRecord>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub table_drive_gains: Option<TableDriveGainsRecord>,
+}
+
+/// The table drive's gains as `hob commission` proposed them from the table's frequency
+/// response through the worm, and the operator confirmed: the values written to the drive
+/// at boot, the drive's own values they replaced, the margins and the mechanism's modes.
+#[derive(Debug, Clone, PartialEq, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct TableDriveGainsRecord {
+    pub utc: toml::value::Datetime,
+    /// The velocity loop's proportional gain, N m s/rad at the motor.
+    pub velocity_kp_nm_s_per_rad: f64,
+    /// The velocity loop's integral time (kp / ki), ms.
+    pub velocity_integral_time_ms: f64,
+    /// The position loop's gain, 1/s.
+    pub position_kv_per_s: f64,
+    /// The drive's own gains when it was measured (the old values kept).
+    pub previous_velocity_kp_nm_s_per_rad: f64,
+    pub previous_velocity_integral_time_ms: f64,
+    pub previous_position_kv_per_s: f64,
+    /// The margins of the written gains on the fitted model of the mechanism.
+    pub velocity_gain_margin_db: f64,
+    pub velocity_phase_margin_deg: f64,
+    pub position_gain_margin_db: f64,
+    pub position_phase_margin_deg: f64,
+    /// The worm mesh's antiresonance and resonance as the measurement found them, Hz.
+    pub mesh_antiresonance_hz: f64,
+    pub mesh_resonance_hz: f64,
+    /// The table drive it was measured on (CiA 301 0x1018 sub 1, 2, 4).
+    pub table_drive_vendor_id: u32,
+    pub table_drive_product_code: u32,
+    pub table_drive_serial: u32,
+}
+
+/// The least gain margin a record of gains may hold, dB.
+pub const MIN_GAIN_MARGIN_DB: f64 = 3.0;
+/// The least phase margin a record of gains may hold, deg.
+pub const MIN_PHASE_MARGIN_DEG: f64 = 30.0;
+/// The ranges a drive gain may take (a record's, and the drives' objects'): the velocity
+/// loop's gain, N m s/rad ...
+pub const VELOCITY_KP_RANGE_NM_S_PER_RAD: (f64, f64) = (1e-4, 1000.0);
+/// ... its integral time, ms ...
+pub const VELOCITY_INTEGRAL_TIME_RANGE_MS: (f64, f64) = (0.01, 10_000.0);
+/// ... and the position loop's gain, 1/s.
+pub const POSITION_KV_RANGE_PER_S: (f64, f64) = (0.001, 10_000.0);
+
+impl TableDriveGainsRecord {
+    /// Whether it was measured on the drive that names itself so.
+    pub fn is_of(&self, vendor_id: u32, product_code: u32, serial: u32) -> bool {
+        (
+            self.table_drive_vendor_id,
+            self.table_drive_product_code,
+            self.table_drive_serial,
+        ) == (vendor_id, product_code, serial)
+    }
+
+    fn validate(&self, p: &mut Problems) {
+        const K: &str = "commissioning.table_drive_gains";
+        utc_whole(&self.utc, &format!("{K}.utc"), p);
+        let (kp, ti, kv) = (
+            VELOCITY_KP_RANGE_NM_S_PER_RAD,
+            VELOCITY_INTEGRAL_TIME_RANGE_MS,
+            POSITION_KV_RANGE_PER_S,
+        );
+        for (key, v, (lo, hi), unit) in [
+            (
+                "velocity_kp_nm_s_per_rad",
+                self.velocity_kp_nm_s_per_rad,
+                kp,
+                "N m s/rad",
+            ),
+            (
+                "velocity_integral_time_ms",
+                self.velocity_integral_time_ms,
+                ti,
+                "ms",
+            ),
+            ("position_kv_per_s", self.position_kv_per_s, kv, "1/s"),
+            (
+                "previous_velocity_kp_nm_s_per_rad",
+                self.previous_velocity_kp_nm_s_per_rad,
+                kp,
+                "N m s/rad",
+            ),
+            (
+                "previous_velocity_integral_time_ms",
+                self.previous_velocity_integral_time_ms,
+                ti,
+                "ms",
+            ),
+            (
+                "previous_position_kv_per_s",
+                self.previous_position_kv_per_s,
+                kv,
+                "1/s",
+            ),
+            (
+                "velocity_gain_margin_db",
+                self.velocity_gain_margin_db,
+                (MIN_GAIN_MARGIN_DB, 100.0),
+                "dB",
+            ),
+            (
+                "position_gain_margin_db",
+                self.position_gain_margin_db,
+                (MIN_GAIN_MARGIN_DB, 100.0),
+                "dB",
+            ),
+            (
+                "velocity_phase_margin_deg",
+                self.velocity_phase_margin_deg,
+                (MIN_PHASE_MARGIN_DEG, 180.0),
+                "deg",
+            ),
+            (
+                "position_phase_margin_deg",
+                self.position_phase_margin_deg,
+                (MIN_PHASE_MARGIN_DEG, 180.0),
+                "deg",
+            ),
+            (
+                "mesh_antiresonance_hz",
+                self.mesh_antiresonance_hz,
+                (0.1, 10_000.0),
+                "Hz",
+            ),
+            ("mesh_resonance_hz", self.mesh_resonance_hz, (0.1, 10_000.0), "Hz"),
+        ] {
+            p.within(&format!("{K}.{key}"), v, lo, hi, unit);
+        }
+        p.require(
+            !(self.mesh_antiresonance_hz >= self.mesh_resonance_hz),
+            &format!("{K}.mesh_antiresonance_hz"),
+            || {
+                format!(
+                    "must be below mesh_resonance_hz (is {} Hz against {} Hz): a motor driving \
+                     a load through a spring sees the antiresonance first",
+                    self.mesh_antiresonance_hz, self.mesh_resonance_hz
+                )
+            },
+        );
+    }
 }
 
 /// The table drive's lost motion at a reversal, as `hob commission backlash` found it
@@ -188,6 +356,9 @@ impl Commissioning {
         }
         if let Some(b) = &self.table_backlash {
             b.validate(p);
+        }
+        if let Some(g) = &self.table_drive_gains {
+            g.validate(p);
         }
         let Some(d) = &self.drive_delay else {
             return;

@@ -280,3 +280,74 @@ fn a_backlash_record_out_of_its_ranges_is_refused_naming_the_key() {
         "commissioning.table_backlash.speed_deg_min"
     );
 }
+
+/// The example record of the table drive's gains, with `edit` applied to its lines.
+fn gains_record(edit: &[(&str, &str)]) -> String {
+    let mut lines = vec![
+        ("utc", "2026-11-29T09:10:05Z"),
+        ("velocity_kp_nm_s_per_rad", "1.91"),
+        ("velocity_integral_time_ms", "8.6"),
+        ("position_kv_per_s", "100.5"),
+        ("previous_velocity_kp_nm_s_per_rad", "7.5"),
+        ("previous_velocity_integral_time_ms", "1.6"),
+        ("previous_position_kv_per_s", "377.0"),
+        ("velocity_gain_margin_db", "9.1"),
+        ("velocity_phase_margin_deg", "45.0"),
+        ("position_gain_margin_db", "8.9"),
+        ("position_phase_margin_deg", "41.0"),
+        ("mesh_antiresonance_hz", "50.3"),
+        ("mesh_resonance_hz", "137.0"),
+        ("table_drive_vendor_id", "0x00000B0B"),
+        ("table_drive_product_code", "0x00020192"),
+        ("table_drive_serial", "0x00001002"),
+    ];
+    for (key, value) in edit {
+        if let Some(l) = lines.iter_mut().find(|l| l.0 == *key) {
+            l.1 = value;
+        }
+    }
+    let body: String = lines.iter().map(|(k, v)| format!("{k} = {v}\n")).collect();
+    format!("{}\n[commissioning.table_drive_gains]\n{body}", shipped_src())
+}
+
+#[test]
+fn a_gains_record_is_read_with_the_drive_it_names() {
+    let m = load_src(&gains_record(&[])).unwrap();
+    let g = m.commissioning.and_then(|c| c.table_drive_gains).unwrap();
+    assert_eq!(g.velocity_kp_nm_s_per_rad, 1.91);
+    assert_eq!(g.velocity_integral_time_ms, 8.6);
+    assert_eq!(g.position_kv_per_s, 100.5);
+    assert_eq!(g.previous_position_kv_per_s, 377.0);
+    assert_eq!(g.mesh_resonance_hz, 137.0);
+    assert!(g.is_of(0x0B0B, 0x0002_0192, 0x1002));
+    assert!(!g.is_of(0x0B0B, 0x0002_0192, 0x1003));
+    assert!(!g.is_of(0x0B0C, 0x0002_0192, 0x1002));
+}
+
+#[test]
+fn a_gains_record_out_of_its_ranges_is_refused_naming_the_key() {
+    let k = |key: &str| format!("commissioning.table_drive_gains.{key}");
+    for (key, value) in [
+        ("velocity_kp_nm_s_per_rad", "0.0"),
+        ("velocity_kp_nm_s_per_rad", "nan"),
+        ("velocity_integral_time_ms", "-8.6"),
+        ("position_kv_per_s", "1e9"),
+        ("previous_velocity_kp_nm_s_per_rad", "0.0"),
+        ("previous_position_kv_per_s", "inf"),
+        // A proposal with too little margin is never a record to write.
+        ("velocity_gain_margin_db", "2.9"),
+        ("position_gain_margin_db", "-1.0"),
+        ("velocity_phase_margin_deg", "29.0"),
+        ("position_phase_margin_deg", "12.0"),
+        ("mesh_resonance_hz", "0.0"),
+        ("mesh_antiresonance_hz", "140.0"),
+        ("utc", "2026-11-29T09:10:05"),
+    ] {
+        let err = load_src(&gains_record(&[(key, value)])).unwrap_err();
+        assert!(
+            err.problems().iter().any(|p| p.key == k(key)),
+            "{key} = {value}: {:?}",
+            err.problems()
+        );
+    }
+}
