@@ -41,6 +41,15 @@ pub struct ServoParams {
     pub extra_delay_s: f64,
 }
 
+/// The drive's loop gains, as a drive's parameters name them: the PI velocity loop's
+/// proportional gain and integral time (`ki = kp / Ti`), the P position loop's gain.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ServoGains {
+    pub velocity_kp_nm_s_per_rad: f64,
+    pub velocity_integral_time_s: f64,
+    pub position_kv_per_s: f64,
+}
+
 /// One servo axis in motor coordinates (rad).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Servo {
@@ -107,6 +116,32 @@ impl Servo {
             disturbance_nm: 0.0,
             process_load_nm: 0.0,
         }
+    }
+
+    /// The loops' gains in use (at start-up from the parameters' bandwidths: kp = J w_v,
+    /// ki = J w_v^2 / 4, so Ti = 4 / w_v; kv = 2 pi `position_loop_hz`).
+    pub fn gains(&self) -> ServoGains {
+        ServoGains {
+            velocity_kp_nm_s_per_rad: self.kp_v,
+            velocity_integral_time_s: self.kp_v / self.ki_v,
+            position_kv_per_s: self.kv,
+        }
+    }
+
+    /// Changes the loops' gains at once, as a drive does when its parameters are written
+    /// while it runs. Bumpless in the integral: it is held as a torque, so a new integral
+    /// time changes only how fast it moves from here; the proportional part steps with
+    /// the new gain times the present error, as a real drive's does. Gains that are not
+    /// finite and positive are ignored (the caller checks them; the dictionary refuses
+    /// them by SDO).
+    pub fn set_gains(&mut self, g: ServoGains) {
+        let ok = |v: f64| v.is_finite() && v > 0.0;
+        if !(ok(g.velocity_kp_nm_s_per_rad) && ok(g.velocity_integral_time_s) && ok(g.position_kv_per_s)) {
+            return;
+        }
+        self.kp_v = g.velocity_kp_nm_s_per_rad;
+        self.ki_v = g.velocity_kp_nm_s_per_rad / g.velocity_integral_time_s;
+        self.kv = g.position_kv_per_s;
     }
 
     /// The torque the loops hold since their last sample, Nm (0 while disabled).
@@ -211,5 +246,69 @@ impl Servo {
             / self.p.inertia_kg_m2;
         self.motor_rad_s += acc * dt_s;
         self.motor_rad += self.motor_rad_s * dt_s;
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn servo() -> Servo {
+        let p = ServoParams {
+            inertia_kg_m2: 0.003,
+            tuned_inertia_kg_m2: 0.003,
+            counts_per_rad: 1e5,
+            peak_torque_nm: 20.0,
+            velocity_loop_hz: 400.0,
+            position_loop_hz: 60.0,
+            velocity_feed_forward: 1.0,
+            friction_nm: 0.0,
+            static_friction_nm: 0.0,
+            stribeck_rad_s: 0.1,
+            constant_load_nm: 0.5,
+            brake: false,
+            loop_period_s: 1.0 / 16_000.0,
+            feedback_counts_per_rad: 1e6,
+            velocity_filter_hz: 2000.0,
+            extra_delay_s: 0.0,
+        };
+        Servo::new(p, 0.0, 1e-3)
+    }
+
+    #[test]
+    fn the_start_up_gains_are_the_bandwidths_and_a_change_is_bumpless() {
+        let mut s = servo();
+        let g = s.gains();
+        let wv = TAU * 400.0;
+        assert!((g.velocity_kp_nm_s_per_rad - 0.003 * wv).abs() < 1e-12);
+        assert!((g.velocity_integral_time_s - 4.0 / wv).abs() < 1e-15);
+        assert!((g.position_kv_per_s - TAU * 60.0).abs() < 1e-12);
+        // Hold against a constant load: the integral carries it.
+        s.enabled = true;
+        for _ in 0..16_000 {
+            s.advance(1.0 / 16_000.0);
+        }
+        let held = s.integral;
+        assert!((held - 0.5).abs() < 0.05, "{held}");
+        let new = ServoGains {
+            velocity_kp_nm_s_per_rad: 1.91,
+            velocity_integral_time_s: 8.6e-3,
+            position_kv_per_s: 100.5,
+        };
+        s.set_gains(new);
+        assert_eq!(s.integral, held);
+        let back = s.gains();
+        assert!((back.velocity_integral_time_s - 8.6e-3).abs() < 1e-15);
+        assert_eq!(back.position_kv_per_s, 100.5);
+        // The torque does not jump at the next sample.
+        let before = s.torque_nm();
+        s.advance(1.0 / 16_000.0);
+        assert!((s.torque_nm() - before).abs() < 0.05, "{before} -> {}", s.torque_nm());
+        // Nonsense is ignored.
+        s.set_gains(ServoGains {
+            position_kv_per_s: 0.0,
+            ..new
+        });
+        assert_eq!(s.gains().position_kv_per_s, 100.5);
     }
 }

@@ -21,12 +21,31 @@ struct Entry {
     /// The only values a write may bring (signed 8-bit entries such as 0x6060, 0x6098):
     /// any other is refused (by SDO: abort 0x0609_0030 value range exceeded).
     allowed: Option<Vec<i8>>,
+    /// The least and greatest value an UNSIGNED32 entry may take (the gains 0x60F9,
+    /// 0x60FB): any other is refused (by SDO: abort 0x0609_0030 value range exceeded).
+    range: Option<(u32, u32)>,
 }
 
 /// A node's object dictionary.
 #[derive(Debug, Clone, Default, PartialEq, Eq)]
 pub struct Od {
     entries: BTreeMap<(u16, u8), Entry>,
+}
+
+impl Entry {
+    fn accepts(&self, data: &[u8]) -> bool {
+        let in_values = match &self.allowed {
+            Some(values) => data.len() == 1 && values.contains(&(data[0] as i8)),
+            None => true,
+        };
+        let in_range = match self.range {
+            Some((lo, hi)) => {
+                <[u8; 4]>::try_from(data).is_ok_and(|b| (lo..=hi).contains(&u32::from_le_bytes(b)))
+            }
+            None => true,
+        };
+        in_values && in_range
+    }
 }
 
 impl Od {
@@ -39,6 +58,7 @@ impl Od {
                 size: Some(data.len()),
                 mappable: index >= 0x2000,
                 allowed: None,
+                range: None,
             },
         );
         self
@@ -53,6 +73,7 @@ impl Od {
                 size: None,
                 mappable: false,
                 allowed: None,
+                range: None,
             },
         );
         self
@@ -68,6 +89,7 @@ impl Od {
                 size: None,
                 mappable: false,
                 allowed: None,
+                range: None,
             },
         );
         self
@@ -81,12 +103,17 @@ impl Od {
         self
     }
 
+    /// Restricts an UNSIGNED32 entry to `lo..=hi` (see [`Self::accepts`]).
+    pub fn limit(&mut self, index: u16, sub: u8, lo: u32, hi: u32) -> &mut Self {
+        if let Some(e) = self.entries.get_mut(&(index, sub)) {
+            e.range = Some((lo, hi));
+        }
+        self
+    }
+
     /// Whether `data` is a value the entry may take (always, unless restricted).
     pub fn accepts(&self, index: u16, sub: u8, data: &[u8]) -> bool {
-        match self.entries.get(&(index, sub)).and_then(|e| e.allowed.as_ref()) {
-            Some(values) => data.len() == 1 && values.contains(&(data[0] as i8)),
-            None => true,
-        }
+        self.entries.get(&(index, sub)).is_none_or(|e| e.accepts(data))
     }
 
     pub fn u32(&self, index: u16, sub: u8) -> u32 {
@@ -192,7 +219,7 @@ impl ObjectDictionary for Od {
                 AbortCode(0x0607_0013)
             });
         }
-        if e.allowed.as_ref().is_some_and(|v| !v.contains(&(data[0] as i8))) {
+        if !e.accepts(data) {
             return Err(AbortCode::INVALID_VALUE);
         }
         e.data = data.to_vec();

@@ -17,6 +17,8 @@ use hob_control::fault::Axis;
 use hob_plant::config::{DriveCounters, PlantConfig};
 use hob_plant::drive::{DriveCommand, HOMING_METHODS, HomingParams, MODE_HOMING};
 use hob_plant::plant::{Injection, Plant, Start};
+use hob_plant::servo::{Servo, ServoGains};
+use hob_process_image::gains::{self, DriveGains};
 use hob_process_image::plan::{ANALOG_INPUTS, ANALOG_OUTPUTS, BusPlan, DIGITAL_INPUTS, DIGITAL_OUTPUTS};
 use hob_setup::config::machine::MachineConfig;
 use std::collections::VecDeque;
@@ -93,8 +95,46 @@ fn is_pdo(id: u16) -> bool {
     (0x180..0x580).contains(&id)
 }
 
+/// The servo of drive `i` (B, X, Y).
+fn servo(plant: &Plant, i: usize) -> &Servo {
+    [&plant.table, &plant.x, &plant.y][i]
+}
+
+fn servo_mut(plant: &mut Plant, i: usize) -> &mut Servo {
+    match i {
+        0 => &mut plant.table,
+        1 => &mut plant.x,
+        _ => &mut plant.y,
+    }
+}
+
+/// The drive's loop gains as its objects hold them (0x60F9:01, 0x60F9:02, 0x60FB:01, in
+/// the units of [`hob_process_image::gains`]), from the servo's.
+fn gain_objects(g: ServoGains) -> DriveGains {
+    DriveGains::from_si(
+        g.velocity_kp_nm_s_per_rad,
+        g.velocity_integral_time_s,
+        g.position_kv_per_s,
+    )
+    .unwrap_or_else(|| panic!("the servo's gains {g:?} are outside the drive's objects' ranges"))
+}
+
+/// The drive's loop gains as objects, readable and writable by SDO (expedited), each
+/// limited to its range ([`hob_process_image::gains`]); a write reaches the servo at once
+/// ([`VirtualMachine::on_gains`]).
+fn gain_entries(od: &mut Od, gains: DriveGains) {
+    od.set(object::VELOCITY_CONTROL_PARAMETERS, 0, Access::Ro, &[2])
+        .set(object::POSITION_CONTROL_PARAMETERS, 0, Access::Ro, &[1]);
+    let ranges = gains::ranges();
+    for (i, (index, sub, _)) in gains::OBJECTS.into_iter().enumerate() {
+        od.set(index, sub, Access::Rw, &gains.values[i].to_le_bytes())
+            .limit(index, sub, ranges[i].0, ranges[i].1);
+    }
+}
+
 /// The object dictionary of a drive: `modes` are the modes it implements (0x6502, and the
-/// only values 0x6060 takes); `homing` its homing objects' values at power-on (X and Y).
+/// only values 0x6060 takes); `homing` its homing objects' values at power-on (X and Y);
+/// `gains` its loop gains' objects at power-on.
 fn drive_od(
     node: u8,
     name: &str,
@@ -102,6 +142,7 @@ fn drive_od(
     modes: &[i8],
     homing: Option<HomingParams>,
     following_window_counts: u32,
+    gains: DriveGains,
 ) -> Od {
     let supported: u32 = modes.iter().fold(0, |b, m| b | 1 << (m - 1));
     let mut od = Od::default();
@@ -131,6 +172,7 @@ fn drive_od(
         // A vendor-specific text the machine builder may write (axis label).
         .set_rw_str(0x2000, 0, "");
     od.allow_only(object::MODES_OF_OPERATION, 0, modes);
+    gain_entries(&mut od, gains);
     // Homing parameters (CiA 402-2 section 12), written by the master at boot: only on a
     // drive that homes (the table has none, and says so with "object does not exist").
     if let Some(h) = homing {
@@ -295,6 +337,7 @@ impl VirtualMachine {
                     d.supported_modes(),
                     homing,
                     counts_per_turn[i].saturating_mul(FOLLOWING_WINDOW_MOTOR_TURNS),
+                    gain_objects(servo(&physics, i).gains()),
                 ),
             )
         });
@@ -474,6 +517,9 @@ impl VirtualMachine {
             if e.wrote(object::CONTROLWORD) {
                 self.on_controlword(i, out);
             }
+            if e.wrote(object::VELOCITY_CONTROL_PARAMETERS) || e.wrote(object::POSITION_CONTROL_PARAMETERS) {
+                self.on_gains(i);
+            }
         }
         let e = self.io.handle(f, now, out);
         sync |= e.sync;
@@ -540,6 +586,25 @@ impl VirtualMachine {
                 .put(object::MODES_DISPLAY, 0, u64::from(mode as u8));
             self.put_statusword(i);
         }
+    }
+
+    /// 0x60F9 or 0x60FB was written (a value in its range: the dictionary refuses others):
+    /// the servo's loops take the gains at once.
+    fn on_gains(&mut self, i: usize) {
+        let od = &self.drives[i].od;
+        let g = DriveGains {
+            values: gains::OBJECTS.map(|(index, sub, _)| od.u32(index, sub)),
+        };
+        servo_mut(&mut self.plant, i).set_gains(ServoGains {
+            velocity_kp_nm_s_per_rad: g.velocity_kp_nm_s_per_rad(),
+            velocity_integral_time_s: g.velocity_integral_time_s(),
+            position_kv_per_s: g.position_kv_per_s(),
+        });
+    }
+
+    /// The gains the drive's servo loops use (B, X, Y by `i`).
+    pub fn servo_gains(&self, i: usize) -> ServoGains {
+        servo(&self.plant, i).gains()
     }
 
     fn on_controlword(&mut self, i: usize, out: &mut Vec<Frame>) {

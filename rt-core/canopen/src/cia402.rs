@@ -22,6 +22,12 @@ pub mod object {
     pub const HOMING_SPEEDS: u16 = 0x6099;
     /// Homing acceleration (u32, counts/s^2).
     pub const HOMING_ACCELERATION: u16 = 0x609A;
+    /// Velocity control parameter set: sub 1 the gain, sub 2 the integration time
+    /// constant (units the manufacturer's; hob's virtual drive's are in
+    /// `hob_process_image::gains`).
+    pub const VELOCITY_CONTROL_PARAMETERS: u16 = 0x60F9;
+    /// Position control parameter set: sub 1 the gain (units the manufacturer's).
+    pub const POSITION_CONTROL_PARAMETERS: u16 = 0x60FB;
 }
 
 /// Mode of operation: homing.

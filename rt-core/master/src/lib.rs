@@ -7,7 +7,8 @@
 //!
 //! - Start-up ([`boot`], may block on the clock): NMT reset, wait for every node's boot-up, read
 //!   device type and identity, refuse a drive without cyclic synchronous position (0x6502)
-//!   and X or Y without homing, configure heartbeats, modes, the homing parameters of X
+//!   and X or Y without homing, read the table drive's loop gains (0x60F9, 0x60FB; first
+//!   writing the machine file's commissioned set when it names that drive), configure heartbeats, modes, the homing parameters of X
 //!   and Y, and PDOs by SDO, confirm each drive displays cyclic synchronous position
 //!   (0x6061), start the network.
 //! - The cycle ([`Cyclic`], no allocation, never blocks): take in the frames received
@@ -25,6 +26,7 @@ use hob_canopen::nmt::{NmtCommand, NmtState};
 use hob_canopen::pdo::as_i32;
 use hob_canopen::sdo::{AbortCode, Progress, SdoClient, SdoError};
 use hob_control::{AxisFeedback, CycleInputs, CycleOutputs};
+use hob_process_image::gains::{self, DriveGains};
 use hob_process_image::plan::{BusPlan, MASTER_NODE, PROFILE_DRIVE, PROFILE_IO};
 use std::time::Duration;
 
@@ -40,6 +42,11 @@ pub struct NodeInfo {
     pub serial: u32,
     /// 0x6502 for drives.
     pub supported_modes: Option<u32>,
+    /// The table drive's loop gains (0x60F9:01, 0x60F9:02, 0x60FB:01, in the units of
+    /// [`hob_process_image::gains`]) as read at boot, after a commissioned set was written;
+    /// None on the other nodes and from a drive that aborts their upload (it has no such
+    /// objects).
+    pub gains: Option<DriveGains>,
 }
 
 impl NodeInfo {
@@ -96,6 +103,16 @@ pub enum BootError {
     NotOperational {
         node: u8,
     },
+    /// The table drive does not hold a commissioned gain that was written to it.
+    GainNotTaken {
+        node: u8,
+        index: u16,
+        sub: u8,
+        name: &'static str,
+        written: u32,
+        /// None: the drive aborted its upload.
+        read: Option<u32>,
+    },
 }
 
 impl std::fmt::Display for BootError {
@@ -137,6 +154,19 @@ impl std::fmt::Display for BootError {
                 "drive {node} did not take cyclic synchronous position: 0x6060 = 8 was written, 0x6061 displays {display}"
             ),
             BootError::NotOperational { node } => write!(f, "node {node} did not enter operational"),
+            BootError::GainNotTaken {
+                node,
+                index,
+                sub,
+                name,
+                written,
+                read,
+            } => write!(
+                f,
+                "drive {node} did not take the commissioned {name} ([commissioning.table_drive_gains]): \
+                 {index:04X}:{sub:02X} = {written} was written, {} read back",
+                read.map_or("nothing (upload aborted)".to_string(), |v| v.to_string())
+            ),
         }
     }
 }
@@ -274,7 +304,67 @@ pub fn identify(
         revision,
         serial,
         supported_modes,
+        gains: None,
     })
+}
+
+/// Reads a drive's loop gains; None when it aborts an upload (a drive without the objects,
+/// or with other sub-indices), an error only when it does not answer.
+pub fn read_gains(
+    bus: &mut dyn CanBus,
+    clock: &mut dyn Clock,
+    node: u8,
+    timeout: Duration,
+) -> Result<Option<DriveGains>, SdoError> {
+    let mut values = [0u32; 3];
+    for (v, (index, sub, _)) in values.iter_mut().zip(gains::OBJECTS) {
+        match sdo_read(bus, clock, node, index, sub, timeout) {
+            Ok(b) => *v = u32_of(&b),
+            Err(SdoError::Aborted { .. }) => return Ok(None),
+            Err(e) => return Err(e),
+        }
+    }
+    Ok(Some(DriveGains { values }))
+}
+
+/// The table drive's gains at boot: the machine file's commissioned set written first when
+/// it names this drive (`info`'s identity), and read back (a value that differs is a boot
+/// failure naming its object); then what the drive holds ([`read_gains`]). A set measured on
+/// another drive is not written (`hob-rt` says so).
+fn table_drive_gains(
+    plan: &BusPlan,
+    bus: &mut dyn CanBus,
+    clock: &mut dyn Clock,
+    info: &NodeInfo,
+    timeout: Duration,
+) -> Result<Option<DriveGains>, BootError> {
+    let node = info.node;
+    let sdo = |error| BootError::Sdo { node, error };
+    let commissioned = plan
+        .table_drive_gains
+        .filter(|c| c.is_of(info.vendor_id, info.product_code, info.serial));
+    if let Some(c) = commissioned {
+        for w in c.gains.writes() {
+            sdo_write(bus, clock, node, w.index, w.sub, &w.bytes(), timeout).map_err(sdo)?;
+        }
+    }
+    let read = read_gains(bus, clock, node, timeout).map_err(sdo)?;
+    if let Some(c) = commissioned {
+        for (i, (index, sub, name)) in gains::OBJECTS.into_iter().enumerate() {
+            let got = read.map(|g| g.values[i]);
+            if got != Some(c.gains.values[i]) {
+                return Err(BootError::GainNotTaken {
+                    node,
+                    index,
+                    sub,
+                    name,
+                    written: c.gains.values[i],
+                    read: got,
+                });
+            }
+        }
+    }
+    Ok(read)
 }
 
 /// Reads 0x6061 until the drive displays cyclic synchronous position (the configuration
@@ -337,7 +427,7 @@ pub fn boot(
     }
     let mut infos = Vec::new();
     for node in nodes {
-        let info = identify(bus, clock, node, timeout).map_err(|error| BootError::Sdo { node, error })?;
+        let mut info = identify(bus, clock, node, timeout).map_err(|error| BootError::Sdo { node, error })?;
         let expected = if plan.drive(node).is_some() {
             PROFILE_DRIVE
         } else {
@@ -364,6 +454,9 @@ pub fn boot(
                 node,
                 supported_modes,
             });
+        }
+        if node == plan.drives[0].node {
+            info.gains = table_drive_gains(plan, bus, clock, &info, timeout)?;
         }
         for w in plan.node_configuration(node) {
             sdo_write(

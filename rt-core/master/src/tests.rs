@@ -261,6 +261,8 @@ struct FakeNode {
     od: std::collections::BTreeMap<(u16, u8), Vec<u8>>,
     /// Writing 0x6060 changes 0x6061 (false: the drive keeps displaying what it had).
     takes_mode: bool,
+    /// The drive keeps 0x60F9:02 in whole ms (a drive of other units than the plan's).
+    coarse_integral_time: bool,
     sdo: hob_canopen::sdo::SdoServer,
 }
 
@@ -270,6 +272,7 @@ struct FakeOd<'a> {
     node: u8,
     od: &'a mut std::collections::BTreeMap<(u16, u8), Vec<u8>>,
     takes_mode: bool,
+    coarse_integral_time: bool,
     log: &'a mut Vec<(u8, u16, u8, Vec<u8>)>,
 }
 
@@ -281,7 +284,12 @@ impl hob_canopen::sdo::ObjectDictionary for FakeOd<'_> {
 
     fn write(&mut self, index: u16, sub: u8, data: &[u8]) -> Result<(), AbortCode> {
         self.log.push((self.node, index, sub, data.to_vec()));
-        self.od.insert((index, sub), data.to_vec());
+        let mut data = data.to_vec();
+        if (index, sub) == (object::VELOCITY_CONTROL_PARAMETERS, 2) && self.coarse_integral_time {
+            let us = u32::from_le_bytes(data[..4].try_into().unwrap_or([0; 4]));
+            data = (us / 1000 * 1000).to_le_bytes().to_vec();
+        }
+        self.od.insert((index, sub), data.clone());
         if index == object::MODES_OF_OPERATION && self.takes_mode {
             self.od.insert((object::MODES_DISPLAY, 0), data.to_vec());
         }
@@ -312,6 +320,7 @@ impl FakeBus {
                 id: d.node,
                 od,
                 takes_mode: true,
+                coarse_integral_time: false,
                 sdo: hob_canopen::sdo::SdoServer::new(d.node),
             });
         }
@@ -321,6 +330,7 @@ impl FakeBus {
             id: plan.io.node,
             od,
             takes_mode: false,
+            coarse_integral_time: false,
             sdo: hob_canopen::sdo::SdoServer::new(plan.io.node),
         });
         Self {
@@ -359,6 +369,7 @@ impl CanBus for FakeBus {
                 node: id,
                 od: &mut n.od,
                 takes_mode: n.takes_mode,
+                coarse_integral_time: n.coarse_integral_time,
                 log: &mut self.log,
             };
             if let Some(r) = n.sdo.on_request(f, &mut od) {
@@ -830,5 +841,109 @@ fn boot_waits_on_the_injected_clock() {
         wall.elapsed() < Duration::from_secs(60),
         "{:?} of wall time",
         wall.elapsed()
+    );
+}
+
+/// The commissioned set of the example, for the drive that names itself as the
+/// fake drives do (no 0x1018: vendor, product and serial read as 0).
+fn commissioned_for_fakes() -> hob_process_image::gains::CommissionedGains {
+    hob_process_image::gains::CommissionedGains {
+        gains: DriveGains {
+            values: [19_100, 8_600, 100_500],
+        },
+        vendor_id: 0,
+        product_code: 0,
+        serial: 0,
+    }
+}
+
+#[test]
+fn a_table_drive_without_gain_objects_boots_with_its_gains_unknown() {
+    let plan = BusPlan::from_machine(&shipped_for_tests());
+    let mut bus = FakeBus::new(&plan, [CSP_ONLY, CSP_AND_HOMING, CSP_AND_HOMING]);
+    let booted = boot(
+        &plan,
+        &mut bus,
+        &mut SystemClock::new(),
+        Duration::from_millis(50),
+    )
+    .expect("boots");
+    assert!(
+        booted.nodes.iter().all(|n| n.gains.is_none()),
+        "{:?}",
+        booted.nodes
+    );
+    // Asked for (the table only), aborted, not written.
+    let b = plan.drives[0].node;
+    assert!(bus.log.iter().any(|(n, i, ..)| (*n, *i) == (b, 0x60F9)));
+    assert!(
+        bus.log
+            .iter()
+            .all(|(n, i, _, d)| ![0x60F9, 0x60FB].contains(i) || (*n == b && d.is_empty()))
+    );
+}
+
+#[test]
+fn a_commissioned_set_is_written_to_the_drive_it_names_and_read_back() {
+    let mut plan = BusPlan::from_machine(&shipped_for_tests());
+    plan.table_drive_gains = Some(commissioned_for_fakes());
+    let mut bus = FakeBus::new(&plan, [CSP_ONLY, CSP_AND_HOMING, CSP_AND_HOMING]);
+    let booted = boot(
+        &plan,
+        &mut bus,
+        &mut SystemClock::new(),
+        Duration::from_millis(50),
+    )
+    .expect("boots");
+    let b = plan.drives[0].node;
+    assert_eq!(bus.written(b, 0x60F9, 1), [19_100u32.to_le_bytes().to_vec()]);
+    assert_eq!(bus.written(b, 0x60F9, 2), [8_600u32.to_le_bytes().to_vec()]);
+    assert_eq!(bus.written(b, 0x60FB, 1), [100_500u32.to_le_bytes().to_vec()]);
+    assert_eq!(booted.nodes[0].gains, Some(commissioned_for_fakes().gains));
+    // Another drive's set (serial differs) is not written.
+    plan.table_drive_gains = Some(hob_process_image::gains::CommissionedGains {
+        serial: 0x1002,
+        ..commissioned_for_fakes()
+    });
+    let mut bus = FakeBus::new(&plan, [CSP_ONLY, CSP_AND_HOMING, CSP_AND_HOMING]);
+    let booted = boot(
+        &plan,
+        &mut bus,
+        &mut SystemClock::new(),
+        Duration::from_millis(50),
+    )
+    .expect("boots");
+    assert!(bus.written(b, 0x60F9, 1).is_empty());
+    assert_eq!(booted.nodes[0].gains, None);
+}
+
+#[test]
+fn a_commissioned_gain_the_drive_does_not_hold_fails_the_boot_naming_the_object() {
+    let mut plan = BusPlan::from_machine(&shipped_for_tests());
+    plan.table_drive_gains = Some(commissioned_for_fakes());
+    let mut bus = FakeBus::new(&plan, [CSP_ONLY, CSP_AND_HOMING, CSP_AND_HOMING]);
+    bus.nodes[0].coarse_integral_time = true;
+    let e = boot(
+        &plan,
+        &mut bus,
+        &mut SystemClock::new(),
+        Duration::from_millis(50),
+    )
+    .unwrap_err();
+    assert_eq!(
+        e,
+        BootError::GainNotTaken {
+            node: plan.drives[0].node,
+            index: 0x60F9,
+            sub: 2,
+            name: "velocity control integration time",
+            written: 8_600,
+            read: Some(8_000),
+        }
+    );
+    let text = e.to_string();
+    assert!(
+        text.contains("60F9:02") && text.contains("integration time"),
+        "{text}"
     );
 }

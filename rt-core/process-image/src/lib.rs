@@ -9,8 +9,10 @@
 //! - [`plan`]: the bus schedule from `config/machine.toml` (PDOs, their SDO configuration,
 //!   worst-case load);
 //! - [`describe`]: this machine's frames in words;
+//! - [`gains`]: the drives' loop gains as CiA 402 objects (0x60F9, 0x60FB) and their units;
 //! - [`capture`]: candump captures checked against the plan.
 
 pub mod capture;
 pub mod describe;
+pub mod gains;
 pub mod plan;

@@ -223,6 +223,10 @@ pub struct BusPlan {
     /// Analog output channel of the spindle speed reference.
     pub spindle_analog_channel: u8,
     pub analog_full_scale_v: f64,
+    /// The machine file's commissioned gains of the table drive
+    /// (`[commissioning.table_drive_gains]`), which the boot writes when they name the
+    /// table drive on the bus.
+    pub table_drive_gains: Option<crate::gains::CommissionedGains>,
 }
 
 impl BusPlan {
@@ -286,6 +290,11 @@ impl BusPlan {
             bus_load_limit: c.bus_load_limit,
             spindle_analog_channel: m.io.analog_outputs.spindle_speed.channel,
             analog_full_scale_v: m.spindle.analog_full_scale_v,
+            table_drive_gains: m
+                .commissioning
+                .as_ref()
+                .and_then(|c| c.table_drive_gains.as_ref())
+                .and_then(crate::gains::CommissionedGains::from_record),
         }
     }
 
