@@ -131,15 +131,9 @@ pub fn check_options(o: &DelayOptions) -> Result<(), Stop> {
 /// A drive as it names itself: vendor id, product code, serial number (CiA 301 0x1018).
 pub type DriveIdentity = (u32, u32, u32);
 
-/// The table drive's identity from `hob-rt`'s answer to NODES.
+/// The table drive's identity from `hob-rt`'s answer to NODES ([`hob_ipc::nodes`]).
 pub fn table_drive(nodes_text: &str) -> Option<DriveIdentity> {
-    let line = nodes_text.lines().find(|l| l.starts_with("B "))?;
-    let hex = |w: &str| u32::from_str_radix(w.trim_start_matches("0x"), 16).ok();
-    let w: Vec<&str> = line.split_whitespace().collect();
-    match w[..] {
-        [_, _, vendor, product, _, serial] => Some((hex(vendor)?, hex(product)?, hex(serial)?)),
-        _ => None,
-    }
+    hob_ipc::nodes::table_drive(nodes_text)
 }
 
 /// Jogs the table + then - (each released and left to come to rest), reading every state

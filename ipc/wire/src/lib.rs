@@ -22,6 +22,7 @@ pub mod bus;
 pub mod codec;
 mod error;
 pub mod frame;
+pub mod nodes;
 pub mod number;
 pub mod request;
 mod types;

@@ -428,7 +428,10 @@ code_table! {
         TOUCH_FLANK = 20, "touch flank";
         /// What the nodes on the bus told about themselves at boot (answered by `hob-rt`'s
         /// command thread, not the loop): one line per node in the answer's text,
-        /// `AXIS NODE VENDOR PRODUCT REVISION SERIAL` (hex), AXIS `B`, `X`, `Y` or `IO`.
+        /// `AXIS NODE VENDOR PRODUCT REVISION SERIAL VELOCITY_KP VELOCITY_TI_MS POSITION_KV`
+        /// (identity hex), AXIS `B`, `X`, `Y` or `IO`; the drive's loop gains read at boot
+        /// (N m s/rad, ms, 1/s; the table drive's) or `-` each when unknown. Written and
+        /// read by `crate::nodes` only.
         NODES = 21, "nodes";
     }
 }

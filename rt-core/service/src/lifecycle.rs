@@ -268,9 +268,10 @@ fn say_spindle_encoder(machine: &MachineConfig) {
     }
 }
 
-/// The answer to [`hob_ipc::command::NODES`]: `AXIS NODE VENDOR PRODUCT REVISION SERIAL`
-/// per node that answered at boot.
+/// The answer to [`hob_ipc::command::NODES`]: one line per node that answered at boot,
+/// with the gains read from the table drive ([`hob_ipc::nodes`] writes and reads it).
 fn nodes_text(machine: &MachineConfig, nodes: &[hob_master::NodeInfo]) -> String {
+    use hob_ipc::nodes::{DriveGains, NodeLine, write};
     let role = |id: u8| match id {
         _ if id == machine.table.can_node_id => "B",
         _ if id == machine.x.can_node_id => "X",
@@ -278,20 +279,69 @@ fn nodes_text(machine: &MachineConfig, nodes: &[hob_master::NodeInfo]) -> String
         _ if id == machine.io.can_node_id => "IO",
         _ => "?",
     };
-    nodes
+    let lines: Vec<NodeLine> = nodes
         .iter()
-        .map(|n| {
-            format!(
-                "{} {} 0x{:08X} 0x{:08X} 0x{:08X} 0x{:08X}\n",
-                role(n.node),
-                n.node,
-                n.vendor_id,
-                n.product_code,
-                n.revision,
-                n.serial
-            )
+        .map(|n| NodeLine {
+            axis: role(n.node).to_string(),
+            node: n.node,
+            vendor_id: n.vendor_id,
+            product_code: n.product_code,
+            revision: n.revision,
+            serial: n.serial,
+            gains: n.gains.map(|g| DriveGains {
+                velocity_kp_nm_s_per_rad: g.velocity_kp_nm_s_per_rad(),
+                velocity_integral_time_ms: g.velocity_integral_time_ms(),
+                position_kv_per_s: g.position_kv_per_s(),
+            }),
         })
-        .collect()
+        .collect();
+    write(&lines)
+}
+
+/// What became of the machine file's commissioned gains of the table drive
+/// (`[commissioning.table_drive_gains]`): the boot wrote them when they name the table drive
+/// on the bus; a record of another drive was not written, and the drive runs on its own.
+fn say_table_drive_gains(machine: &MachineConfig, nodes: &[hob_master::NodeInfo]) {
+    use hob_setup::config::machine::commissioning::identity_text;
+    let table = nodes.iter().find(|n| n.node == machine.table.can_node_id);
+    let record = machine
+        .commissioning
+        .as_ref()
+        .and_then(|c| c.table_drive_gains.as_ref());
+    let held = table.and_then(|t| t.gains).map_or_else(
+        || "unknown (the drive serves no 0x60F9/0x60FB)".to_string(),
+        |g| {
+            format!(
+                "velocity gain {} N m s/rad, integral time {} ms, position gain {} 1/s",
+                g.velocity_kp_nm_s_per_rad(),
+                g.velocity_integral_time_ms(),
+                g.position_kv_per_s()
+            )
+        },
+    );
+    match (record, table) {
+        (None, _) | (Some(_), None) => eprintln!("hob-rt: the table drive's own gains: {held}"),
+        (Some(r), Some(t)) if !r.is_of(t.vendor_id, t.product_code, t.serial) => eprintln!(
+            "hob-rt: the commissioned table drive gains ([commissioning.table_drive_gains], {}) \
+             were NOT written: they were measured on another drive ({}); the table drive on the \
+             bus is {}; it runs on its own gains ({held}) until `hob commission` has measured it",
+            r.utc,
+            identity_text(
+                r.table_drive_vendor_id,
+                r.table_drive_product_code,
+                r.table_drive_serial
+            ),
+            identity_text(t.vendor_id, t.product_code, t.serial)
+        ),
+        (Some(r), Some(_)) => eprintln!(
+            "hob-rt: the table drive runs on the gains commissioned at {} ({held}); its own were \
+             {} N m s/rad, {} ms, {} 1/s",
+            r.utc,
+            r.previous_velocity_kp_nm_s_per_rad,
+            r.previous_velocity_integral_time_ms,
+            r.previous_position_kv_per_s
+        ),
+    }
 }
 
 /// The loop's shared-memory ports (made before the memory lock: with `MCL_FUTURE` and a
@@ -540,6 +590,7 @@ impl Configured {
         let mut params = ControlParams::from_machine(&machine);
         params.delay_commissioned = delay_commissioned(&machine, &booted.nodes);
         say_spindle_encoder(&machine);
+        say_table_drive_gains(&machine, &booted.nodes);
         let nodes_text = nodes_text(&machine, &booted.nodes);
         let mut controller = Controller::new(params);
         controller.set_offsets(offsets);
