@@ -209,6 +209,22 @@ fn the_control_step_never_allocates() {
     d.until(5.0, |s| s == State::Idle);
     d.accepted(jog);
     d.until(5.0, |s| s == State::Idle);
+    // The table's target swung (commissioning's frequency response), renewed, released
+    // (faded out), then again and stopped by its dead-man.
+    for _ in 0..5 {
+        d.accepted(Command::ExciteTable {
+            frequency_hz: 40.0,
+            creep: Direction::Positive,
+        });
+        d.until(0.1, |_| false);
+    }
+    d.accepted(Command::JogRelease);
+    d.until(5.0, |s| s == State::Idle);
+    d.accepted(Command::ExciteTable {
+        frequency_hz: 3.0,
+        creep: Direction::Negative,
+    });
+    d.until(5.0, |s| s == State::Idle);
     // The hob spindle held (renewed), released by SPINDLE OFF, then stopped by its dead-man.
     for _ in 0..5 {
         d.accepted(Command::SpindleHold { rpm: 20.0 });

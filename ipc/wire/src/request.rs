@@ -148,6 +148,15 @@ pub fn spindle_hold(rpm: f64) -> CommandRequest {
     r
 }
 
+/// `EXCITE_TABLE` at `frequency_hz`, the table creeping `creep` (`+`, `-`): the table's
+/// target swings while this is renewed.
+pub fn excite_table(frequency_hz: f64, creep: &str) -> Result<CommandRequest, Error> {
+    let mut r = CommandRequest::new(command::EXCITE_TABLE);
+    r.value = frequency_hz;
+    r.direction = direction_of("excite-table", creep)?;
+    Ok(r)
+}
+
 /// `SPINDLE_ON` at `rpm`.
 pub fn spindle_on(rpm: f64) -> CommandRequest {
     let mut r = CommandRequest::new(command::SPINDLE_ON);
@@ -179,6 +188,11 @@ mod tests {
         assert_eq!(
             jog_continuous("y", "plus", 1.0).expect("jog-hold").direction,
             direction::POSITIVE
+        );
+        let e = excite_table(40.0, "-").expect("excite");
+        assert_eq!(
+            (e.command, e.value, e.direction),
+            (command::EXCITE_TABLE, 40.0, direction::NEGATIVE)
         );
         let o = override_request("spindle", 110.0).expect("override");
         assert_eq!((o.command, o.value), (command::SPINDLE_OVERRIDE, 110.0));

@@ -433,6 +433,11 @@ code_table! {
         /// (N m s/rad, ms, 1/s; the table drive's) or `-` each when unknown. Written and
         /// read by `crate::nodes` only.
         NODES = 21, "nodes";
+        /// `value`: Hz, `direction`: the way the table creeps meanwhile. The table's target
+        /// swings, a sine with the amplitude the table's acceleration allows, while this is
+        /// renewed (a dead-man, as `JOG_CONTINUOUS`); `JOG_RELEASE` fades it out.
+        /// Commissioning's frequency response.
+        EXCITE_TABLE = 22, "excite table";
     }
 }
 

@@ -34,8 +34,17 @@ pub enum Command {
         direction: Direction,
         speed_per_min: f64,
     },
-    /// Let go of a jog: brake it to a stop.
+    /// Let go of a jog: brake it to a stop (an excitation fades out).
     JogRelease,
+    /// Swing the table's target, a sine at `frequency_hz` with the amplitude the table's
+    /// acceleration allows (at most [`crate::jog::EXCITE_MAX_DEG`]), the table creeping
+    /// slowly `creep`, while the command is renewed (commissioning's frequency response),
+    /// only when idle.
+    ExciteTable {
+        frequency_hz: f64,
+        /// The way the table creeps meanwhile (its friction holds the worm on one flank).
+        creep: Direction,
+    },
     /// Reference X and/or Y (CiA 402 homing).
     Home {
         axes: HomeAxes,

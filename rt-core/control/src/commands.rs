@@ -84,6 +84,7 @@ impl Controller {
                 speed_per_min,
             } => self.jog_continuous(axis, direction, speed_per_min),
             Command::JogRelease => self.jog_release(),
+            Command::ExciteTable { frequency_hz, creep } => self.excite_table(frequency_hz, creep),
             Command::Home { axes } => self.home(axes),
             Command::TouchOff {
                 axis,
@@ -295,6 +296,22 @@ impl Controller {
             .sequencer
             .jog
             .continuous(&m, axis, direction, speed_per_min)?
+        {
+            self.enter(State::Jog);
+        }
+        Ok(())
+    }
+
+    /// Starts (or renews) a held sine on the table's target (module `jog`).
+    fn excite_table(&mut self, frequency_hz: f64, creep: Direction) -> Result<(), Refusal> {
+        let m = self.jog_context(Axis::B);
+        if self.sequencer.state == State::Idle && self.gearbox.table_moving() {
+            return Err(Refusal::JogActive);
+        }
+        if self
+            .sequencer
+            .jog
+            .excite(&m, frequency_hz, creep, self.params.period_s)?
         {
             self.enter(State::Jog);
         }

@@ -31,6 +31,82 @@ pub(super) enum JogMotion {
     },
     /// Braking to a stop.
     Stopping { axis: Axis },
+    /// A held sine on the table's target (commissioning's frequency response): faded in,
+    /// renewed like a continuous jog, faded out on release or when the renewals stop.
+    Excite(Excitation),
+}
+
+/// The table's target swung about where it stands: `envelope x amplitude x sin(phase)`.
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
+pub(super) struct Excitation {
+    pub frequency_hz: f64,
+    /// The way the table creeps meanwhile (at [`EXCITE_CREEP_DEG_S`]).
+    pub direction: Direction,
+    pub amplitude_deg: f64,
+    pub phase_rad: f64,
+    /// 0 to 1: faded in over [`EXCITE_FADE_S`], out the same.
+    pub envelope: f64,
+    pub renewed_at_s: f64,
+    pub fading_out: bool,
+}
+
+/// The largest swing of the table's target, deg (about an arcsec). Small: the mesh's
+/// torque must stay below the table's friction, which holds the wheel on the worm's driving
+/// flank while the table creeps; a larger swing lifts the wheel into the play, and the
+/// motor then feels only itself (on the simulated machine 0.02 deg showed no mesh at all).
+pub const EXCITE_MAX_DEG: f64 = 0.0003;
+/// The table creeps one way while its target swings, deg/s (36 deg/min): fast enough for
+/// its bearing's friction to reach its sliding value, which keeps the worm on one flank as
+/// the cutting torque does in the cut (at 3 deg/min the simulated table's friction is a
+/// tenth of it, and the mesh's mode did not show).
+pub const EXCITE_CREEP_DEG_S: f64 = 0.6;
+/// The lowest frequency, Hz (a period within the dead-man's renewals).
+pub const EXCITE_MIN_HZ: f64 = 0.5;
+/// The swing fades in and out over this long, s.
+pub const EXCITE_FADE_S: f64 = 0.25;
+
+impl Excitation {
+    /// The swing at `frequency_hz` for a table whose acceleration is limited to
+    /// `accel_deg_s2`, the loop running every `period_s`: the amplitude is the smaller of
+    /// [`EXCITE_MAX_DEG`] and what the acceleration allows (`a / (2 pi f)^2`); refused
+    /// below [`EXCITE_MIN_HZ`] and above a quarter of the loop's rate.
+    pub fn new(
+        frequency_hz: f64,
+        direction: Direction,
+        accel_deg_s2: f64,
+        period_s: f64,
+        now_s: f64,
+    ) -> Result<Self, Refusal> {
+        let highest_hz = 0.25 / period_s;
+        if !(frequency_hz.is_finite() && (EXCITE_MIN_HZ..=highest_hz).contains(&frequency_hz)) {
+            return Err(Refusal::BadValue);
+        }
+        let w = std::f64::consts::TAU * frequency_hz;
+        Ok(Self {
+            frequency_hz,
+            direction,
+            amplitude_deg: EXCITE_MAX_DEG.min(accel_deg_s2 / (w * w)),
+            phase_rad: 0.0,
+            envelope: 0.0,
+            renewed_at_s: now_s,
+            fading_out: false,
+        })
+    }
+
+    /// One cycle: the table's offset from where it stood, deg, and whether the swing is
+    /// over (faded out: the offset is exactly 0).
+    fn step(&mut self, dt_s: f64) -> (f64, bool) {
+        let towards = if self.fading_out { -1.0 } else { 1.0 };
+        self.envelope = (self.envelope + towards * dt_s / EXCITE_FADE_S).clamp(0.0, 1.0);
+        if self.fading_out && self.envelope == 0.0 {
+            return (0.0, true);
+        }
+        self.phase_rad =
+            (self.phase_rad + std::f64::consts::TAU * self.frequency_hz * dt_s) % std::f64::consts::TAU;
+        let e = self.envelope;
+        let smooth = e * e * (3.0 - 2.0 * e);
+        (smooth * self.amplitude_deg * self.phase_rad.sin(), false)
+    }
 }
 
 /// The operator's jogs: an axis' jog under way and a held hob spindle.
@@ -87,6 +163,8 @@ pub(super) struct JogStep {
     pub dead_man: Option<Axis>,
     /// The table is to move on by this much (deg): a continuous jog of B.
     pub table_by: Option<f64>,
+    /// The table's target swung this far from the gearbox's (deg): an excitation.
+    pub table_offset_deg: f64,
     /// The jog is over: the machine is idle again.
     pub done: bool,
 }
@@ -99,6 +177,39 @@ impl Jog {
             JogMotion::To { axis, .. }
             | JogMotion::Continuous { axis, .. }
             | JogMotion::Stopping { axis } => Some(axis),
+            JogMotion::Excite(_) => Some(Axis::B),
+        }
+    }
+
+    /// Checks and starts (or renews) a held sine on the table's target, only when idle
+    /// with every drive enabled; the same frequency again renews it, another is refused
+    /// until the one under way has faded out. True for a new one (the machine is to enter
+    /// `Jog`).
+    pub fn excite(
+        &mut self,
+        m: &JogContext,
+        frequency_hz: f64,
+        direction: Direction,
+        period_s: f64,
+    ) -> Result<bool, Refusal> {
+        let new = Excitation::new(frequency_hz, direction, m.axis.accel, period_s, m.now_s)?;
+        match (m.state, &mut self.motion) {
+            (State::Jog, JogMotion::Excite(e))
+                if e.frequency_hz == frequency_hz && e.direction == direction && !e.fading_out =>
+            {
+                e.renewed_at_s = m.now_s;
+                Ok(false)
+            }
+            (State::Jog, _) => Err(Refusal::JogActive),
+            (State::Idle, _) => {
+                if !m.drives_ready {
+                    return Err(Refusal::DrivesNotEnabled);
+                }
+                self.motion = JogMotion::Excite(new);
+                Ok(true)
+            }
+            (State::Init, _) => Err(Refusal::NotReady),
+            _ => Err(Refusal::CycleRunning),
         }
     }
 
@@ -197,6 +308,11 @@ impl Jog {
                 self.motion = JogMotion::Stopping { axis };
                 Ok(())
             }
+            (State::Jog, JogMotion::Excite(mut e)) if !e.fading_out => {
+                e.fading_out = true;
+                self.motion = JogMotion::Excite(e);
+                Ok(())
+            }
             _ => Err(Refusal::NothingToDo),
         }
     }
@@ -239,6 +355,20 @@ impl Jog {
                     p.step_towards(target, speed_per_s, a.accel, dt);
                 }
                 false
+            }
+            JogMotion::Excite(mut e) => {
+                if !e.fading_out && c.now_s - e.renewed_at_s > c.deadman_s {
+                    // The renewals stopped: the swing fades out.
+                    e.fading_out = true;
+                    out.dead_man = Some(Axis::B);
+                }
+                let (offset, over) = e.step(dt);
+                self.motion = JogMotion::Excite(e);
+                out.table_offset_deg = offset;
+                if !e.fading_out {
+                    out.table_by = Some(e.direction.sign() * EXCITE_CREEP_DEG_S * dt);
+                }
+                over
             }
             JogMotion::Stopping { axis: Axis::B } => !c.table_moving,
             JogMotion::Stopping { axis } => {

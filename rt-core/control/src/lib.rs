@@ -342,6 +342,10 @@ struct Measured {
 
 /// A change of a drive's position in one cycle that no motion of this machine can make
 /// (B deg, X mm, Y mm): the drive rebooted or its encoder failed, so the position is lost.
+/// What is left of an excitation's offset one cycle after a fault cut it short: gone
+/// within about 50 cycles (a hundredth of a degree at most, a few deg/s).
+const EXCITATION_CUT_DECAY: f64 = 0.9;
+
 pub const POSITION_JUMP: [f64; 3] = [10.0, 5.0, 5.0];
 
 /// The control core.
@@ -358,6 +362,9 @@ pub struct Controller {
     x: Profile,
     y: Profile,
     table_cmd_deg: f64,
+    /// The table's target swung from the gearbox's this far, deg (an excitation; faded
+    /// back to 0 within a few cycles when a fault cut the excitation short).
+    table_excitation_deg: f64,
     /// Targets (B, X, Y) of the last two cycles: the drive follows the older one at SYNC.
     history: [[f64; 3]; 2],
     misses: [u32; 3],
@@ -404,6 +411,7 @@ impl Controller {
             x: Profile::default(),
             y: Profile::default(),
             table_cmd_deg: 0.0,
+            table_excitation_deg: 0.0,
             history: [[0.0; 3]; 2],
             misses: [0; 3],
             measured: Measured::default(),
@@ -546,6 +554,14 @@ impl Controller {
             self.measured.y_mm,
             self.params.period_s,
         );
+        if self.sequencer.state != State::Jog {
+            // An excitation cut short (a fault): its offset fades instead of jumping.
+            self.table_excitation_deg *= EXCITATION_CUT_DECAY;
+            if self.table_excitation_deg.abs() < 1e-9 {
+                self.table_excitation_deg = 0.0;
+            }
+        }
+        self.table_cmd_deg += self.table_excitation_deg;
         self.last_spindle_for_gearbox_deg = self.measured.spindle_for_gearbox_deg;
         self.check_soft_limits();
         self.history = [

@@ -161,6 +161,7 @@ impl Controller {
         if let Some(deg) = step.table_by {
             self.gearbox.move_table_by(deg);
         }
+        self.table_excitation_deg = step.table_offset_deg;
         if step.done {
             self.enter(State::Idle);
         }

@@ -160,6 +160,10 @@ pub const fn command_code(c: Command) -> Args {
             ..Args::of(command::JOG_CONTINUOUS).axis(a).value(speed_per_min)
         },
         Command::JogRelease => Args::of(command::JOG_RELEASE),
+        Command::ExciteTable { frequency_hz, creep } => Args {
+            direction: direction_code(creep),
+            ..Args::of(command::EXCITE_TABLE).value(frequency_hz)
+        },
         Command::FeedOverride { percent } => Args::of(command::FEED_OVERRIDE).value(percent),
         Command::SpindleOverride { percent } => Args::of(command::SPINDLE_OVERRIDE).value(percent),
         Command::TouchOff {
@@ -217,6 +221,10 @@ pub fn command_from_code(a: &Args) -> Option<Command> {
             turned: direction_of(a.direction)?,
         },
         command::JOG_RELEASE => Command::JogRelease,
+        command::EXCITE_TABLE => Command::ExciteTable {
+            frequency_hz: a.value,
+            creep: direction_of(a.direction)?,
+        },
         command::FEED_OVERRIDE => Command::FeedOverride { percent: a.value },
         command::SPINDLE_OVERRIDE => Command::SpindleOverride { percent: a.value },
         command::TOUCH_OFF => Command::TouchOff {

@@ -124,6 +124,7 @@ mod old {
             Command::Home { .. } => "home",
             Command::JogContinuous { .. } => "jog continuous",
             Command::JogRelease => "jog release",
+            Command::ExciteTable { .. } => "excite table",
             Command::FeedOverride { .. } => "feed override",
             Command::SpindleOverride { .. } => "spindle override",
             Command::TouchOff { .. } => "touch-off",
@@ -207,6 +208,10 @@ fn every_command() -> Vec<Command> {
         Command::Home { axes: HomeAxes::Y },
         Command::Home { axes: HomeAxes::Both },
         Command::JogRelease,
+        Command::ExciteTable {
+            frequency_hz: 42.5,
+            creep: Direction::Negative,
+        },
         Command::FeedOverride { percent: 87.5 },
         Command::SpindleOverride { percent: 110.0 },
         Command::Continue,
