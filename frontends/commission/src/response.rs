@@ -3,6 +3,7 @@
 //! motor from the loop's state stream, the mesh's mode found from it, and the drive's
 //! tuning checked against a model of its loops on the mechanism fitted to it.
 
+pub mod fit;
 pub mod frf;
 pub mod model;
 
