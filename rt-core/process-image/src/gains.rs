@@ -78,7 +78,7 @@ impl DriveGains {
         let mut values = [0u32; 3];
         for i in 0..3 {
             let c = (si[i] / SI_PER_COUNT[i]).round();
-            if !(c >= f64::from(ranges[i].0) && c <= f64::from(ranges[i].1)) {
+            if c.is_nan() || c < f64::from(ranges[i].0) || c > f64::from(ranges[i].1) {
                 return None;
             }
             values[i] = c as u32;

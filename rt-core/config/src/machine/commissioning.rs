@@ -223,7 +223,10 @@ impl TableDriveGainsRecord {
             p.within(&format!("{K}.{key}"), v, lo, hi, unit);
         }
         p.require(
-            !(self.mesh_antiresonance_hz >= self.mesh_resonance_hz),
+            // A value that is no number is refused by its range above, not here too.
+            self.mesh_antiresonance_hz.is_nan()
+                || self.mesh_resonance_hz.is_nan()
+                || self.mesh_antiresonance_hz < self.mesh_resonance_hz,
             &format!("{K}.mesh_antiresonance_hz"),
             || {
                 format!(
