@@ -71,7 +71,7 @@ pub fn point(frequency_hz: f64, period_s: f64, readings: &[Reading]) -> Result<P
         let start = b * block_len;
         let cmd = coefficient(block, w, start, |r| r.command_deg);
         let act = coefficient(block, w, start, |r| r.table_deg);
-        if !(cmd.norm() > 0.0) {
+        if cmd.norm().partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater) {
             return Err(NoPoint::NoSwing);
         }
         swing += cmd.norm() / BLOCKS as f64;
