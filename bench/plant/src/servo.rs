@@ -303,7 +303,11 @@ mod tests {
         // The torque does not jump at the next sample.
         let before = s.torque_nm();
         s.advance(1.0 / 16_000.0);
-        assert!((s.torque_nm() - before).abs() < 0.05, "{before} -> {}", s.torque_nm());
+        assert!(
+            (s.torque_nm() - before).abs() < 0.05,
+            "{before} -> {}",
+            s.torque_nm()
+        );
         // Nonsense is ignored.
         s.set_gains(ServoGains {
             position_kv_per_s: 0.0,

@@ -8,6 +8,7 @@ use hob_commission::Stop;
 use hob_commission::backlash::{self, BacklashOptions};
 use hob_commission::delay::{self, DelayOptions};
 use hob_commission::encoder::{self, EncoderOptions};
+use hob_commission::response::{self, ResponseOptions};
 use std::io::{BufRead, IsTerminal, Write};
 use std::path::Path;
 
@@ -35,6 +36,26 @@ pub fn backlash(machine_file: &Path, o: &BacklashOptions, yes: bool) -> Result<S
         eprintln!("commission backlash: {step}")
     })
     .map_err(stopped)?;
+    confirm_and_write(machine_file, &p.text(), yes, || p.write())
+}
+
+/// `hob commission response`: measure, show (the Bode plot to `svg`), and write on
+/// confirmation.
+pub fn response(
+    machine_file: &Path,
+    o: &ResponseOptions,
+    svg: Option<&Path>,
+    yes: bool,
+) -> Result<String, Failure> {
+    let p = response::run(machine_file, o, &|| true, &mut |step| {
+        eprintln!("commission response: {step}")
+    })
+    .map_err(stopped)?;
+    if let Some(path) = svg {
+        std::fs::write(path, response::bode::svg(&p.measured))
+            .map_err(|e| Failure::Other(format!("{}: {e}", path.display())))?;
+        eprintln!("commission response: the Bode plot: {}", path.display());
+    }
     confirm_and_write(machine_file, &p.text(), yes, || p.write())
 }
 

@@ -490,6 +490,32 @@ enum CommissionCommand {
         #[arg(long)]
         yes: bool,
     },
+    /// The table's frequency response through the worm: the table's target swung by about
+    /// an arcsec at stepped frequencies while the table creeps + (hob-rt idle, the table
+    /// clear and unclamped), a model of the drive's loops fitted (the gains the drive
+    /// reported, [table.drive_model]); the mesh's frequencies, the present tuning's margins
+    /// and gains proposed with margins. Restart hob-rt after writing: its boot writes them
+    /// to the drive.
+    Response {
+        /// Machine configuration to measure for and write [default: config/machine.toml, then /etc/hob/machine.toml].
+        #[arg(long, value_name = "FILE")]
+        machine: Option<PathBuf>,
+        /// The lowest frequency, Hz.
+        #[arg(long, default_value_t = hob_commission::response::ResponseOptions::default().from_hz)]
+        from: f64,
+        /// The highest frequency, Hz (at most a quarter of the loop's rate).
+        #[arg(long, default_value_t = hob_commission::response::ResponseOptions::default().to_hz)]
+        to: f64,
+        /// Frequencies of the first sweep (as many again are added about its deepest dip).
+        #[arg(long, default_value_t = hob_commission::response::ResponseOptions::default().points)]
+        points: usize,
+        /// Write the Bode plot here (SVG).
+        #[arg(long, value_name = "FILE")]
+        svg: Option<PathBuf>,
+        /// Write the changes without asking (the diff is still shown).
+        #[arg(long)]
+        yes: bool,
+    },
     /// The commissioning report of the machine file: what was measured, when and on what,
     /// and what is not measured yet; with --svg, the spindle encoder's record over the
     /// spindle's speeds as a plot.
@@ -641,6 +667,22 @@ fn commission(command: CommissionCommand) -> Result<(), Failure> {
                 seconds,
             };
             emit(&hob_cli::commission::backlash(&file, &o, yes)?)
+        }
+        CommissionCommand::Response {
+            machine,
+            from,
+            to,
+            points,
+            svg,
+            yes,
+        } => {
+            let file = machine_path(machine.as_deref())?;
+            let o = hob_commission::response::ResponseOptions {
+                from_hz: from,
+                to_hz: to,
+                points,
+            };
+            emit(&hob_cli::commission::response(&file, &o, svg.as_deref(), yes)?)
         }
         CommissionCommand::Report { machine, svg } => {
             let file = machine_path(machine.as_deref())?;

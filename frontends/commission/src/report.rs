@@ -81,11 +81,47 @@ pub fn text(machine: &MachineConfig) -> String {
              the table)\n\n",
         ),
     }
-    o.push_str(
-        "Not measured by hob yet: the drives' frequency response and tuning, the X and Y \
-         drives' delays.\n",
-    );
+    drive_gains(&mut o, &records);
+    o.push_str("Not measured by hob yet: the X and Y drives' frequency response, tuning and delays.\n");
     o
+}
+
+/// The table drive's gains in words.
+fn drive_gains(o: &mut String, records: &hob_setup::config::machine::commissioning::Commissioning) {
+    match &records.table_drive_gains {
+        Some(g) => {
+            let _ = writeln!(
+                o,
+                "Table drive's gains (hob commission response, {}):\n  written to the drive at \
+                 each boot: kp {:.3} Nm s/rad, Ti {:.2} ms, kv {:.1} 1/s (velocity loop GM {:.1} \
+                 dB, PM {:.1} deg; cascade GM {:.1} dB, PM {:.1} deg on the fitted mechanism)\n  \
+                 the drive's own before: kp {:.3}, Ti {:.2} ms, kv {:.1}\n  the mesh: \
+                 anti-resonance {:.1} Hz, resonance {:.1} Hz; measured on the table drive {}\n",
+                g.utc,
+                g.velocity_kp_nm_s_per_rad,
+                g.velocity_integral_time_ms,
+                g.position_kv_per_s,
+                g.velocity_gain_margin_db,
+                g.velocity_phase_margin_deg,
+                g.position_gain_margin_db,
+                g.position_phase_margin_deg,
+                g.previous_velocity_kp_nm_s_per_rad,
+                g.previous_velocity_integral_time_ms,
+                g.previous_position_kv_per_s,
+                g.mesh_antiresonance_hz,
+                g.mesh_resonance_hz,
+                identity_text(
+                    g.table_drive_vendor_id,
+                    g.table_drive_product_code,
+                    g.table_drive_serial
+                )
+            );
+        }
+        None => o.push_str(
+            "Table drive's gains: not commissioned by hob (the drive's own tuning; `hob \
+             commission response` measures the table's frequency response and proposes gains)\n\n",
+        ),
+    }
 }
 
 /// The spindle encoder's record over the spindle's speeds, up to `max_rpm`: the once-per-turn
@@ -206,7 +242,15 @@ mod tests {
         swing_phase_deg = 131.0\nswing_tau_s = 0.003\nreference_rpm = 212.0\n\
         speeds_rpm = [64.0, 110.0, 212.0]\nmisfit_arcsec = 0.5\nerror_uncertainty_arcsec = 0.9\n\
         [commissioning.table_backlash]\nutc = 2026-11-29T06:10:05Z\nlost_motion_arcsec = 25.15\n\
-        uncertainty_arcsec = 0.02\nspeed_deg_min = 3.0\nsamples = 278\n";
+        uncertainty_arcsec = 0.02\nspeed_deg_min = 3.0\nsamples = 278\n\
+        [commissioning.table_drive_gains]\nutc = 2026-11-29T09:10:05Z\n\
+        velocity_kp_nm_s_per_rad = 1.89\nvelocity_integral_time_ms = 7.24\nposition_kv_per_s = 53.7\n\
+        previous_velocity_kp_nm_s_per_rad = 1.909\nprevious_velocity_integral_time_ms = 8.6\n\
+        previous_position_kv_per_s = 100.5\nvelocity_gain_margin_db = 9.2\n\
+        velocity_phase_margin_deg = 45.0\nposition_gain_margin_db = 9.1\n\
+        position_phase_margin_deg = 40.0\nmesh_antiresonance_hz = 37.4\nmesh_resonance_hz = 93.2\n\
+        table_drive_vendor_id = 0x00000B0B\ntable_drive_product_code = 0x00020192\n\
+        table_drive_serial = 0x00001002\n";
 
     #[test]
     fn the_report_says_what_was_measured_and_what_was_not() {
@@ -219,8 +263,10 @@ mod tests {
             t.contains("25.15 +- 0.02 arcsec of the table at a reversal"),
             "{t}"
         );
+        assert!(t.contains("kp 1.890 Nm s/rad, Ti 7.24 ms, kv 53.7 1/s"), "{t}");
+        assert!(t.contains("anti-resonance 37.4 Hz, resonance 93.2 Hz"), "{t}");
         assert!(
-            t.contains("Not measured by hob yet: the drives' frequency response"),
+            t.contains("Not measured by hob yet: the X and Y drives' frequency response"),
             "{t}"
         );
         let mut bare = machine("");
@@ -229,6 +275,7 @@ mod tests {
         assert!(t.contains("Table drive's delay: not commissioned"), "{t}");
         assert!(t.contains("Spindle encoder: not commissioned"), "{t}");
         assert!(t.contains("Table drive's lost motion: not measured"), "{t}");
+        assert!(t.contains("Table drive's gains: not commissioned by hob"), "{t}");
     }
 
     #[test]

@@ -1,11 +1,36 @@
-//! The table's frequency response through the worm (`hob commission response`): a held
-//! sine on the table's target at stepped frequencies, the response of the table drive's
-//! motor from the loop's state stream, the mesh's mode found from it, and the drive's
-//! tuning checked against a model of its loops on the mechanism fitted to it.
+//! The table's frequency response through the worm (`hob commission response`, issue 33's
+//! step 2): the loop swings the table's target (`EXCITE_TABLE`: a sine of about an arcsec,
+//! less where the table's acceleration limit says, the table creeping 36 deg/min so that its
+//! friction holds the worm on one flank) at stepped frequencies, then at as many again about
+//! the deepest dip; each point is the drive's motor against the target from the loop's state
+//! stream ([`frf`]). A model of the drive's loops ([`model`], with the gains the drive
+//! reported at boot and its data sheet's loop period, speed filter and motor-side inertia
+//! from the machine file's `[table.drive_model]`) is fitted to the points ([`fit`]): the
+//! table's inertia, the mesh's stiffness and damping, the target's delay. From the fitted
+//! mechanism: the mesh's anti-resonance and resonance, the present tuning's stability and
+//! margins, and gains proposed with margins (GM 6 dB, PM 45 deg velocity / 40 deg cascade)
+//! for the fitted mechanism with no more than 2 % of critical damping. The Bode plot
+//! ([`bode`]) shows the points and the fitted model.
+//!
+//! The record `[commissioning.table_drive_gains]` is shown as a diff and written only on the
+//! builder's confirmation, the old file kept; hob-rt's boot writes the gains to the drive
+//! (0x60F9/0x60FB) when the record names the drive on the bus, and reads them back.
 
+pub mod analysis;
+pub mod bode;
 pub mod fit;
 pub mod frf;
 pub mod model;
+
+use crate::Stop;
+use crate::link::{self, connect, drain};
+use analysis::Analysis;
+use frf::{Point, Reading};
+use hob_ipc::nodes::{DriveGains, DriveIdentity};
+use hob_ipc::{Commands, Feed, StateSample};
+use hob_store::machine_edit;
+use std::path::Path;
+use std::time::{Duration, Instant};
 
 /// The sweep's settings.
 #[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
@@ -17,6 +42,13 @@ pub struct ResponseOptions {
     /// added about the deepest dip (the mesh's anti-resonance).
     pub points: usize,
 }
+
+/// The settings' limits: frequencies, Hz, and points of the first sweep.
+const FREQUENCIES_HZ: (f64, f64) = (0.5, 500.0);
+const POINTS: (f64, f64) = (6.0, 40.0);
+/// The most the table may wander at rest before the sweep, deg (an unstable or badly tuned
+/// drive shows here before anything swings).
+const REST_JITTER_DEG: f64 = 3e-4;
 
 impl Default for ResponseOptions {
     fn default() -> Self {
@@ -60,4 +92,235 @@ impl ResponseOptions {
 /// How long the swing at `frequency_hz` is held and read, s (after its fade-in and settling).
 pub fn read_s(frequency_hz: f64) -> f64 {
     (PERIODS_READ / frequency_hz).max(1.0)
+}
+
+impl ResponseOptions {
+    /// About how long the table moves, s.
+    pub fn about_s(&self) -> f64 {
+        let fade = hob_ipc::vocab::excitation::FADE_S;
+        let each = |f: f64| 2.0 * fade + SETTLE_S + read_s(f) + link::REST.as_secs_f64();
+        2.0 * self.first_sweep().iter().map(|&f| each(f)).sum::<f64>()
+    }
+
+    /// What the table will do, for the person beside it.
+    pub fn announcement(&self) -> String {
+        format!(
+            "the table's target swings by about an arcsec at {} frequencies from {} to {} Hz, \
+             then as many again about the deepest dip, the table creeping + at 36 deg/min \
+             meanwhile (about {:.0} s, {:.0} deg of the table); keep the table clear and \
+             unclamped. hob-rt checks each step as it checks a jog; letting go stops the swing.",
+            self.points,
+            self.from_hz,
+            self.to_hz,
+            self.about_s(),
+            self.about_s() * 0.6
+        )
+    }
+}
+
+/// Refuses settings outside their limits (the highest frequency at most a quarter of the
+/// loop's rate, `period_s`), before anything moves.
+pub fn check_options(o: &ResponseOptions, period_s: f64) -> Result<(), Stop> {
+    link::within("--from", o.from_hz, FREQUENCIES_HZ, "Hz")?;
+    link::within(
+        "--to",
+        o.to_hz,
+        (o.from_hz * 4.0, 0.25 / period_s),
+        "Hz (at least 4 x --from, at most a quarter of the loop's rate)",
+    )?;
+    link::within("--points", o.points as f64, POINTS, "")?;
+    Ok(())
+}
+
+/// What a whole measurement proposes (its figures in [`Analysis`]).
+pub type Proposal = crate::Proposal<Analysis>;
+
+/// Measures the table's frequency response on the running machine and proposes the drive's
+/// gains; `enabled` is asked before every renewal (false stops the swing), `say` is told
+/// each step.
+pub fn run(
+    machine_file: &Path,
+    o: &ResponseOptions,
+    enabled: &dyn Fn() -> bool,
+    say: &mut dyn FnMut(&str),
+) -> Result<Proposal, Stop> {
+    let (text, machine) = link::read_machine(machine_file)?;
+    let Some(drive_model) = machine.table.drive_model else {
+        return Err(Stop::Refused(format!(
+            "{} has no [table.drive_model] (the motor side's inertia, the drive's loop period \
+             and speed filter from their data sheets): the model of the drive's loops needs \
+             them; nothing measured",
+            machine_file.display()
+        )));
+    };
+    let (mut feed, mut client) = connect()?;
+    let (identity, gains) = table_drive(client.as_mut())?;
+    let period_s = loop_period_s(feed.as_mut())?;
+    check_options(o, period_s)?;
+    say(&o.announcement());
+    at_rest(feed.as_mut())?;
+    let mut points = Vec::new();
+    for f in o.first_sweep() {
+        say(&format!("swinging the table at {f:.1} Hz"));
+        points.push(swing(feed.as_mut(), client.as_mut(), f, period_s, enabled)?);
+    }
+    let (below, above) = about_the_dip(&points);
+    for f in o.refinement(below, above) {
+        say(&format!("swinging the table at {f:.1} Hz (about the dip)"));
+        points.push(swing(feed.as_mut(), client.as_mut(), f, period_s, enabled)?);
+    }
+    points.sort_by(|a, b| a.frequency_hz.total_cmp(&b.frequency_hz));
+    say("fitting the model of the drive's loops");
+    let a = analysis::analyse(points, gains, &drive_model, machine.table.worm_ratio, period_s)?;
+    let report = analysis::report(&a);
+    let utc = hob_store::utc::now();
+    let new_text = analysis::proposal(&text, &a, identity, &utc);
+    machine_edit::check(machine_file, &new_text).map_err(|e| Stop::Failed(e.to_string()))?;
+    Ok(Proposal::new(machine_file, a, report, text, new_text, utc))
+}
+
+/// The table drive's identity and its gains from hob-rt's answer to NODES.
+fn table_drive(client: &mut dyn Commands) -> Result<(DriveIdentity, DriveGains), Stop> {
+    let answer = client
+        .request(&hob_ipc::request::nodes(), link::ANSWER)
+        .map_err(|e| Stop::Failed(format!("hob-rt did not answer: {e}")))?;
+    let text = answer.text();
+    let identity = hob_ipc::nodes::table_drive(&text).ok_or_else(|| {
+        Stop::Failed(format!(
+            "hob-rt named no table drive among the nodes on the bus:\n{text}"
+        ))
+    })?;
+    let gains = hob_ipc::nodes::table_drive_gains(&text).ok_or_else(|| {
+        Stop::Refused(
+            "the table drive did not report its gains at boot (0x60F9, 0x60FB): its tuning \
+             cannot be checked nor written by hob; nothing measured"
+                .into(),
+        )
+    })?;
+    Ok((identity, gains))
+}
+
+/// The loop's period, s, from its state stream's SYNC times.
+fn loop_period_s(feed: &mut dyn Feed) -> Result<f64, Stop> {
+    let states = listen(feed, Duration::from_millis(300))?;
+    match (states.first(), states.last()) {
+        (Some(a), Some(b)) if b.cycle > a.cycle => {
+            Ok((b.sync_time_ns - a.sync_time_ns) as f64 * 1e-9 / (b.cycle - a.cycle) as f64)
+        }
+        _ => Err(Stop::Failed("no state from hob-rt for 0.3 s".into())),
+    }
+}
+
+/// Every state sample for `time`.
+fn listen(feed: &mut dyn Feed, time: Duration) -> Result<Vec<StateSample>, Stop> {
+    let mut states = Vec::new();
+    let end = Instant::now() + time;
+    while Instant::now() < end {
+        std::thread::sleep(Duration::from_millis(20));
+        drain(feed, |s| states.push(*s))?;
+    }
+    Ok(states)
+}
+
+/// Refuses a table that wanders at rest (its drive's tuning unstable or marginal).
+fn at_rest(feed: &mut dyn Feed) -> Result<(), Stop> {
+    let states = listen(feed, Duration::from_millis(500))?;
+    let (lo, hi) = states
+        .iter()
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), s| {
+            (lo.min(s.table_deg.actual), hi.max(s.table_deg.actual))
+        });
+    if hi - lo > REST_JITTER_DEG {
+        return Err(Stop::Refused(format!(
+            "the table does not stand still ({:.1} arcsec peak to peak in 0.5 s): its drive \
+             oscillates or something turns it; check the drive's tuning with its own tool \
+             before this measurement; nothing measured",
+            (hi - lo) * 3600.0
+        )));
+    }
+    Ok(())
+}
+
+/// The first sweep's neighbours of its deepest point, Hz.
+fn about_the_dip(points: &[Point]) -> (f64, f64) {
+    let i = (0..points.len())
+        .min_by(|&a, &b| points[a].response.norm().total_cmp(&points[b].response.norm()))
+        .unwrap_or(0);
+    let below = points[i.saturating_sub(1)].frequency_hz;
+    let above = points[(i + 1).min(points.len() - 1)].frequency_hz;
+    (below, above)
+}
+
+/// Swings the table at `frequency_hz` (renewed while `enabled`), reads it once faded in and
+/// settled, releases it and leaves it to rest; the point.
+fn swing(
+    feed: &mut dyn Feed,
+    client: &mut dyn Commands,
+    frequency_hz: f64,
+    period_s: f64,
+    enabled: &dyn Fn() -> bool,
+) -> Result<Point, Stop> {
+    let excite =
+        hob_ipc::request::excite_table(frequency_hz, "+").map_err(|e| Stop::Refused(e.to_string()))?;
+    let settle = hob_ipc::vocab::excitation::FADE_S + SETTLE_S;
+    let end = Instant::now() + Duration::from_secs_f64(settle + read_s(frequency_hz));
+    let mut states: Vec<StateSample> = Vec::new();
+    let result = loop {
+        if !enabled() {
+            break Err(Stop::Failed(
+                "the enable was let go: the swing faded out; nothing written, the machine file unchanged"
+                    .into(),
+            ));
+        }
+        if let Err(e) = link::ask(client, &excite, "the table's swing") {
+            break Err(e);
+        }
+        std::thread::sleep(link::RENEWAL);
+        if let Err(e) = drain(feed, |s| states.push(*s)) {
+            break Err(e);
+        }
+        if Instant::now() >= end {
+            break Ok(());
+        }
+    };
+    let released = client.request(&hob_ipc::request::jog_release(), link::ANSWER);
+    result?;
+    released.map_err(|e| {
+        Stop::Failed(format!(
+            "hob-rt did not answer: {e}; the swing fades by its dead-man"
+        ))
+    })?;
+    listen(
+        feed,
+        link::REST + Duration::from_secs_f64(hob_ipc::vocab::excitation::FADE_S),
+    )?;
+    let readings = readings(&states, (settle / period_s).ceil() as usize)?;
+    frf::point(frequency_hz, period_s, &readings).map_err(|e| {
+        Stop::Failed(format!(
+            "no response at {frequency_hz:.1} Hz ({e:?}): nothing written"
+        ))
+    })
+}
+
+/// The swing's readings after its first `skip` cycles, consecutive (a lost state sample
+/// would shift every later one in time).
+fn readings(states: &[StateSample], skip: usize) -> Result<Vec<Reading>, Stop> {
+    let swinging_b = hob_ipc::codec::Axis::B.code();
+    let swung: Vec<&StateSample> = states
+        .iter()
+        .filter(|s| s.moving_axis == swinging_b)
+        .skip(skip)
+        .collect();
+    if swung.windows(2).any(|w| w[1].cycle != w[0].cycle + 1) {
+        return Err(Stop::Failed(
+            "state samples were lost during the swing (the reader fell behind): nothing written".into(),
+        ));
+    }
+    Ok(swung
+        .iter()
+        .map(|s| Reading {
+            command_deg: s.table_deg.command,
+            table_deg: s.table_deg.actual,
+        })
+        .collect())
 }

@@ -1106,3 +1106,23 @@ impl FaultCode {
         })
     }
 }
+
+/// The table's swing of `EXCITE_TABLE` (commissioning's frequency response), as the loop
+/// makes it and the procedure reads it.
+pub mod excitation {
+    /// The largest swing of the table's target, deg (about an arcsec). Small: the mesh's
+    /// torque must stay below the table's friction, which holds the wheel on the worm's
+    /// driving flank while the table creeps; a larger swing lifts the wheel into the play,
+    /// and the motor then feels only itself (on the simulated machine 0.02 deg showed no
+    /// mesh at all).
+    pub const MAX_DEG: f64 = 0.0003;
+    /// The table creeps one way while its target swings, deg/s (36 deg/min): fast enough
+    /// for its bearing's friction to reach its sliding value, which keeps the worm on one
+    /// flank as the cutting torque does in the cut (at 3 deg/min the simulated table's
+    /// friction is a tenth of it, and the mesh's mode did not show).
+    pub const CREEP_DEG_S: f64 = 0.6;
+    /// The lowest frequency, Hz (a period within the dead-man's renewals).
+    pub const MIN_HZ: f64 = 0.5;
+    /// The swing fades in and out over this long, s.
+    pub const FADE_S: f64 = 0.25;
+}

@@ -338,6 +338,24 @@ pub struct TableConfig {
     pub max_table_rpm: f64,
     pub max_accel_deg_s2: f64,
     pub max_following_error_deg: f64,
+    /// What the motor's and the drive's data sheets say of the table drive, for
+    /// `hob commission response` (absent: that measurement is refused).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub drive_model: Option<TableDriveModel>,
+}
+
+/// The table drive as its data sheets describe it: what a measurement at the loop's 1 kHz
+/// cannot see (it acts above a quarter of that rate), which `hob commission response`'s
+/// model of the drive's loops needs.
+#[derive(Debug, Clone, Copy, PartialEq, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct TableDriveModel {
+    /// Everything on the motor's shaft: rotor, coupling and worm, kg m2.
+    pub motor_side_inertia_kg_m2: f64,
+    /// The drive's velocity loop's sample period, us.
+    pub loop_us: u32,
+    /// The drive's low-pass on its speed estimate, Hz.
+    pub speed_filter_hz: f64,
 }
 
 impl TableConfig {
@@ -902,6 +920,27 @@ impl MachineConfig {
             ("table.max_following_error_deg", t.max_following_error_deg),
         ] {
             p.positive(key, v);
+        }
+        if let Some(d) = &t.drive_model {
+            p.within(
+                "table.drive_model.motor_side_inertia_kg_m2",
+                d.motor_side_inertia_kg_m2,
+                1e-6,
+                1.0,
+                "kg m2",
+            );
+            p.require(
+                (31..=2000).contains(&d.loop_us),
+                "table.drive_model.loop_us",
+                || format!("must be within 31 .. 2000 us (is {})", d.loop_us),
+            );
+            p.within(
+                "table.drive_model.speed_filter_hz",
+                d.speed_filter_hz,
+                10.0,
+                0.5e6 / f64::from(d.loop_us.max(1)),
+                "Hz (at most half the loop's rate)",
+            );
         }
         let motor = t.max_table_rpm * t.worm_ratio;
         p.require(motor <= t.motor_max_rpm, "table.max_table_rpm", || {
