@@ -2175,12 +2175,23 @@ fn commissioning_measures_the_table_response_and_writes_the_gains_over_the_bus()
         .and_then(|v| v.parse::<f64>().ok())
         .unwrap_or(1000.0);
     let to_hz = format!("{:.0}", (0.25e6 / cycle_us).min(250.0));
+    // The guest's slower loop (HOB_CYCLE_US): fewer points, the same procedure.
+    let points = if cycle_us > 1000.0 { "10" } else { "16" };
     let svg = b.art.join("bode.svg");
     let response = |file: &Path, extra: &[&str]| {
-        let mut a: Vec<String> = ["commission", "response", "--machine", &path(file), "--to", &to_hz]
-            .iter()
-            .map(|s| s.to_string())
-            .collect();
+        let mut a: Vec<String> = [
+            "commission",
+            "response",
+            "--machine",
+            &path(file),
+            "--to",
+            &to_hz,
+            "--points",
+            points,
+        ]
+        .iter()
+        .map(|s| s.to_string())
+        .collect();
         a.extend(extra.iter().map(|s| s.to_string()));
         a
     };

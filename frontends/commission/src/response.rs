@@ -155,7 +155,9 @@ pub fn run(
     };
     let (mut feed, mut client) = connect()?;
     let (identity, gains) = table_drive(client.as_mut())?;
-    let period_s = loop_period_s(feed.as_mut())?;
+    // The loop's own period (its time per cycle: a slow machine's late cycles do not
+    // stretch it), as hob-rt reads it from the same file.
+    let period_s = f64::from(machine.control.cycle_period_us) * 1e-6;
     check_options(o, period_s)?;
     say(&o.announcement());
     at_rest(feed.as_mut())?;
@@ -198,17 +200,6 @@ fn table_drive(client: &mut dyn Commands) -> Result<(DriveIdentity, DriveGains),
         )
     })?;
     Ok((identity, gains))
-}
-
-/// The loop's period, s, from its state stream's SYNC times.
-fn loop_period_s(feed: &mut dyn Feed) -> Result<f64, Stop> {
-    let states = listen(feed, Duration::from_millis(300))?;
-    match (states.first(), states.last()) {
-        (Some(a), Some(b)) if b.cycle > a.cycle => {
-            Ok((b.sync_time_ns - a.sync_time_ns) as f64 * 1e-9 / (b.cycle - a.cycle) as f64)
-        }
-        _ => Err(Stop::Failed("no state from hob-rt for 0.3 s".into())),
-    }
 }
 
 /// Every state sample for `time`.
