@@ -205,3 +205,44 @@ fn the_excitation_is_refused_outside_its_range_and_beside_another_and_fades_out(
         "no swing left at rest"
     );
 }
+
+/// A fault mid-swing (an X drive's) stops it: the machine faulted, the swing's offset fading
+/// over a few cycles instead of jumping, then none left; a swing asked for during the cut
+/// is refused and changes nothing.
+#[test]
+fn a_fault_mid_swing_fades_it_and_a_cut_refuses_it() {
+    use hob_control::fault::{Axis, Refusal};
+    use hob_plant::plant::Injection;
+    let (job, cycle, plan) = common::short_spur(&[]);
+    let mut sim = common::powered_up_on(&common::plant(), &job, &cycle, &plan);
+    let excite = Command::ExciteTable {
+        frequency_hz: 20.0,
+        creep: Direction::Positive,
+    };
+    for _ in 0..5 {
+        assert_eq!(sim.command(excite), Ok(()));
+        common::run(&mut sim, 0.1, |_| false);
+    }
+    sim.plant.inject(Injection::DriveFault(Axis::X));
+    let run = common::run(&mut sim, 0.3, |_| false);
+    assert_eq!(run.rows.last().unwrap().state, State::Faulted);
+    let cmds: Vec<f64> = run.rows.iter().map(|r| r.table_cmd_deg).collect();
+    let largest_step = cmds.windows(2).map(|w| (w[1] - w[0]).abs()).fold(0.0, f64::max);
+    // The swing's own steps at 20 Hz (2 pi f A per ms) and the creep's: no jump beyond them.
+    let swing_step = std::f64::consts::TAU * 20.0 * hob_control::jog::EXCITE_MAX_DEG * 1e-3;
+    let creep_step = hob_control::jog::EXCITE_CREEP_DEG_S * 1e-3;
+    assert!(
+        largest_step <= swing_step + 1.2 * creep_step,
+        "a step of {largest_step} deg"
+    );
+    let tail = &cmds[cmds.len() - 50..];
+    assert!(
+        tail.iter().all(|c| (c - tail[0]).abs() < 1e-9),
+        "still swinging: {tail:?}"
+    );
+    sim.plant.clear_injections();
+    common::repair_and_reset(&mut sim);
+    assert_eq!(sim.command(Command::Start { single: false }), Ok(()));
+    common::run(&mut sim, 60.0, |r| r.state == State::Cut);
+    assert_eq!(sim.command(excite), Err(Refusal::CycleRunning));
+}

@@ -254,7 +254,11 @@ fn swing(
     let excite =
         hob_ipc::request::excite_table(frequency_hz, "+").map_err(|e| Stop::Refused(e.to_string()))?;
     let settle = hob_ipc::vocab::excitation::FADE_S + SETTLE_S;
-    let end = Instant::now() + Duration::from_secs_f64(settle + read_s(frequency_hz));
+    // Counted in the loop's cycles, not the wall's: a loop that falls behind its pace
+    // (an emulated machine) still gives whole periods; one far behind is given up.
+    let cycles = ((settle + read_s(frequency_hz)) / period_s).ceil() as usize;
+    let give_up = Instant::now() + Duration::from_secs_f64(4.0 * (settle + read_s(frequency_hz)) + 2.0);
+    let swinging_b = hob_ipc::codec::Axis::B.code();
     let mut states: Vec<StateSample> = Vec::new();
     let result = loop {
         if !enabled() {
@@ -270,8 +274,15 @@ fn swing(
         if let Err(e) = drain(feed, |s| states.push(*s)) {
             break Err(e);
         }
-        if Instant::now() >= end {
+        if states.iter().filter(|s| s.moving_axis == swinging_b).count() >= cycles {
             break Ok(());
+        }
+        if Instant::now() >= give_up {
+            break Err(Stop::Failed(format!(
+                "the loop ran {} of the swing's {cycles} cycles in four times their time: it is \
+                 far behind its pace; nothing written",
+                states.iter().filter(|s| s.moving_axis == swinging_b).count()
+            )));
         }
     };
     let released = client.request(&hob_ipc::request::jog_release(), link::ANSWER);
