@@ -240,10 +240,14 @@ fn hello(m: &MachineConfig, level: Role) -> serde_json::Value {
 /// their default options): the speeds the hob spindle will turn at for the encoder and about
 /// how long (each speed read, and some 14 s to ramp and settle before it); the table's jogs
 /// for the backlash (three, each left to rest) and the gauge the machine file
-/// names (`null`: none, the measurement is refused).
+/// names (`null`: none, the measurement is refused); the response's frequencies, about how
+/// long the table swings and how far it creeps meanwhile (`ResponseOptions::announcement`'s
+/// figures), and whether the machine file has the drive's `[table.drive_model]` (without it
+/// the measurement is refused).
 fn commissioning(m: &MachineConfig) -> serde_json::Value {
     let o = hob_commission::encoder::EncoderOptions::default().on_machine(m.spindle.max_spindle_rpm);
     let b = hob_commission::backlash::BacklashOptions::default();
+    let r = hob_commission::response::ResponseOptions::default();
     serde_json::json!({
         "encoder": {
             "max_rpm": o.speeds_rpm.iter().fold(0.0f64, |a, &r| a.max(r)),
@@ -257,6 +261,14 @@ fn commissioning(m: &MachineConfig) -> serde_json::Value {
             "travel_deg": b.travel_deg(),
             "about_s": b.about_s().ceil(),
             "gauge_channel": m.io.analog_inputs.table_gauge.map(|g| g.channel),
+        },
+        "response": {
+            "points": r.points,
+            "from_hz": r.from_hz,
+            "to_hz": r.to_hz,
+            "about_s": r.about_s().ceil(),
+            "creep_deg": (r.about_s() * 0.6).ceil(),
+            "drive_model": m.table.drive_model.is_some(),
         },
     })
 }

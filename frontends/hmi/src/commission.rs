@@ -1,4 +1,4 @@
-//! Commissioning from the panel (DIAGNOSTICS): three procedures of `hob_commission`, the
+//! Commissioning from the panel (DIAGNOSTICS): four procedures of `hob_commission`, the
 //! same as the CLI's, with the panel's press-and-hold key as their enable:
 //!
 //! - `delay`: the table drive's delay (`hob commission delay`): the table jogs one way and
@@ -8,7 +8,13 @@
 //!   largest in turn, a few minutes in all;
 //! - `backlash`: the table drive's lost motion at a reversal against a gauge on the table
 //!   (`hob commission backlash`): the table jogs slowly +, - and + again (some 17 s); refused
-//!   when the machine file names no gauge.
+//!   when the machine file names no gauge;
+//! - `response`: the table's frequency response through the worm (`hob commission
+//!   response`): the table's target swings by about an arcsec at 32 frequencies while the
+//!   table creeps + at 36 deg/min (a minute or two); the drive's gains proposed with their
+//!   margins, and the Bode plot ([`hob_commission::response::bode::svg`]) with the proposal;
+//!   refused when the machine file has no `[table.drive_model]` or the drive reported no
+//!   gains at boot.
 //!
 //! A press starts the procedure of its key; the page renews the hold every 100 ms while the
 //! finger is on the key (a renewal never starts another); the procedure asks before every
@@ -33,6 +39,8 @@ use hob_commission::Stop;
 use hob_commission::backlash::{self, BacklashOptions};
 use hob_commission::delay::{self, DelayOptions};
 use hob_commission::encoder::{self, EncoderOptions};
+use hob_commission::response::model::Stability;
+use hob_commission::response::{self, ResponseOptions};
 use hob_ipc::gateway::Action;
 use serde::Serialize;
 use std::path::{Path, PathBuf};
@@ -52,12 +60,19 @@ pub enum Procedure {
     Encoder,
     /// The table drive's lost motion against a gauge (`hob_commission::backlash`).
     Backlash,
+    /// The table's frequency response and the drive's gains (`hob_commission::response`).
+    Response,
 }
 
 impl Procedure {
-    pub const ALL: [Procedure; 3] = [Procedure::Delay, Procedure::Encoder, Procedure::Backlash];
+    pub const ALL: [Procedure; 4] = [
+        Procedure::Delay,
+        Procedure::Encoder,
+        Procedure::Backlash,
+        Procedure::Response,
+    ];
 
-    /// The procedure a page names (`delay`, `encoder`, `backlash`).
+    /// The procedure a page names (`delay`, `encoder`, `backlash`, `response`).
     pub fn named(name: &str) -> Option<Self> {
         Self::ALL.into_iter().find(|p| p.name() == name)
     }
@@ -68,6 +83,7 @@ impl Procedure {
             Procedure::Delay => "delay",
             Procedure::Encoder => "encoder",
             Procedure::Backlash => "backlash",
+            Procedure::Response => "response",
         }
     }
 
@@ -77,6 +93,7 @@ impl Procedure {
             Procedure::Delay => "the table drive's delay",
             Procedure::Encoder => "the spindle encoder",
             Procedure::Backlash => "the table's backlash",
+            Procedure::Response => "the table's frequency response",
         }
     }
 }
@@ -84,7 +101,7 @@ impl Procedure {
 /// The proposal as the page shows it, whichever procedure made it.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct ProposalView {
-    /// `delay`, `encoder` or `backlash`.
+    /// `delay`, `encoder`, `backlash` or `response`.
     pub procedure: &'static str,
     /// The machine file WRITE writes.
     pub file: PathBuf,
@@ -95,6 +112,8 @@ pub struct ProposalView {
     /// The proposal and the diff as the CLI prints them.
     pub text: String,
     pub utc: String,
+    /// The Bode plot of the points and the fitted model, SVG (the response's only).
+    pub bode: Option<String>,
 }
 
 impl ProposalView {
@@ -106,6 +125,15 @@ impl ProposalView {
             diff: diff.to_string(),
             text,
             utc: utc.to_string(),
+            bode: None,
+        }
+    }
+
+    /// With its Bode plot.
+    fn with_bode(self, svg: String) -> Self {
+        Self {
+            bode: Some(svg),
+            ..self
         }
     }
 }
@@ -116,6 +144,8 @@ enum Held {
     Delay(delay::Proposal),
     Encoder(encoder::Proposal),
     Backlash(backlash::Proposal),
+    /// Boxed: its analysis (points, fit, margins) is many times the others' size.
+    Response(Box<response::Proposal>),
 }
 
 impl Held {
@@ -125,6 +155,7 @@ impl Held {
             Held::Delay(_) => Procedure::Delay,
             Held::Encoder(_) => Procedure::Encoder,
             Held::Backlash(_) => Procedure::Backlash,
+            Held::Response(_) => Procedure::Response,
         }
     }
 
@@ -138,6 +169,10 @@ impl Held {
             }
             Held::Backlash(p) => {
                 ProposalView::of(Procedure::Backlash, &p.file, &p.report, &p.diff, &p.utc, p.text())
+            }
+            Held::Response(p) => {
+                ProposalView::of(Procedure::Response, &p.file, &p.report, &p.diff, &p.utc, p.text())
+                    .with_bode(response::bode::svg(&p.measured))
             }
         }
     }
@@ -160,6 +195,7 @@ impl Held {
                  [commissioning.table_backlash], the fit and the diff below",
                 p.measured.arcsec, p.measured.uncertainty_arcsec
             ),
+            Held::Response(p) => response_summary(&p.measured),
         }
     }
 
@@ -168,6 +204,7 @@ impl Held {
             Held::Delay(p) => p.write(),
             Held::Encoder(p) => p.write(),
             Held::Backlash(p) => p.write(),
+            Held::Response(p) => p.write(),
         }
     }
 
@@ -176,6 +213,7 @@ impl Held {
             Held::Delay(p) => &p.file,
             Held::Encoder(p) => &p.file,
             Held::Backlash(p) => &p.file,
+            Held::Response(p) => &p.file,
         }
     }
 }
@@ -185,8 +223,8 @@ impl Held {
 pub struct View {
     /// The hold or write that this answers.
     pub id: u64,
-    /// The procedure it is about (`delay`, `encoder`, `backlash`; a refused unknown name as the page
-    /// sent it).
+    /// The procedure it is about (`delay`, `encoder`, `backlash`, `response`; a refused
+    /// unknown name as the page sent it).
     pub procedure: String,
     /// `running`, `proposal`, `stopped`, `refused` or `written`.
     pub state: &'static str,
@@ -391,6 +429,8 @@ fn measure(
         Procedure::Backlash => {
             backlash::run(file, &BacklashOptions::default(), &enabled, &mut say).map(Held::Backlash)
         }
+        Procedure::Response => response::run(file, &ResponseOptions::default(), &enabled, &mut say)
+            .map(|p| Held::Response(Box::new(p))),
     };
     match result {
         Ok(held) => (
@@ -420,6 +460,36 @@ fn measure(
     }
 }
 
+/// What the page's state line says of a frequency response: the mesh's frequencies, the
+/// present tuning's stability, the gains proposed and their margins (the report below the
+/// plot has every figure).
+fn response_summary(a: &response::analysis::Analysis) -> String {
+    let g = response::analysis::gains_of(&a.proposed.loops);
+    let present = match &a.present_stability {
+        Stability::Stable { cascade, .. } => format!(
+            "stable (cascade GM {:.1} dB, PM {:.1} deg)",
+            cascade.gain_margin_db, cascade.phase_margin_deg
+        ),
+        Stability::Unstable { near_hz, .. } => {
+            format!("UNSTABLE (the drive would oscillate near {near_hz:.0} Hz)")
+        }
+    };
+    format!(
+        "{} points; the mesh's anti-resonance {:.1} Hz, resonance {:.1} Hz; the present tuning \
+         {present}; proposed kp {:.3} Nm s/rad, Ti {:.2} ms, kv {:.1} 1/s with cascade GM {:.1} \
+         dB, PM {:.1} deg, as [commissioning.table_drive_gains]: the Bode plot, the fit and the \
+         diff below",
+        a.points.len(),
+        a.modes_hz.0,
+        a.modes_hz.1,
+        g.velocity_kp_nm_s_per_rad,
+        g.velocity_integral_time_ms,
+        g.position_kv_per_s,
+        a.proposed.cascade.gain_margin_db,
+        a.proposed.cascade.phase_margin_deg,
+    )
+}
+
 /// A poisoned lock is a panic elsewhere: its value is still the last one written.
 fn lock<T>(m: &Mutex<T>) -> std::sync::MutexGuard<'_, T> {
     m.lock().unwrap_or_else(std::sync::PoisonError::into_inner)
@@ -443,6 +513,8 @@ mod tests {
         assert_eq!(Procedure::named("delay"), Some(Procedure::Delay));
         assert_eq!(Procedure::named("encoder"), Some(Procedure::Encoder));
         assert_eq!(Procedure::named("backlash"), Some(Procedure::Backlash));
+        assert_eq!(Procedure::named("response"), Some(Procedure::Response));
+        assert_eq!(Procedure::named("table_response"), None);
         assert_eq!(Procedure::named("table_backlash"), None);
         assert_eq!(Procedure::named("Encoder"), None);
         assert_eq!(Procedure::named(""), None);
@@ -455,7 +527,7 @@ mod tests {
         let v = rx.try_recv().expect("a view");
         assert_eq!((v.id, v.state, v.procedure.as_str()), (7, "refused", "spindle"));
         assert!(
-            v.text.contains("\"spindle\"") && v.text.contains("delay, encoder, backlash"),
+            v.text.contains("\"spindle\"") && v.text.contains("delay, encoder, backlash, response"),
             "{}",
             v.text
         );
@@ -589,6 +661,124 @@ mod tests {
         }
         assert_eq!(*lock(&s.running), None, "the procedure still runs");
         assert!(lock(&s.proposal).is_none(), "a proposal is held");
+    }
+
+    #[test]
+    fn the_response_key_is_refused_while_another_runs_and_refuses_the_others_while_it_runs() {
+        let (s, mut rx) = session();
+        // The backlash under way, its key let go: a press on TABLE RESPONSE is refused and
+        // does not hold the backlash's enable.
+        *lock(&s.running) = Some(Procedure::Backlash);
+        s.hold_as(31, "response", None, file());
+        let v = rx.try_recv().expect("a view");
+        assert_eq!((v.id, v.state, v.procedure.as_str()), (31, "refused", "response"));
+        assert!(
+            v.text
+                .starts_with("the table's backlash is being measured: one procedure at a time"),
+            "{}",
+            v.text
+        );
+        assert_eq!(
+            *lock(&s.enable),
+            None,
+            "the response key held the backlash's enable"
+        );
+        // The response under way: every other key is refused in its words.
+        *lock(&s.running) = Some(Procedure::Response);
+        for (id, other) in [(32, "delay"), (33, "encoder"), (34, "backlash")] {
+            s.hold_as(id, other, None, file());
+            let v = rx.try_recv().expect("a view");
+            assert_eq!((v.id, v.state, v.procedure.as_str()), (id, "refused", other));
+            assert!(
+                v.text
+                    .starts_with("the table's frequency response is being measured"),
+                "{}",
+                v.text
+            );
+            assert_eq!(*lock(&s.enable), None, "{other}'s key held the response's enable");
+        }
+        // Its own key holds it, nothing else starts.
+        s.hold_as(35, "response", None, file());
+        assert!(
+            lock(&s.enable).is_some(),
+            "the running one's key does not hold it"
+        );
+        assert_eq!(*lock(&s.running), Some(Procedure::Response));
+        assert!(rx.try_recv().is_err(), "a press on the running key answered");
+    }
+
+    #[test]
+    fn the_response_on_a_machine_file_without_the_drive_model_is_refused_in_words() {
+        // The shipped machine file without its [table.drive_model]: the procedure refuses
+        // before anything moves (it never reaches the loop), and nothing is held for WRITE.
+        let shipped = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../config/machine.toml");
+        let text = std::fs::read_to_string(&shipped).expect("the shipped machine file");
+        let start = text
+            .find("[table.drive_model]")
+            .expect("the shipped file has the model");
+        let end = start + text[start..].find("\n\n").expect("the block's end");
+        let without = format!("{}{}", &text[..start], &text[end + 2..]);
+        let dir = std::env::temp_dir().join(format!("hob-hmi-response-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).expect("a temporary directory");
+        let machine = dir.join("machine.toml");
+        std::fs::write(&machine, &without).expect("the machine file written");
+        let (s, mut rx) = session();
+        s.hold_as(41, "response", None, machine.clone());
+        let end = Instant::now() + Duration::from_secs(10);
+        let v = loop {
+            match rx.try_recv() {
+                Ok(v) => break v,
+                Err(_) if Instant::now() < end => std::thread::sleep(Duration::from_millis(10)),
+                Err(e) => panic!("no view in 10 s: {e}"),
+            }
+        };
+        assert_eq!((v.id, v.state, v.procedure.as_str()), (41, "refused", "response"));
+        assert!(
+            v.text.contains("has no [table.drive_model]") && v.text.contains("nothing measured"),
+            "{}",
+            v.text
+        );
+        assert!(v.proposal.is_none());
+        let end = Instant::now() + Duration::from_secs(5);
+        while lock(&s.running).is_some() && Instant::now() < end {
+            std::thread::sleep(Duration::from_millis(10));
+        }
+        assert_eq!(*lock(&s.running), None, "the procedure still runs");
+        assert!(lock(&s.proposal).is_none(), "a proposal is held");
+        assert_eq!(
+            std::fs::read_to_string(&machine).expect("the machine file"),
+            without,
+            "the machine file changed"
+        );
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+
+    #[test]
+    fn the_view_of_a_response_proposal_carries_its_bode_plot() {
+        // A response::Proposal is made only by a whole run on the machine; its view is made
+        // of its report, diff and text() with the SVG of bode::svg, as here.
+        let report = "table frequency response: 32 points from 2.0 to 250.0 Hz\nproposed: velocity loop GM 9.1 dB, PM 43.0 deg\n";
+        let diff = "+ 262 [commissioning.table_drive_gains]\n+ 266 velocity_kp_nm_s_per_rad = 0.0740\n";
+        let file = PathBuf::from("/etc/hob/machine.toml");
+        let text = format!("{report}changes to {}:\n{diff}", file.display());
+        let svg = r#"<svg xmlns="http://www.w3.org/2000/svg"><circle cx="1" cy="2" r="3.5"/></svg>"#;
+        let p = ProposalView::of(
+            Procedure::Response,
+            &file,
+            report,
+            diff,
+            "2026-11-29T09:00:00Z",
+            text,
+        )
+        .with_bode(svg.into());
+        let j = serde_json::to_value(&p).expect("json");
+        assert_eq!(j["procedure"], "response");
+        assert_eq!(j["report"], report);
+        assert_eq!(j["diff"], diff);
+        assert_eq!(j["bode"], svg);
+        // The other procedures' views carry none.
+        let b = ProposalView::of(Procedure::Backlash, &file, report, diff, "", String::new());
+        assert!(serde_json::to_value(&b).expect("json")["bode"].is_null());
     }
 
     #[test]

@@ -563,7 +563,8 @@ pub enum ClientMsg {
     JogRenew,
     JogRelease,
     /// A commissioning key pressed (starts its procedure: `delay`, the table drive's delay,
-    /// or `encoder`, the spindle encoder's error; a page that names none means `delay`),
+    /// `encoder`, the spindle encoder's error, `backlash`, the table's lost motion, or
+    /// `response`, the table's frequency response; a page that names none means `delay`),
     /// held (renewed every 100 ms: its enable) and let go.
     CommissionHold {
         id: u64,

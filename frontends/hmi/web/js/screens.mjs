@@ -351,8 +351,9 @@ function Bars({ title, bars, testid }) {
       <span class="fill" style=${`width:${top > 0 ? (70 * Math.log10(b.count + 1)) / top : 0}%`}></span><span class="n">${b.count}</span></div>`)}</div>`;
 }
 
-/** Commissioning: three procedures of the server's hob_commission (those of `hob commission
- *  delay`, `hob commission encoder` and `hob commission backlash`), each run while its key
+/** Commissioning: four procedures of the server's hob_commission (those of `hob commission
+ *  delay`, `hob commission encoder`, `hob commission backlash` and `hob commission
+ *  response`), each run while its key
  *  is held (the held key its enable: letting go stops the table or the spindle); one at a
  *  time (the server refuses another key's press while one runs, and says so); the proposal
  *  of the one that ran last, its fit and its diff; WRITE at the builder's level. */
@@ -396,7 +397,15 @@ function CommissionState({ view, testid }) {
   return html`<p class=${bad ? "warn" : view.state === "running" ? "ok" : ""} data-testid=${testid} data-state=${view.state}>${view.text}</p>`;
 }
 
-const PROCEDURES = { delay: "TABLE DRIVE DELAY", encoder: "SPINDLE ENCODER", backlash: "TABLE BACKLASH" };
+const PROCEDURES = { delay: "TABLE DRIVE DELAY", encoder: "SPINDLE ENCODER", backlash: "TABLE BACKLASH", response: "TABLE RESPONSE" };
+
+/** The proposal's fit in words and its diff; the response's with its Bode plot beside the
+ *  fit (the server's SVG, made by hob_commission's `response::bode::svg` from numbers). */
+function Proposal({ p }) {
+  const report = html`<pre class="small" style=${p.procedure === "encoder" ? "" : "white-space: pre-wrap"} data-testid="commission-report">${p.report}</pre>`;
+  return html`${p.bode ? html`<div class="bode-result"><div class="bode" data-testid="commission-bode" dangerouslySetInnerHTML=${{ __html: p.bode }}></div>${report}</div>` : report}
+    <pre class="small" data-testid="commission-diff">${p.diff}</pre>`;
+}
 
 function Commissioning({ conn }) {
   const c = conn.commission;
@@ -404,6 +413,7 @@ function Commissioning({ conn }) {
   const p = c && c.proposal;
   const e = conn.hello && conn.hello.commissioning && conn.hello.commissioning.encoder;
   const b = conn.hello && conn.hello.commissioning && conn.hello.commissioning.backlash;
+  const r = conn.hello && conn.hello.commissioning && conn.hello.commissioning.response;
   const write = () => conn.send({ t: "commission_write", id: conn.newId() });
   return html`<div class="card wide" data-testid="commissioning"><h2>${t("Commissioning")}</h2>
     ${c && !PROCEDURES[c.procedure] ? html`<p class="warn" data-testid="commission-other" data-state=${c.state}>${c.text}</p>` : ""}
@@ -424,11 +434,16 @@ function Commissioning({ conn }) {
         <p class="hint">${b ? t("The table turns + at {0} deg/min for {1} s, then - and + again as long ({2} deg each way, about {3} s in all): keep the table clear and hold the key until the result shows; letting go stops the table. The lost motion is written into the machine file only by WRITE (a builder's work), for the commissioning report; the loop does not use it.", fmt(b.speed_deg_min, 1), fmt(b.seconds, 0), fmt(b.travel_deg, 3), fmt(b.about_s, 0)) : ""}</p>
         <div class="row"><${CommissionKey} conn=${conn} procedure="backlash" testid="commission-backlash-hold" /></div>
         <${CommissionState} view=${by.backlash} testid="commission-backlash-state" /></div>
+      <div class="procedure" data-testid="commission-response"><h3>${t("TABLE RESPONSE")}</h3>
+        ${r && !r.drive_model ? html`<p class="warn" data-testid="commission-response-model">${t("The machine file has no [table.drive_model] (the motor side's inertia, the drive's loop period and speed filter from their data sheets): the measurement is refused until it has.")}</p>` : ""}
+        <p class="hint">${r ? t("The table's target swings by about an arcsec at {0} frequencies from {1} to {2} Hz, then as many again about the deepest dip, the table creeping + at 36 deg/min meanwhile (about {3} s, {4} deg of the table): keep the table clear and unclamped and hold the key until the Bode plot shows; letting go stops the swing. The proposed drive gains are written into the machine file only by WRITE (a builder's work); hob-rt's boot writes them to the drive.", r.points, fmt(r.from_hz, 0), fmt(r.to_hz, 0), fmt(r.about_s, 0), fmt(r.creep_deg, 0)) : ""}</p>
+        <div class="row"><${CommissionKey} conn=${conn} procedure="response" testid="commission-response-hold" /></div>
+        <${CommissionState} view=${by.response} testid="commission-response-state" /></div>
     </div>
     <div class="row"><button class="key primary" onClick=${write} disabled=${!p || !allows(conn, "edit_machine_data")} data-testid="commission-write">${t("WRITE")}</button>
       ${p ? html`<span data-testid="commission-proposal-of" data-procedure=${p.procedure}>${t("the proposal of {0}", t(PROCEDURES[p.procedure] || p.procedure))}</span>` : html`<span class="hint">${t("nothing measured to write")}</span>`}
       ${allows(conn, "edit_machine_data") ? "" : html`<span class="hint" data-testid="commission-level">${t("WRITE: a builder's work")}</span>`}</div>
-    ${p ? html`<pre class="small" style=${p.procedure === "encoder" ? "" : "white-space: pre-wrap"} data-testid="commission-report">${p.report}</pre><pre class="small" data-testid="commission-diff">${p.diff}</pre>` : ""}
+    ${p ? html`<${Proposal} p=${p} />` : ""}
   </div>`;
 }
 
