@@ -312,7 +312,7 @@ fn say_table_drive_gains(machine: &MachineConfig, nodes: &[hob_master::NodeInfo]
         || "unknown (the drive serves no 0x60F9/0x60FB)".to_string(),
         |g| {
             format!(
-                "velocity gain {} N m s/rad, integral time {} ms, position gain {} 1/s",
+                "velocity gain {:.4} N m s/rad, integral time {:.3} ms, position gain {:.2} 1/s",
                 g.velocity_kp_nm_s_per_rad(),
                 g.velocity_integral_time_ms(),
                 g.position_kv_per_s()
@@ -324,7 +324,7 @@ fn say_table_drive_gains(machine: &MachineConfig, nodes: &[hob_master::NodeInfo]
         (Some(r), Some(t)) if !r.is_of(t.vendor_id, t.product_code, t.serial) => eprintln!(
             "hob-rt: the commissioned table drive gains ([commissioning.table_drive_gains], {}) \
              were NOT written: they were measured on another drive ({}); the table drive on the \
-             bus is {}; it runs on its own gains ({held}) until `hob commission` has measured it",
+             bus is {}; it runs on its own gains ({held}) until `hob commission response` has measured it",
             r.utc,
             identity_text(
                 r.table_drive_vendor_id,
@@ -335,7 +335,7 @@ fn say_table_drive_gains(machine: &MachineConfig, nodes: &[hob_master::NodeInfo]
         ),
         (Some(r), Some(_)) => eprintln!(
             "hob-rt: the table drive runs on the gains commissioned at {} ({held}); its own were \
-             {} N m s/rad, {} ms, {} 1/s",
+             {:.4} N m s/rad, {:.3} ms, {:.2} 1/s",
             r.utc,
             r.previous_velocity_kp_nm_s_per_rad,
             r.previous_velocity_integral_time_ms,
