@@ -55,6 +55,23 @@ fn start_service(b: &mut Bench, machine: &Path, n: u32, homing: Homing) -> (Proc
     (sim, rt)
 }
 
+/// A commissioning step that was refused or stopped changed nothing: `machine` reads as
+/// `original`, and no old file was kept beside it in the bench's artifacts.
+fn unchanged(b: &Bench, machine: &Path, original: &str, what: &str) {
+    assert_eq!(
+        std::fs::read_to_string(machine).unwrap(),
+        original,
+        "{what}: the machine file changed"
+    );
+    let kept: Vec<_> = std::fs::read_dir(&b.art)
+        .unwrap()
+        .filter_map(|e| e.ok())
+        .map(|e| e.path())
+        .filter(|p| p.to_string_lossy().ends_with(".bak"))
+        .collect();
+    assert!(kept.is_empty(), "{what}: a file was kept: {kept:?}");
+}
+
 /// `hob-rt` on `machine` and this bench's bus, its work offsets in `state`, its log `log`.
 fn spawn_rt(b: &mut Bench, machine: &Path, state: &Path, log: &str) -> ProcId {
     let iface = b.iface.clone();
@@ -1812,19 +1829,7 @@ fn commissioning_finds_the_hidden_drive_delay_over_the_bus() {
         }
         a
     };
-    let unchanged = |b: &Bench, what: &str| {
-        assert_eq!(
-            std::fs::read_to_string(&machine).unwrap(),
-            original,
-            "{what}: the machine file changed"
-        );
-        let kept: Vec<_> = std::fs::read_dir(&b.art)
-            .unwrap()
-            .filter_map(|e| e.ok())
-            .filter(|e| e.file_name().to_string_lossy().ends_with(".bak"))
-            .collect();
-        assert!(kept.is_empty(), "{what}: a file was kept: {kept:?}");
-    };
+    let unchanged = |b: &Bench, what: &str| unchanged(b, &machine, &original, what);
     let at_rest = |b: &Bench| {
         let a = b.status();
         std::thread::sleep(Duration::from_millis(400));
@@ -2195,19 +2200,7 @@ fn commissioning_measures_the_table_response_and_writes_the_gains_over_the_bus()
         a.extend(extra.iter().map(|s| s.to_string()));
         a
     };
-    let unchanged = |b: &Bench, what: &str| {
-        assert_eq!(
-            std::fs::read_to_string(&machine).unwrap(),
-            original,
-            "{what}: the machine file changed"
-        );
-        let kept = std::fs::read_dir(&b.art)
-            .unwrap()
-            .filter_map(|e| e.ok())
-            .filter(|e| e.file_name().to_string_lossy().ends_with(".bak"))
-            .count();
-        assert_eq!(kept, 0, "{what}: a file was kept");
-    };
+    let unchanged = |b: &Bench, what: &str| unchanged(b, &machine, &original, what);
     b.step("power-up to idle", |b| {
         b.wait_state("idle", STATE_TIMEOUT);
         String::new()
@@ -2352,19 +2345,7 @@ fn commissioning_finds_the_hidden_backlash_over_the_bus() {
         a.extend(extra.iter().map(|s| s.to_string()));
         a
     };
-    let unchanged = |b: &Bench, what: &str| {
-        assert_eq!(
-            std::fs::read_to_string(&machine).unwrap(),
-            original,
-            "{what}: the machine file changed"
-        );
-        let kept = std::fs::read_dir(&b.art)
-            .unwrap()
-            .filter_map(|e| e.ok())
-            .filter(|e| e.file_name().to_string_lossy().ends_with(".bak"))
-            .count();
-        assert_eq!(kept, 0, "{what}: a file was kept");
-    };
+    let unchanged = |b: &Bench, what: &str| unchanged(b, &machine, &original, what);
     b.step("power-up to idle", |b| {
         b.wait_state("idle", STATE_TIMEOUT);
         String::new()
