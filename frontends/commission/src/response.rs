@@ -260,6 +260,7 @@ fn swing(
     let give_up = Instant::now() + Duration::from_secs_f64(4.0 * (settle + read_s(frequency_hz)) + 2.0);
     let swinging_b = hob_ipc::codec::Axis::B.code();
     let mut states: Vec<StateSample> = Vec::new();
+    let mut renewed = 0usize;
     let result = loop {
         if !enabled() {
             break Err(Stop::Failed(
@@ -267,21 +268,27 @@ fn swing(
                     .into(),
             ));
         }
+        // Renewed every RENEWAL from its last sending, however long the answer took.
+        let sent = Instant::now();
         if let Err(e) = link::ask(client, &excite, "the table's swing") {
-            break Err(e);
+            break Err(late_renewal(e, renewed));
         }
-        std::thread::sleep(link::RENEWAL);
+        renewed += 1;
+        let next = sent + link::RENEWAL;
+        while Instant::now() < next {
+            std::thread::sleep(Duration::from_millis(10));
+        }
         if let Err(e) = drain(feed, |s| states.push(*s)) {
             break Err(e);
         }
-        if states.iter().filter(|s| s.moving_axis == swinging_b).count() >= cycles {
+        let swung = states.iter().filter(|s| s.moving_axis == swinging_b).count();
+        if swung >= cycles {
             break Ok(());
         }
         if Instant::now() >= give_up {
             break Err(Stop::Failed(format!(
-                "the loop ran {} of the swing's {cycles} cycles in four times their time: it is \
-                 far behind its pace; nothing written",
-                states.iter().filter(|s| s.moving_axis == swinging_b).count()
+                "the loop ran {swung} of the swing's {cycles} cycles in four times their time: it \
+                 is far behind its pace; nothing written"
             )));
         }
     };
@@ -302,6 +309,19 @@ fn swing(
             "no response at {frequency_hz:.1} Hz ({e:?}): nothing written"
         ))
     })
+}
+
+/// A refusal of a renewal after the swing was accepted (`renewed` times) is its dead-man:
+/// the renewals came later than the machine file's `jog.deadman_timeout_ms`.
+fn late_renewal(e: Stop, renewed: usize) -> Stop {
+    match e {
+        Stop::Refused(why) if renewed > 0 => Stop::Failed(format!(
+            "the swing faded out by the loop's dead-man after {renewed} renewals (they came later \
+             than jog.deadman_timeout_ms: this computer too slow or too loaded?); the loop then \
+             said: {why}"
+        )),
+        other => other,
+    }
 }
 
 /// The swing's readings after its first `skip` cycles, consecutive (a lost state sample
