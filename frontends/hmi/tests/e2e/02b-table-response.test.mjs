@@ -80,8 +80,14 @@ test("the table response's key held to the end: the Bode plot, the margins, the 
     assert.equal(readFileSync(machine, "utf8"), file, "the machine file changed before WRITE");
     await waitFor("the machine idle", () => status().state === "idle", 5000, 100);
     const s1 = status();
-    // The key's result, WRITE, the plot and the fit on the screen together.
-    await p.locator('[data-testid="commission-bode"]').evaluate((el) => el.scrollIntoView({ block: "end" }));
+    // WRITE, the plot, the fit and the start of the diff on the screen together.
+    // (Only the page's scrolling pane scrolls: scrollIntoView would scroll the panel itself.)
+    await p.locator('[data-testid="commission-write"]').evaluate((el) => {
+      const row = el.closest(".row");
+      let pane = row.parentElement;
+      while (pane && !(pane.scrollHeight > pane.clientHeight && getComputedStyle(pane).overflowY !== "visible")) pane = pane.parentElement;
+      if (pane) pane.scrollTop += row.getBoundingClientRect().top - pane.getBoundingClientRect().top - 8;
+    });
     await shot(p, "diagnostics-commissioning-response");
     const before = baks();
     await p.locator('[data-testid="commission-write"]').tap();
