@@ -9,7 +9,8 @@
 // held, the loop holds the hob spindle at the first speed and it turns; let go, the spindle
 // stops, the card says the enable was let go and offers nothing to WRITE, the file as it was.
 // The table backlash's key is 02-table-backlash.test.mjs's: it measures before the cut
-// turns the table beyond the gauge's stroke.
+// turns the table beyond the gauge's stroke; the table response's is 02b-table-response's,
+// run after it (its creep would take the table beyond the gauge) and before the cut.
 import { test, after } from "node:test";
 import assert from "node:assert/strict";
 import { readFileSync, readdirSync } from "node:fs";
