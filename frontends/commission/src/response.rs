@@ -102,18 +102,32 @@ impl ResponseOptions {
         2.0 * self.first_sweep().iter().map(|&f| each(f)).sum::<f64>()
     }
 
+    /// About how far the table creeps meanwhile, deg (it creeps while it swings).
+    pub fn creep_deg(&self) -> f64 {
+        let fade = hob_ipc::vocab::excitation::FADE_S;
+        let swinging = |f: f64| fade + SETTLE_S + read_s(f);
+        2.0 * self.first_sweep().iter().map(|&f| swinging(f)).sum::<f64>()
+            * hob_ipc::vocab::excitation::CREEP_DEG_S
+    }
+
+    /// The table's creep, deg/min.
+    pub fn creep_deg_min(&self) -> f64 {
+        hob_ipc::vocab::excitation::CREEP_DEG_S * 60.0
+    }
+
     /// What the table will do, for the person beside it.
     pub fn announcement(&self) -> String {
         format!(
             "the table's target swings by about an arcsec at {} frequencies from {} to {} Hz, \
-             then as many again about the deepest dip, the table creeping + at 36 deg/min \
+             then as many again about the deepest dip, the table creeping + at {:.0} deg/min \
              meanwhile (about {:.0} s, {:.0} deg of the table); keep the table clear and \
              unclamped. hob-rt checks each step as it checks a jog; letting go stops the swing.",
             self.points,
             self.from_hz,
             self.to_hz,
+            self.creep_deg_min(),
             self.about_s(),
-            self.about_s() * 0.6
+            self.creep_deg()
         )
     }
 }

@@ -267,7 +267,8 @@ fn commissioning(m: &MachineConfig) -> serde_json::Value {
             "from_hz": r.from_hz,
             "to_hz": r.to_hz,
             "about_s": r.about_s().ceil(),
-            "creep_deg": (r.about_s() * 0.6).ceil(),
+            "creep_deg": r.creep_deg().ceil(),
+            "creep_deg_min": r.creep_deg_min(),
             "drive_model": m.table.drive_model.is_some(),
         },
     })
