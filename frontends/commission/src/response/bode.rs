@@ -91,7 +91,18 @@ pub fn svg(a: &Analysis) -> String {
             y(PHASE, ph_range, phase)
         );
     }
-    for (row, (f, name)) in [(a.modes_hz.0, "anti-resonance"), (a.modes_hz.1, "resonance")]
+    modes(&mut o, a.modes_hz, &x, (lo, hi));
+    let _ = writeln!(
+        o,
+        r#"<text x="{LEFT}" y="{}">Hz (log)</text></svg>"#,
+        PHASE.0 + PHASE.1 + 40.0
+    );
+    o
+}
+
+/// The mesh's two frequencies marked across both panels, labelled.
+fn modes(o: &mut String, (anti_hz, res_hz): (f64, f64), x: &dyn Fn(f64) -> f64, (lo, hi): (f64, f64)) {
+    for (row, (f, name)) in [(anti_hz, "anti-resonance"), (res_hz, "resonance")]
         .into_iter()
         .enumerate()
     {
@@ -112,12 +123,6 @@ pub fn svg(a: &Analysis) -> String {
             );
         }
     }
-    let _ = writeln!(
-        o,
-        r#"<text x="{LEFT}" y="{}">Hz (log)</text></svg>"#,
-        PHASE.0 + PHASE.1 + 40.0
-    );
-    o
 }
 
 /// A panel's frame, its grid and labels.
