@@ -587,48 +587,52 @@ mod tests {
         assert_eq!(*lock(&s.enable), None);
     }
 
+    /// With `running` under way, a press on `key` (view `id`) is refused in the running
+    /// one's `words` and holds no enable; the running one stays.
+    fn refused_beside(
+        (s, rx): (&CommissionSession, &mut mpsc::UnboundedReceiver<View>),
+        running: Procedure,
+        (id, key): (u64, &str),
+        words: &str,
+    ) {
+        *lock(&s.running) = Some(running);
+        s.hold_as(id, key, None, file());
+        let v = rx.try_recv().expect("a view");
+        assert_eq!((v.id, v.state, v.procedure.as_str()), (id, "refused", key));
+        assert!(v.text.starts_with(words), "{}", v.text);
+        assert_eq!(*lock(&s.enable), None, "{key}'s key held {running:?}'s enable");
+        assert_eq!(*lock(&s.running), Some(running));
+    }
+
+    /// With `running` under way, a press on its own key (view `id`) holds its enable and
+    /// answers nothing; nothing else starts.
+    fn own_key_holds(
+        (s, rx): (&CommissionSession, &mut mpsc::UnboundedReceiver<View>),
+        running: Procedure,
+        (id, key): (u64, &str),
+    ) {
+        s.hold_as(id, key, None, file());
+        assert!(
+            lock(&s.enable).is_some(),
+            "the running one's key does not hold it"
+        );
+        assert_eq!(*lock(&s.running), Some(running));
+        assert!(rx.try_recv().is_err(), "a press on the running key answered");
+    }
+
     #[test]
     fn the_backlash_key_is_refused_while_another_runs_and_refuses_the_others_while_it_runs() {
         let (s, mut rx) = session();
         // The encoder under way, its key let go: a press on TABLE BACKLASH is refused and
         // does not hold the encoder's enable.
-        *lock(&s.running) = Some(Procedure::Encoder);
-        s.hold_as(11, "backlash", None, file());
-        let v = rx.try_recv().expect("a view");
-        assert_eq!((v.id, v.state, v.procedure.as_str()), (11, "refused", "backlash"));
-        assert!(
-            v.text
-                .starts_with("the spindle encoder is being measured: one procedure at a time"),
-            "{}",
-            v.text
-        );
-        assert_eq!(
-            *lock(&s.enable),
-            None,
-            "the backlash key held the encoder's enable"
-        );
-        assert_eq!(*lock(&s.running), Some(Procedure::Encoder));
+        let encoder_words = "the spindle encoder is being measured: one procedure at a time";
+        refused_beside((&s, &mut rx), Procedure::Encoder, (11, "backlash"), encoder_words);
         // The backlash under way: the delay's and the encoder's keys are refused in its words.
-        *lock(&s.running) = Some(Procedure::Backlash);
         for (id, other) in [(12, "delay"), (13, "encoder")] {
-            s.hold_as(id, other, None, file());
-            let v = rx.try_recv().expect("a view");
-            assert_eq!((v.id, v.state, v.procedure.as_str()), (id, "refused", other));
-            assert!(
-                v.text.starts_with("the table's backlash is being measured"),
-                "{}",
-                v.text
-            );
-            assert_eq!(*lock(&s.enable), None, "{other}'s key held the backlash's enable");
+            let words = "the table's backlash is being measured";
+            refused_beside((&s, &mut rx), Procedure::Backlash, (id, other), words);
         }
-        // Its own key holds it, nothing else starts.
-        s.hold_as(14, "backlash", None, file());
-        assert!(
-            lock(&s.enable).is_some(),
-            "the running one's key does not hold it"
-        );
-        assert_eq!(*lock(&s.running), Some(Procedure::Backlash));
-        assert!(rx.try_recv().is_err(), "a press on the running key answered");
+        own_key_holds((&s, &mut rx), Procedure::Backlash, (14, "backlash"));
     }
 
     #[test]
@@ -666,45 +670,20 @@ mod tests {
     #[test]
     fn the_response_key_is_refused_while_another_runs_and_refuses_the_others_while_it_runs() {
         let (s, mut rx) = session();
-        // The backlash under way, its key let go: a press on TABLE RESPONSE is refused and
-        // does not hold the backlash's enable.
-        *lock(&s.running) = Some(Procedure::Backlash);
-        s.hold_as(31, "response", None, file());
-        let v = rx.try_recv().expect("a view");
-        assert_eq!((v.id, v.state, v.procedure.as_str()), (31, "refused", "response"));
-        assert!(
-            v.text
-                .starts_with("the table's backlash is being measured: one procedure at a time"),
-            "{}",
-            v.text
-        );
-        assert_eq!(
-            *lock(&s.enable),
-            None,
-            "the response key held the backlash's enable"
+        // The backlash under way: a press on TABLE RESPONSE is refused in its words.
+        let backlash_words = "the table's backlash is being measured: one procedure at a time";
+        refused_beside(
+            (&s, &mut rx),
+            Procedure::Backlash,
+            (31, "response"),
+            backlash_words,
         );
         // The response under way: every other key is refused in its words.
-        *lock(&s.running) = Some(Procedure::Response);
         for (id, other) in [(32, "delay"), (33, "encoder"), (34, "backlash")] {
-            s.hold_as(id, other, None, file());
-            let v = rx.try_recv().expect("a view");
-            assert_eq!((v.id, v.state, v.procedure.as_str()), (id, "refused", other));
-            assert!(
-                v.text
-                    .starts_with("the table's frequency response is being measured"),
-                "{}",
-                v.text
-            );
-            assert_eq!(*lock(&s.enable), None, "{other}'s key held the response's enable");
+            let words = "the table's frequency response is being measured";
+            refused_beside((&s, &mut rx), Procedure::Response, (id, other), words);
         }
-        // Its own key holds it, nothing else starts.
-        s.hold_as(35, "response", None, file());
-        assert!(
-            lock(&s.enable).is_some(),
-            "the running one's key does not hold it"
-        );
-        assert_eq!(*lock(&s.running), Some(Procedure::Response));
-        assert!(rx.try_recv().is_err(), "a press on the running key answered");
+        own_key_holds((&s, &mut rx), Procedure::Response, (35, "response"));
     }
 
     #[test]
