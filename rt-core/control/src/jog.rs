@@ -14,6 +14,10 @@ pub use super::command::Direction;
 use super::command::State;
 use super::fault::{Axis, Refusal};
 use super::profile::Profile;
+pub use hob_wire::vocab::excitation::{
+    CREEP_DEG_S as EXCITE_CREEP_DEG_S, FADE_S as EXCITE_FADE_S, MAX_DEG as EXCITE_MAX_DEG,
+    MIN_HZ as EXCITE_MIN_HZ,
+};
 
 /// The jog under way.
 #[derive(Debug, Clone, Copy, Default, PartialEq, serde::Serialize, serde::Deserialize)]
@@ -49,11 +53,6 @@ pub(super) struct Excitation {
     pub renewed_at_s: f64,
     pub fading_out: bool,
 }
-
-pub use hob_wire::vocab::excitation::{
-    CREEP_DEG_S as EXCITE_CREEP_DEG_S, FADE_S as EXCITE_FADE_S, MAX_DEG as EXCITE_MAX_DEG,
-    MIN_HZ as EXCITE_MIN_HZ,
-};
 
 impl Excitation {
     /// The swing at `frequency_hz` for a table whose acceleration is limited to

@@ -340,12 +340,13 @@ struct Measured {
     jumped: [bool; 3],
 }
 
-/// A change of a drive's position in one cycle that no motion of this machine can make
-/// (B deg, X mm, Y mm): the drive rebooted or its encoder failed, so the position is lost.
 /// What is left of an excitation's offset one cycle after a fault cut it short: gone
-/// within about 50 cycles (a hundredth of a degree at most, a few deg/s).
+/// within about 50 cycles (the swing is at most `EXCITE_MAX_DEG`, so it moves the table's
+/// target by at most a tenth of that a cycle).
 const EXCITATION_CUT_DECAY: f64 = 0.9;
 
+/// A change of a drive's position in one cycle that no motion of this machine can make
+/// (B deg, X mm, Y mm): the drive rebooted or its encoder failed, so the position is lost.
 pub const POSITION_JUMP: [f64; 3] = [10.0, 5.0, 5.0];
 
 /// The control core.
