@@ -129,12 +129,7 @@ pub fn check_options(o: &DelayOptions) -> Result<(), Stop> {
 }
 
 /// A drive as it names itself: vendor id, product code, serial number (CiA 301 0x1018).
-pub type DriveIdentity = (u32, u32, u32);
-
-/// The table drive's identity from `hob-rt`'s answer to NODES ([`hob_ipc::nodes`]).
-pub fn table_drive(nodes_text: &str) -> Option<DriveIdentity> {
-    hob_ipc::nodes::table_drive(nodes_text)
-}
+pub use hob_ipc::nodes::DriveIdentity;
 
 /// Jogs the table + then - (each released and left to come to rest), reading every state
 /// sample meanwhile; with the table drive's identity (the one measured). Stops at the
@@ -145,15 +140,7 @@ fn jog_both_ways(
     say: &mut dyn FnMut(&str),
 ) -> Result<(Vec<StateSample>, DriveIdentity), Stop> {
     let (mut feed, mut client) = connect()?;
-    let answer = client
-        .request(&hob_ipc::request::nodes(), link::ANSWER)
-        .map_err(|e| Stop::Failed(format!("hob-rt did not answer: {e}")))?;
-    let drive = table_drive(&answer.text()).ok_or_else(|| {
-        Stop::Failed(format!(
-            "hob-rt named no table drive among the nodes on the bus:\n{}",
-            answer.text()
-        ))
-    })?;
+    let (drive, _) = link::table_drive(client.as_mut())?;
     let mut states = Vec::new();
     for direction in ["+", "-"] {
         say(&format!("jogging the table {direction}"));
@@ -260,10 +247,10 @@ pub fn proposal(text: &str, d: &DriveDelay, utc: &str, drive: DriveIdentity) -> 
          found_us = {found_us:.1}\n\
          residual_arcsec = {:.2}\n\
          samples = {}\n\
-         table_drive_vendor_id = 0x{:08X}\n\
-         table_drive_product_code = 0x{:08X}\n\
-         table_drive_serial = 0x{:08X}\n",
-        d.residual_rms_arcsec, d.samples, drive.0, drive.1, drive.2
+         {}",
+        d.residual_rms_arcsec,
+        d.samples,
+        link::identity_lines(drive)
     );
     Ok(machine_edit::replace_table(
         &text,

@@ -4,6 +4,7 @@
 
 use crate::Stop;
 use hob_ipc::codec;
+use hob_ipc::nodes::DriveIdentity;
 use hob_ipc::{CommandRequest, Commands, Feed, StateSample};
 use hob_store::machine_edit;
 use std::path::{Path, PathBuf};
@@ -80,21 +81,62 @@ pub(crate) fn held_jog(
     let jog = hob_ipc::request::jog_continuous(axis, direction, speed_per_min)
         .map_err(|e| Stop::Refused(e.to_string()))?;
     let end = Instant::now() + Duration::from_secs_f64(seconds);
+    let held = Held {
+        request: &jog,
+        moving,
+        rest: REST,
+    };
+    hold(feed, client, &held, enabled, take, &mut || {
+        Ok(Instant::now() >= end)
+    })
+}
+
+/// A command held by renewals (a continuous jog, the table's swing) and released by
+/// JOG_RELEASE.
+pub(crate) struct Held<'a> {
+    pub request: &'a CommandRequest,
+    /// What the loop's dead-man stops, in words ("the table").
+    pub moving: &'a str,
+    /// How long it is left after its release, its state samples still read.
+    pub rest: Duration,
+}
+
+/// Holds `held` until `done` says so, renewing it every [`RENEWAL`] from its last sending
+/// (however long the loop's answer took) while `enabled` holds; released in every case,
+/// then left its rest. Every state sample meanwhile goes to `take`. Stops at the loop's
+/// refusal (one after it was accepted is its dead-man: the renewals came late), an alarm,
+/// the enable let go, or `done`'s error.
+pub(crate) fn hold(
+    feed: &mut dyn Feed,
+    client: &mut dyn Commands,
+    held: &Held,
+    enabled: &dyn Fn() -> bool,
+    take: &mut dyn FnMut(&StateSample),
+    done: &mut dyn FnMut() -> Result<bool, Stop>,
+) -> Result<(), Stop> {
+    let moving = held.moving;
+    let mut renewed = 0usize;
     let result = loop {
         if !enabled() {
             break Err(Stop::Failed(format!(
                 "the enable was let go: {moving} stopped; nothing written, the machine file unchanged"
             )));
         }
-        if let Err(e) = ask(client, &jog, moving) {
-            break Err(e);
+        let sent = Instant::now();
+        if let Err(e) = ask(client, held.request, moving) {
+            break Err(late_renewal(e, renewed, moving));
         }
-        std::thread::sleep(RENEWAL);
+        renewed += 1;
+        let next = sent + RENEWAL;
+        while Instant::now() < next {
+            std::thread::sleep(Duration::from_millis(10));
+        }
         if let Err(e) = drain(feed, &mut *take) {
             break Err(e);
         }
-        if Instant::now() >= end {
-            break Ok(());
+        match done() {
+            Ok(false) => {}
+            other => break other.map(|_| ()),
         }
     };
     // Released in every case; after a refusal or a fault its answer adds nothing.
@@ -104,12 +146,57 @@ pub(crate) fn held_jog(
     }
     ask(client, &hob_ipc::request::jog_release(), moving)?;
     // At rest before what follows: the drive's lag runs out.
-    let rest = Instant::now() + REST;
-    while Instant::now() < rest {
+    listen(feed, held.rest, take)
+}
+
+/// A refusal of a renewal after the command was accepted (`renewed` times): something
+/// moved, so it is a stop, not a refusal; most likely the loop's dead-man (the renewals
+/// came later than the machine file's `jog.deadman_timeout_ms`).
+fn late_renewal(e: Stop, renewed: usize, moving: &str) -> Stop {
+    match e {
+        Stop::Refused(why) if renewed > 0 => Stop::Failed(format!(
+            "{moving} stopped after {renewed} renewals, the loop refused the next: {why} (a jog \
+             said to be running is the loop's dead-man: the renewals came later than \
+             jog.deadman_timeout_ms, this computer too slow or too loaded?)"
+        )),
+        other => other,
+    }
+}
+
+/// Hands every state sample for `time` to `take`; an alarm stops it.
+pub(crate) fn listen(
+    feed: &mut dyn Feed,
+    time: Duration,
+    take: &mut dyn FnMut(&StateSample),
+) -> Result<(), Stop> {
+    let end = Instant::now() + time;
+    while Instant::now() < end {
         std::thread::sleep(Duration::from_millis(20));
         drain(feed, &mut *take)?;
     }
     Ok(())
+}
+
+/// hob-rt's answer to NODES and the table drive's identity in it ([`hob_ipc::nodes`]).
+pub(crate) fn table_drive(client: &mut dyn Commands) -> Result<(DriveIdentity, String), Stop> {
+    let answer = client
+        .request(&hob_ipc::request::nodes(), ANSWER)
+        .map_err(|e| Stop::Failed(format!("hob-rt did not answer: {e}")))?;
+    let text = answer.text();
+    match hob_ipc::nodes::table_drive(&text) {
+        Some(drive) => Ok((drive, text)),
+        None => Err(Stop::Failed(format!(
+            "hob-rt named no table drive among the nodes on the bus:\n{text}"
+        ))),
+    }
+}
+
+/// A record's three keys of the drive it was measured on (its CiA 301 0x1018).
+pub(crate) fn identity_lines((vendor, product, serial): DriveIdentity) -> String {
+    format!(
+        "table_drive_vendor_id = 0x{vendor:08X}\ntable_drive_product_code = 0x{product:08X}\n\
+         table_drive_serial = 0x{serial:08X}\n"
+    )
 }
 
 /// The machine file's text and its configuration, checked as hob-rt loads it; refused (before

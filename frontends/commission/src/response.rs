@@ -23,7 +23,7 @@ pub mod frf;
 pub mod model;
 
 use crate::Stop;
-use crate::link::{self, connect, drain};
+use crate::link::{self, connect};
 use analysis::Analysis;
 use frf::{Point, Reading};
 use hob_ipc::nodes::{DriveGains, DriveIdentity};
@@ -197,15 +197,7 @@ pub fn run(
 
 /// The table drive's identity and its gains from hob-rt's answer to NODES.
 fn table_drive(client: &mut dyn Commands) -> Result<(DriveIdentity, DriveGains), Stop> {
-    let answer = client
-        .request(&hob_ipc::request::nodes(), link::ANSWER)
-        .map_err(|e| Stop::Failed(format!("hob-rt did not answer: {e}")))?;
-    let text = answer.text();
-    let identity = hob_ipc::nodes::table_drive(&text).ok_or_else(|| {
-        Stop::Failed(format!(
-            "hob-rt named no table drive among the nodes on the bus:\n{text}"
-        ))
-    })?;
+    let (identity, text) = link::table_drive(client)?;
     let gains = hob_ipc::nodes::table_drive_gains(&text).ok_or_else(|| {
         Stop::Refused(
             "the table drive did not report its gains at boot (0x60F9, 0x60FB): its tuning \
@@ -219,11 +211,7 @@ fn table_drive(client: &mut dyn Commands) -> Result<(DriveIdentity, DriveGains),
 /// Every state sample for `time`.
 fn listen(feed: &mut dyn Feed, time: Duration) -> Result<Vec<StateSample>, Stop> {
     let mut states = Vec::new();
-    let end = Instant::now() + time;
-    while Instant::now() < end {
-        std::thread::sleep(Duration::from_millis(20));
-        drain(feed, |s| states.push(*s))?;
-    }
+    link::listen(feed, time, &mut |s| states.push(*s))?;
     Ok(states)
 }
 
@@ -273,69 +261,42 @@ fn swing(
     let cycles = ((settle + read_s(frequency_hz)) / period_s).ceil() as usize;
     let give_up = Instant::now() + Duration::from_secs_f64(4.0 * (settle + read_s(frequency_hz)) + 2.0);
     let swinging_b = hob_ipc::codec::Axis::B.code();
+    let swung = std::cell::Cell::new(0usize);
     let mut states: Vec<StateSample> = Vec::new();
-    let mut renewed = 0usize;
-    let result = loop {
-        if !enabled() {
-            break Err(Stop::Failed(
-                "the enable was let go: the swing faded out; nothing written, the machine file unchanged"
-                    .into(),
-            ));
-        }
-        // Renewed every RENEWAL from its last sending, however long the answer took.
-        let sent = Instant::now();
-        if let Err(e) = link::ask(client, &excite, "the table's swing") {
-            break Err(late_renewal(e, renewed));
-        }
-        renewed += 1;
-        let next = sent + link::RENEWAL;
-        while Instant::now() < next {
-            std::thread::sleep(Duration::from_millis(10));
-        }
-        if let Err(e) = drain(feed, |s| states.push(*s)) {
-            break Err(e);
-        }
-        let swung = states.iter().filter(|s| s.moving_axis == swinging_b).count();
-        if swung >= cycles {
-            break Ok(());
-        }
-        if Instant::now() >= give_up {
-            break Err(Stop::Failed(format!(
-                "the loop ran {swung} of the swing's {cycles} cycles in four times their time: it \
-                 is far behind its pace; nothing written"
-            )));
-        }
+    let held = link::Held {
+        request: &excite,
+        moving: "the table's swing",
+        rest: link::REST + Duration::from_secs_f64(hob_ipc::vocab::excitation::FADE_S),
     };
-    let released = client.request(&hob_ipc::request::jog_release(), link::ANSWER);
-    result?;
-    released.map_err(|e| {
-        Stop::Failed(format!(
-            "hob-rt did not answer: {e}; the swing fades by its dead-man"
-        ))
-    })?;
-    listen(
-        feed,
-        link::REST + Duration::from_secs_f64(hob_ipc::vocab::excitation::FADE_S),
-    )?;
+    // Read until it is released: its fade-out and rest are no readings.
+    let released = std::cell::Cell::new(false);
+    let mut take = |s: &StateSample| {
+        if released.get() {
+            return;
+        }
+        if s.moving_axis == swinging_b {
+            swung.set(swung.get() + 1);
+        }
+        states.push(*s);
+    };
+    let mut done = || match swung.get() {
+        n if n >= cycles => {
+            released.set(true);
+            Ok(true)
+        }
+        n if Instant::now() >= give_up => Err(Stop::Failed(format!(
+            "the loop ran {n} of the swing's {cycles} cycles in four times their time: it is \
+             far behind its pace; nothing written"
+        ))),
+        _ => Ok(false),
+    };
+    link::hold(feed, client, &held, enabled, &mut take, &mut done)?;
     let readings = readings(&states, (settle / period_s).ceil() as usize)?;
     frf::point(frequency_hz, period_s, &readings).map_err(|e| {
         Stop::Failed(format!(
             "no response at {frequency_hz:.1} Hz ({e:?}): nothing written"
         ))
     })
-}
-
-/// A refusal of a renewal after the swing was accepted (`renewed` times) is its dead-man:
-/// the renewals came later than the machine file's `jog.deadman_timeout_ms`.
-fn late_renewal(e: Stop, renewed: usize) -> Stop {
-    match e {
-        Stop::Refused(why) if renewed > 0 => Stop::Failed(format!(
-            "the swing faded out by the loop's dead-man after {renewed} renewals (they came later \
-             than jog.deadman_timeout_ms: this computer too slow or too loaded?); the loop then \
-             said: {why}"
-        )),
-        other => other,
-    }
 }
 
 /// The swing's readings after its first `skip` cycles, consecutive (a lost state sample

@@ -118,8 +118,8 @@ fn settings_outside_their_limits_are_refused_before_anything_moves() {
 fn the_table_drive_is_read_from_the_nodes_answer() {
     let text =
         "B 2 0x00000B0B 0x00020192 0x00010000 0x00001002\nX 3 0x00000B0B 0x00020192 0x00010000 0x00001003\n";
-    assert_eq!(table_drive(text), Some((0xB0B, 0x20192, 0x1002)));
-    assert_eq!(table_drive("X 3 0x1 0x2 0x3 0x4\n"), None);
-    assert_eq!(table_drive("B 2 0x1 zz 0x3 0x4\n"), None);
-    assert_eq!(table_drive("B 2 0x1\n"), None);
+    assert_eq!(hob_ipc::nodes::table_drive(text), Some((0xB0B, 0x20192, 0x1002)));
+    assert_eq!(hob_ipc::nodes::table_drive("X 3 0x1 0x2 0x3 0x4\n"), None);
+    assert_eq!(hob_ipc::nodes::table_drive("B 2 0x1 zz 0x3 0x4\n"), None);
+    assert_eq!(hob_ipc::nodes::table_drive("B 2 0x1\n"), None);
 }

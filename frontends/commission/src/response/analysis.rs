@@ -186,7 +186,6 @@ pub fn report(a: &Analysis) -> String {
 /// kept in it), measured on the drive `identity`.
 pub fn proposal(text: &str, a: &Analysis, identity: DriveIdentity, utc: &str) -> String {
     let g = gains_of(&a.proposed.loops);
-    let (vendor, product, serial) = identity;
     let block = format!(
         "[commissioning.table_drive_gains]\n\
          # Written by `hob commission response` (the file before it kept beside it as .bak).\n\
@@ -217,15 +216,7 @@ pub fn proposal(text: &str, a: &Analysis, identity: DriveIdentity, utc: &str) ->
         a.proposed.cascade.phase_margin_deg,
         a.modes_hz.0,
         a.modes_hz.1,
-        identity_lines(vendor, product, serial),
+        crate::link::identity_lines(identity),
     );
     machine_edit::replace_table(text, "commissioning.table_drive_gains", &block)
-}
-
-/// The drive's identity as the record's three keys.
-fn identity_lines(vendor: u32, product: u32, serial: u32) -> String {
-    format!(
-        "table_drive_vendor_id = 0x{vendor:08X}\ntable_drive_product_code = 0x{product:08X}\n\
-         table_drive_serial = 0x{serial:08X}\n"
-    )
 }
