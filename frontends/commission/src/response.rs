@@ -236,9 +236,7 @@ fn at_rest(feed: &mut dyn Feed) -> Result<(), Stop> {
 
 /// The first sweep's neighbours of its deepest point, Hz.
 fn about_the_dip(points: &[Point]) -> (f64, f64) {
-    let i = (0..points.len())
-        .min_by(|&a, &b| points[a].response.norm().total_cmp(&points[b].response.norm()))
-        .unwrap_or(0);
+    let i = frf::deepest(points).unwrap_or(0);
     let below = points[i.saturating_sub(1)].frequency_hz;
     let above = points[(i + 1).min(points.len() - 1)].frequency_hz;
     (below, above)

@@ -3,7 +3,7 @@
 //! gains proposed, their record for the machine file, and all of it in words.
 
 use super::fit::{self, Fitted};
-use super::frf::Point;
+use super::frf::{self, Point};
 use super::model::{self, DriveLoops, Stability};
 use crate::Stop;
 use hob_ipc::nodes::{DriveGains, DriveIdentity};
@@ -65,10 +65,7 @@ pub fn analyse(
     worm_ratio: f64,
     period_s: f64,
 ) -> Result<Analysis, Stop> {
-    let deepest = points
-        .iter()
-        .map(Point::magnitude_db)
-        .fold(f64::INFINITY, f64::min);
+    let deepest = frf::deepest(&points).map_or(f64::NAN, |i| points[i].magnitude_db());
     if deepest.is_nan() || deepest >= DIP_DB {
         return Err(Stop::Failed(format!(
             "the response has no dip (its deepest point {deepest:.1} dB): the mesh's mode did \
@@ -136,6 +133,7 @@ pub fn stability_text(s: &Stability) -> String {
 /// The measurement and its reading in words.
 pub fn report(a: &Analysis) -> String {
     let m = &a.fitted.mechanism;
+    let dip = frf::deepest(&a.points).map(|i| &a.points[i]);
     let g = gains_of(&a.proposed.loops);
     format!(
         "table frequency response: {} points from {:.1} to {:.1} Hz, the deepest {:.1} dB at {:.1} Hz\n\
@@ -150,14 +148,8 @@ pub fn report(a: &Analysis) -> String {
         a.points.len(),
         a.points.first().map_or(0.0, |p| p.frequency_hz),
         a.points.last().map_or(0.0, |p| p.frequency_hz),
-        a.points
-            .iter()
-            .map(Point::magnitude_db)
-            .fold(f64::INFINITY, f64::min),
-        a.points
-            .iter()
-            .min_by(|x, y| x.response.norm().total_cmp(&y.response.norm()))
-            .map_or(0.0, |p| p.frequency_hz),
+        dip.map_or(f64::NAN, Point::magnitude_db),
+        dip.map_or(0.0, |p| p.frequency_hz),
         m.table_inertia_kg_m2,
         m.mesh_stiffness_nm_per_rad,
         m.mesh_damping_nm_s_per_rad,

@@ -51,9 +51,7 @@ pub fn fit(
     worm_ratio: f64,
     motor_inertia_kg_m2: f64,
 ) -> Option<Fitted> {
-    let dip = points
-        .iter()
-        .min_by(|a, b| a.response.norm().total_cmp(&b.response.norm()))?;
+    let dip = &points[super::frf::deepest(points)?];
     let w_dip = TAU * dip.frequency_hz;
     let cost = |x: &[f64; 4]| {
         let Some(m) = mechanism(x, worm_ratio, motor_inertia_kg_m2) else {

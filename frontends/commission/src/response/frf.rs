@@ -42,6 +42,11 @@ impl Point {
     }
 }
 
+/// The index of the point whose response is smallest (the deepest dip), if any.
+pub fn deepest(points: &[Point]) -> Option<usize> {
+    (0..points.len()).min_by(|&a, &b| points[a].response.norm().total_cmp(&points[b].response.norm()))
+}
+
 /// Why a point could not be had.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum NoPoint {
