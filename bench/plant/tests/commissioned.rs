@@ -118,10 +118,21 @@ fn once_commissioned_every_shipped_gear_meets_its_goal_nominal_and_heavy_with_an
                 );
                 // Not met (issue 33 stays open on it): under the heavy disturbance, without
                 // cross-coupling, on the plant with 50 arcsec of play the spur's f_pt is 29 % of
-                // grade 5 (20 % with it; 14-17 % with 6 or 25 arcsec): the tripled ripple
-                // reverses the mesh's torque and the wheel crosses the play, which the motor
-                // feels. Held here to 35 % so that it cannot grow unseen.
-                let goal = if d == Disturbance::Heavy && !cross_coupling && backlash_arcsec >= 50.0 {
+                // grade 5 (20 % with it; 14-17 % with 6 or 25 arcsec). The wheel crosses the
+                // play and the motor feels each crossing. No drive tuning changes it: over the
+                // plant's jitter seeds 1-4 the share is 20-30 % at the shipped 74/16 Hz and
+                // 17-29 % at 74/25 or 74/28 (close-note-37). The gear itself is what the play
+                // makes it, about twice grade 5's f_pt (checked below): the looser limit holds
+                // only while that stays so, and 35 % so that the share cannot grow unseen.
+                let play_bound = d == Disturbance::Heavy && !cross_coupling && backlash_arcsec >= 50.0;
+                let goal = if play_bound && fpt.max(fp) > 0.25 {
+                    let gear = s.passes.last().unwrap().predicted.clone().unwrap();
+                    assert!(
+                        gear.shares().0 > 1.0,
+                        "{label}: the gear itself is within grade 5 ({}): the looser limit no \
+                         longer has its reason",
+                        gear.text()
+                    );
                     0.35
                 } else {
                     0.25
