@@ -17,6 +17,8 @@ const ALLOWED: &[(&str, &[&str])] = &[
     ("hob-gearing", &[]),
     // Profile disk cutters: their profile, the tooth space they cut, their design.
     ("hob-cutters", &["hob-gearing"]),
+    // A gear checker's pitch measurement: its file, read and written.
+    ("hob-gear-check", &[]),
     // The machine file and the problems of any TOML file; the set-up (programs, planner)
     // above it.
     ("hob-config", &["hob-gearing"]),
