@@ -16,8 +16,11 @@
 //! - [`disturbance`]: the disturbance levels (none, nominal, heavy, measured SYNC) and
 //!   the goal grade each is held to;
 //! - [`sim`]: core against plant, faster than real time, with SYNC jitter; traces and
-//!   the accuracy summary of `hob simulate`.
+//!   the accuracy summary of `hob simulate`;
+//! - [`checker`]: the gear checker that measures the finished gear's pitch and writes a
+//!   shop checker's file.
 
+pub mod checker;
 pub mod config;
 pub mod cutter;
 pub mod disturbance;

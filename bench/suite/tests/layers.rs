@@ -112,6 +112,7 @@ const ALLOWED: &[(&str, &[&str])] = &[
         "hob-plant",
         &[
             "hob-cutters",
+            "hob-gear-check",
             "hob-gearing",
             "hob-setup",
             "hob-control",

@@ -14,8 +14,8 @@ impl PitchMeasurement {
         let _ = writeln!(s, "# gear: {}", h.gear);
         let _ = writeln!(s, "# teeth: {}", h.teeth);
         let _ = writeln!(s, "# normal_module_mm: {}", h.normal_module_mm);
-        let _ = writeln!(s, "# face_position_mm: {:.3}", h.face_position_mm);
-        let _ = writeln!(s, "# tooth_1_table_deg: {:.6}", h.tooth_1_table_deg);
+        let _ = writeln!(s, "# face_position_mm: {}", h.face_position_mm);
+        let _ = writeln!(s, "# tooth_1_table_deg: {}", h.tooth_1_table_deg);
         let _ = writeln!(s, "# counting: {}", h.counting.word());
         let _ = writeln!(s, "# checker: {}", h.checker);
         let _ = writeln!(s, "# measured_at: {}", h.measured_at);

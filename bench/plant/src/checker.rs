@@ -1,0 +1,127 @@
+//! The simulated machine's gear checker: it measures the finished gear's pitch the way a
+//! shop's checker does, at one height of the face, each flank with its own noise, and
+//! writes the checker's file (`hob_gear_check`, docs/gear-measurement.md).
+//!
+//! What it measures is the plant's truth: where the table truly stood (`blank_err_arcsec`)
+//! when each gap of the last pass passed the hob, read as
+//! [`hob_logger::predicted`] reads it, in the face section nearest the middle of the face.
+//! A gap cut with the table `e` ahead (its positive direction) has both its flanks `e` (um at
+//! the pitch circle) ahead. Gap `k` passes the hob at table angle `k * 360 / z`; the teeth
+//! stand between the gaps, tooth 1 at half a pitch (`tooth_1_table_deg`), counted in the
+//! table's positive direction. Tooth k's right flank faces the gap after it (toward tooth
+//! k+1), its left flank the gap before it.
+
+use crate::rng::uniform;
+use crate::sim::TraceRow;
+use hob_control::State;
+use hob_gear_check::{Counting, FlankPitch, Header, PitchMeasurement};
+use hob_gearing::units::arcsec_to_um_at_radius;
+use hob_logger::predicted::{Section, SectionBuilder, TrueSample};
+
+/// The checker's repeatability, um (one sigma per flank and tooth; the 0.3-0.5).
+pub const NOISE_UM: f64 = 0.4;
+
+/// What the checker is told about the gear.
+#[derive(Debug, Clone)]
+pub struct GearUnderTest {
+    /// The program's `workpiece.name` (or, without one, its file's name).
+    pub gear: String,
+    pub teeth: u32,
+    pub normal_module_mm: f64,
+    pub pitch_radius_mm: f64,
+    /// The face's lowest Y (the datum face) and its width, mm.
+    pub face_bottom_mm: f64,
+    pub face_width_mm: f64,
+}
+
+/// Collects the last pass's face sections from the trace rows of a cut.
+#[derive(Debug, Clone)]
+pub struct GearChecker {
+    gear: GearUnderTest,
+    pass: u32,
+    sections: SectionBuilder,
+}
+
+impl GearChecker {
+    pub fn new(gear: GearUnderTest) -> Self {
+        let teeth = gear.teeth;
+        Self {
+            gear,
+            pass: 0,
+            sections: SectionBuilder::new(teeth, 0.0),
+        }
+    }
+
+    /// A row of the cut's trace, in order. A later pass starts afresh: it recuts the gaps.
+    pub fn add(&mut self, row: &TraceRow) {
+        if row.pass == 0 {
+            self.sections.interrupt();
+            return;
+        }
+        if row.pass != self.pass {
+            self.pass = row.pass;
+            self.sections = SectionBuilder::new(self.gear.teeth, 0.0);
+        }
+        match (row.state == State::Cut, row.blank_err_arcsec) {
+            (true, Some(e)) => self.sections.add(TrueSample {
+                table_deg: row.table_deg,
+                y_mm: row.y_mm,
+                error_um: arcsec_to_um_at_radius(e, self.gear.pitch_radius_mm),
+            }),
+            (true, None) => self.sections.skip(),
+            (false, _) => self.sections.interrupt(),
+        }
+    }
+
+    /// The measurement of the finished gear, with the checker's noise drawn from `seed`;
+    /// `measured_at` is written as given. None when the last pass left no complete section.
+    pub fn measure(self, seed: u64, measured_at: &str) -> Option<PitchMeasurement> {
+        let g = self.gear;
+        let sections = self.sections.finish();
+        let mid_y = g.face_bottom_mm + g.face_width_mm / 2.0;
+        let section: &Section = sections
+            .iter()
+            .min_by(|a, b| (a.y_mm - mid_y).abs().total_cmp(&(b.y_mm - mid_y).abs()))?;
+        let z = g.teeth as usize;
+        let mut rng = seed.wrapping_mul(0x9E37_79B9_7F4A_7C15) | 1;
+        let mut noisy = |um: f64| um + NOISE_UM * gaussian(&mut rng);
+        // Tooth k (0-based) stands between gap k and gap k+1.
+        let right: Vec<f64> = (0..z).map(|k| noisy(section.gap_um[(k + 1) % z])).collect();
+        let left: Vec<f64> = (0..z).map(|k| noisy(section.gap_um[k])).collect();
+        Some(PitchMeasurement {
+            header: Header {
+                gear: g.gear,
+                teeth: g.teeth,
+                normal_module_mm: g.normal_module_mm,
+                face_position_mm: section.y_mm - g.face_bottom_mm,
+                tooth_1_table_deg: 180.0 / g.teeth as f64,
+                counting: Counting::TablePositive,
+                checker: format!("hob-plant checker, {NOISE_UM} um noise, seed {seed}"),
+                measured_at: measured_at.to_string(),
+            },
+            left: FlankPitch::from_positions(&left),
+            right: FlankPitch::from_positions(&right),
+        })
+    }
+}
+
+/// A standard normal draw (Box-Muller).
+fn gaussian(state: &mut u64) -> f64 {
+    let u1 = uniform(state).max(f64::MIN_POSITIVE);
+    let u2 = uniform(state);
+    (-2.0 * u1.ln()).sqrt() * (std::f64::consts::TAU * u2).cos()
+}
+
+#[cfg(test)]
+mod tests {
+    #[test]
+    fn the_noise_is_standard_normal() {
+        let mut s = 7u64.wrapping_mul(0x9E37_79B9_7F4A_7C15) | 1;
+        let n = 20000;
+        let draws: Vec<f64> = (0..n).map(|_| super::gaussian(&mut s)).collect();
+        let mean = draws.iter().sum::<f64>() / n as f64;
+        let sd = (draws.iter().map(|d| (d - mean) * (d - mean)).sum::<f64>() / n as f64).sqrt();
+        println!("{mean} {sd}");
+        assert!(mean.abs() < 0.03 && (sd - 1.0).abs() < 0.03, "{mean} {sd}");
+    }
+}
