@@ -16,11 +16,14 @@
 //! - The tooth numbers are tied to the table by the header: tooth 1 stood at the hob with
 //!   the table at `tooth_1_table_deg` (the operator's mark, made before unclamping), and the
 //!   numbers run in the table's positive or negative direction (`counting`).
+//! - [`mod@decompose`] splits a measurement into the table's and the hob's errors (issue 34).
 
+pub mod decompose;
 mod error;
 mod parse;
 mod write;
 
+pub use decompose::{DecomposeError, Decomposition, GapRecord, Height, HobTerm, Identified, decompose};
 pub use error::MeasurementError;
 pub use parse::parse;
 
