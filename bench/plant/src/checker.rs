@@ -73,35 +73,59 @@ impl GearChecker {
         }
     }
 
-    /// The measurement of the finished gear, with the checker's noise drawn from `seed`;
-    /// `measured_at` is written as given. None when the last pass left no complete section.
+    /// The measurement of the finished gear at mid-face, with the checker's noise drawn
+    /// from `seed`; `measured_at` is written as given. None when the last pass left no
+    /// complete section.
     pub fn measure(self, seed: u64, measured_at: &str) -> Option<PitchMeasurement> {
+        self.measure_heights(seed, measured_at, 1).pop()
+    }
+
+    /// Measurements at `count` neighbouring heights, one feed (table turn) apart, around
+    /// mid-face, lowest first, each with its own noise (as a checker measuring pitch at
+    /// several heights). Fewer where the last pass has fewer complete sections.
+    pub fn measure_heights(self, seed: u64, measured_at: &str, count: usize) -> Vec<PitchMeasurement> {
         let g = self.gear;
         let sections = self.sections.finish();
         let mid_y = g.face_bottom_mm + g.face_width_mm / 2.0;
-        let section: &Section = sections
-            .iter()
-            .min_by(|a, b| (a.y_mm - mid_y).abs().total_cmp(&(b.y_mm - mid_y).abs()))?;
+        let Some(mid) = (0..sections.len()).min_by(|&a, &b| {
+            (sections[a].y_mm - mid_y)
+                .abs()
+                .total_cmp(&(sections[b].y_mm - mid_y).abs())
+        }) else {
+            return Vec::new();
+        };
+        let first = mid
+            .saturating_sub(count.saturating_sub(1) / 2)
+            .min(sections.len().saturating_sub(count));
+        let mut chosen: Vec<&Section> = sections.iter().skip(first).take(count).collect();
+        chosen.sort_by(|a, b| a.y_mm.total_cmp(&b.y_mm));
         let z = g.teeth as usize;
-        let mut rng = seed.wrapping_mul(0x9E37_79B9_7F4A_7C15) | 1;
-        let mut noisy = |um: f64| um + NOISE_UM * gaussian(&mut rng);
-        // Tooth k (0-based) stands between gap k and gap k+1.
-        let right: Vec<f64> = (0..z).map(|k| noisy(section.gap_um[(k + 1) % z])).collect();
-        let left: Vec<f64> = (0..z).map(|k| noisy(section.gap_um[k])).collect();
-        Some(PitchMeasurement {
-            header: Header {
-                gear: g.gear,
-                teeth: g.teeth,
-                normal_module_mm: g.normal_module_mm,
-                face_position_mm: section.y_mm - g.face_bottom_mm,
-                tooth_1_table_deg: 180.0 / g.teeth as f64,
-                counting: Counting::TablePositive,
-                checker: format!("hob-plant checker, {NOISE_UM} um noise, seed {seed}"),
-                measured_at: measured_at.to_string(),
-            },
-            left: FlankPitch::from_positions(&left),
-            right: FlankPitch::from_positions(&right),
-        })
+        chosen
+            .into_iter()
+            .enumerate()
+            .map(|(j, section)| {
+                let draw = seed.wrapping_add(j as u64);
+                let mut rng = draw.wrapping_mul(0x9E37_79B9_7F4A_7C15) | 1;
+                let mut noisy = |um: f64| um + NOISE_UM * gaussian(&mut rng);
+                // Tooth k (0-based) stands between gap k and gap k+1.
+                let right: Vec<f64> = (0..z).map(|k| noisy(section.gap_um[(k + 1) % z])).collect();
+                let left: Vec<f64> = (0..z).map(|k| noisy(section.gap_um[k])).collect();
+                PitchMeasurement {
+                    header: Header {
+                        gear: g.gear.clone(),
+                        teeth: g.teeth,
+                        normal_module_mm: g.normal_module_mm,
+                        face_position_mm: section.y_mm - g.face_bottom_mm,
+                        tooth_1_table_deg: 180.0 / g.teeth as f64,
+                        counting: Counting::TablePositive,
+                        checker: format!("hob-plant checker, {NOISE_UM} um noise, seed {draw}"),
+                        measured_at: measured_at.to_string(),
+                    },
+                    left: FlankPitch::from_positions(&left),
+                    right: FlankPitch::from_positions(&right),
+                }
+            })
+            .collect()
     }
 }
 

@@ -37,6 +37,8 @@ pub struct SimOptions {
     pub windows_off: bool,
     /// The ISO 1328-1 grade the predicted gear of each pass is judged against.
     pub grade: u8,
+    /// The pitch compensation the gearbox applies (issue 34); none: off.
+    pub pitch_compensation: Option<hob_control::pitch_comp::PitchCompensation>,
 }
 
 impl Default for SimOptions {
@@ -48,6 +50,7 @@ impl Default for SimOptions {
             max_time_s: 7200.0,
             windows_off: false,
             grade: 5,
+            pitch_compensation: None,
         }
     }
 }
@@ -74,6 +77,9 @@ pub struct Summary {
     /// A disk cutter's simulated profile error: its largest side deflection in each pass,
     /// `[pass, um]` (tooth-by-tooth with `[tool.disk]` and `workpiece.material`).
     pub cutter_profile_error_um: Vec<[f64; 2]>,
+    /// The gearbox's tooth phase of the blank (deg; none before its first engagement): a
+    /// pitch compensation measured on this gear cuts the next one at it.
+    pub tooth_phase_deg: Option<f64>,
 }
 
 /// When the drives act on each SYNC against its nominal instant. The SYNC itself arrives
@@ -528,6 +534,7 @@ pub fn finish_summary(
         fault,
         late_frames: [0; 2],
         cutter_profile_error_um: Vec::new(),
+        tooth_phase_deg: None,
     }
 }
 
@@ -570,6 +577,9 @@ pub fn run_program(
         .load(*program)
         .map_err(|r| format!("program refused: {r:?}"))?;
     sim.controller.set_cross_coupling(options.cross_coupling);
+    if !sim.controller.set_pitch_compensation(options.pitch_compensation) {
+        return Err("the pitch compensation was refused: the gearbox is coupled".to_string());
+    }
     sim.command(Command::Start {
         single: options.single,
     })
@@ -581,6 +591,7 @@ pub fn run_program(
     let completed = completed && fault.is_none();
     let total = sim.time_s();
     Ok(Summary {
+        tooth_phase_deg: sim.controller.gearbox().recorded_phase_deg(),
         late_frames: sim.late_frames(),
         cutter_profile_error_um: sim.cutter_peaks_um.clone(),
         ..finish_summary(

@@ -19,6 +19,7 @@ pub mod delay;
 pub mod error;
 pub mod export;
 pub mod format;
+pub mod gaps;
 pub mod header;
 pub mod predicted;
 pub mod pump;

@@ -18,6 +18,7 @@
 //! engagement moves the phase onto the nearest equivalent (`recorded + n 360/z`) of the
 //! recorded one: the same tooth gap, never an arbitrary one.
 
+use super::pitch_comp::PitchCompensation;
 use super::profile::Profile;
 
 /// The gearbox's fixed parameters (from the machine configuration and the job).
@@ -59,6 +60,8 @@ pub struct SyncStatus {
     pub in_coarse_window: bool,
     /// Cross-coupling correction applied, deg.
     pub ccc_deg: f64,
+    /// The pitch compensation's offset on the table's target, deg (0 without one).
+    pub compensation_deg: f64,
 }
 
 /// The electronic gearbox.
@@ -181,7 +184,11 @@ impl Gearbox {
 
     /// One cycle. `spindle_pred_deg` and `y_cmd_mm` are for the instant the command takes
     /// effect; `spindle_now_deg`, `table_now_deg` and `y_now_mm` were measured at this
-    /// cycle's sync. Returns the table command in deg.
+    /// cycle's sync. With a pitch compensation, a new blank takes the compensation's tooth
+    /// phase (the nearest equivalent) and the table's target gets its offset, scaled by the
+    /// coupling as it ramps; the synchronism error is measured against the compensated
+    /// target. Returns the table command in deg.
+    #[allow(clippy::too_many_arguments)]
     pub fn step(
         &mut self,
         spindle_pred_deg: f64,
@@ -190,6 +197,7 @@ impl Gearbox {
         table_now_deg: f64,
         y_now_mm: f64,
         dt_s: f64,
+        compensation: Option<&PitchCompensation>,
     ) -> f64 {
         let p = self.params;
         match self.coupling {
@@ -212,12 +220,19 @@ impl Gearbox {
 
         if self.coupling == Coupling::Engaging && self.ramp >= 1.0 {
             let phase = self.base_deg - coupled;
-            let target = match self.recorded_phase_deg {
-                None => {
+            let nearest = |rec: f64| rec + ((phase - rec) / p.pitch_deg).round() * p.pitch_deg;
+            let target = match (self.recorded_phase_deg, compensation) {
+                (None, None) => {
                     self.recorded_phase_deg = Some(phase);
                     phase
                 }
-                Some(rec) => rec + ((phase - rec) / p.pitch_deg).round() * p.pitch_deg,
+                // A new blank cut where the compensation was measured.
+                (None, Some(comp)) => {
+                    let target = nearest(comp.phase_deg());
+                    self.recorded_phase_deg = Some(target);
+                    target
+                }
+                (Some(rec), _) => nearest(rec),
             };
             self.phase_target_deg = Some(target);
             self.phase_goal_deg += target - phase;
@@ -241,6 +256,10 @@ impl Gearbox {
                 let error = table_now_deg - p.coupled_deg(spindle_now_deg, y_now_mm) - target;
                 // The phase move is part of the command; measure against where it is.
                 let error = error - (self.phase_move.position - self.phase_goal_deg);
+                let error = match compensation {
+                    Some(comp) => error - c * comp.offset_deg(table_now_deg, spindle_now_deg),
+                    None => error,
+                };
                 let ccc = if p.ccc_enabled && self.coupling == Coupling::Synchronised {
                     self.ccc_integral_deg = (self.ccc_integral_deg + p.ccc_ki_per_s * dt_s * error)
                         .clamp(-p.ccc_limit_deg, p.ccc_limit_deg);
@@ -253,6 +272,7 @@ impl Gearbox {
                     in_fine_window: error.abs() <= p.fine_window_deg,
                     in_coarse_window: error.abs() <= p.coarse_window_deg,
                     ccc_deg: ccc,
+                    compensation_deg: 0.0,
                 }
             }
             _ => SyncStatus {
@@ -261,7 +281,13 @@ impl Gearbox {
                 ..SyncStatus::default()
             },
         };
-        self.base_deg - self.status.ccc_deg
+        match compensation {
+            Some(comp) => {
+                self.status.compensation_deg = c * comp.offset_deg(self.base_deg, spindle_pred_deg);
+                self.base_deg - self.status.ccc_deg + self.status.compensation_deg
+            }
+            None => self.base_deg - self.status.ccc_deg,
+        }
     }
 }
 
@@ -292,7 +318,7 @@ mod tests {
         let mut max_step = 0.0f64;
         for _ in 0..cycles {
             let next = *spindle + rpm * 6.0 * 0.001;
-            let cmd = g.step(next, 0.0, *spindle, *table, 0.0, 0.001);
+            let cmd = g.step(next, 0.0, *spindle, *table, 0.0, 0.001, None);
             max_step = max_step.max((cmd - *table).abs());
             *table = cmd;
             *spindle = next;
@@ -363,7 +389,7 @@ mod tests {
         let (mut spindle, mut table) = (0.0, 0.0);
         g.engage();
         run(&mut g, &mut spindle, &mut table, 100.0, 2000);
-        let cmd = g.step(spindle, 0.0, spindle, table - 0.1, 0.0, 0.001);
+        let cmd = g.step(spindle, 0.0, spindle, table - 0.1, 0.0, 0.001, None);
         let s = g.status();
         assert!((s.error_deg + 0.1).abs() < 1e-3, "{s:?} {cmd}");
         assert!(!s.in_fine_window && !s.in_coarse_window);
@@ -385,7 +411,7 @@ mod tests {
         let mut cmd = table;
         for _ in 0..1000 {
             let next = spindle + 0.6;
-            cmd = g.step(next, 0.0, spindle, spindle / 17.0 + rec + 0.01, 0.0, 0.001);
+            cmd = g.step(next, 0.0, spindle, spindle / 17.0 + rec + 0.01, 0.0, 0.001, None);
             spindle = next;
         }
         let s = g.status();

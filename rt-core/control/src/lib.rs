@@ -27,6 +27,7 @@ pub mod io;
 pub mod jog;
 pub mod lube;
 pub mod observer;
+pub mod pitch_comp;
 pub mod profile;
 pub mod program;
 pub mod referencing;
@@ -391,6 +392,8 @@ pub struct Controller {
     /// Overrides as fractions (1.0 = 100 %).
     feed_override: f64,
     spindle_override: f64,
+    /// The pitch compensation the gearbox applies (none: off).
+    pitch_compensation: Option<pitch_comp::PitchCompensation>,
 }
 
 impl Controller {
@@ -432,6 +435,7 @@ impl Controller {
             touch_offs: setup_math::TouchOffs::default(),
             feed_override: 1.0,
             spindle_override: 1.0,
+            pitch_compensation: None,
         }
     }
 
@@ -497,6 +501,21 @@ impl Controller {
         &self.params
     }
 
+    /// Switches the pitch compensation on (`Some`) or off (`None`) while the gearbox is
+    /// disengaged; refused (`false`, nothing changed) while it is coupled, where the switch
+    /// would step the table. A new blank is then cut at the compensation's tooth phase.
+    pub fn set_pitch_compensation(&mut self, compensation: Option<pitch_comp::PitchCompensation>) -> bool {
+        if self.gearbox.coupling() != egb::Coupling::Disengaged {
+            return false;
+        }
+        self.pitch_compensation = compensation;
+        true
+    }
+
+    pub fn pitch_compensation(&self) -> Option<&pitch_comp::PitchCompensation> {
+        self.pitch_compensation.as_ref()
+    }
+
     pub fn program(&self) -> Option<&CycleProgram> {
         self.program.as_ref()
     }
@@ -554,6 +573,7 @@ impl Controller {
             self.measured.table_deg,
             self.measured.y_mm,
             self.params.period_s,
+            self.pitch_compensation.as_ref(),
         );
         if self.sequencer.state != State::Jog {
             // An excitation cut short (a fault): its offset fades instead of jumping.

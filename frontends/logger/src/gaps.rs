@@ -1,0 +1,148 @@
+//! The cut's own record at each tooth gap (issue 34): for every face section of the last
+//! pass, where the hob's spindle stood and how far the controller itself was off when each
+//! gap passed the hob. A compensation takes the controller's share out of a measured gear
+//! with it (so that it is not compensated twice) and tells the hob's errors from the
+//! table's by the hob's phase.
+//!
+//! The gaps are those of [`crate::predicted`]: gap `i` passes the hob at table angle
+//! `i * 360 / z`, crossed in whichever direction the table turns; a section is complete
+//! when every gap has passed once. Both quantities are interpolated at the crossing.
+
+use crate::predicted::{Section, SectionBuilder, TrueSample};
+use crate::trace::TraceRow;
+use hob_gearing::units::arcsec_to_um_at_radius;
+use hob_ipc::codec::State;
+
+/// One face section of the record: gap `i` in table order.
+#[derive(Debug, Clone, PartialEq)]
+pub struct GapSection {
+    /// The section's mean Y, mm.
+    pub y_mm: f64,
+    /// The table angle each gap passed the hob at, deg (`i * 360 / z`).
+    pub table_deg: Vec<f64>,
+    /// The spindle's angle when it passed, deg (unwrapped).
+    pub hob_phase_deg: Vec<f64>,
+    /// The controller's own synchronism error then, um at the pitch circle.
+    pub controller_um: Vec<f64>,
+}
+
+/// Collects the last pass's gap sections from a cut's trace rows.
+#[derive(Debug, Clone)]
+pub struct GapRecorder {
+    teeth: u32,
+    pitch_radius_mm: f64,
+    pass: u32,
+    /// The same crossings twice: the controller's error and the spindle's angle, each
+    /// interpolated where the gap passed.
+    controller: SectionBuilder,
+    spindle: SectionBuilder,
+}
+
+impl GapRecorder {
+    pub fn new(teeth: u32, pitch_radius_mm: f64) -> Self {
+        Self {
+            teeth,
+            pitch_radius_mm,
+            pass: 0,
+            controller: SectionBuilder::new(teeth, 0.0),
+            spindle: SectionBuilder::new(teeth, 0.0),
+        }
+    }
+
+    /// The next row of the cut. A later pass starts afresh: it recuts the gaps.
+    pub fn add(&mut self, row: &TraceRow) {
+        if row.pass == 0 {
+            self.controller.interrupt();
+            self.spindle.interrupt();
+            return;
+        }
+        if row.pass != self.pass {
+            self.pass = row.pass;
+            self.controller = SectionBuilder::new(self.teeth, 0.0);
+            self.spindle = SectionBuilder::new(self.teeth, 0.0);
+        }
+        let sample = |value: f64| TrueSample {
+            table_deg: row.table_deg,
+            y_mm: row.y_mm,
+            error_um: value,
+        };
+        match (row.state == State::Cut, row.sync_err_arcsec) {
+            (true, Some(e)) => {
+                self.controller
+                    .add(sample(arcsec_to_um_at_radius(e, self.pitch_radius_mm)));
+                self.spindle.add(sample(row.spindle_deg));
+            }
+            (true, None) => {
+                self.controller.skip();
+                self.spindle.skip();
+            }
+            (false, _) => {
+                self.controller.interrupt();
+                self.spindle.interrupt();
+            }
+        }
+    }
+
+    /// The last pass's complete sections, in the order cut.
+    pub fn finish(self) -> Vec<GapSection> {
+        let pitch_deg = 360.0 / self.teeth.max(1) as f64;
+        let controller = self.controller.finish();
+        let spindle = self.spindle.finish();
+        controller
+            .into_iter()
+            .zip(spindle)
+            .map(|(c, s): (Section, Section)| GapSection {
+                y_mm: c.y_mm,
+                table_deg: (0..c.gap_um.len()).map(|i| i as f64 * pitch_deg).collect(),
+                hob_phase_deg: s.gap_um,
+                controller_um: c.gap_um,
+            })
+            .collect()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn row(t: f64, table_deg: f64, spindle_deg: f64, err_arcsec: f64) -> TraceRow {
+        TraceRow {
+            t_s: t,
+            state: State::Cut,
+            hold: false,
+            pass: 1,
+            spindle_deg,
+            table_deg,
+            table_cmd_deg: table_deg,
+            x_mm: 0.0,
+            x_cmd_mm: 0.0,
+            y_mm: 10.0,
+            y_cmd_mm: 10.0,
+            sync_err_arcsec: Some(err_arcsec),
+            work_twist_arcsec: 0.0,
+            blank_err_arcsec: None,
+            feed_override_percent: None,
+            spindle_override_percent: None,
+        }
+    }
+
+    #[test]
+    fn each_gap_gets_the_spindle_and_the_error_where_it_passed() {
+        // 4 teeth, a table turning 1 deg a row, the spindle 4 times as fast, the error
+        // equal to the table angle in arcsec.
+        let mut r = GapRecorder::new(4, 100.0);
+        for k in 0..=1100 {
+            let t = k as f64 - 5.5;
+            r.add(&row(k as f64, t, 4.0 * t, t));
+        }
+        let s = r.finish();
+        assert_eq!(s.len(), 3, "{s:?}");
+        let first = &s[0];
+        assert_eq!(first.table_deg, vec![0.0, 90.0, 180.0, 270.0]);
+        // Gap 0 crossed at table 0 deg (turn 0), gap 1 at 90 deg, ...
+        assert_eq!(first.hob_phase_deg, vec![0.0, 360.0, 720.0, 1080.0]);
+        let um = arcsec_to_um_at_radius(90.0, 100.0);
+        assert!((first.controller_um[1] - um).abs() < 1e-9, "{first:?}");
+        assert_eq!(s[1].hob_phase_deg[0], 1440.0);
+    }
+}
