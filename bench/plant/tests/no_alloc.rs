@@ -1,5 +1,5 @@
 //! The real-time rule, proven: the control step, command handling and program loading
-//! allocate nothing, in every sequencer state (cycles of all three kinds, single mode,
+//! allocate nothing, with a pitch compensation applied, in every sequencer state (cycles of all three kinds, single mode,
 //! feed hold, stop, faults and their reaction, reset). A counting global allocator counts
 //! the allocations made on this thread while the controller runs.
 #![allow(clippy::unwrap_used)]
@@ -129,6 +129,17 @@ fn the_control_step_never_allocates() {
         cycles: 0,
     };
     d.t = (d.sim.time_s() * 1000.0) as u64;
+    // Every state below runs with a pitch compensation (issue 34): its table and hob terms
+    // are evaluated in each coupled cycle.
+    let compensation = hob_control::pitch_comp::PitchCompensation::new(
+        1.0,
+        &[0.001, -0.002, 0.0015, 0.0, 0.0005],
+        0.0005,
+        -0.0002,
+        2.0,
+    )
+    .unwrap();
+    assert!(d.sim.controller.set_pitch_compensation(Some(compensation)));
     COUNT.with(|n| n.set(0));
 
     // Automatic cycle with a feed hold, then single mode.
