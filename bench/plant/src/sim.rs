@@ -577,8 +577,12 @@ pub fn run_program(
         .load(*program)
         .map_err(|r| format!("program refused: {r:?}"))?;
     sim.controller.set_cross_coupling(options.cross_coupling);
-    if !sim.controller.set_pitch_compensation(options.pitch_compensation) {
-        return Err("the pitch compensation was refused: the gearbox is coupled".to_string());
+    if let Some(c) = options.pitch_compensation {
+        if !sim.controller.load_pitch_compensation(Some(c)) {
+            return Err("the pitch compensation was refused: the gearbox is coupled".to_string());
+        }
+        sim.command(Command::PitchCompensation { on: true })
+            .map_err(|r| format!("the pitch compensation was refused: {r:?}"))?;
     }
     sim.command(Command::Start {
         single: options.single,

@@ -181,15 +181,31 @@ fn outputs_with(set: &dyn Fn(&mut hob_control::Controller)) -> Vec<hob_control::
 fn switched_off_the_compensation_leaves_today_s_outputs_bit_for_bit() {
     let comp = PitchCompensation::new(0.0, &[0.001, -0.002, 0.0015, 0.0], 0.0005, 0.0, 3.0).unwrap();
     let today = outputs_with(&|_| {});
+    let off = hob_control::Command::PitchCompensation { on: false };
+    let on = hob_control::Command::PitchCompensation { on: true };
+    // Loaded and switched on, then off; loaded and never switched on; unloaded again.
     let on_then_off = outputs_with(&|c| {
-        assert!(c.set_pitch_compensation(Some(comp)));
-        assert!(c.set_pitch_compensation(None));
+        assert!(c.load_pitch_compensation(Some(comp)));
+        assert_eq!(c.command(on), Ok(()));
+        assert_eq!(c.command(off), Ok(()));
     });
-    let on = outputs_with(&|c| assert!(c.set_pitch_compensation(Some(comp))));
+    let loaded = outputs_with(&|c| assert!(c.load_pitch_compensation(Some(comp))));
+    let unloaded = outputs_with(&|c| {
+        assert!(c.load_pitch_compensation(Some(comp)));
+        assert_eq!(c.command(on), Ok(()));
+        assert!(c.load_pitch_compensation(None));
+        assert_eq!(c.command(on), Err(hob_control::fault::Refusal::NoCompensation));
+    });
+    let on = outputs_with(&|c| {
+        assert!(c.load_pitch_compensation(Some(comp)));
+        assert_eq!(c.command(on), Ok(()));
+    });
     let same = |a: &[hob_control::CycleOutputs], b: &[hob_control::CycleOutputs]| {
         a.len() == b.len() && a.iter().zip(b).all(|(x, y)| hob_control::flight::same_bits(x, y))
     };
     assert!(same(&today, &on_then_off));
+    assert!(same(&today, &loaded));
+    assert!(same(&today, &unloaded));
     // The comparison can fail: on, the table's targets differ.
     assert!(!same(&today, &on));
 }

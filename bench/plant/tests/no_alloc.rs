@@ -139,8 +139,9 @@ fn the_control_step_never_allocates() {
         2.0,
     )
     .unwrap();
-    assert!(d.sim.controller.set_pitch_compensation(Some(compensation)));
+    assert!(d.sim.controller.load_pitch_compensation(Some(compensation)));
     COUNT.with(|n| n.set(0));
+    d.accepted(Command::PitchCompensation { on: true });
 
     // Automatic cycle with a feed hold, then single mode.
     d.command(Command::Start { single: false });

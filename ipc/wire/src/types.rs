@@ -135,7 +135,10 @@ pub struct StateSample {
     pub referenced: u8,
     /// Referencing or jogging under way: 0 none, else the axis code.
     pub moving_axis: u8,
-    pub _pad2: [u8; 2],
+    /// The pitch compensation: a [`crate::vocab::pitch_compensation`] code (a byte that was
+    /// padding: the layout is unchanged).
+    pub pitch_compensation: u8,
+    pub _pad2: u8,
     /// The pass "continue" would start from (1-based; 0: nothing to continue).
     pub continue_pass: u32,
     /// Overrides in percent.
@@ -438,6 +441,10 @@ code_table! {
         /// renewed (a dead-man, as `JOG_CONTINUOUS`); `JOG_RELEASE` fades it out.
         /// Commissioning's frequency response.
         EXCITE_TABLE = 22, "excite table";
+        /// `value`: 1 on, 0 off. The pitch compensation `hob-rt` loaded at start (the
+        /// machine's worm set's, from `hob compensate`) applied to the table or not; only
+        /// outside a cycle with the gearbox out.
+        PITCH_COMPENSATION = 23, "pitch compensation";
     }
 }
 

@@ -168,6 +168,16 @@ impl State {
     }
 }
 
+/// The pitch compensation's state ([`crate::StateSample::pitch_compensation`]).
+pub mod pitch_compensation {
+    /// None loaded (none stored for the machine's worm set, or a recording from before).
+    pub const NONE: u8 = 0;
+    /// Loaded, switched off.
+    pub const OFF: u8 = 1;
+    /// Loaded and applied to the table.
+    pub const ON: u8 = 2;
+}
+
 /// Where a fault met the machine ([`crate::AlarmCode::situation`]): its reaction differs.
 pub mod situation {
     /// Not recorded (an alarm of an older recording): the reaction of every case is told.
@@ -203,11 +213,12 @@ pub enum Refusal {
     ProgramChanged = 16,
     OffsetNeedsConfirmation = 17,
     DelayNotCommissioned = 18,
+    NoCompensation = 19,
 }
 
 impl Refusal {
     /// Every refusal, in code order (`ALL[i].code() == i + 1`).
-    pub const ALL: [Refusal; 18] = [
+    pub const ALL: [Refusal; 19] = [
         Refusal::NoProgram,
         Refusal::CycleRunning,
         Refusal::Faulted,
@@ -226,6 +237,7 @@ impl Refusal {
         Refusal::ProgramChanged,
         Refusal::OffsetNeedsConfirmation,
         Refusal::DelayNotCommissioned,
+        Refusal::NoCompensation,
     ];
 
     pub const fn code(self) -> u32 {
@@ -256,6 +268,7 @@ impl Refusal {
             Refusal::ProgramChanged => "program-changed",
             Refusal::OffsetNeedsConfirmation => "offset-needs-confirmation",
             Refusal::DelayNotCommissioned => "delay-not-commissioned",
+            Refusal::NoCompensation => "no-compensation",
         }
     }
 
@@ -293,6 +306,9 @@ impl Refusal {
             }
             Refusal::DelayNotCommissioned => {
                 "the table drive's delay was not measured on this machine's table drive: run hob commission delay, then restart hob-rt (a wrong delay faults the cut at engagement)"
+            }
+            Refusal::NoCompensation => {
+                "no pitch compensation was loaded for this machine's worm set: measure a gear, run hob compensate, then restart hob-rt"
             }
         }
     }

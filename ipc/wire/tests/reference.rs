@@ -52,6 +52,7 @@ const REFUSALS: &[(u32, &str)] = &[
     (16, "program-changed"),
     (17, "offset-needs-confirmation"),
     (18, "delay-not-commissioned"),
+    (19, "no-compensation"),
 ];
 
 const FAULTS: &[(u32, &str)] = &[
@@ -130,6 +131,7 @@ const COMMANDS: &[(u32, &str)] = &[
     (20, "touch flank"),
     (21, "nodes"),
     (22, "excite table"),
+    (23, "pitch compensation"),
 ];
 
 #[test]
@@ -213,7 +215,7 @@ fn events_bus_events_and_commands_keep_their_codes_and_words() {
     }
     assert_eq!((event_kind::STATE_CHANGED, event_kind::PHASE_ALIGNED), (1, 16));
     assert_eq!((bus_event::EMCY, bus_event::SEND_FAILED), (1, 4));
-    assert_eq!((command::LOAD_PROGRAM, command::EXCITE_TABLE), (1, 22));
+    assert_eq!((command::LOAD_PROGRAM, command::PITCH_COMPENSATION), (1, 23));
     assert_eq!(
         (send_error::QUEUE_FULL, send_error::INTERFACE_DOWN, send_error::OS),
         (1, 2, 3)

@@ -45,6 +45,11 @@ pub enum Command {
         /// The way the table creeps meanwhile (its friction holds the worm on one flank).
         creep: Direction,
     },
+    /// Apply the loaded pitch compensation to the table (`on`) or not, only outside a
+    /// cycle with the gearbox out; refused when none is loaded.
+    PitchCompensation {
+        on: bool,
+    },
     /// Reference X and/or Y (CiA 402 homing).
     Home {
         axes: HomeAxes,

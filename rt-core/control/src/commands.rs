@@ -85,6 +85,7 @@ impl Controller {
             } => self.jog_continuous(axis, direction, speed_per_min),
             Command::JogRelease => self.jog_release(),
             Command::ExciteTable { frequency_hz, creep } => self.excite_table(frequency_hz, creep),
+            Command::PitchCompensation { on } => self.switch_pitch_compensation(on),
             Command::Home { axes } => self.home(axes),
             Command::TouchOff {
                 axis,
@@ -424,6 +425,19 @@ impl Controller {
             axis,
             offset_mm: offset,
         });
+        Ok(())
+    }
+
+    /// The loaded pitch compensation on or off: outside a cycle, with the gearbox out (the
+    /// switch would step the table); on refused without one loaded.
+    fn switch_pitch_compensation(&mut self, on: bool) -> Result<(), Refusal> {
+        if self.sequencer.state.in_cycle() || self.gearbox.coupling() != crate::egb::Coupling::Disengaged {
+            return Err(Refusal::CycleRunning);
+        }
+        if on && self.pitch_compensation.is_none() {
+            return Err(Refusal::NoCompensation);
+        }
+        self.pitch_compensation_on = on;
         Ok(())
     }
 

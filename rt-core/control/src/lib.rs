@@ -318,6 +318,8 @@ pub struct Status {
     pub feed_override_percent: f64,
     pub spindle_override_percent: f64,
     pub offsets: Offsets,
+    /// The pitch compensation: a `hob_wire::vocab::pitch_compensation` code.
+    pub pitch_compensation: u8,
 }
 
 /// Measured values of one cycle, in units.
@@ -392,8 +394,10 @@ pub struct Controller {
     /// Overrides as fractions (1.0 = 100 %).
     feed_override: f64,
     spindle_override: f64,
-    /// The pitch compensation the gearbox applies (none: off).
+    /// The pitch compensation loaded at start-up (the machine's worm set's), and whether
+    /// the operator switched it on: the gearbox applies it when both.
     pitch_compensation: Option<pitch_comp::PitchCompensation>,
+    pitch_compensation_on: bool,
 }
 
 impl Controller {
@@ -436,6 +440,7 @@ impl Controller {
             feed_override: 1.0,
             spindle_override: 1.0,
             pitch_compensation: None,
+            pitch_compensation_on: false,
         }
     }
 
@@ -501,19 +506,24 @@ impl Controller {
         &self.params
     }
 
-    /// Switches the pitch compensation on (`Some`) or off (`None`) while the gearbox is
-    /// disengaged; refused (`false`, nothing changed) while it is coupled, where the switch
-    /// would step the table. A new blank is then cut at the compensation's tooth phase.
-    pub fn set_pitch_compensation(&mut self, compensation: Option<pitch_comp::PitchCompensation>) -> bool {
+    /// Loads a pitch compensation (start-up: the machine's worm set's), switched off;
+    /// `None` unloads it. Refused (`false`, nothing changed) while the gearbox is coupled,
+    /// where the change would step the table. Switched on (`Command::PitchCompensation`), it
+    /// is applied to the table and a new blank is cut at its tooth phase.
+    pub fn load_pitch_compensation(&mut self, compensation: Option<pitch_comp::PitchCompensation>) -> bool {
         if self.gearbox.coupling() != egb::Coupling::Disengaged {
             return false;
         }
         self.pitch_compensation = compensation;
+        self.pitch_compensation_on = false;
         true
     }
 
+    /// The pitch compensation the gearbox applies now (loaded and switched on).
     pub fn pitch_compensation(&self) -> Option<&pitch_comp::PitchCompensation> {
-        self.pitch_compensation.as_ref()
+        self.pitch_compensation
+            .as_ref()
+            .filter(|_| self.pitch_compensation_on)
     }
 
     pub fn program(&self) -> Option<&CycleProgram> {
@@ -573,7 +583,9 @@ impl Controller {
             self.measured.table_deg,
             self.measured.y_mm,
             self.params.period_s,
-            self.pitch_compensation.as_ref(),
+            self.pitch_compensation
+                .as_ref()
+                .filter(|_| self.pitch_compensation_on),
         );
         if self.sequencer.state != State::Jog {
             // An excitation cut short (a fault): its offset fades instead of jumping.
@@ -926,6 +938,11 @@ impl Controller {
             feed_override_percent: self.feed_override * 100.0,
             spindle_override_percent: self.spindle_override * 100.0,
             offsets: self.offsets,
+            pitch_compensation: match (&self.pitch_compensation, self.pitch_compensation_on) {
+                (None, _) => hob_wire::vocab::pitch_compensation::NONE,
+                (Some(_), false) => hob_wire::vocab::pitch_compensation::OFF,
+                (Some(_), true) => hob_wire::vocab::pitch_compensation::ON,
+            },
         }
     }
 

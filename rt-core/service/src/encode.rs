@@ -55,6 +55,7 @@ pub fn fill_state(s: &mut StateSample, st: &Status, passes_total: u32, program_l
     s.spindle_override_percent = st.spindle_override_percent;
     s.x_offset_mm = st.offsets.x_mm;
     s.y_offset_mm = st.offsets.y_mm;
+    s.pitch_compensation = st.pitch_compensation;
 }
 
 /// A command as it travels in a [`hob_ipc::CommandRequest`]: its code and arguments.
@@ -164,6 +165,9 @@ pub const fn command_code(c: Command) -> Args {
             direction: direction_code(creep),
             ..Args::of(command::EXCITE_TABLE).value(frequency_hz)
         },
+        Command::PitchCompensation { on } => {
+            Args::of(command::PITCH_COMPENSATION).value(if on { 1.0 } else { 0.0 })
+        }
         Command::FeedOverride { percent } => Args::of(command::FEED_OVERRIDE).value(percent),
         Command::SpindleOverride { percent } => Args::of(command::SPINDLE_OVERRIDE).value(percent),
         Command::TouchOff {
@@ -183,7 +187,7 @@ pub const fn command_code(c: Command) -> Args {
 }
 
 /// A command from its code and arguments (`None`: LOAD_PROGRAM, unknown code, bad axis
-/// or direction).
+/// or direction, a pitch compensation's value other than 1 or 0).
 pub fn command_from_code(a: &Args) -> Option<Command> {
     let ax = || Axis::from_code(a.axis);
     Some(match a.code {
@@ -224,6 +228,13 @@ pub fn command_from_code(a: &Args) -> Option<Command> {
         command::EXCITE_TABLE => Command::ExciteTable {
             frequency_hz: a.value,
             creep: direction_of(a.direction)?,
+        },
+        command::PITCH_COMPENSATION => Command::PitchCompensation {
+            on: match a.value {
+                1.0 => true,
+                0.0 => false,
+                _ => return None,
+            },
         },
         command::FEED_OVERRIDE => Command::FeedOverride { percent: a.value },
         command::SPINDLE_OVERRIDE => Command::SpindleOverride { percent: a.value },

@@ -107,6 +107,9 @@ mod old {
             Refusal::DelayNotCommissioned => {
                 "the table drive's delay was not measured on this machine's table drive: run hob commission delay, then restart hob-rt (a wrong delay faults the cut at engagement)"
             }
+            Refusal::NoCompensation => {
+                "no pitch compensation was loaded for this machine's worm set: measure a gear, run hob compensate, then restart hob-rt"
+            }
         }
     }
 
@@ -125,6 +128,7 @@ mod old {
             Command::JogContinuous { .. } => "jog continuous",
             Command::JogRelease => "jog release",
             Command::ExciteTable { .. } => "excite table",
+            Command::PitchCompensation { .. } => "pitch compensation",
             Command::FeedOverride { .. } => "feed override",
             Command::SpindleOverride { .. } => "spindle override",
             Command::TouchOff { .. } => "touch-off",
@@ -212,6 +216,8 @@ fn every_command() -> Vec<Command> {
             frequency_hz: 42.5,
             creep: Direction::Negative,
         },
+        Command::PitchCompensation { on: true },
+        Command::PitchCompensation { on: false },
         Command::FeedOverride { percent: 87.5 },
         Command::SpindleOverride { percent: 110.0 },
         Command::Continue,
