@@ -342,6 +342,23 @@ pub struct TableConfig {
     /// `hob commission response` (absent: that measurement is refused).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub drive_model: Option<TableDriveModel>,
+    /// The table's worm and wheel set as the builder names it (e.g. `B-2019-07`): a gear's
+    /// pitch compensation is measured on, and kept for, one set (`hob compensate`); absent,
+    /// a compensation is refused. Non-empty, at most [`WORM_SET_MAX_CHARS`] printable ASCII
+    /// characters.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub worm_set: Option<String>,
+}
+
+/// The longest name `table.worm_set` may have.
+pub const WORM_SET_MAX_CHARS: usize = 64;
+
+/// Whether `name` is a valid `table.worm_set`: non-empty, at most [`WORM_SET_MAX_CHARS`]
+/// printable ASCII characters (a space is printable).
+pub fn is_worm_set_name(name: &str) -> bool {
+    !name.trim().is_empty()
+        && name.len() <= WORM_SET_MAX_CHARS
+        && name.chars().all(|c| c.is_ascii_graphic() || c == ' ')
 }
 
 /// The table drive as its data sheets describe it: what a measurement at the loop's 1 kHz
@@ -920,6 +937,13 @@ impl MachineConfig {
             ("table.max_following_error_deg", t.max_following_error_deg),
         ] {
             p.positive(key, v);
+        }
+        if let Some(w) = &t.worm_set {
+            p.require(is_worm_set_name(w), "table.worm_set", || {
+                format!(
+                    "must name the worm set in 1 to {WORM_SET_MAX_CHARS} printable ASCII characters (is {w:?})"
+                )
+            });
         }
         if let Some(d) = &t.drive_model {
             p.within(

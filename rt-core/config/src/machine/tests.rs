@@ -351,3 +351,25 @@ fn a_gains_record_out_of_its_ranges_is_refused_naming_the_key() {
         );
     }
 }
+
+#[test]
+fn the_worm_set_is_optional_and_named_when_invalid() {
+    let shipped = load_src(&shipped_src()).unwrap();
+    assert_eq!(shipped.table.worm_set.as_deref(), Some("B-2019-07"));
+    let without = load_src(&shipped_with(&[("worm_set = \"B-2019-07\"\n", "")])).unwrap();
+    assert_eq!(without.table.worm_set, None);
+    let long = format!("worm_set = \"{}\"", "W".repeat(65));
+    for bad in [
+        "worm_set = \"\"",
+        "worm_set = \"  \"",
+        "worm_set = \"B\\u00e4\"",
+        "worm_set = \"a\\tb\"",
+        long.as_str(),
+    ] {
+        let src = shipped_with(&[("worm_set = \"B-2019-07\"", bad)]);
+        let err = load_src(&src).unwrap_err();
+        assert_eq!(err.problems()[0].key, "table.worm_set", "{bad}: {err}");
+    }
+    let max = format!("worm_set = \"{}\"", "W".repeat(64));
+    assert!(load_src(&shipped_with(&[("worm_set = \"B-2019-07\"", max.as_str())])).is_ok());
+}
