@@ -10,6 +10,8 @@
 //! - [`machine_state`]: `hob-rt`'s machine state file (work offsets from touch-off).
 //! - [`machine_edit`]: the machine file changed by a tool (`hob commission`): only the
 //!   changed keys' lines, checked as `hob-rt` loads it, shown as a diff, the old file kept.
+//! - [`pitch_compensation`]: a gear's pitch compensation per worm set of the table
+//!   (`hob compensate`), beside the state file, the previous one kept.
 //! - [`library`]: the operator's program and tool library (`programs/`, `tools/`), the
 //!   names it accepts, and [`library::Library::resolve`], which fills a program's library
 //!   tool in.
@@ -22,6 +24,7 @@ pub mod files;
 pub mod library;
 pub mod machine_edit;
 pub mod machine_state;
+pub mod pitch_compensation;
 pub mod utc;
 
 /// A fresh, empty directory for one test (removed and made again).
