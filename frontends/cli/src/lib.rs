@@ -8,6 +8,7 @@
 
 pub mod can;
 pub mod commission;
+pub mod compensate;
 pub mod cutter;
 pub mod doctor;
 pub mod error;

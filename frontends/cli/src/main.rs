@@ -6,7 +6,7 @@
 use clap::{Parser, Subcommand};
 use hob_cli::library::{Action, Place};
 use hob_cli::util::{Failure, emit, load_machine, machine_path, service_result};
-use hob_cli::{can, cutter, doctor, lab, library, render, service};
+use hob_cli::{can, compensate, cutter, doctor, lab, library, render, service};
 use hob_store::library::Kind;
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -198,6 +198,30 @@ enum Command {
     Commission {
         #[command(subcommand)]
         command: CommissionCommand,
+    },
+    /// Measure the first gear, correct the second: the checker's files of a cut gear,
+    /// matched to the cut's log, split into the table's and the hob's errors, and the
+    /// compensation for the table's worm set shown (a diff against the current one) and
+    /// stored beside the state file on --yes (the old one kept).
+    Compensate {
+        /// Machine configuration [default: config/machine.toml, then /etc/hob/machine.toml].
+        #[arg(long, value_name = "FILE")]
+        machine: Option<PathBuf>,
+        /// The program the gear was cut with (TOML).
+        #[arg(long, value_name = "FILE")]
+        program: PathBuf,
+        /// The log directory of the first cut (hob-logger's).
+        #[arg(long, value_name = "DIR")]
+        log: PathBuf,
+        /// A checker's file (docs/gear-measurement.md), one per height; repeat the option.
+        #[arg(long, value_name = "FILE", required = true)]
+        measurement: Vec<PathBuf>,
+        /// A plot of the table's error per gap and the residual (SVG).
+        #[arg(long, value_name = "FILE")]
+        svg: Option<PathBuf>,
+        /// Write the compensation (without it, nothing is written).
+        #[arg(long)]
+        yes: bool,
     },
     /// Commissioning tools for the CAN bus (scan, SDO, dump; `can run` is in hob-lab).
     Can {
@@ -627,6 +651,18 @@ fn main() -> ExitCode {
 
 /// Each command to the function that does it.
 /// `hob commission ...`.
+/// `hob compensate`: a refusal exits 2, naming the file, line, key or field.
+fn compensate(o: compensate::Options) -> Result<(), Failure> {
+    match compensate::run(&o) {
+        Ok(outcome) => emit(&outcome.text),
+        Err(compensate::CompensateError::Refused(text)) => {
+            eprintln!("hob: refused: {text}");
+            Err(Failure::Exit(2))
+        }
+        Err(e) => Err(Failure::other(e)),
+    }
+}
+
 fn commission(command: CommissionCommand) -> Result<(), Failure> {
     match command {
         CommissionCommand::Delay {
@@ -700,6 +736,21 @@ fn run(command: Command) -> Result<(), Failure> {
             json,
         } => doctor(machine, cyclictest_seconds, json),
         Command::Commission { command } => commission(command),
+        Command::Compensate {
+            machine,
+            program,
+            log,
+            measurement,
+            svg,
+            yes,
+        } => compensate(compensate::Options {
+            machine: machine_path(machine.as_deref())?,
+            program,
+            log,
+            measurements: measurement,
+            svg,
+            yes,
+        }),
         Command::Status { watch, json } => service_result(service::status(watch, json)),
         Command::Load {
             program,
