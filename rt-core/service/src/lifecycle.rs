@@ -19,6 +19,7 @@ use crate::stats::{self, LoopTiming, StatsTiming, Timing};
 use hob_can_transport::SystemClock;
 use hob_can_transport::shm::open_bus;
 use hob_canopen::bus::CanBus;
+use hob_control::pitch_comp::PitchCompensation;
 use hob_control::{ControlParams, Controller, Status};
 use hob_ipc::iceoryx2;
 use hob_ipc::{EventSample, StateSample, StatsSample, Svc};
@@ -40,6 +41,9 @@ use std::time::Duration;
 pub enum Failure {
     /// The machine state file (work offsets) is broken: never cut with offsets half read.
     StateFile(hob_setup::config::LoadError),
+    /// The worm set's pitch compensation is broken or another set's: never apply one half
+    /// read.
+    Compensation(String),
     /// The loop's publishers could not be opened (another hob-rt on this instance?).
     Ports {
         error: hob_ipc::IpcError,
@@ -88,6 +92,7 @@ impl std::fmt::Display for Failure {
             Failure::Node(e) => write!(f, "{e}"),
             Failure::BusOpen(e) => f.write_str(e),
             Failure::BusBoot { iface, error } => write!(f, "bus boot on {iface}: {error}"),
+            Failure::Compensation(e) => write!(f, "pitch compensation: {e}"),
             Failure::Thread { which, error } => write!(f, "{which} thread: {error}"),
             Failure::HelpersNotReady => f.write_str("the command and stats threads did not start"),
             Failure::Degraded => f.write_str("--require-rt: refusing to run degraded"),
@@ -124,6 +129,7 @@ pub struct Configured {
     state_file: std::path::PathBuf,
     flight_dir: std::path::PathBuf,
     offsets: hob_control::Offsets,
+    compensation: Option<PitchCompensation>,
 }
 
 /// Opens the bus the machine file (or `settings`) names and boots every node on it.
@@ -156,6 +162,7 @@ pub fn configure(machine: MachineConfig, settings: &Settings) -> Result<Configur
             }
         }
     };
+    let compensation = pitch_compensation(&machine, &state_file)?;
     let flight_dir = settings.flight_dir.clone().unwrap_or_else(|| {
         state_file
             .parent()
@@ -207,7 +214,44 @@ pub fn configure(machine: MachineConfig, settings: &Settings) -> Result<Configur
         state_file,
         flight_dir,
         offsets,
+        compensation,
     })
+}
+
+/// The pitch compensation `hob compensate` stored for the machine's worm set
+/// (`table.worm_set`), checked as the control core will apply it: none without a worm set
+/// or a file; a broken file, another set's, or values the control core refuses stop the
+/// start, as a broken state file does. Loaded switched off: the operator switches it on.
+fn pitch_compensation(machine: &MachineConfig, state_file: &Path) -> Result<Option<PitchCompensation>, Failure> {
+    let Some(worm_set) = machine.table.worm_set.as_deref() else {
+        eprintln!("hob-rt: no table.worm_set in the machine file: no pitch compensation");
+        return Ok(None);
+    };
+    let stored = hob_store::pitch_compensation::load_for(state_file, worm_set)
+        .map_err(|e| Failure::Compensation(e.to_string()))?;
+    let Some(c) = stored else {
+        eprintln!("hob-rt: no pitch compensation stored for worm set {worm_set:?}");
+        return Ok(None);
+    };
+    let deg = |arcsec: f64| arcsec / 3600.0;
+    let offsets: Vec<f64> = c.table_offsets_arcsec.iter().map(|&a| deg(a)).collect();
+    let comp = PitchCompensation::new(
+        c.first_table_deg,
+        &offsets,
+        deg(c.hob_cos_arcsec),
+        deg(c.hob_sin_arcsec),
+        c.tooth_phase_deg,
+    )
+    .map_err(|e| Failure::Compensation(format!("worm set {worm_set:?}: {}", e.text())))?;
+    eprintln!(
+        "hob-rt: pitch compensation for worm set {worm_set:?} loaded, switched off: {} points from \
+         {:?} measured {} (computed {})",
+        offsets.len(),
+        c.gear,
+        c.measured_at,
+        c.computed_at_utc
+    );
+    Ok(Some(comp))
 }
 
 /// Whether the machine file's drive delay was measured on the table drive on the bus
@@ -583,6 +627,7 @@ impl Configured {
             state_file,
             flight_dir,
             offsets,
+            compensation,
         } = self;
         let (thread_box, loop_box) = commands::mailboxes();
         let (loop_timing, stats_timing): (LoopTiming, StatsTiming) = stats::circulation();
@@ -594,6 +639,8 @@ impl Configured {
         let nodes_text = nodes_text(&machine, &booted.nodes);
         let mut controller = Controller::new(params);
         controller.set_offsets(offsets);
+        // Before the first cycle: the gearbox is out.
+        controller.load_pitch_compensation(compensation);
         // The flight recorder's rings, before the memory lock.
         let (flight, flight_writer) = recorder::recorder(&controller, recorder::SEGMENT_CYCLES);
         let helpers = Helpers::start(
