@@ -138,6 +138,12 @@ enum Command {
         #[arg(long)]
         confirm: bool,
     },
+    /// Apply the pitch compensation hob-rt loaded for this machine's worm set (`on`) or
+    /// not (`off`); outside a cycle, with the gearbox out (`hob compensate` stores one).
+    PitchCompensation {
+        /// on or off.
+        switch: String,
+    },
     /// Continue the interrupted program from the interrupted pass, on the same part.
     Continue,
     /// A new blank is on the table: forget the recorded tooth phase.
@@ -788,6 +794,7 @@ fn run(command: Command) -> Result<(), Failure> {
                 .and_then(|r| service::request(&r))
                 .map_err(|e| e.with_confirm_hint(&service::touch_off_again(&axis, diameter, height))),
         ),
+        Command::PitchCompensation { switch } => send_built(service::pitch_compensation(&switch)),
         Command::Continue => send(&service::simple(code::CONTINUE)),
         Command::Record => send(&service::simple(code::FLIGHT_RECORD)),
         Command::Replay {

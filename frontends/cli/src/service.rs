@@ -153,6 +153,11 @@ pub fn override_request(what: &str, percent: f64) -> Result<CommandRequest, Serv
     hob_ipc::request::override_request(what, percent).map_err(refused)
 }
 
+/// `hob pitch-compensation on|off`.
+pub fn pitch_compensation(switch: &str) -> Result<CommandRequest, ServiceError> {
+    hob_ipc::request::pitch_compensation(switch).map_err(refused)
+}
+
 /// `hob touch-off x --diameter D` or `hob touch-off y --height H`, `--confirm`ed or not.
 pub fn touch_off(
     axis: &str,
@@ -382,12 +387,13 @@ fn axes_lines(o: &mut String, st: &StateSample) {
     );
     let _ = writeln!(
         o,
-        "spindle  {:7.2} rpm (set {:7.2})   gearbox {}   sync error {:7.3} arcsec   CCC {:6.3} arcsec",
+        "spindle  {:7.2} rpm (set {:7.2})   gearbox {}   sync error {:7.3} arcsec   CCC {:6.3} arcsec   pitch compensation {}",
         st.spindle_rpm,
         st.spindle_set_rpm,
         codec::coupling_name(st.coupling),
         st.sync_error_arcsec,
-        st.ccc_arcsec
+        st.ccc_arcsec,
+        hob_ipc::pitch_compensation::name(st.pitch_compensation)
     );
 }
 

@@ -15,6 +15,8 @@ pub enum Error {
     NotADirection { command: &'static str, word: String },
     /// `override`: the word is not `feed` or `spindle`.
     NotAnOverride { word: String },
+    /// `pitch-compensation`: the word is not `on` or `off`.
+    NotOnOff { command: &'static str, word: String },
     /// `touch-off` without the gauge's diameter for X or its height for Y.
     TouchOffGauge,
     /// `touch-off` of an axis that takes none (only X and Y do).
@@ -43,6 +45,7 @@ impl fmt::Display for Error {
                 write!(f, "{command}: direction {word} is not + or -")
             }
             Error::NotAnOverride { word } => write!(f, "override: {word} is not feed or spindle"),
+            Error::NotOnOff { command, word } => write!(f, "{command}: {word} is not on or off"),
             Error::TouchOffGauge => write!(
                 f,
                 "touch-off: give x --diameter MM (the gauge's diameter) or y --height MM (its top face above the table face)"

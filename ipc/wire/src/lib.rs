@@ -30,4 +30,4 @@ pub mod vocab;
 
 pub use error::Error;
 pub use types::*;
-pub use vocab::situation;
+pub use vocab::{pitch_compensation, situation};

@@ -107,6 +107,23 @@ pub fn override_request(what: &str, percent: f64) -> Result<CommandRequest, Erro
     Ok(r)
 }
 
+/// `PITCH_COMPENSATION` (`on`, `off`): the loaded pitch compensation applied or not.
+pub fn pitch_compensation(word: &str) -> Result<CommandRequest, Error> {
+    let value = match word {
+        "on" => 1.0,
+        "off" => 0.0,
+        _ => {
+            return Err(Error::NotOnOff {
+                command: "pitch-compensation",
+                word: word.to_string(),
+            });
+        }
+    };
+    let mut r = CommandRequest::new(command::PITCH_COMPENSATION);
+    r.value = value;
+    Ok(r)
+}
+
 /// `TOUCH_OFF` as the CLI takes it: X with the gauge's diameter, or Y with its height;
 /// `confirm`: the operator confirms the new offset the loop asked about.
 pub fn touch_off(
@@ -194,6 +211,10 @@ mod tests {
             (e.command, e.value, e.direction),
             (command::EXCITE_TABLE, 40.0, direction::NEGATIVE)
         );
+        let p = pitch_compensation("on").expect("on");
+        assert_eq!((p.command, p.value), (command::PITCH_COMPENSATION, 1.0));
+        assert_eq!(pitch_compensation("off").expect("off").value, 0.0);
+        assert!(pitch_compensation("yes").is_err());
         let o = override_request("spindle", 110.0).expect("override");
         assert_eq!((o.command, o.value), (command::SPINDLE_OVERRIDE, 110.0));
         let t = touch_off("x", Some(120.0), None, false).expect("touch-off");

@@ -176,6 +176,16 @@ pub mod pitch_compensation {
     pub const OFF: u8 = 1;
     /// Loaded and applied to the table.
     pub const ON: u8 = 2;
+
+    /// The state's word (`none`, `off`, `on`; `?` for another code).
+    pub fn name(code: u8) -> &'static str {
+        match code {
+            NONE => "none",
+            OFF => "off",
+            ON => "on",
+            _ => "?",
+        }
+    }
 }
 
 /// Where a fault met the machine ([`crate::AlarmCode::situation`]): its reaction differs.

@@ -222,7 +222,10 @@ pub fn configure(machine: MachineConfig, settings: &Settings) -> Result<Configur
 /// (`table.worm_set`), checked as the control core will apply it: none without a worm set
 /// or a file; a broken file, another set's, or values the control core refuses stop the
 /// start, as a broken state file does. Loaded switched off: the operator switches it on.
-fn pitch_compensation(machine: &MachineConfig, state_file: &Path) -> Result<Option<PitchCompensation>, Failure> {
+fn pitch_compensation(
+    machine: &MachineConfig,
+    state_file: &Path,
+) -> Result<Option<PitchCompensation>, Failure> {
     let Some(worm_set) = machine.table.worm_set.as_deref() else {
         eprintln!("hob-rt: no table.worm_set in the machine file: no pitch compensation");
         return Ok(None);
