@@ -14,7 +14,7 @@ mod common;
 
 use hob_control::pitch_comp::PitchCompensation;
 use hob_gear_check::decompose::{GapRecord, Height, decompose};
-use hob_logger::gaps::{GapRecorder, GapSection};
+use hob_logger::gaps::{self, GapRecorder, GapSection};
 use hob_logger::predicted::PredictedGear;
 use hob_plant::checker::{GearChecker, GearUnderTest};
 use hob_plant::config::PlantConfig;
@@ -86,18 +86,7 @@ fn compensation_from(first: &Cut, seed: u64) -> PitchCompensation {
         .iter()
         .map(|m| {
             let y = cycle.face_bottom_mm + m.header.face_position_mm;
-            let s = first
-                .record
-                .iter()
-                .min_by(|a, b| (a.y_mm - y).abs().total_cmp(&(b.y_mm - y).abs()))
-                .unwrap();
-            (0..s.table_deg.len())
-                .map(|i| GapRecord {
-                    table_deg: s.table_deg[i],
-                    hob_phase_deg: s.hob_phase_deg[i],
-                    controller_um: s.controller_um[i],
-                })
-                .collect()
+            gaps::nearest(&first.record, y).unwrap().records()
         })
         .collect();
     let heights: Vec<Height> = measured

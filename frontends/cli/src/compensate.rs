@@ -13,7 +13,7 @@ use hob_control::pitch_comp::PitchCompensation;
 use hob_control::program::CycleProgram;
 use hob_gear_check::{Decomposition, GapRecord, Height, Identified, PitchMeasurement, decompose};
 use hob_ipc::codec::State;
-use hob_logger::gaps::{GapRecorder, GapSection};
+use hob_logger::gaps::{self, GapRecorder, GapSection};
 use hob_logger::trace::TraceRow;
 use hob_setup::config::Problems;
 use hob_setup::config::machine::MachineConfig;
@@ -246,9 +246,7 @@ pub fn sections_for(
         .iter()
         .map(|m| {
             let y = gear.cycle.face_bottom_mm + m.header.face_position_mm;
-            let s = record
-                .iter()
-                .min_by(|a, b| (a.y_mm - y).abs().total_cmp(&(b.y_mm - y).abs()))
+            let s = gaps::nearest(&record, y)
                 .cloned()
                 .unwrap_or_else(|| record[0].clone());
             if (s.y_mm - y).abs() > half_feed {
@@ -273,18 +271,7 @@ pub fn compute(
 ) -> Result<Computed, CompensateError> {
     let sections = sections_for(rows, gear, measurements)?;
     let (tooth_phase_deg, phase_scatter_arcsec, phase_rows) = tooth_phase(rows, &gear.cycle)?;
-    let records: Vec<Vec<GapRecord>> = sections
-        .iter()
-        .map(|(s, _)| {
-            (0..s.table_deg.len())
-                .map(|i| GapRecord {
-                    table_deg: s.table_deg[i],
-                    hob_phase_deg: s.hob_phase_deg[i],
-                    controller_um: s.controller_um[i],
-                })
-                .collect()
-        })
-        .collect();
+    let records: Vec<Vec<GapRecord>> = sections.iter().map(|(s, _)| s.records()).collect();
     let heights: Vec<Height> = measurements
         .iter()
         .zip(&records)

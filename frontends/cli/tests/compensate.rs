@@ -204,17 +204,7 @@ fn in_process(
         .iter()
         .map(|m| {
             let y = face_bottom_mm + m.header.face_position_mm;
-            let s = record
-                .iter()
-                .min_by(|a, b| (a.y_mm - y).abs().total_cmp(&(b.y_mm - y).abs()))
-                .unwrap();
-            (0..s.table_deg.len())
-                .map(|i| GapRecord {
-                    table_deg: s.table_deg[i],
-                    hob_phase_deg: s.hob_phase_deg[i],
-                    controller_um: s.controller_um[i],
-                })
-                .collect()
+            hob_logger::gaps::nearest(record, y).unwrap().records()
         })
         .collect();
     let heights: Vec<Height> = measured

@@ -10,6 +10,7 @@
 
 use crate::predicted::{Section, SectionBuilder, TrueSample};
 use crate::trace::TraceRow;
+use hob_gear_check::decompose::GapRecord;
 use hob_gearing::units::arcsec_to_um_at_radius;
 use hob_ipc::codec::State;
 
@@ -24,6 +25,26 @@ pub struct GapSection {
     pub hob_phase_deg: Vec<f64>,
     /// The controller's own synchronism error then, um at the pitch circle.
     pub controller_um: Vec<f64>,
+}
+
+impl GapSection {
+    /// Each gap's record as the decomposition takes it, in table order.
+    pub fn records(&self) -> Vec<GapRecord> {
+        (0..self.table_deg.len())
+            .map(|i| GapRecord {
+                table_deg: self.table_deg[i],
+                hob_phase_deg: self.hob_phase_deg[i],
+                controller_um: self.controller_um[i],
+            })
+            .collect()
+    }
+}
+
+/// The section nearest the height `y_mm` (the hob's Y when it was cut); none without any.
+pub fn nearest(sections: &[GapSection], y_mm: f64) -> Option<&GapSection> {
+    sections
+        .iter()
+        .min_by(|a, b| (a.y_mm - y_mm).abs().total_cmp(&(b.y_mm - y_mm).abs()))
 }
 
 /// Collects the last pass's gap sections from a cut's trace rows.
@@ -144,5 +165,9 @@ mod tests {
         let um = arcsec_to_um_at_radius(90.0, 100.0);
         assert!((first.controller_um[1] - um).abs() < 1e-9, "{first:?}");
         assert_eq!(s[1].hob_phase_deg[0], 1440.0);
+        assert_eq!(nearest(&s, 10.2).map(|n| n.hob_phase_deg[0]), Some(0.0));
+        let r = first.records();
+        assert_eq!((r[2].table_deg, r[2].hob_phase_deg), (180.0, 720.0));
+        assert!((r[1].controller_um - um).abs() < 1e-9);
     }
 }
