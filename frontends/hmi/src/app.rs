@@ -213,6 +213,9 @@ fn hello(m: &MachineConfig, level: Role) -> serde_json::Value {
         "server": concat!("hob-hmi ", env!("CARGO_PKG_VERSION")),
         "instance": hob_ipc::instance(),
         "machine": m.machine.name,
+        // The table's worm set: the pitch compensation hob-rt loads is this set's (null: the
+        // machine file names none, and none is loaded).
+        "worm_set": m.table.worm_set,
         "overrides": {
             "feed": [m.overrides.feed_min_percent, m.overrides.feed_max_percent],
             "spindle": [m.overrides.spindle_min_percent, m.overrides.spindle_max_percent],

@@ -107,6 +107,9 @@ pub struct StateView {
     pub spindle_override_percent: f64,
     pub x_offset_mm: f64,
     pub y_offset_mm: f64,
+    /// The pitch compensation `hob-rt` loaded for the machine's worm set, as the loop has it:
+    /// `none` (none loaded), `off`, `on` (`?`: a code this HMI does not know).
+    pub pitch_compensation: &'static str,
     pub drives_enabled: Vec<&'static str>,
     pub drives_silent: Vec<&'static str>,
     pub io_valid: bool,
@@ -131,6 +134,18 @@ fn axes(bits: u8) -> Vec<&'static str> {
         .filter(|(i, _)| bits & (1 << i) != 0)
         .map(|(_, n)| *n)
         .collect()
+}
+
+/// The pitch compensation's state (`hob_ipc::vocab::pitch_compensation`) as the page
+/// names it.
+pub fn pitch_compensation_name(code: u8) -> &'static str {
+    use hob_ipc::vocab::pitch_compensation::{NONE, OFF, ON};
+    match code {
+        NONE => "none",
+        OFF => "off",
+        ON => "on",
+        _ => "?",
+    }
 }
 
 /// The alarm in the operator's words, with what the machine did and what to do.
@@ -210,6 +225,7 @@ impl StateView {
             spindle_override_percent: s.spindle_override_percent,
             x_offset_mm: s.x_offset_mm,
             y_offset_mm: s.y_offset_mm,
+            pitch_compensation: pitch_compensation_name(s.pitch_compensation),
             drives_enabled: axes(s.drives_enabled),
             drives_silent: axes(s.drives_silent),
             io_valid: s.io_valid != 0,
@@ -534,6 +550,11 @@ pub enum Op {
     Spindle {
         rpm: Typed,
     },
+    /// The loaded pitch compensation applied to the table (`on`) or not: the loop refuses
+    /// it in a cycle, with the gearbox coupled, or `on` without one loaded.
+    PitchCompensation {
+        on: bool,
+    },
     /// A library program by name: the server reads and resolves it (`hob load --lib`).
     Load {
         program: String,
@@ -622,6 +643,7 @@ impl Op {
                     request::spindle_on(rpm)
                 }
             }),
+            Op::PitchCompensation { on } => Ok(pitch_compensation(*on)),
             Op::Load { program } => {
                 return Err(Error::LoadFromLibrary {
                     program: program.clone(),
@@ -630,6 +652,13 @@ impl Op {
         };
         built.map_err(Error::Request)
     }
+}
+
+/// `PITCH_COMPENSATION`: `value` 1 on, 0 off (`hob pitch-compensation on|off`).
+fn pitch_compensation(on: bool) -> CommandRequest {
+    let mut r = CommandRequest::new(hob_ipc::command::PITCH_COMPENSATION);
+    r.value = if on { 1.0 } else { 0.0 };
+    r
 }
 
 /// The answer to one command, by its id.
@@ -731,6 +760,17 @@ mod tests {
                 r#"{"t":"cmd","id":1,"op":"touch_flank","turned":"-"}"#,
                 request::touch_flank("-").expect("touch flank"),
             ),
+            (
+                r#"{"t":"cmd","id":1,"op":"pitch_compensation","on":true}"#,
+                CommandRequest {
+                    value: 1.0,
+                    ..CommandRequest::new(hob_ipc::command::PITCH_COMPENSATION)
+                },
+            ),
+            (
+                r#"{"t":"cmd","id":1,"op":"pitch_compensation","on":false}"#,
+                CommandRequest::new(hob_ipc::command::PITCH_COMPENSATION),
+            ),
         ];
         for (json, want) in cases {
             let ClientMsg::Cmd { op, .. } = parse(json) else {
@@ -748,6 +788,8 @@ mod tests {
             r#"{"t":"cmd","id":1,"op":"reset","extra":1}"#,
             r#"{"t":"jog_hold","axis":"x","dir":"+","speed":100}"#,
             r#"{"t":"cmd","id":1,"op":"touch_off","axis":"x","value":94.94,"confirm":"yes"}"#,
+            r#"{"t":"cmd","id":1,"op":"pitch_compensation","on":1}"#,
+            r#"{"t":"cmd","id":1,"op":"pitch_compensation"}"#,
         ] {
             assert!(serde_json::from_str::<ClientMsg>(bad).is_err(), "{bad} parsed");
         }

@@ -392,6 +392,50 @@ async fn a_command_is_answered_by_its_id_and_a_bad_one_never_reaches_the_loop() 
     );
 }
 
+/// The pitch compensation as the loop's state has it (none, off, on) reaches the page in
+/// words with the machine's worm set, and its key is the loop's command 23 (the suite's
+/// loop has none loaded: OFF and ON are shown here, from the fake loop's samples).
+#[tokio::test]
+async fn the_pitch_compensation_reaches_the_page_and_its_key_is_the_loops_command() {
+    use hob_ipc::vocab::pitch_compensation::{NONE, OFF, ON};
+    let f = start(false).await;
+    let origin = format!("http://{}", f.addr);
+    let mut ws = connect(&f, "/ws/panel", &origin).await.unwrap();
+    send(&mut ws, json!({"t": "hello", "last_event": 0})).await;
+    let hello = next(&mut ws, "hello", Duration::from_secs(2)).await;
+    assert_eq!(hello["worm_set"], machine().table.worm_set.unwrap().as_str());
+    for (cycle, (code, word)) in (1u64..).zip([(NONE, "none"), (OFF, "off"), (ON, "on"), (7, "?")]) {
+        {
+            let mut b = f.bridge.lock().unwrap();
+            b.state(
+                StateSample {
+                    pitch_compensation: code,
+                    ..sample(cycle)
+                },
+                Instant::now(),
+            );
+            b.frame(Instant::now(), hob_rt_os::now_ns(), cycle);
+        }
+        let fr = loop {
+            let fr = next(&mut ws, "frame", Duration::from_secs(2)).await;
+            if fr["state"]["cycle"] == cycle {
+                break fr;
+            }
+        };
+        assert_eq!(fr["state"]["pitch_compensation"], word, "code {code}");
+    }
+    for (id, on) in [(11, true), (12, false)] {
+        send(
+            &mut ws,
+            json!({"t": "cmd", "id": id, "op": "pitch_compensation", "on": on}),
+        )
+        .await;
+        let a = next(&mut ws, "answer", Duration::from_secs(2)).await;
+        assert_eq!((a["id"].as_u64(), a["ok"].as_bool()), (Some(id), Some(true)));
+    }
+    assert_eq!(*f.seen.lock().unwrap(), vec![command::PITCH_COMPENSATION; 2]);
+}
+
 #[tokio::test]
 async fn a_foreign_origin_is_refused_and_the_view_screen_cannot_command() {
     let f = start(false).await;

@@ -181,6 +181,7 @@ export function Single({ conn, program }) {
         <${CmdButton} conn=${conn} op="load" fields=${{ program: program || "" }} label=${t("LOAD")} disabled=${!program} />
         <${CmdButton} conn=${conn} op="start" fields=${{ single: true }} label=${t("START SINGLE")} cls="primary" testid="start-single" />
         <${CmdButton} conn=${conn} op="stop" label=${t("STOP")} cls="stop" /></div>
+      <${PitchComp} conn=${conn} />
       <div class="pos"><span class="label">${t("state")}</span><b>${s ? t(s.state_words) : "-"}</b></div></div>
     <div class="card"><h2>${t("Span measurement")}</h2>
       <div class="row">${t("measured after")}
@@ -197,6 +198,25 @@ export function Single({ conn, program }) {
         <p class="hint">${t("depth to cut = (measured span − middle of the drawing's band) / (2 sin αn), none inside the band's lower half; new total depth = the depth cut + depth to cut")}</p>` : ""}
       ${res && res.carried ? html`<p class=${res.carried.ok ? "ok" : "bad"}>${res.carried.ok ? t("saved: total depth {0} mm", fmt(res.carried.total_depth_mm, 3)) : res.carried.refused}</p>` : ""}
     </div></section>`;
+}
+
+// The pitch compensation hob-rt loaded for the machine's worm set (`hob compensate`), as the
+// loop's state has it, beside the keys that start a cut: a cut with it on is not the cut
+// with it off. Its key says what it does: ON when off, OFF when on. With none loaded the key
+// is shown unavailable, with the reason, and still sends: the loop decides (it refuses it in
+// a cycle, with the gearbox coupled, or ON without one) and its answer shows as every other.
+const PITCH_COMP_STATE = { none: () => t("NONE"), off: () => t("OFF"), on: () => t("ON") };
+
+function PitchComp({ conn }) {
+  const s = conn.frame && conn.frame.state;
+  const pc = s ? s.pitch_compensation : "";
+  const worm = conn.hello && conn.hello.worm_set;
+  const on = pc === "on";
+  const why = pc !== "none" ? "" : worm ? t("no compensation stored for this worm set: run hob compensate") : t("the machine file names no worm set (table.worm_set): none is loaded");
+  return html`<div class="row pitch-comp" data-testid="pitch-comp" data-state=${pc}>
+    <span class="pc-state"><span class="label">${t("pitch comp")}:</span> <b class=${on ? "ok" : pc === "none" ? "warn" : ""} data-testid="pitch-comp-state">${PITCH_COMP_STATE[pc] ? PITCH_COMP_STATE[pc]() : pc || "-"}</b></span>
+    <${CmdButton} conn=${conn} op="pitch_compensation" fields=${{ on: !on }} label=${on ? t("PITCH COMP OFF") : t("PITCH COMP ON")} cls=${`small ${why ? "unavailable" : ""}`} testid="pitch-comp-key" disabled=${!s} />
+    ${why ? html`<span class="hint" data-testid="pitch-comp-why">${why}</span>` : worm ? html`<span class="hint">${t("worm set {0}", worm)}</span>` : ""}</div>`;
 }
 
 export function Automatic({ conn, program }) {
@@ -218,6 +238,7 @@ export function Automatic({ conn, program }) {
         <${CmdButton} conn=${conn} op="stop" label=${t("STOP")} cls="stop" />
         <${CmdButton} conn=${conn} op="continue" label=${s && s.continue_pass ? (s.continue_from_y_mm != null ? t("CONTINUE FROM PASS {0} AT Y {1}", s.continue_pass, s.continue_from_y_mm.toFixed(1)) : t("CONTINUE FROM PASS {0}", s.continue_pass)) : t("CONTINUE")} disabled=${!(s && s.continue_pass)} />
         <${CmdButton} conn=${conn} op="new_blank" label=${t("NEW BLANK")} /></div>
+      <${PitchComp} conn=${conn} />
       <div class="progress"><div style=${`width:${progress}%`}></div></div>
       <div class="row"><span class="label">${t("state")}</span><b data-testid="auto-state">${s ? t(s.state_words) : "-"}</b>
         <span class="label">${t("pass")}</span><b>${s ? t("{0} of {1}", s.pass, s.passes) : "-"}</b>
