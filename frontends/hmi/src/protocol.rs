@@ -137,15 +137,9 @@ fn axes(bits: u8) -> Vec<&'static str> {
 }
 
 /// The pitch compensation's state (`hob_ipc::vocab::pitch_compensation`) as the page
-/// names it.
+/// names it: the wire's own words.
 pub fn pitch_compensation_name(code: u8) -> &'static str {
-    use hob_ipc::vocab::pitch_compensation::{NONE, OFF, ON};
-    match code {
-        NONE => "none",
-        OFF => "off",
-        ON => "on",
-        _ => "?",
-    }
+    hob_ipc::pitch_compensation::name(code)
 }
 
 /// The alarm in the operator's words, with what the machine did and what to do.
@@ -643,7 +637,7 @@ impl Op {
                     request::spindle_on(rpm)
                 }
             }),
-            Op::PitchCompensation { on } => Ok(pitch_compensation(*on)),
+            Op::PitchCompensation { on } => request::pitch_compensation(if *on { "on" } else { "off" }),
             Op::Load { program } => {
                 return Err(Error::LoadFromLibrary {
                     program: program.clone(),
@@ -652,13 +646,6 @@ impl Op {
         };
         built.map_err(Error::Request)
     }
-}
-
-/// `PITCH_COMPENSATION`: `value` 1 on, 0 off (`hob pitch-compensation on|off`).
-fn pitch_compensation(on: bool) -> CommandRequest {
-    let mut r = CommandRequest::new(hob_ipc::command::PITCH_COMPENSATION);
-    r.value = if on { 1.0 } else { 0.0 };
-    r
 }
 
 /// The answer to one command, by its id.
