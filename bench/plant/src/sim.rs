@@ -356,6 +356,7 @@ impl Simulation {
             blank_err_arcsec,
             feed_override_percent: Some(s.feed_override_percent),
             spindle_override_percent: Some(s.spindle_override_percent),
+            pitch_compensation: Some(s.pitch_compensation),
         }
     }
 

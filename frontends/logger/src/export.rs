@@ -30,6 +30,7 @@ pub fn trace_row(s: &StateSample, t0_ns: u64) -> TraceRow {
         // NaN: a log written before the overrides were recorded.
         feed_override_percent: Some(s.feed_override_percent).filter(|v| v.is_finite()),
         spindle_override_percent: Some(s.spindle_override_percent).filter(|v| v.is_finite()),
+        pitch_compensation: Some(s.pitch_compensation),
     }
 }
 
@@ -544,12 +545,12 @@ pub fn report_text(dir: &Path, r: &Report) -> String {
     let _ = writeln!(o, "durations: {DURATIONS}");
     let _ = writeln!(
         o,
-        "pass  cut s  pass s  stood s  samples  sync error arcsec: rms    max   |  um at pitch circle: rms    max   of grade 5 | overrides in the cut"
+        "pass  cut s  pass s  stood s  samples  sync error arcsec: rms    max   |  um at pitch circle: rms    max   of grade 5 | overrides in the cut, pitch compensation"
     );
     for p in graded {
         let _ = writeln!(
             o,
-            "{:>4} {:>6.1} {:>7.1} {:>8.1} {:>8} {:>24.3} {:>6.3} | {:>24.3} {:>6.3} {:>7.0} % | feed {}, spindle {}",
+            "{:>4} {:>6.1} {:>7.1} {:>8.1} {:>8} {:>24.3} {:>6.3} | {:>24.3} {:>6.3} {:>7.0} % | feed {}, spindle {}, pitch compensation {}",
             p.pass,
             p.cut_time_s,
             p.pass_time_s,
@@ -561,7 +562,8 @@ pub fn report_text(dir: &Path, r: &Report) -> String {
             p.sync_err_max_um,
             100.0 * p.sync_err_max_um / r.grade5_single_pitch_um,
             percent_range(p.feed_override_min_percent, p.feed_override_max_percent),
-            percent_range(p.spindle_override_min_percent, p.spindle_override_max_percent)
+            percent_range(p.spindle_override_min_percent, p.spindle_override_max_percent),
+            p.pitch_compensation.unwrap_or("-")
         );
     }
     if let Some(t) = &r.truth {
@@ -689,8 +691,15 @@ mod tests {
             let max_um: f64 = f[bar + 2].parse().unwrap();
             assert!((max_um - p.sync_err_max_um).abs() < 5e-4, "{l}");
         }
-        assert!(lines[0].ends_with("| feed 80-100 %, spindle 100 %"), "{text}");
-        assert!(lines[1].ends_with("| feed 100 %, spindle 100 %"), "{text}");
+        // The recording's samples carry no compensation: "none", as a log from before says.
+        assert!(
+            lines[0].ends_with("| feed 80-100 %, spindle 100 %, pitch compensation none"),
+            "{text}"
+        );
+        assert!(
+            lines[1].ends_with("| feed 100 %, spindle 100 %, pitch compensation none"),
+            "{text}"
+        );
     }
 
     #[test]

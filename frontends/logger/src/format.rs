@@ -9,7 +9,8 @@ use std::path::{Path, PathBuf};
 ///
 /// The overrides took the first two of six reserved words: a file written before that
 /// names them `reserved0` and `reserved1` (u64, always 0) and is read with its overrides
-/// not recorded (see [`read_dir_states`]).
+/// not recorded (see [`read_dir_states`]). The pitch compensation's state took the third
+/// (`reserved2` before: read as none).
 pub const FIELDS: [(&str, &str); 42] = [
     ("cycle", "u64"),
     ("sync_time_ns", "u64"),
@@ -49,14 +50,18 @@ pub const FIELDS: [(&str, &str); 42] = [
     ("normal_module_mm", "f64"),
     ("feed_override_percent", "f64"),
     ("spindle_override_percent", "f64"),
-    ("reserved2", "u64"),
+    ("pitch_compensation", "u64"),
     ("reserved3", "u64"),
     ("reserved4", "u64"),
     ("reserved5", "u64"),
 ];
 
 /// Reserved words at the end of a record (written 0).
-const RESERVED_WORDS: usize = 4;
+const RESERVED_WORDS: usize = 3;
+
+/// Index in [`FIELDS`] of the pitch compensation's state (a word that was `reserved2`,
+/// always 0 before: a file written before reads as "none", which it was).
+const PITCH_COMPENSATION_AT: usize = 38;
 
 /// Index in [`FIELDS`] of the feed override, the first of the two override words.
 const OVERRIDES_AT: usize = 36;
@@ -116,6 +121,7 @@ pub fn encode(s: &StateSample, out: &mut Vec<u8>) {
     f64s(out, s.normal_module_mm);
     f64s(out, s.feed_override_percent);
     f64s(out, s.spindle_override_percent);
+    u64s(out, u64::from(s.pitch_compensation));
     for _ in 0..RESERVED_WORDS {
         u64s(out, 0);
     }
@@ -202,6 +208,7 @@ pub fn decode(b: &[u8]) -> Option<StateSample> {
     s.normal_module_mm = c.f64();
     s.feed_override_percent = c.f64();
     s.spindle_override_percent = c.f64();
+    s.pitch_compensation = u8::try_from(c.u64()).unwrap_or(u8::MAX);
     Some(s)
 }
 
@@ -214,11 +221,16 @@ fn fields_json(fields: &[(&str, &str)]) -> serde_json::Value {
 /// Whether a header's field list records the overrides: `Some(true)` for this writer's
 /// list, `Some(false)` for the list written before the overrides were recorded (the same
 /// record with those two words reserved), `None` for any other list.
+///
+/// The list written before the pitch compensation was recorded names its word `reserved2`
+/// (always 0): read the same, its samples say "none".
 fn overrides_recorded(fields: &serde_json::Value) -> Option<bool> {
-    let mut before = FIELDS;
+    let mut before_compensation = FIELDS;
+    before_compensation[PITCH_COMPENSATION_AT] = ("reserved2", "u64");
+    let mut before = before_compensation;
     before[OVERRIDES_AT] = ("reserved0", "u64");
     before[OVERRIDES_AT + 1] = ("reserved1", "u64");
-    if *fields == fields_json(&FIELDS) {
+    if *fields == fields_json(&FIELDS) || *fields == fields_json(&before_compensation) {
         Some(true)
     } else if *fields == fields_json(&before) {
         Some(false)
@@ -526,6 +538,7 @@ mod tests {
             cycle: 1,
             feed_override_percent: 85.0,
             spindle_override_percent: 120.0,
+            pitch_compensation: hob_ipc::pitch_compensation::ON,
             ..StateSample::default()
         };
         let now = header("t", 0);
@@ -533,16 +546,31 @@ mod tests {
         let read = read_dir_states(&dir).unwrap();
         assert_eq!(read[0].feed_override_percent, 85.0);
         assert_eq!(read[0].spindle_override_percent, 120.0);
+        assert_eq!(read[0].pitch_compensation, hob_ipc::pitch_compensation::ON);
+        let _ = std::fs::remove_dir_all(&dir);
+
+        // Written before the pitch compensation was: its word reserved (0), read as none.
+        let before_compensation = now.replace(r#"["pitch_compensation","u64"]"#, r#"["reserved2","u64"]"#);
+        assert_ne!(before_compensation, now);
+        let uncompensated = StateSample {
+            pitch_compensation: 0,
+            ..s
+        };
+        let dir = log_dir("before-compensation", &before_compensation, &[uncompensated]);
+        let read = read_dir_states(&dir).unwrap();
+        assert_eq!(read[0].feed_override_percent, 85.0);
+        assert_eq!(read[0].pitch_compensation, hob_ipc::pitch_compensation::NONE);
         let _ = std::fs::remove_dir_all(&dir);
 
         // Written before the overrides were: the same record, those words reserved (0).
-        let before = now
+        let before = before_compensation
             .replace(r#"["feed_override_percent","f64"]"#, r#"["reserved0","u64"]"#)
             .replace(r#"["spindle_override_percent","f64"]"#, r#"["reserved1","u64"]"#);
         assert_ne!(before, now);
         let old = StateSample {
             feed_override_percent: 0.0,
             spindle_override_percent: 0.0,
+            pitch_compensation: 0,
             ..s
         };
         let dir = log_dir("before", &before, &[old]);

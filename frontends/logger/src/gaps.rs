@@ -144,6 +144,7 @@ mod tests {
             blank_err_arcsec: None,
             feed_override_percent: None,
             spindle_override_percent: None,
+            pitch_compensation: None,
         }
     }
 

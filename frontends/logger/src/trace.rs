@@ -50,6 +50,9 @@ pub struct TraceRow {
     pub feed_override_percent: Option<f64>,
     /// Spindle speed override in force, percent; none where it was not recorded.
     pub spindle_override_percent: Option<f64>,
+    /// The pitch compensation's state (`hob_ipc::pitch_compensation`: none, off, on); none
+    /// where not known. Not a column of the trace's CSV.
+    pub pitch_compensation: Option<u8>,
 }
 
 impl TraceRow {
@@ -130,6 +133,9 @@ pub struct PassSummary {
     /// rows; none likewise.
     pub spindle_override_min_percent: Option<f64>,
     pub spindle_override_max_percent: Option<f64>,
+    /// The pitch compensation in the cut (`none`, `off`, `on`, the first cut row's: it
+    /// cannot be switched in a cycle); none where not recorded or the pass has no cut row.
+    pub pitch_compensation: Option<&'static str>,
     /// What ISO 1328-1 would measure on the gear this pass left, from the blank's true
     /// error (`blank_err_arcsec`) where each tooth gap passed the hob
     /// ([`crate::predicted`]): the worm, its play and deflection and the work's twist
@@ -292,6 +298,9 @@ impl SummaryBuilder {
             if let Some(e) = row.blank_err_arcsec {
                 p.blank_err_max_arcsec = Some(p.blank_err_max_arcsec.unwrap_or(0.0).max(e.abs()));
             }
+            if p.pitch_compensation.is_none() {
+                p.pitch_compensation = row.pitch_compensation.map(hob_ipc::pitch_compensation::name);
+            }
             if let Some(e) = row.sync_err_arcsec {
                 p.samples += 1;
                 p.sum += e;
@@ -335,6 +344,7 @@ mod tests {
             blank_err_arcsec: None,
             feed_override_percent: Some(100.0),
             spindle_override_percent: Some(100.0),
+            pitch_compensation: None,
         }
     }
 
