@@ -1,10 +1,13 @@
 //! `hob-lab`: the commands that need the simulated machine, kept out of the product
 //! binaries. `hob demo`, `hob simulate` and `hob can run` run this binary with the same
-//! arguments; it can be called directly too (`hob-lab demo`).
+//! arguments; it can be called directly too (`hob-lab demo`). `hob-lab check` (the
+//! simulated checker on a recorded cut) is called only directly: `hob check` checks a
+//! program.
 //!
 //! Exit status as `hob`: 0 done; 2 refused; 1 anything else.
 
 mod can_run;
+mod check;
 mod demo;
 mod demo_hmi;
 mod simulate;
@@ -19,7 +22,7 @@ use std::process::ExitCode;
     name = "hob",
     bin_name = "hob",
     version,
-    about = "hob with the simulated machine: demo, simulate, can run (binary hob-lab)"
+    about = "hob with the simulated machine: demo, simulate, check, can run (binary hob-lab)"
 )]
 struct Cli {
     #[command(subcommand)]
@@ -97,6 +100,30 @@ enum Command {
         /// Output directory.
         #[arg(long, value_name = "DIR", default_value = "out/simulate")]
         out: PathBuf,
+    },
+    /// The simulated machine's gear checker on a cut recorded over the bus: the log's last
+    /// cut joined with hob-sim's truth beside it (truth.csv), measured at one or more
+    /// heights around mid-face; one checker's file per height (DIR/measurement-N.csv), the
+    /// files `hob compensate --measurement` reads.
+    Check {
+        /// The log directory (hob-logger's), with hob-sim's truth.csv in it.
+        #[arg(long, value_name = "DIR")]
+        log: PathBuf,
+        /// The program the gear was cut with.
+        #[arg(long, value_name = "FILE")]
+        program: PathBuf,
+        /// Machine configuration [default: config/machine.toml, then /etc/hob/machine.toml].
+        #[arg(long, value_name = "FILE")]
+        machine: Option<PathBuf>,
+        /// Where the checker's files go.
+        #[arg(long, value_name = "DIR")]
+        out: PathBuf,
+        /// Heights measured, one feed apart around mid-face (a two-start hob wants two or more).
+        #[arg(long, default_value_t = 3, value_parser = clap::value_parser!(u32).range(1..=50))]
+        heights: u32,
+        /// The checker's noise draw.
+        #[arg(long, default_value_t = 1)]
+        seed: u64,
     },
     /// The master over SocketCAN in lockstep with the drives.
     Can {
@@ -226,6 +253,31 @@ fn run(command: Command) -> Result<(), Failure> {
                     Err(Failure::Exit(2))
                 }
                 Err((false, e)) => Err(Failure::Other(e)),
+            }
+        }
+        Command::Check {
+            log,
+            program,
+            machine,
+            out,
+            heights,
+            seed,
+        } => {
+            let machine = load_machine(machine.as_deref())?;
+            let args = check::Args {
+                log: &log,
+                program: &program,
+                out: &out,
+                heights: heights as usize,
+                seed,
+            };
+            match check::run(&machine, &args) {
+                Ok(text) => emit(&text),
+                Err(check::CheckError::Refused(e)) => {
+                    eprintln!("hob: refused: check: {e}");
+                    Err(Failure::Exit(2))
+                }
+                Err(check::CheckError::Failed(e)) => Err(Failure::Other(e)),
             }
         }
         Command::Can {
