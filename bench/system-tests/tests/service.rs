@@ -2751,3 +2751,301 @@ fn http_get(addr: &str, path: &str) -> Result<String, String> {
 fn which(exe: &str) -> bool {
     std::env::var_os("PATH").is_some_and(|p| std::env::split_paths(&p).any(|d| d.join(exe).is_file()))
 }
+
+/// The short two-start helical gear of [`measure_the_first_gear_correct_the_second_over_the_bus`].
+const SHORT_HELICAL: &str = "config/programs/demo-short-helical-z41-m2-2start.toml";
+
+/// The gear a recording's last pass left, by hob-sim's truth, as `hob log report DIR`
+/// prints it (`  pass N: predicted gear (...): f_pt A um (P % of grade 5 ...), F_p B um
+/// (Q % of ...)`): (f_pt um, its share of grade 5, F_p um, its share).
+fn truth_gear(b: &Bench, log: &Path) -> (f64, f64, f64, f64, String) {
+    let report = b.hob_ok(&["log", "report", &path(log)]);
+    let r = Report::parse(&report.stdout).unwrap_or_else(|e| panic!("hob log report: {e}"));
+    assert!(r.graded_by_truth, "not graded by the truth:\n{}", report.stdout);
+    let line = report
+        .stdout
+        .lines()
+        .rfind(|l| l.starts_with("  pass ") && l.contains(": predicted gear ("))
+        .unwrap_or_else(|| panic!("no predicted gear:\n{}", report.stdout))
+        .to_string();
+    let after = |key: &str| -> (f64, f64) {
+        let rest = &line[line.find(key).unwrap_or_else(|| panic!("no {key:?} in {line}")) + key.len()..];
+        let words: Vec<&str> = rest.split_whitespace().collect();
+        let um = words[0].parse().unwrap_or_else(|_| panic!("{key} in {line}"));
+        let pct: f64 = words[2]
+            .trim_start_matches('(')
+            .parse()
+            .unwrap_or_else(|_| panic!("{key}'s share in {line}"));
+        (um, pct / 100.0)
+    };
+    let (fpt, fpt_share) = after("f_pt ");
+    let (fp, fp_share) = after("F_p ");
+    std::fs::write(
+        b.art.join(format!(
+            "report-{}.txt",
+            log.file_name().unwrap_or_default().to_string_lossy()
+        )),
+        &report.stdout,
+    )
+    .unwrap();
+    (fpt, fpt_share, fp, fp_share, line)
+}
+
+/// Issue 34 over the bus, as an operator does it: on a simulated machine whose worm wheel is
+/// ISO 1328-1 grade 6 and whose hob runs out axially by 3 um (hob-sim's plant file; hidden
+/// from the controller), the short two-start helical gear is cut (hob-sim, hob-rt,
+/// hob-logger as processes), measured by the simulated checker from the recording and
+/// hob-sim's truth at three heights (`hob-lab check`), the compensation computed and stored
+/// for the table's worm set (`hob compensate --yes`); hob-rt restarted loads it switched
+/// off, `hob pitch-compensation on`, `hob new-blank`, the gear cut again. By the truth (the
+/// report's predicted gear: the gear itself, every face section of the pass) the second
+/// gear is at least three times better in f_pt and in F_p than the first, and within grade
+/// 5; switching the compensation in the cut is refused; the machine file is not touched.
+/// The simulated machine needs no new blank: its blank keeps no memory of a cut.
+#[test]
+#[ignore = "needs the release binaries and a bus; ci/test runs it (--ignored)"]
+fn measure_the_first_gear_correct_the_second_over_the_bus() {
+    const TEST: &str = "measure_the_first_gear_correct_the_second_over_the_bus";
+    // Two whole cuts: the emulated guest (2 ms cycle, stalls) would take many minutes, and
+    // adds nothing to what the host's bus tests here.
+    if std::env::var("HOB_CAN_TESTS_ONLY").as_deref() == Ok("1") {
+        eprintln!("{TEST}: two whole cuts: run on the host's bus, not here (HOB_CAN_TESTS_ONLY=1)");
+        return;
+    }
+    let started = std::time::Instant::now();
+    let mut b = Bench::new("compensation");
+    let lab = b.bin.join("hob-lab");
+    assert!(
+        lab.is_file(),
+        "{}: not there; cargo build --release --workspace --bins",
+        lab.display()
+    );
+    let program = path(&b.root.join(SHORT_HELICAL));
+    let state = b.art.join("machine-state.toml");
+    let mut m = b.session_machine();
+    assert_eq!(
+        m.get("table.worm_set").as_str(),
+        Some("B-2019-07"),
+        "config/machine.toml's table.worm_set"
+    );
+    // The compensation is kept beside the state file: this test's, never /var/lib/hob.
+    m.set("state.file", path(&state));
+    let machine = m.write(&b.art.join("machine.toml"));
+    let original = std::fs::read_to_string(&machine).unwrap();
+    let mut hidden = std::fs::read_to_string(b.root.join("config/plant.toml")).unwrap();
+    // The shipped plant's hob runs out by 3 um already: its line is checked, not changed.
+    for (from, to) in [
+        ("\nwheel_grade = 4\n", "\nwheel_grade = 6\n"),
+        ("\nhob_axial_runout_um = 3.0\n", "\nhob_axial_runout_um = 3.0\n"),
+    ] {
+        assert!(hidden.contains(from), "config/plant.toml's line {from:?} moved");
+        hidden = hidden.replace(from, to);
+    }
+    let plant = b.art.join("plant.toml");
+    std::fs::write(&plant, hidden).unwrap();
+    let (log1, log2) = (b.art.join("log1"), b.art.join("log2"));
+    std::fs::create_dir_all(&log1).unwrap();
+    std::fs::create_dir_all(&log2).unwrap();
+    let truth = log1.join("truth.csv");
+    let mut sim = b.command("hob-sim");
+    sim.args([
+        "--iface",
+        &b.iface,
+        "--machine",
+        &path(&machine),
+        "--plant",
+        &path(&plant),
+        "--program",
+        &program,
+        "--rt-priority",
+        "75",
+        "--power-on-near-home",
+        SHORT_HOMING_MM,
+        "--truth",
+        &path(&truth),
+    ]);
+    b.spawn_cmd("hob-sim", sim, "sim.txt");
+    std::thread::sleep(Duration::from_millis(300));
+    let rt = spawn_rt(&mut b, &machine, &state, "rt1.txt");
+    let logger = b.spawn("hob-logger", "hob-logger", &[&log1], "logger1.txt");
+    // Cuts with the program loaded; `then` runs once the cut is under way.
+    let cut = |b: &mut Bench, then: &dyn Fn(&mut Bench)| {
+        b.hob_ok(&["start"]);
+        b.wait_state("cut", STATE_TIMEOUT);
+        then(b);
+        let s = b.wait_state("idle", STATE_TIMEOUT);
+        assert!(s.alarm.is_empty(), "alarm after the cut: {}", s.alarm);
+    };
+    b.step("power-up, referencing, no compensation stored", |b| {
+        b.wait_state("idle", STATE_TIMEOUT);
+        b.reference(STATE_TIMEOUT);
+        let log = std::fs::read_to_string(b.art.join("rt1.txt")).unwrap();
+        assert!(
+            log.contains("no pitch compensation stored for worm set \"B-2019-07\""),
+            "{log}"
+        );
+        String::new()
+    });
+    let t_cut = std::time::Instant::now();
+    b.step("the first gear: cut", |b| {
+        b.hob_ok(&["load", &program]);
+        cut(b, &|_| {});
+        format!("{:.0} s from start to idle", t_cut.elapsed().as_secs_f64())
+    });
+    let measured = b.art.join("measured");
+    let files: Vec<String> = (1..=3)
+        .map(|i| path(&measured.join(format!("measurement-{i}.csv"))))
+        .collect();
+    b.step(
+        "hob-lab check: the checker's files at three heights from the log and the truth",
+        |b| {
+            assert!(
+                b.terminate(logger, Duration::from_secs(10)).is_some(),
+                "hob-logger did not stop"
+            );
+            let mut c = b.command("hob-lab");
+            c.args([
+                "check",
+                "--log",
+                &path(&log1),
+                "--program",
+                &program,
+                "--machine",
+                &path(&machine),
+                "--out",
+                &path(&measured),
+                "--heights",
+                "3",
+                "--seed",
+                "11",
+            ]);
+            let o = c.output().unwrap();
+            let text = format!(
+                "{}{}",
+                String::from_utf8_lossy(&o.stdout),
+                String::from_utf8_lossy(&o.stderr)
+            );
+            std::fs::write(b.art.join("check.txt"), &text).unwrap();
+            assert!(o.status.success(), "hob-lab check: {text}");
+            for f in &files {
+                assert!(Path::new(f).is_file(), "{f}: not written\n{text}");
+            }
+            text.lines()
+                .filter(|l| l.contains("height"))
+                .map(|l| l.rsplit('/').next().unwrap_or(l))
+                .collect::<Vec<_>>()
+                .join("; ")
+        },
+    );
+    b.step("hob compensate --yes: stored for the worm set", |b| {
+        let mut args = vec![
+            "compensate",
+            "--machine",
+            machine.to_str().unwrap(),
+            "--program",
+            &program,
+            "--log",
+            log1.to_str().unwrap(),
+            "--yes",
+        ];
+        for f in &files {
+            args.extend(["--measurement", f.as_str()]);
+        }
+        let o = b.hob_ok(&args);
+        std::fs::write(b.art.join("compensate.txt"), &o.text).unwrap();
+        let stored = b.art.join("pitch-compensation/B-2019-07.toml");
+        assert!(stored.is_file(), "{}: not written\n{}", stored.display(), o.text);
+        unchanged(b, &machine, &original, "hob compensate");
+        o.text
+            .lines()
+            .find(|l| l.contains("hob") && l.contains("identified"))
+            .unwrap_or_default()
+            .to_string()
+    });
+    b.step(
+        "hob-rt restarted (X and Y jogged near home first): the compensation loaded, switched off",
+        |b| {
+            // Referencing again from near the switches takes seconds, from the cut's end a minute.
+            for (axis, to) in [("x", 238.0), ("y", 438.0)] {
+                let s = b.status();
+                let at = if axis == "x" { s.x_mm } else { s.y_mm };
+                b.hob_ok(&["jog", axis, &format!("{:.3}", to - at)]);
+                b.wait_for(&format!("{axis} at {to} mm, idle"), STATE_TIMEOUT, |b| {
+                    let s = b.try_status()?;
+                    let at = if axis == "x" { s.x_mm } else { s.y_mm };
+                    if s.state == "idle" && (at - to).abs() < 0.1 {
+                        Ok(())
+                    } else {
+                        Err(format!("state {}, {axis} {at:.3} mm", s.state))
+                    }
+                });
+            }
+            assert!(
+                b.terminate(rt, Duration::from_secs(20)).is_some(),
+                "hob-rt did not stop"
+            );
+            spawn_rt(b, &machine, &state, "rt2.txt");
+            b.spawn("hob-logger", "hob-logger", &[&log2], "logger2.txt");
+            b.wait_state("idle", STATE_TIMEOUT);
+            let log = std::fs::read_to_string(b.art.join("rt2.txt")).unwrap();
+            let line = log
+                .lines()
+                .find(|l| l.contains("pitch compensation for worm set \"B-2019-07\" loaded, switched off"))
+                .unwrap_or_else(|| panic!("{log}"))
+                .to_string();
+            b.reference(STATE_TIMEOUT);
+            line
+        },
+    );
+    let t_cut = std::time::Instant::now();
+    b.step(
+        "the second gear: compensation on, new blank, cut; switching it in the cut refused",
+        |b| {
+            b.hob_ok(&["load", &program]);
+            b.hob_ok(&["new-blank"]);
+            b.hob_ok(&["pitch-compensation", "on"]);
+            let status = b.hob_ok(&["status"]);
+            assert!(status.text.contains("pitch compensation on"), "{}", status.text);
+            cut(b, &|b| {
+                for word in ["on", "off"] {
+                    let o = b.hob(&["pitch-compensation", word]);
+                    assert_eq!(
+                        o.code,
+                        Some(2),
+                        "hob pitch-compensation {word} in the cut: {}",
+                        o.text
+                    );
+                    assert!(o.text.contains("cycle is running"), "{}", o.text);
+                }
+                assert!(b.hob_ok(&["status"]).text.contains("pitch compensation on"));
+            });
+            format!("{:.0} s from start to idle", t_cut.elapsed().as_secs_f64())
+        },
+    );
+    b.step(
+        "by the truth: the second gear 3 times better in f_pt and F_p, within grade 5",
+        |b| {
+            // hob-sim writes its truth at least every 0.5 s; the second log gets a copy.
+            std::thread::sleep(Duration::from_millis(600));
+            std::fs::copy(&truth, log2.join("truth.csv")).unwrap();
+            let (f1, s1, p1, q1, first) = truth_gear(b, &log1);
+            let (f2, s2, p2, q2, second) = truth_gear(b, &log2);
+            eprintln!("the first gear: {first}");
+            eprintln!("the second gear: {second}");
+            unchanged(b, &machine, &original, "the whole loop");
+            assert!(
+                f1 >= 3.0 * f2 && p1 >= 3.0 * p2,
+                "f_pt {f1:.2} -> {f2:.2} um, F_p {p1:.2} -> {p2:.2} um: not 3 times better"
+            );
+            assert!(s2 <= 1.0 && q2 <= 1.0, "the second gear is not within grade 5: {second}");
+            format!(
+                "f_pt {f1:.2} -> {f2:.2} um ({:.0} -> {:.0} % of grade 5), F_p {p1:.2} -> {p2:.2} um ({:.0} -> {:.0} %); the test {:.0} s",
+                100.0 * s1,
+                100.0 * s2,
+                100.0 * q1,
+                100.0 * q2,
+                started.elapsed().as_secs_f64()
+            )
+        },
+    );
+}
