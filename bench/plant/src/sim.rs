@@ -336,7 +336,12 @@ impl Simulation {
             ),
             _ => None,
         };
-        let sync_err_arcsec = law_deg.map(|law| (self.plant.table_drive_deg() - law) * 3600.0);
+        // The drive's motion against what the controller meant: the law plus the pitch
+        // compensation's offset (0 without one), which is deliberate, not the controller's
+        // error. The blank's error stays against the law: the gear is what it is.
+        let compensation_deg = g.status().compensation_deg;
+        let sync_err_arcsec =
+            law_deg.map(|law| (self.plant.table_drive_deg() - law - compensation_deg) * 3600.0);
         let blank_err_arcsec = law_deg.map(|law| (self.plant.blank_deg() - law) * 3600.0);
         TraceRow {
             t_s,

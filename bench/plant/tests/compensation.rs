@@ -130,6 +130,20 @@ fn the_second_gear_is_three_times_better_than_the_first_and_within_grade_5() {
         let second = cut(&plant, Some(compensation));
         println!("seed {seed}: first gear {}", first.gear.text());
         println!("seed {seed}: second gear {}", second.gear.text());
+        // The controller's own share, against what it meant (the law plus the
+        // compensation's deliberate offset): as small as without the compensation.
+        let share = |c: &Cut| c.summary.passes.last().unwrap().controller_share.clone().unwrap();
+        println!(
+            "seed {seed}: the controller's share {} / {}",
+            share(&first).text(),
+            share(&second).text()
+        );
+        let (s1, _, _) = share(&first).shares();
+        let (s2, _, _) = share(&second).shares();
+        assert!(
+            s2 <= 0.25 && s2 <= 2.0 * s1.max(0.05),
+            "seed {seed}: {s1:.2} -> {s2:.2} of grade 5"
+        );
         let pitch = 360.0 / 41.0;
         let off = (second.summary.tooth_phase_deg.unwrap() - compensation.phase_deg()).rem_euclid(pitch);
         assert!(

@@ -388,10 +388,19 @@ fn graded_by_truth(
         }
         b.add(&row, period_s);
     });
+    let mut passes = b.passes().0;
+    // With the pitch compensation on, the truth's drive error holds the compensation's
+    // deliberate offset: the controller's share cannot be told from it here (the gear
+    // itself, from the blank's error, can).
+    for p in &mut passes {
+        if p.pitch_compensation == Some("on") {
+            p.controller_share = None;
+        }
+    }
     Ok(TruthReport {
         gear: g,
         joined,
-        passes: b.passes().0,
+        passes,
         phase_arcsec,
     })
 }
@@ -575,10 +584,17 @@ pub fn report_text(dir: &Path, r: &Report) -> String {
             );
         }
         for p in &t.passes {
+            let compensated = p.pitch_compensation == Some("on");
             let _ = writeln!(
                 o,
-                "{}",
-                crate::predicted::pass_line(p.pass, p.predicted.as_ref(), p.controller_share.as_ref())
+                "{}{}",
+                crate::predicted::pass_line(p.pass, p.predicted.as_ref(), p.controller_share.as_ref()),
+                if compensated {
+                    " (the pitch compensation was on: the drive's true motion holds its offset, so \
+                     the controller's share is not told apart)"
+                } else {
+                    ""
+                }
             );
         }
     }
