@@ -54,7 +54,13 @@ const ALLOWED: &[(&str, &[&str])] = &[
     ),
     (
         "hob-logger",
-        &["hob-gearing", "hob-gear-check", "hob-ipc", "hob-rt-os", "hob-store"],
+        &[
+            "hob-gearing",
+            "hob-gear-check",
+            "hob-ipc",
+            "hob-rt-os",
+            "hob-store",
+        ],
     ),
     (
         "hob-watchdog",
