@@ -388,21 +388,25 @@ fn graded_by_truth(
         }
         b.add(&row, period_s);
     });
-    let mut passes = b.passes().0;
-    // With the pitch compensation on, the truth's drive error holds the compensation's
-    // deliberate offset: the controller's share cannot be told from it here (the gear
-    // itself, from the blank's error, can).
+    Ok(TruthReport {
+        gear: g,
+        joined,
+        passes: without_compensated_shares(b.passes().0),
+        phase_arcsec,
+    })
+}
+
+/// The passes graded by the truth, the controller's share left out where the pitch
+/// compensation was on: the truth's drive error holds the compensation's deliberate offset
+/// there, so the controller's share cannot be told from it (the gear itself, from the
+/// blank's error, can).
+fn without_compensated_shares(mut passes: Vec<PassSummary>) -> Vec<PassSummary> {
     for p in &mut passes {
         if p.pitch_compensation == Some("on") {
             p.controller_share = None;
         }
     }
-    Ok(TruthReport {
-        gear: g,
-        joined,
-        passes,
-        phase_arcsec,
-    })
+    passes
 }
 
 /// How far the truth less the controller's estimate may range over a pass before the
@@ -716,6 +720,29 @@ mod tests {
             lines[1].ends_with("| feed 100 %, spindle 100 %, pitch compensation none"),
             "{text}"
         );
+    }
+
+    #[test]
+    fn a_compensated_pass_graded_by_the_truth_has_no_controller_s_share() {
+        let share = crate::predicted::PredictedGear {
+            sections: 1,
+            single_pitch_um: 1.0,
+            cumulative_pitch_um: 1.0,
+            helix_um: 1.0,
+            grade: 5,
+            single_pitch_tolerance_um: 5.0,
+            cumulative_pitch_tolerance_um: 15.0,
+            helix_tolerance_um: 9.0,
+        };
+        let pass = |pc: Option<&'static str>| {
+            let mut p = PassSummary::default();
+            p.pitch_compensation = pc;
+            p.controller_share = Some(share.clone());
+            p
+        };
+        let passes = without_compensated_shares(vec![pass(Some("off")), pass(Some("on")), pass(None)]);
+        let kept: Vec<bool> = passes.iter().map(|p| p.controller_share.is_some()).collect();
+        assert_eq!(kept, [true, false, true]);
     }
 
     #[test]
