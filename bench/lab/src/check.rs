@@ -13,7 +13,8 @@
 
 use hob_cli::compensate::{Gear, load_gear};
 use hob_ipc::StateSample;
-use hob_ipc::codec::{Coupling, State};
+use hob_ipc::codec::State;
+use hob_logger::export::{TruthNotOfThisCut, each_with_truth, truth_phases, whole_pitches_arcsec};
 use hob_logger::trace::TraceRow;
 use hob_logger::truth::{self, TruthRow};
 use hob_plant::checker::{GearChecker, GearUnderTest};
@@ -23,8 +24,8 @@ use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
 /// How far the truth less the controller's estimate may range over a pass before the truth
-/// is taken to be of another cut (the report's own limit, `hob_logger::export`).
-pub const TRUTH_AGREES_WITHIN_ARCSEC: f64 = 1000.0;
+/// is taken to be of another cut: the report's own limit.
+pub use hob_logger::export::TRUTH_AGREES_WITHIN_ARCSEC;
 
 /// What `hob-lab check` was given.
 #[derive(Debug, Clone)]
@@ -192,61 +193,23 @@ pub fn truth_rows_of_last_cut(
     })
 }
 
-fn synchronised_cut(s: &StateSample) -> bool {
-    s.pass > 0 && s.state == State::Cut.code() && s.coupling == Coupling::Synchronised.code()
-}
-
-/// The samples joined with the truth as the report joins them: the trace rows, the blank's
-/// true error less each pass's law phase where both are known. Err((pass, lo, hi)) where the
-/// truth less the estimate wanders over a pass (a truth of another cut).
-fn join(states: &[StateSample], rows: &[TruthRow], teeth: u32) -> Result<Vec<TraceRow>, (usize, f64, f64)> {
-    let each = |f: &mut dyn FnMut(&StateSample, Option<TruthRow>)| {
-        let mut from = 0;
-        for (i, s) in states.iter().enumerate() {
-            let next = states.get(i + 1).map(|n| n.sync_time_ns);
-            f(s, truth::row_for(rows, &mut from, s.sync_time_ns, next));
-        }
-    };
-    let pitch_arcsec = 360.0 * 3600.0 / f64::from(teeth.max(1));
-    let whole_pitches = |d: f64, from: f64| pitch_arcsec * ((d - from) / pitch_arcsec).round();
-    // Per pass: the sum, count, range and first of the truth less the estimate.
-    let mut sums: Vec<(f64, u64, f64, f64, f64)> = Vec::new();
-    each(&mut |s, t| {
-        if let Some(t) = t.filter(|_| synchronised_cut(s)) {
-            let i = s.pass as usize - 1;
-            if sums.len() <= i {
-                sums.resize(i + 1, (0.0, 0, f64::INFINITY, f64::NEG_INFINITY, 0.0));
-            }
-            let e = &mut sums[i];
-            let raw = t.drive_err_arcsec - s.sync_error_arcsec;
-            if e.1 == 0 {
-                e.4 = raw;
-            }
-            let d = raw - whole_pitches(raw, e.4);
-            (e.0, e.1, e.2, e.3) = (e.0 + d, e.1 + 1, e.2.min(d), e.3.max(d));
-        }
-    });
-    if let Some((pass, e)) = sums
-        .iter()
-        .enumerate()
-        .find(|(_, e)| e.1 > 0 && e.3 - e.2 > TRUTH_AGREES_WITHIN_ARCSEC)
-    {
-        return Err((pass + 1, e.2, e.3));
-    }
-    let phase: Vec<Option<f64>> = sums
-        .iter()
-        .map(|(sum, n, ..)| (*n > 0).then(|| sum / *n as f64))
-        .collect();
+/// The samples joined with the truth as the report joins them (`hob_logger::export`'s
+/// [`truth_phases`] and [`each_with_truth`]): the trace rows with the blank's true error less
+/// each pass's law phase where both are known, keeping the log's own table angle (as `hob
+/// compensate` counts its record of the same cut). Err((pass, lo, hi)) where the truth less
+/// the estimate wanders over a pass (a truth of another cut).
+fn join(states: &[StateSample], rows: &[TruthRow], teeth: u32) -> Result<Vec<TraceRow>, TruthNotOfThisCut> {
+    let (phase, _) = truth_phases(states, rows, teeth)?;
     let t0 = states.first().map_or(0, |s| s.sync_time_ns);
     let mut out = Vec::with_capacity(states.len());
-    each(&mut |s, t| {
+    each_with_truth(states, rows, &mut |s, t| {
         let mut row = hob_logger::export::trace_row(s, t0);
         let p = (s.pass as usize)
             .checked_sub(1)
             .and_then(|i| phase.get(i).copied().flatten());
         row.blank_err_arcsec = match (t, p) {
             (Some(t), Some(p)) if row.sync_err_arcsec.is_some() => {
-                Some(t.blank_err_arcsec - p - whole_pitches(t.drive_err_arcsec, p))
+                Some(t.blank_err_arcsec - p - whole_pitches_arcsec(t.drive_err_arcsec, p, teeth))
             }
             _ => None,
         };

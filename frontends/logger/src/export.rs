@@ -298,33 +298,50 @@ pub(crate) fn synchronised_cut(s: &StateSample) -> bool {
     s.pass > 0 && s.state == State::Cut.code() && s.coupling == Coupling::Synchronised.code()
 }
 
-/// The recording's samples joined with the truth rows by their SYNC times: each pass's
-/// law phase first (the truth's drive error less the controller's estimate, averaged over
-/// the pass's synchronised cut), then the per-pass statistics of the truth with it.
-fn graded_by_truth(
+/// Each sample with the truth row of its SYNC (none where the truth has none), in order.
+pub fn each_with_truth(
     states: &[StateSample],
-    g: truth::Gear,
     rows: &[truth::TruthRow],
-    pitch_radius_mm: f64,
-    normal_module_mm: f64,
-    period_s: f64,
-) -> Result<TruthReport, Error> {
-    let join = |f: &mut dyn FnMut(&StateSample, Option<truth::TruthRow>)| {
-        let mut from = 0;
-        for (i, s) in states.iter().enumerate() {
-            let next = states.get(i + 1).map(|n| n.sync_time_ns);
-            f(s, truth::row_for(rows, &mut from, s.sync_time_ns, next));
-        }
-    };
-    // The law's phase counts modulo a tooth pitch: "continue" puts the table back on the
-    // same gaps, which the truth's law may call a whole number of pitches further on.
-    let pitch_arcsec = 360.0 * 3600.0 / f64::from(g.teeth.max(1));
-    let whole_pitches = |d: f64, from: f64| pitch_arcsec * ((d - from) / pitch_arcsec).round();
+    f: &mut dyn FnMut(&StateSample, Option<truth::TruthRow>),
+) {
+    let mut from = 0;
+    for (i, s) in states.iter().enumerate() {
+        let next = states.get(i + 1).map(|n| n.sync_time_ns);
+        f(s, truth::row_for(rows, &mut from, s.sync_time_ns, next));
+    }
+}
+
+/// `d` less the whole tooth pitches (arcsec, of a gear of `teeth`) it lies from `from`: the
+/// law's phase counts modulo a pitch ("continue" puts the table back on the same gaps, which
+/// the truth's law may call a whole number of pitches further on).
+pub fn whole_pitches_arcsec(d: f64, from: f64, teeth: u32) -> f64 {
+    let pitch_arcsec = 360.0 * 3600.0 / f64::from(teeth.max(1));
+    pitch_arcsec * ((d - from) / pitch_arcsec).round()
+}
+
+/// A truth of another cut: the pass (1-based) and the range (arcsec) of the truth less the
+/// controller's estimate over it.
+pub type TruthNotOfThisCut = (usize, f64, f64);
+
+/// Each pass's law phase (arcsec, none for a pass without a synchronised cut sample the
+/// truth has) and the samples the truth has.
+pub type TruthPhases = (Vec<Option<f64>>, usize);
+
+/// Each pass's law phase of a recording joined with its truth (arcsec; none for a pass
+/// without a synchronised cut sample the truth has): the truth's drive error less the
+/// controller's estimate, averaged over the pass, and the samples the truth has. `Err((pass,
+/// lo, hi))` (1-based) where that difference ranges over more than
+/// [`TRUTH_AGREES_WITHIN_ARCSEC`] in a pass: the truth is of another cut.
+pub fn truth_phases(
+    states: &[StateSample],
+    rows: &[truth::TruthRow],
+    teeth: u32,
+) -> Result<TruthPhases, TruthNotOfThisCut> {
     // Per pass: the sum, count and range of the truth less the estimate, each taken to
     // within half a pitch of the pass's first.
     let mut sums: Vec<(f64, u64, f64, f64, f64)> = Vec::new();
     let mut joined = 0;
-    join(&mut |s, t| {
+    each_with_truth(states, rows, &mut |s, t| {
         joined += usize::from(t.is_some());
         if let Some(t) = t.filter(|_| synchronised_cut(s)) {
             let i = s.pass as usize - 1;
@@ -336,37 +353,53 @@ fn graded_by_truth(
             if e.1 == 0 {
                 e.4 = raw;
             }
-            let d = raw - whole_pitches(raw, e.4);
+            let d = raw - whole_pitches_arcsec(raw, e.4, teeth);
             (e.0, e.1, e.2, e.3) = (e.0 + d, e.1 + 1, e.2.min(d), e.3.max(d));
         }
     });
     // The truth and the estimate differ by the law's phase and the estimate's own error
     // (arcsec): a truth whose difference wanders by degrees is of another program (the
     // simulator's law is its own program's), not of this cut.
-    if let Some((pass, (.., lo, hi))) = sums
+    if let Some((pass, e)) = sums
         .iter()
         .enumerate()
         .find(|(_, e)| e.1 > 0 && e.3 - e.2 > TRUTH_AGREES_WITHIN_ARCSEC)
     {
-        return Err(Error::TruthNotOfThisCut {
-            file: truth::FILE,
-            pass: pass + 1,
-            lo: *lo,
-            hi: *hi,
-            within_arcsec: TRUTH_AGREES_WITHIN_ARCSEC,
-        });
+        return Err((pass + 1, e.2, e.3));
     }
-    let phase_arcsec: Vec<f64> = sums
+    let phases = sums
         .iter()
-        .map(|(sum, n, ..)| if *n > 0 { sum / *n as f64 } else { 0.0 })
+        .map(|(sum, n, ..)| (*n > 0).then(|| sum / *n as f64))
         .collect();
+    Ok((phases, joined))
+}
+
+/// The recording's samples joined with the truth rows by their SYNC times: each pass's
+/// law phase first ([`truth_phases`]), then the per-pass statistics of the truth with it.
+fn graded_by_truth(
+    states: &[StateSample],
+    g: truth::Gear,
+    rows: &[truth::TruthRow],
+    pitch_radius_mm: f64,
+    normal_module_mm: f64,
+    period_s: f64,
+) -> Result<TruthReport, Error> {
+    let (phases, joined) =
+        truth_phases(states, rows, g.teeth).map_err(|(pass, lo, hi)| Error::TruthNotOfThisCut {
+            file: truth::FILE,
+            pass,
+            lo,
+            hi,
+            within_arcsec: TRUTH_AGREES_WITHIN_ARCSEC,
+        })?;
+    let phase_arcsec: Vec<f64> = phases.iter().map(|p| p.unwrap_or(0.0)).collect();
     let mut b = SummaryBuilder::for_gear(pitch_radius_mm, normal_module_mm).predicting(
         g.teeth,
         g.face_width_mm,
         REPORT_GRADE,
     );
     let t0 = states.first().map_or(0, |s| s.sync_time_ns);
-    join(&mut |s, t| {
+    each_with_truth(states, rows, &mut |s, t| {
         let mut row = trace_row(s, t0);
         let phase = (s.pass as usize)
             .checked_sub(1)
@@ -374,7 +407,7 @@ fn graded_by_truth(
             .copied();
         match (t, phase) {
             (Some(t), Some(phase)) if row.sync_err_arcsec.is_some() => {
-                let k = whole_pitches(t.drive_err_arcsec, phase);
+                let k = whole_pitches_arcsec(t.drive_err_arcsec, phase, g.teeth);
                 row.table_deg = t.table_drive_deg;
                 row.y_mm = t.y_mm;
                 row.sync_err_arcsec = Some(t.drive_err_arcsec - phase - k);
@@ -412,7 +445,7 @@ fn without_compensated_shares(mut passes: Vec<PassSummary>) -> Vec<PassSummary> 
 /// How far the truth less the controller's estimate may range over a pass before the
 /// truth is taken to be of another program: far above what the estimate's own error can
 /// be (the coarse window is 200 arcsec), far below a wrong law's drift.
-pub(crate) const TRUTH_AGREES_WITHIN_ARCSEC: f64 = 1000.0;
+pub const TRUTH_AGREES_WITHIN_ARCSEC: f64 = 1000.0;
 
 /// An event as the logger recorded it (declared with the file formats).
 pub use crate::format::LoggedEvent;
