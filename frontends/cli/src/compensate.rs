@@ -351,12 +351,11 @@ fn measured_at(measured: &[PitchMeasurement]) -> String {
 /// The compensation the loop builds from a stored one: the same constructor, the same
 /// checks (3 to 512 points, finite, at most 0.02 deg).
 pub fn to_control(s: &StoredCompensation) -> Result<PitchCompensation, CompensateError> {
-    let offsets: Vec<f64> = s.table_offsets_arcsec.iter().map(|a| a / 3600.0).collect();
-    PitchCompensation::new(
+    PitchCompensation::from_arcsec(
         s.first_table_deg,
-        &offsets,
-        s.hob_cos_arcsec / 3600.0,
-        s.hob_sin_arcsec / 3600.0,
+        &s.table_offsets_arcsec,
+        s.hob_cos_arcsec,
+        s.hob_sin_arcsec,
         s.tooth_phase_deg,
     )
     .map_err(|e| {

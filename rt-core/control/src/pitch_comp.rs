@@ -95,6 +95,32 @@ impl PitchCompensation {
         })
     }
 
+    /// [`Self::new`] from a stored compensation's arcsec of the table (the table's offsets
+    /// and the hob's term; the first angle and the tooth phase in deg): the one conversion
+    /// `hob compensate` checks with and `hob-rt` loads with.
+    pub fn from_arcsec(
+        first_deg: f64,
+        offsets_arcsec: &[f64],
+        hob_cos_arcsec: f64,
+        hob_sin_arcsec: f64,
+        phase_deg: f64,
+    ) -> Result<Self, CompensationError> {
+        if offsets_arcsec.len() > MAX_POINTS {
+            return Err(CompensationError::PointCount);
+        }
+        let mut offsets_deg = [0.0; MAX_POINTS];
+        for (deg, arcsec) in offsets_deg.iter_mut().zip(offsets_arcsec) {
+            *deg = arcsec / 3600.0;
+        }
+        Self::new(
+            first_deg,
+            &offsets_deg[..offsets_arcsec.len()],
+            hob_cos_arcsec / 3600.0,
+            hob_sin_arcsec / 3600.0,
+            phase_deg,
+        )
+    }
+
     /// The tooth phase the measured gear was cut at (deg, the gearbox's phase).
     pub fn phase_deg(&self) -> f64 {
         self.phase_deg
@@ -135,6 +161,13 @@ mod tests {
         assert!((h.offset_deg(7.0, 0.0) - 0.001).abs() < 1e-15);
         assert!((h.offset_deg(7.0, 90.0 + 720.0) - 0.002).abs() < 1e-12);
         assert_eq!(h.phase_deg(), 5.0);
+        let a = PitchCompensation::from_arcsec(0.0, &[3.6, -7.2, 0.0], 3.6, 0.0, 5.0).unwrap();
+        assert_eq!(a.points(), &[0.001, -0.002, 0.0]);
+        assert_eq!(a.offset_deg(0.0, 0.0), 0.002);
+        assert_eq!(
+            PitchCompensation::from_arcsec(0.0, &[0.0; MAX_POINTS + 1], 0.0, 0.0, 0.0),
+            Err(CompensationError::PointCount)
+        );
     }
 
     #[test]

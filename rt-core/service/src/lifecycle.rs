@@ -236,20 +236,18 @@ fn pitch_compensation(
         eprintln!("hob-rt: no pitch compensation stored for worm set {worm_set:?}");
         return Ok(None);
     };
-    let deg = |arcsec: f64| arcsec / 3600.0;
-    let offsets: Vec<f64> = c.table_offsets_arcsec.iter().map(|&a| deg(a)).collect();
-    let comp = PitchCompensation::new(
+    let comp = PitchCompensation::from_arcsec(
         c.first_table_deg,
-        &offsets,
-        deg(c.hob_cos_arcsec),
-        deg(c.hob_sin_arcsec),
+        &c.table_offsets_arcsec,
+        c.hob_cos_arcsec,
+        c.hob_sin_arcsec,
         c.tooth_phase_deg,
     )
     .map_err(|e| Failure::Compensation(format!("worm set {worm_set:?}: {}", e.text())))?;
     eprintln!(
         "hob-rt: pitch compensation for worm set {worm_set:?} loaded, switched off: {} points from \
          {:?} measured {} (computed {})",
-        offsets.len(),
+        c.table_offsets_arcsec.len(),
         c.gear,
         c.measured_at,
         c.computed_at_utc
