@@ -181,6 +181,7 @@ fn write_log(dir: &Path, rows: &[TraceRow], with_truth: bool) {
                 face_width_mm: plan.face_width_mm,
                 pitch_radius_mm: plan.pitch_diameter_mm / 2.0,
                 normal_module_mm: plan.normal_module_mm,
+                starts: plan.starts,
             },
         )
         .unwrap();

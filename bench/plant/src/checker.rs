@@ -65,6 +65,7 @@ impl GearChecker {
         match (row.state == State::Cut, row.blank_err_arcsec) {
             (true, Some(e)) => self.sections.add(TrueSample {
                 table_deg: row.table_deg,
+                spindle_deg: row.spindle_deg,
                 y_mm: row.y_mm,
                 error_um: arcsec_to_um_at_radius(e, self.gear.pitch_radius_mm),
             }),

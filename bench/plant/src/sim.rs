@@ -509,6 +509,7 @@ pub fn disk_cutter_of(job: &hob_setup::job::Program) -> Option<crate::cutter::Di
 pub fn summary_builder(plan: &Plan, grade: u8) -> SummaryBuilder {
     SummaryBuilder::for_gear(plan.pitch_diameter_mm / 2.0, plan.normal_module_mm).predicting(
         plan.teeth,
+        plan.starts,
         plan.face_width_mm,
         grade,
     )

@@ -65,6 +65,22 @@ pub struct Row {
     /// Largest blank error in the cut (the truth), arcsec, worst pass.
     #[serde(default)]
     pub blank_max_arcsec: Option<f64>,
+    /// The figures above take the gaps at fixed table angles `k * 360 / z`; these take
+    /// them where the hob cut them (`hob_logger::predicted::GapsAt::Hob`), as shares of
+    /// grade 4: the controller's share at the hob's phase 0 and the worst over the hob's
+    /// phase, and the gear itself's worst over the phase. Reported, not gated.
+    #[serde(default)]
+    pub hob_fpt_of_grade4: Option<f64>,
+    #[serde(default)]
+    pub hob_fp_of_grade4: Option<f64>,
+    #[serde(default)]
+    pub worst_phase_fpt_of_grade4: Option<f64>,
+    #[serde(default)]
+    pub worst_phase_fp_of_grade4: Option<f64>,
+    #[serde(default)]
+    pub gear_worst_phase_fpt_of_grade4: Option<f64>,
+    #[serde(default)]
+    pub gear_worst_phase_fp_of_grade4: Option<f64>,
 }
 
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -182,7 +198,23 @@ fn one(
     let gear = gear_name(path);
     let finished = s.passes.last().and_then(|p| p.controller_share.as_ref());
     let gear_cut = s.passes.last().and_then(|p| p.predicted.as_ref());
+    let last = s.passes.last();
+    let at_hob = last
+        .and_then(|p| p.controller_share_at_hob.as_ref())
+        .map(|g| g.shares());
+    let worst_phase = last
+        .and_then(|p| p.controller_share_worst_phase.as_ref())
+        .map(|g| g.shares());
+    let gear_worst_phase = last
+        .and_then(|p| p.predicted_worst_phase.as_ref())
+        .map(|g| g.shares());
     Ok(Row {
+        hob_fpt_of_grade4: at_hob.map(|g| g.0),
+        hob_fp_of_grade4: at_hob.map(|g| g.1),
+        worst_phase_fpt_of_grade4: worst_phase.map(|g| g.0),
+        worst_phase_fp_of_grade4: worst_phase.map(|g| g.1),
+        gear_worst_phase_fpt_of_grade4: gear_worst_phase.map(|g| g.0),
+        gear_worst_phase_fp_of_grade4: gear_worst_phase.map(|g| g.1),
         finished_fpt_um: finished.map(|g| g.single_pitch_um),
         finished_fp_um: finished.map(|g| g.cumulative_pitch_um),
         finished_fpt_of_grade4: finished.map(|g| g.shares().0),
@@ -241,6 +273,11 @@ fn result(fault: Option<&str>, completed: bool) -> String {
     }
 }
 
+/// "40 %", or "-" where not known.
+fn percent(of: Option<f64>) -> String {
+    of.map_or_else(|| "-".into(), |v| format!("{:.0} %", 100.0 * v))
+}
+
 /// "0.71 (40 %)", or "-" where the last pass completed no face section.
 fn share(um: Option<f64>, of: Option<f64>) -> String {
     match (um, of) {
@@ -251,12 +288,12 @@ fn share(um: Option<f64>, of: Option<f64>) -> String {
 
 pub fn text(r: &AccuracyBench) -> String {
     let mut o = String::from(
-        "| gear | disturbance | CCC | predictor | RMS arcsec | max arcsec | RMS um | max um | max of grade-5 f_p | bound um | controller's f_pt um (of grade 4) | controller's F_p um (of grade 4) | gear f_pt um (of grade 4) | gear F_p um (of grade 4) | result |\n|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n",
+        "| gear | disturbance | CCC | predictor | RMS arcsec | max arcsec | RMS um | max um | max of grade-5 f_p | bound um | controller's f_pt um (of grade 4) | controller's F_p um (of grade 4) | gear f_pt um (of grade 4) | gear F_p um (of grade 4) | at the hob's gaps, of grade 4: controller's f_pt, F_p at phase 0; worst over phase; the gear's worst | result |\n|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n",
     );
     let onoff = |b: bool| if b { "on" } else { "off" };
     for x in &r.rows {
         o.push_str(&format!(
-            "| {} | {} | {} | {} | {:.2} | {:.2} | {:.2} | {:.2} | {:.0} % | {:.2} | {} | {} | {} | {} | {} |\n",
+            "| {} | {} | {} | {} | {:.2} | {:.2} | {:.2} | {:.2} | {:.0} % | {:.2} | {} | {} | {} | {} | {}, {}; {}, {}; {}, {} | {} |\n",
             x.gear,
             x.disturbance.name(),
             onoff(x.cross_coupling),
@@ -271,6 +308,12 @@ pub fn text(r: &AccuracyBench) -> String {
             share(x.finished_fp_um, x.finished_fp_of_grade4),
             share(x.gear_fpt_um, x.gear_fpt_of_grade4),
             share(x.gear_fp_um, x.gear_fp_of_grade4),
+            percent(x.hob_fpt_of_grade4),
+            percent(x.hob_fp_of_grade4),
+            percent(x.worst_phase_fpt_of_grade4),
+            percent(x.worst_phase_fp_of_grade4),
+            percent(x.gear_worst_phase_fpt_of_grade4),
+            percent(x.gear_worst_phase_fp_of_grade4),
             result(x.fault.as_deref(), x.completed)
         ));
     }
@@ -753,6 +796,12 @@ pub struct SeedsRow {
     pub worst_fp_of_goal: Option<f64>,
     pub worst_fp_seed: Option<u64>,
     pub median_fpt_of_goal: Option<f64>,
+    /// The controller's share with the gaps where the hob cut them, worst over the seeds
+    /// and the hob's phase, of the goal grade (reported, not gated).
+    #[serde(default)]
+    pub worst_phase_fpt_of_goal: Option<f64>,
+    #[serde(default)]
+    pub worst_phase_fp_of_goal: Option<f64>,
     pub worst_max_um: f64,
     pub bound_um: f64,
 }
@@ -812,6 +861,8 @@ pub fn seeds(a: &Args, n: u64) -> Result<SeedsBench, String> {
                 worst_fp_of_goal: fp.map(|x| x.0),
                 worst_fp_seed: fp.map(|x| x.1),
                 median_fpt_of_goal: fpts.get(fpts.len() / 2).copied(),
+                worst_phase_fpt_of_goal: worst(|r| r.worst_phase_fpt_of_grade4).map(|x| x.0),
+                worst_phase_fp_of_goal: worst(|r| r.worst_phase_fp_of_grade4).map(|x| x.0),
                 worst_max_um: rs.iter().map(|r| r.max_um).fold(0.0, f64::max),
                 bound_um: rs[0].bound_um,
             }
@@ -827,7 +878,7 @@ pub fn seeds(a: &Args, n: u64) -> Result<SeedsBench, String> {
 
 pub fn seeds_text(r: &SeedsBench) -> String {
     let mut o = String::from(
-        "| gear | disturbance | seeds | goal grade | controller's f_pt: worst (seed), median | controller's F_p: worst (seed) | worst max um (bound) | result |\n|---|---|---|---|---|---|---|---|\n",
+        "| gear | disturbance | seeds | goal grade | controller's f_pt: worst (seed), median | controller's F_p: worst (seed) | at the hob's gaps, worst over seeds and phase: f_pt, F_p | worst max um (bound) | result |\n|---|---|---|---|---|---|---|---|---|\n",
     );
     let pct = |v: Option<f64>, seed: Option<u64>| match (v, seed) {
         (Some(v), Some(s)) => format!("{:.0} % ({s})", 100.0 * v),
@@ -835,7 +886,7 @@ pub fn seeds_text(r: &SeedsBench) -> String {
     };
     for x in &r.rows {
         o.push_str(&format!(
-            "| {} | {} | {} | {} | {}, {} | {} | {:.2} ({:.2}) | {} |\n",
+            "| {} | {} | {} | {} | {}, {} | {} | {}, {} | {:.2} ({:.2}) | {} |\n",
             x.gear,
             x.disturbance.name(),
             x.seeds.len(),
@@ -844,6 +895,8 @@ pub fn seeds_text(r: &SeedsBench) -> String {
             x.median_fpt_of_goal
                 .map_or_else(|| "-".into(), |v| format!("{:.0} %", 100.0 * v)),
             pct(x.worst_fp_of_goal, x.worst_fp_seed),
+            percent(x.worst_phase_fpt_of_goal),
+            percent(x.worst_phase_fp_of_goal),
             x.worst_max_um,
             x.bound_um,
             result(x.fault.as_deref(), x.completed)

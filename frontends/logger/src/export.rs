@@ -395,6 +395,7 @@ fn graded_by_truth(
     let phase_arcsec: Vec<f64> = phases.iter().map(|p| p.unwrap_or(0.0)).collect();
     let mut b = SummaryBuilder::for_gear(pitch_radius_mm, normal_module_mm).predicting(
         g.teeth,
+        g.starts,
         g.face_width_mm,
         REPORT_GRADE,
     );
@@ -817,6 +818,7 @@ mod tests {
             face_width_mm: 40.0,
             pitch_radius_mm: 42.5,
             normal_module_mm: 5.0,
+            starts: 1,
         }
     }
 

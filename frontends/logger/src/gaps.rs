@@ -84,6 +84,7 @@ impl GapRecorder {
         }
         let sample = |value: f64| TrueSample {
             table_deg: row.table_deg,
+            spindle_deg: row.spindle_deg,
             y_mm: row.y_mm,
             error_um: value,
         };

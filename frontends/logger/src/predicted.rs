@@ -12,6 +12,19 @@
 //! the face: a gap's position from section to section is the controller's share of the
 //! helix deviation. The gear's figures are the worst section's; the finished gear is the
 //! last pass's sections.
+//!
+//! Where a gap is cut ([`GapsAt`]): a hob of `starts` starts passes a tooth gap through its
+//! axial plane once every `360 / starts` deg of the spindle, so the part's real gaps are
+//! where the spindle was at `phase + j * 360 / starts` (`GapsAt::Hob`): on a helical gear
+//! they follow the helix along the face, and the gearbox's own phase puts them where the
+//! program's law does. The phase is the hob's thread against the spindle's zero, which the
+//! controller does not know (the simulated machine's hob has its reference thread at the
+//! spindle's zero, phase 0): the summary gives phase 0 and the worst over the phase
+//! ([`PHASES`]). `GapsAt::Table` takes virtual gaps at fixed table angles
+//! `phase + k * 360 / z` instead: what a compensation's record and the simulated checker
+//! sample at, the same table angles for both (`crate::gaps`), and the summary's
+//! `predicted` and `controller_share` still (the gate's and the goals' figures,
+//! docs/accuracy.md, "The gaps where the hob cuts them").
 
 use hob_gearing::iso1328;
 use serde::Serialize;
@@ -21,6 +34,8 @@ use serde::Serialize;
 pub struct TrueSample {
     /// The table's true angle, deg (unwrapped, either direction).
     pub table_deg: f64,
+    /// The spindle's (hob's) angle, deg (unwrapped).
+    pub spindle_deg: f64,
     pub y_mm: f64,
     /// The table's error against the gearbox law, at the pitch circle, um.
     pub error_um: f64,
@@ -50,12 +65,31 @@ impl Section {
     }
 }
 
+/// Where the gaps pass the hob: the instants a face section's gaps are taken at.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum GapsAt {
+    /// At the table angles `phase_deg + k * 360 / z` (virtual gaps at fixed table angles).
+    Table { phase_deg: f64 },
+    /// Where the hob cuts them: at the spindle angles `phase_deg + j * 360 / starts`;
+    /// consecutive passes are neighbouring gaps, `z` of them one table revolution.
+    Hob { starts: u32, phase_deg: f64 },
+}
+
+/// The phases of the hob's thread [`crate::trace::SummaryBuilder`] takes the worst over:
+/// `i / PHASES` of `360 / starts` deg of the spindle, `i` in `0..PHASES`.
+pub const PHASES: usize = 8;
+
 /// The face sections of a stretch of the cut: gap `k` passes the hob when the table is at
 /// `phase_deg + k * 360 / teeth` (mod 360); a section is complete when every gap has passed
 /// once. The error is interpolated at the crossing; an incomplete last revolution is left
 /// out.
 pub fn sections(samples: &[TrueSample], teeth: u32, phase_deg: f64) -> Vec<Section> {
-    let mut b = SectionBuilder::new(teeth, phase_deg);
+    sections_at(samples, teeth, GapsAt::Table { phase_deg })
+}
+
+/// [`sections`] with the gaps where `at` says.
+pub fn sections_at(samples: &[TrueSample], teeth: u32, at: GapsAt) -> Vec<Section> {
+    let mut b = SectionBuilder::at(teeth, at);
     for s in samples {
         b.add(*s);
     }
@@ -72,8 +106,11 @@ pub const MAX_BRIDGED_ROWS: u32 = 10;
 /// section's gaps and the sections completed.
 #[derive(Debug, Clone)]
 pub struct SectionBuilder {
+    /// The crossing's unit, deg (of the table or of the spindle), and its phase.
     pitch_deg: f64,
     phase_deg: f64,
+    /// Whether the spindle's angle, not the table's, counts the gaps.
+    by_spindle: bool,
     prev: Option<TrueSample>,
     /// Rows skipped since `prev`.
     skipped: u32,
@@ -84,11 +121,21 @@ pub struct SectionBuilder {
 }
 
 impl SectionBuilder {
+    /// Gaps at fixed table angles ([`GapsAt::Table`]).
     pub fn new(teeth: u32, phase_deg: f64) -> Self {
+        Self::at(teeth, GapsAt::Table { phase_deg })
+    }
+
+    pub fn at(teeth: u32, at: GapsAt) -> Self {
         let z = teeth.max(1) as usize;
+        let (pitch_deg, phase_deg, by_spindle) = match at {
+            GapsAt::Table { phase_deg } => (360.0 / z as f64, phase_deg, false),
+            GapsAt::Hob { starts, phase_deg } => (360.0 / f64::from(starts.max(1)), phase_deg, true),
+        };
         Self {
-            pitch_deg: 360.0 / z as f64,
+            pitch_deg,
             phase_deg,
+            by_spindle,
             prev: None,
             skipped: 0,
             gap_um: vec![f64::NAN; z],
@@ -105,8 +152,15 @@ impl SectionBuilder {
             return;
         };
         let z = self.gap_um.len();
-        let ua = (a.table_deg - self.phase_deg) / self.pitch_deg;
-        let ub = (b.table_deg - self.phase_deg) / self.pitch_deg;
+        let angle = |s: &TrueSample| {
+            if self.by_spindle {
+                s.spindle_deg
+            } else {
+                s.table_deg
+            }
+        };
+        let ua = (angle(&a) - self.phase_deg) / self.pitch_deg;
+        let ub = (angle(&b) - self.phase_deg) / self.pitch_deg;
         if ua == ub || !ua.is_finite() || !ub.is_finite() {
             return;
         }
@@ -223,6 +277,18 @@ impl PredictedGear {
         })
     }
 
+    /// Each deviation the larger of the two (the worst over the hob's phase: the figures
+    /// may come from different phases); the sections the fewer.
+    pub fn worst(&self, other: &Self) -> Self {
+        Self {
+            sections: self.sections.min(other.sections),
+            single_pitch_um: self.single_pitch_um.max(other.single_pitch_um),
+            cumulative_pitch_um: self.cumulative_pitch_um.max(other.cumulative_pitch_um),
+            helix_um: self.helix_um.max(other.helix_um),
+            ..self.clone()
+        }
+    }
+
     /// The shares of the tolerances: single pitch, cumulative pitch, helix.
     pub fn shares(&self) -> (f64, f64, f64) {
         (
@@ -285,6 +351,7 @@ mod tests {
                 let y = 2.0 * turn;
                 TrueSample {
                     table_deg: deg,
+                    spindle_deg: 0.0,
                     y_mm: y,
                     error_um: e(deg, y),
                 }
@@ -401,5 +468,82 @@ mod tests {
         assert!(g.single_pitch_um <= 0.5 * 2.0 + 1e-9, "{g:?}");
         let (fpt, fp, fh) = g.shares();
         assert!(fpt > 0.0 && fp > 0.0 && fh > 0.0);
+    }
+
+    /// A helical cut by a `starts`-start hob on `z` teeth: the table follows the gearbox
+    /// law `table = starts / z * spindle + diff * Y` (Y feeding 2 mm per table revolution),
+    /// the error a function of the table angle, Y and the spindle.
+    fn helical(z: u32, starts: u32, revs: f64, e: impl Fn(f64, f64, f64) -> f64) -> Vec<TrueSample> {
+        let diff_deg_per_mm = 7.3;
+        let ratio = f64::from(starts) / f64::from(z);
+        let steps = 20_000;
+        let n = (revs * steps as f64) as usize;
+        (0..=n)
+            .map(|i| {
+                let spindle = i as f64 / steps as f64 * 360.0 / ratio + 1.1;
+                let y = 2.0 * ratio * spindle / 360.0;
+                let table = ratio * spindle + diff_deg_per_mm * y;
+                TrueSample {
+                    table_deg: table,
+                    spindle_deg: spindle,
+                    y_mm: y,
+                    error_um: e(table, y, spindle),
+                }
+            })
+            .collect()
+    }
+
+    #[test]
+    fn the_hobs_gaps_follow_the_helix_where_fixed_table_angles_do_not() {
+        // An error of the gaps themselves: a once-per-revolution eccentricity of the gear
+        // along its helix (the table angle less the law's Y term), which the gaps carry
+        // unchanged from face section to section.
+        let on_the_gear = |table: f64, y: f64, _| 2.0 * ((table - 7.3 * y).to_radians()).sin();
+        let cut = helical(17, 2, 6.0, on_the_gear);
+        let hob = sections_at(
+            &cut,
+            17,
+            GapsAt::Hob {
+                starts: 2,
+                phase_deg: 0.0,
+            },
+        );
+        let table = sections_at(&cut, 17, GapsAt::Table { phase_deg: 0.0 });
+        assert!(
+            hob.len() >= 5 && table.len() >= 5,
+            "{} {}",
+            hob.len(),
+            table.len()
+        );
+        let of = |s: &[Section]| PredictedGear::of(s, 5, 85.0, 5.0, 30.0).unwrap();
+        let (at_hob, at_table) = (of(&hob), of(&table));
+        // Each gap keeps its position along the face at the hob's gaps: no helix; at fixed
+        // table angles the gaps slide under the sampling and the eccentricity shows as helix.
+        assert!(at_hob.helix_um < 1e-3, "{at_hob:?}");
+        assert!(at_table.helix_um > 0.5, "{at_table:?}");
+        // Either way a section holds a whole revolution of it: F_p is twice the amplitude.
+        for g in [&at_hob, &at_table] {
+            assert!((g.cumulative_pitch_um - 4.0).abs() < 0.05, "{g:?}");
+        }
+    }
+
+    #[test]
+    fn the_hobs_phase_moves_where_a_spindle_error_is_sampled_and_worst_takes_the_largest() {
+        // A once-per-hob-turn error of a two-start hob: the gaps cut at spindle 0 and 180
+        // deg alternate by twice its cosine, at 90 and 270 deg they see nothing.
+        let runout = |_, _, spindle: f64| 1.5 * spindle.to_radians().cos();
+        let cut = helical(17, 2, 4.0, runout);
+        let at = |phase_deg| {
+            let s = sections_at(&cut, 17, GapsAt::Hob { starts: 2, phase_deg });
+            PredictedGear::of(&s, 5, 85.0, 5.0, 30.0).unwrap()
+        };
+        let (zero, quarter) = (at(0.0), at(90.0));
+        // 17 gaps: around the gear the alternation meets itself once (a step of 0).
+        assert!((zero.single_pitch_um - 3.0).abs() < 1e-3, "{zero:?}");
+        assert!(quarter.single_pitch_um < 1e-3, "{quarter:?}");
+        let w = quarter.worst(&zero);
+        assert_eq!(w.single_pitch_um, zero.single_pitch_um);
+        assert_eq!(w.cumulative_pitch_um, zero.cumulative_pitch_um);
+        assert_eq!(w.sections, zero.sections.min(quarter.sections));
     }
 }

@@ -2,7 +2,7 @@
 //! export` writes from a recording and the simulated machine writes from a run, and what
 //! `hob log report` and the demo judge the cut by.
 
-use crate::predicted::{PredictedGear, SectionBuilder, TrueSample};
+use crate::predicted::{GapsAt, PHASES, PredictedGear, SectionBuilder, TrueSample};
 use hob_gearing::iso1328::single_pitch_tolerance_um;
 use hob_gearing::units::arcsec_to_um_at_radius;
 use hob_ipc::codec::State;
@@ -145,6 +145,17 @@ pub struct PassSummary {
     /// The controller's share of the same deviations: from `sync_err_arcsec`, the drive's
     /// motion through an ideal worm. None likewise.
     pub controller_share: Option<PredictedGear>,
+    /// `predicted` and `controller_share` take the gaps at fixed table angles `k * 360 /
+    /// z` (as the compensation's checker and record do, `crate::gaps`); these take them
+    /// where the hob cut them ([`crate::predicted::GapsAt::Hob`]): at the hob's phase 0
+    /// (the simulated machine's hob has its reference thread at the spindle's zero) ...
+    pub predicted_at_hob: Option<PredictedGear>,
+    pub controller_share_at_hob: Option<PredictedGear>,
+    /// ... and each deviation's worst over the hob's phase ([`crate::predicted::PHASES`]
+    /// phases of its thread against the spindle's zero, which the controller does not
+    /// know; phase 0 among them).
+    pub predicted_worst_phase: Option<PredictedGear>,
+    pub controller_share_worst_phase: Option<PredictedGear>,
     /// Largest blank error in the cut (the truth), arcsec; none where not known.
     pub blank_err_max_arcsec: Option<f64>,
     /// Y of the previous row in the cut of this pass (none after a row out of the cut).
@@ -166,11 +177,12 @@ pub struct SummaryBuilder {
     passes: Vec<PassSummary>,
     pitch_radius_mm: f64,
     normal_module_mm: f64,
-    /// The gear's teeth, face width and the grade its predicted deviations are judged at,
-    /// when known ([`Self::predicting`]).
-    gear: Option<(u32, f64, u8)>,
-    /// Per pass: the controller's share's sections and the blank's.
-    sections: Vec<[SectionBuilder; 2]>,
+    /// The gear's teeth, the hob's starts, the face width and the grade its predicted
+    /// deviations are judged at, when known ([`Self::predicting`]).
+    gear: Option<(u32, u32, f64, u8)>,
+    /// Per pass: the controller's share's sections and the blank's, at the table's fixed
+    /// angles first, then per phase of the hob ([`PHASES`], phase 0 first).
+    sections: Vec<Vec<[SectionBuilder; 2]>>,
     /// The index of the pass of the last row in a pass, and the time out of any pass since
     /// (counted as stood by that pass if it goes on).
     last_pass: Option<usize>,
@@ -191,10 +203,11 @@ impl SummaryBuilder {
         }
     }
 
-    /// Also predicts the gear each pass leaves (`PassSummary::predicted`): `teeth` gaps,
-    /// the face width, judged against ISO 1328-1 grade `grade`.
-    pub fn predicting(mut self, teeth: u32, face_width_mm: f64, grade: u8) -> Self {
-        self.gear = Some((teeth, face_width_mm, grade));
+    /// Also predicts the gear each pass leaves (`PassSummary::predicted`): `teeth` gaps cut
+    /// by a hob of `starts` starts (the gaps where it cut them, [`GapsAt::Hob`]), the face
+    /// width, judged against ISO 1328-1 grade `grade`.
+    pub fn predicting(mut self, teeth: u32, starts: u32, face_width_mm: f64, grade: u8) -> Self {
+        self.gear = Some((teeth, starts.max(1), face_width_mm, grade));
         self
     }
 
@@ -216,13 +229,27 @@ impl SummaryBuilder {
             p.sync_err_max_dev_um = arcsec_to_um_at_radius(p.sync_err_max_dev_arcsec, r);
             p.work_twist_max_um = arcsec_to_um_at_radius(p.work_twist_max_arcsec, r);
         }
-        if let Some((_, face_width_mm, grade)) = self.gear {
-            for (p, [controller, blank]) in self.passes.iter_mut().zip(self.sections) {
-                let of = |b: SectionBuilder| {
-                    PredictedGear::of(&b.finish(), grade, 2.0 * r, self.normal_module_mm, face_width_mm)
-                };
-                p.controller_share = of(controller);
-                p.predicted = of(blank);
+        if let Some((_, _, face_width_mm, grade)) = self.gear {
+            let of = |b: SectionBuilder| {
+                PredictedGear::of(&b.finish(), grade, 2.0 * r, self.normal_module_mm, face_width_mm)
+            };
+            let worst = |w: Option<PredictedGear>, g: &Option<PredictedGear>| match (w, g) {
+                (Some(w), Some(g)) => Some(w.worst(g)),
+                (w, g) => w.or_else(|| g.clone()),
+            };
+            for (p, phases) in self.passes.iter_mut().zip(self.sections) {
+                for (i, [controller, blank]) in phases.into_iter().enumerate() {
+                    let (c, b) = (of(controller), of(blank));
+                    if i == 0 {
+                        (p.controller_share, p.predicted) = (c, b);
+                        continue;
+                    }
+                    p.controller_share_worst_phase = worst(p.controller_share_worst_phase.take(), &c);
+                    p.predicted_worst_phase = worst(p.predicted_worst_phase.take(), &b);
+                    if i == 1 {
+                        (p.controller_share_at_hob, p.predicted_at_hob) = (c, b);
+                    }
+                }
             }
         }
         let tol = single_pitch_tolerance_um(2.0 * r, self.normal_module_mm, 5);
@@ -246,28 +273,28 @@ impl SummaryBuilder {
                 ..PassSummary::default()
             });
         }
-        if let Some((teeth, _, _)) = self.gear {
+        if let Some((teeth, starts, _, _)) = self.gear {
             while self.sections.len() <= idx {
-                self.sections
-                    .push([SectionBuilder::new(teeth, 0.0), SectionBuilder::new(teeth, 0.0)]);
+                self.sections.push(hob_phases(teeth, starts));
             }
             // The gaps are generated while the hob is in the cut, a feed hold included (the
             // table turns on, Y stands): every synchronised row in the cut.
             let in_cut = row.state == State::Cut;
-            for (b, err) in self.sections[idx]
-                .iter_mut()
-                .zip([row.sync_err_arcsec, row.blank_err_arcsec])
-            {
-                match (in_cut, err) {
-                    (true, Some(e)) => b.add(TrueSample {
-                        table_deg: row.table_deg,
-                        y_mm: row.y_mm,
-                        error_um: arcsec_to_um_at_radius(e, self.pitch_radius_mm),
-                    }),
-                    // In the cut without a true sample (a recording's truth has none for a
-                    // SYNC the simulated machine did not answer): bridged when short.
-                    (true, None) => b.skip(),
-                    (false, _) => b.interrupt(),
+            for b in self.sections[idx].iter_mut() {
+                for (b, err) in b.iter_mut().zip([row.sync_err_arcsec, row.blank_err_arcsec]) {
+                    match (in_cut, err) {
+                        (true, Some(e)) => b.add(TrueSample {
+                            table_deg: row.table_deg,
+                            spindle_deg: row.spindle_deg,
+                            y_mm: row.y_mm,
+                            error_um: arcsec_to_um_at_radius(e, self.pitch_radius_mm),
+                        }),
+                        // In the cut without a true sample (a recording's truth has none
+                        // for a SYNC the simulated machine did not answer): bridged when
+                        // short.
+                        (true, None) => b.skip(),
+                        (false, _) => b.interrupt(),
+                    }
                 }
             }
         }
@@ -312,6 +339,20 @@ impl SummaryBuilder {
             p.last_cut_y_mm = None;
         }
     }
+}
+
+/// One pass's section builders, the controller's share's and the blank's: at the table's
+/// fixed angles, then per phase of the hob's thread ([`PHASES`] of `360 / starts` deg,
+/// phase 0 first).
+fn hob_phases(teeth: u32, starts: u32) -> Vec<[SectionBuilder; 2]> {
+    let hob = (0..PHASES).map(|i| GapsAt::Hob {
+        starts,
+        phase_deg: i as f64 / PHASES as f64 * 360.0 / f64::from(starts),
+    });
+    std::iter::once(GapsAt::Table { phase_deg: 0.0 })
+        .chain(hob)
+        .map(|at| [SectionBuilder::at(teeth, at), SectionBuilder::at(teeth, at)])
+        .collect()
 }
 
 /// Widens a range `[min, max]` (none: empty) to hold `v` (none or not finite: nothing).

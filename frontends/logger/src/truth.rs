@@ -5,7 +5,8 @@
 //! reported beside it.
 //!
 //! The file: a first line `# hob-sim truth: teeth Z face_width_mm B pitch_radius_mm R
-//! normal_module_mm M` (the gear of the simulator's program), the header
+//! normal_module_mm M starts S` (the gear of the simulator's program and its hob's starts),
+//! the header
 //! [`HEADER`], then the rows. The errors are against the gearbox law without its phase
 //! (which only the controller knows): the report puts each pass's phase back
 //! ([`crate::export`]).
@@ -27,6 +28,8 @@ pub struct Gear {
     pub face_width_mm: f64,
     pub pitch_radius_mm: f64,
     pub normal_module_mm: f64,
+    /// The hob's starts: where the gaps are cut (`crate::predicted::GapsAt::Hob`).
+    pub starts: u32,
 }
 
 impl Gear {
@@ -69,8 +72,8 @@ impl TruthRow {
 pub fn write_head(w: &mut dyn Write, gear: Gear) -> std::io::Result<()> {
     writeln!(
         w,
-        "# hob-sim truth: teeth {} face_width_mm {} pitch_radius_mm {} normal_module_mm {}",
-        gear.teeth, gear.face_width_mm, gear.pitch_radius_mm, gear.normal_module_mm
+        "# hob-sim truth: teeth {} face_width_mm {} pitch_radius_mm {} normal_module_mm {} starts {}",
+        gear.teeth, gear.face_width_mm, gear.pitch_radius_mm, gear.normal_module_mm, gear.starts
     )?;
     writeln!(w, "{HEADER}")
 }
@@ -130,13 +133,20 @@ fn parse_gear(first: &str) -> Option<Gear> {
             r,
             "normal_module_mm",
             m,
-        ] => match (z.parse(), b.parse(), r.parse(), m.parse()) {
-            (Ok(teeth), Ok(face_width_mm), Ok(pitch_radius_mm), Ok(normal_module_mm)) => Some(Gear {
-                teeth,
-                face_width_mm,
-                pitch_radius_mm,
-                normal_module_mm,
-            }),
+            "starts",
+            n,
+        ] => match (z.parse(), b.parse(), r.parse(), m.parse(), n.parse()) {
+            (Ok(teeth), Ok(face_width_mm), Ok(pitch_radius_mm), Ok(normal_module_mm), Ok(starts))
+                if starts > 0 =>
+            {
+                Some(Gear {
+                    teeth,
+                    face_width_mm,
+                    pitch_radius_mm,
+                    normal_module_mm,
+                    starts,
+                })
+            }
             _ => None,
         },
         _ => None,
@@ -188,6 +198,7 @@ mod tests {
             face_width_mm: 40.0,
             pitch_radius_mm: 42.5,
             normal_module_mm: 5.0,
+            starts: 1,
         }
     }
 

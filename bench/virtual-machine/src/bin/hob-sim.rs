@@ -150,6 +150,7 @@ fn run(a: Args) -> Result<(), String> {
                 face_width_mm: job.workpiece.face_width_mm,
                 pitch_radius_mm: cycle.pitch_diameter_mm / 2.0,
                 normal_module_mm: cycle.normal_module_mm,
+                starts: plan.starts,
             },
         ));
         gashes = job.tool.gashes.max(1) as u32;
