@@ -5,7 +5,7 @@
 //! (`hob_store::pitch_compensation`), validated as the loop will build it
 //! (`hob_control::pitch_comp`). Nothing is written without `--yes`.
 //!
-//! Layers: [`run`] reads the files ([`load_gear`], [`read_measurement`], [`read_log`]) and
+//! Layers: [`run`] reads the files ([`load_gear`], [`read_measurement`], [`read_cut`]) and
 //! hands the rest to [`compute`] and [`stored`], which take rows and measurements, so that
 //! the same functions serve a log and an in-process cut.
 
@@ -36,6 +36,9 @@ pub struct Options {
     pub log: PathBuf,
     /// The checker's files, one per height.
     pub measurements: Vec<PathBuf>,
+    /// The cut's cycles `FIRST..=LAST` in the log (`--cycles FIRST..LAST`, [`parse_cycles`]):
+    /// one cut of a log that holds many; `None`: the newest run of hob-rt whole.
+    pub cycles: Option<(u64, u64)>,
     pub svg: Option<PathBuf>,
     pub yes: bool,
 }
@@ -132,10 +135,50 @@ pub fn read_measurement(file: &Path) -> Result<PitchMeasurement, CompensateError
     hob_gear_check::parse(&text).map_err(|e| refused(format!("{}: {e}", file.display())))
 }
 
+/// `--cycles FIRST..LAST`: the cut's first and last cycle (the loop's cycle numbers, as the
+/// HMI's cut report and `hob log export` give them), both counted; refused unless two whole
+/// numbers with FIRST <= LAST.
+pub fn parse_cycles(text: &str) -> Result<(u64, u64), CompensateError> {
+    let bad = |why: &str| {
+        refused(format!(
+            "--cycles {text:?}: {why}; give the cut's first and last cycle as FIRST..LAST (e.g. 1200..98000)"
+        ))
+    };
+    let Some((a, b)) = text.split_once("..") else {
+        return Err(bad("no \"..\" between the first and the last cycle"));
+    };
+    let number = |s: &str, which: &str| {
+        s.trim()
+            .parse::<u64>()
+            .map_err(|_| bad(&format!("the {which} cycle {:?} is not a whole number", s.trim())))
+    };
+    let (first, last) = (number(a, "first")?, number(b, "last")?);
+    if first > last {
+        return Err(bad(&format!("the first cycle {first} is after the last {last}")));
+    }
+    Ok((first, last))
+}
+
 /// The trace rows of a log directory: every sample of the newest run of `hob-rt` in it.
 pub fn read_log(dir: &Path) -> Result<Vec<TraceRow>, CompensateError> {
-    let samples = hob_logger::export::read_cycles(dir, 0, u64::MAX)
+    read_cut(dir, None)
+}
+
+/// The trace rows of one cut of a log directory: the samples of `cycles` (`FIRST..=LAST`) of
+/// the newest run of `hob-rt` holding any, or every sample of its newest run (`None`); a
+/// range without a sample is refused.
+pub fn read_cut(dir: &Path, cycles: Option<(u64, u64)>) -> Result<Vec<TraceRow>, CompensateError> {
+    let (first, last) = cycles.unwrap_or((0, u64::MAX));
+    let samples = hob_logger::export::read_cycles(dir, first, last)
         .map_err(|e| refused(format!("--log {}: {e}", dir.display())))?;
+    if samples.is_empty() && cycles.is_some() {
+        let e = hob_logger::Error::NoSampleOfCycles {
+            dir: dir.to_path_buf(),
+            first,
+            last,
+        };
+        return Err(refused(format!("--cycles {first}..{last}: {e}")));
+    }
     let t0 = samples.first().map_or(0, |s| s.sync_time_ns);
     Ok(samples
         .iter()
@@ -408,12 +451,15 @@ pub fn run(o: &Options) -> Result<Outcome, CompensateError> {
         measured.push(m);
     }
     let current = store::load_for(&state_file, &worm_set).map_err(|e| refused(e.to_string()))?;
-    let rows = read_log(&o.log)?;
+    let rows = read_cut(&o.log, o.cycles)?;
     let c = compute(&rows, &gear, &measured)?;
     let new = stored(&c, &gear, &worm_set, &measured, &o.measurements, &o.log);
     let compensation = to_control(&new)?;
     let file = new.path(&state_file);
     let mut text = findings(&c, &gear, &new, &o.measurements);
+    if let Some((first, last)) = o.cycles {
+        let _ = writeln!(text, "  the cut: cycles {first} .. {last} of {}", o.log.display());
+    }
     if let Some(svg) = &o.svg {
         std::fs::write(svg, plot(&c.decomposition, &gear.name))
             .map_err(|e| CompensateError::Failed(format!("{}: {e}", svg.display())))?;

@@ -219,6 +219,10 @@ enum Command {
         /// The log directory of the first cut (hob-logger's).
         #[arg(long, value_name = "DIR")]
         log: PathBuf,
+        /// The cut's first and last cycle in the log (e.g. 1200..98000: the HMI's cut
+        /// report gives them) [default: the newest run of hob-rt in the log, whole].
+        #[arg(long, value_name = "FIRST..LAST")]
+        cycles: Option<String>,
         /// A checker's file (docs/gear-measurement.md), one per height; repeat the option.
         #[arg(long, value_name = "FILE", required = true)]
         measurement: Vec<PathBuf>,
@@ -657,9 +661,17 @@ fn main() -> ExitCode {
 
 /// Each command to the function that does it.
 /// `hob commission ...`.
-/// `hob compensate`: a refusal exits 2, naming the file, line, key or field.
-fn compensate(o: compensate::Options) -> Result<(), Failure> {
-    match compensate::run(&o) {
+/// `hob compensate`: a refusal exits 2, naming the file, line, key or field (`cycles`: the
+/// `--cycles` text, refused here when malformed).
+fn compensate(mut o: compensate::Options, cycles: Option<&str>) -> Result<(), Failure> {
+    let run = match cycles.map(compensate::parse_cycles).transpose() {
+        Ok(c) => {
+            o.cycles = c;
+            compensate::run(&o)
+        }
+        Err(e) => Err(e),
+    };
+    match run {
         Ok(outcome) => emit(&outcome.text),
         Err(compensate::CompensateError::Refused(text)) => {
             eprintln!("hob: refused: {text}");
@@ -746,17 +758,22 @@ fn run(command: Command) -> Result<(), Failure> {
             machine,
             program,
             log,
+            cycles,
             measurement,
             svg,
             yes,
-        } => compensate(compensate::Options {
-            machine: machine_path(machine.as_deref())?,
-            program,
-            log,
-            measurements: measurement,
-            svg,
-            yes,
-        }),
+        } => compensate(
+            compensate::Options {
+                machine: machine_path(machine.as_deref())?,
+                program,
+                log,
+                measurements: measurement,
+                cycles: None,
+                svg,
+                yes,
+            },
+            cycles.as_deref(),
+        ),
         Command::Status { watch, json } => service_result(service::status(watch, json)),
         Command::Load {
             program,

@@ -44,6 +44,9 @@ struct First {
     measurements: Vec<PathBuf>,
     expected: PitchCompensation,
     measured: Vec<PitchMeasurement>,
+    /// The cut's rows as written into the log, cycle k+1 for row k.
+    rows: Vec<TraceRow>,
+    gear: (f64, f64),
 }
 
 fn first() -> &'static First {
@@ -142,6 +145,7 @@ fn cut_first() -> First {
     std::fs::create_dir_all(&log).unwrap();
     let mut writer = hob_logger::LogWriter::open(&log, "test").unwrap();
     let mut n = 0;
+    let mut rows = Vec::new();
     let options = SimOptions {
         grade: 5,
         ..SimOptions::default()
@@ -149,6 +153,7 @@ fn cut_first() -> First {
     let summary = run_program(&machine, &plant, &cycle, &plan, &job, &options, &mut |row| {
         checker.add(row);
         recorder.add(row);
+        rows.push(*row);
         n += 1;
         writer
             .push_state(&sample(n, row, r_mm, plan.normal_module_mm))
@@ -187,6 +192,8 @@ fn cut_first() -> First {
         measurements,
         expected,
         measured,
+        rows,
+        gear: (r_mm, plan.normal_module_mm),
     }
 }
 
@@ -234,6 +241,7 @@ fn options(machine: PathBuf, measurements: Vec<PathBuf>, yes: bool) -> Options {
         program: program(),
         log: first().log.clone(),
         measurements,
+        cycles: None,
         svg: None,
         yes,
     }
@@ -414,5 +422,111 @@ fn a_stored_file_of_another_worm_set_is_refused() {
         std::fs::read(&mine).unwrap(),
         before,
         "the other set's file was changed"
+    );
+}
+
+#[test]
+fn a_malformed_cycle_range_is_refused() {
+    assert_eq!(compensate::parse_cycles("1200..98000"), Ok((1200, 98000)));
+    assert_eq!(compensate::parse_cycles("7..7"), Ok((7, 7)));
+    for (text, why) in [
+        ("1200-98000", "no \"..\""),
+        ("..98000", "the first cycle \"\" is not a whole number"),
+        ("1200..", "the last cycle \"\" is not a whole number"),
+        ("12x..40", "the first cycle \"12x\" is not a whole number"),
+        ("-5..40", "the first cycle \"-5\" is not a whole number"),
+        ("40..12", "the first cycle 40 is after the last 12"),
+    ] {
+        match compensate::parse_cycles(text) {
+            Err(CompensateError::Refused(t)) => {
+                assert!(t.starts_with(&format!("--cycles {text:?}: ")), "{t}");
+                assert!(t.contains(why) && t.contains("FIRST..LAST"), "{why:?} not in {t}");
+            }
+            other => panic!("{text:?} not refused: {other:?}"),
+        }
+    }
+    // The command refuses it, exit 2, before it reads anything (the files need not exist).
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_hob"))
+        .args(["compensate", "--machine", "/nonexistent/machine.toml"])
+        .args(["--program", "/nonexistent/p.toml", "--log", "/nonexistent/log"])
+        .args([
+            "--measurement",
+            "/nonexistent/m.csv",
+            "--cycles",
+            "40..12",
+            "--yes",
+        ])
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(2));
+    let said = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        said.starts_with("hob: refused: --cycles \"40..12\": the first cycle 40 is after the last 12"),
+        "{said}"
+    );
+}
+
+/// A log with two cuts of the gear, the second at another tooth phase (a third of a pitch
+/// on): the log whole is refused, each cut by its cycles gives its own compensation.
+#[test]
+fn one_cut_of_a_log_that_holds_two_is_chosen_by_its_cycles() {
+    let f = first();
+    let log = f.dir.join("two-cuts-log");
+    let _ = std::fs::remove_dir_all(&log);
+    std::fs::create_dir_all(&log).unwrap();
+    let mut writer = hob_logger::LogWriter::open(&log, "test").unwrap();
+    let n = f.rows.len() as u64;
+    let third = 360.0 / 41.0 / 3.0;
+    for (k, r) in f.rows.iter().enumerate() {
+        writer
+            .push_state(&sample(k as u64 + 1, r, f.gear.0, f.gear.1))
+            .unwrap();
+    }
+    for (k, r) in f.rows.iter().enumerate() {
+        let mut r = *r;
+        r.table_deg += third;
+        r.table_cmd_deg += third;
+        writer
+            .push_state(&sample(n + k as u64 + 1, &r, f.gear.0, f.gear.1))
+            .unwrap();
+    }
+    writer.flush().unwrap();
+    drop(writer);
+    let machine = machine_file("two-cuts", &[]);
+    let mut o = options(machine, f.measurements.clone(), false);
+    o.log = log;
+    match compensate::run(&o) {
+        Err(CompensateError::Refused(t)) => assert!(t.contains("scatter"), "{t}"),
+        other => panic!("the log of two cuts whole is not refused: {other:?}"),
+    }
+    o.cycles = Some((1, n));
+    let one = compensate::run(&o).unwrap();
+    assert!(
+        one.text.contains(&format!("the cut: cycles 1 .. {n} of ")),
+        "{}",
+        one.text
+    );
+    let alone = compensate::run(&options(o.machine.clone(), f.measurements.clone(), false)).unwrap();
+    assert_eq!(one.stored.table_offsets_arcsec, alone.stored.table_offsets_arcsec);
+    assert_eq!(one.stored.tooth_phase_deg, alone.stored.tooth_phase_deg);
+    o.cycles = Some((n + 1, 2 * n));
+    let two = compensate::run(&o).unwrap();
+    let pitch = 360.0 / 41.0;
+    let d = (two.stored.tooth_phase_deg - one.stored.tooth_phase_deg - third).rem_euclid(pitch);
+    assert!(
+        d.min(pitch - d) < 1e-6,
+        "the second cut's tooth phase is {d} deg off"
+    );
+    // The first cut until its last pass begins: no finished cut; cycles the log does not
+    // hold: no sample.
+    let last = f.rows.iter().map(|r| r.pass).max().unwrap();
+    let before_last = f.rows.iter().position(|r| r.pass == last).unwrap() as u64;
+    assert!(last > 1 && before_last > 0, "the program has one pass");
+    o.cycles = Some((1, before_last));
+    refused(&o, &["no finished cut"]);
+    o.cycles = Some((3 * n, 4 * n));
+    refused(
+        &o,
+        &[&format!("--cycles {}..{}", 3 * n, 4 * n), "no sample of cycles"],
     );
 }
