@@ -539,12 +539,14 @@ fn findings(c: &Computed, gear: &Gear, s: &StoredCompensation, files: &[PathBuf]
     let _ = writeln!(t, "  the table's error: {rms:.2} um rms, range {:.2} um", hi - lo);
     let identified = match d.hob.identified {
         Identified::None => "not identified (one hob phase per gap: invisible on this gear)".to_string(),
-        Identified::Direction { phase_deg } => format!("its direction only, along {phase_deg:.1} deg"),
-        Identified::Full => "fully".to_string(),
+        Identified::Direction { phase_deg } => {
+            format!("identified in its direction only, along {phase_deg:.1} deg")
+        }
+        Identified::Full => "identified fully".to_string(),
     };
     let _ = writeln!(
         t,
-        "  the hob's once-per-turn term: {:.2} um at {:.1} deg, identified {identified}",
+        "  the hob's once-per-turn term: {:.2} um at {:.1} deg, {identified}",
         d.hob.a_um.hypot(d.hob.b_um),
         d.hob.b_um.atan2(d.hob.a_um).to_degrees().rem_euclid(360.0)
     );
