@@ -6,17 +6,21 @@
 //! when each gap of the last pass passed the hob, read as
 //! [`hob_logger::predicted`] reads it, in the face section nearest the middle of the face.
 //! A gap cut with the table `e` ahead (its positive direction) has both its flanks `e` (um at
-//! the pitch circle) ahead. Gap `k` passes the hob at table angle `k * 360 / z`; the teeth
-//! stand between the gaps, tooth 1 at half a pitch (`tooth_1_table_deg`), counted in the
-//! table's positive direction. Tooth k's right flank faces the gap after it (toward tooth
-//! k+1), its left flank the gap before it.
+//! the pitch circle) ahead. The gaps are taken where the hob cut them
+//! ([`GearChecker::at_hob`], `hob_logger::predicted::GapsAt::Hob`) or, with
+//! [`GearChecker::new`], at the fixed table angles `k * 360 / z`. The teeth stand between
+//! the gaps, counted in the table's positive direction from the gap the section's first
+//! crossing was (`Section::table_order`): tooth 1 stands half a pitch after that gap, at
+//! its table angle (`tooth_1_table_deg`, as an operator's mark on the table would give
+//! it). Tooth k's right flank faces the gap after it (toward tooth k+1), its left flank
+//! the gap before it.
 
 use crate::rng::uniform;
 use crate::sim::TraceRow;
 use hob_control::State;
 use hob_gear_check::{Counting, FlankPitch, Header, PitchMeasurement};
 use hob_gearing::units::arcsec_to_um_at_radius;
-use hob_logger::predicted::{Section, SectionBuilder, TrueSample};
+use hob_logger::predicted::{GapsAt, Section, SectionBuilder, TrueSample};
 
 /// The checker's repeatability, um (one sigma per flank and tooth; the 0.3-0.5).
 pub const NOISE_UM: f64 = 0.4;
@@ -38,17 +42,36 @@ pub struct GearUnderTest {
 #[derive(Debug, Clone)]
 pub struct GearChecker {
     gear: GearUnderTest,
+    at: GapsAt,
     pass: u32,
     sections: SectionBuilder,
 }
 
 impl GearChecker {
+    /// The gaps at the fixed table angles `k * 360 / z`.
     pub fn new(gear: GearUnderTest) -> Self {
+        Self::at(gear, GapsAt::Table { phase_deg: 0.0 })
+    }
+
+    /// The gaps where a hob of `starts` starts cut them (its phase 0: the simulated
+    /// machine's hob has its reference thread at the spindle's zero).
+    pub fn at_hob(gear: GearUnderTest, starts: u32) -> Self {
+        Self::at(
+            gear,
+            GapsAt::Hob {
+                starts,
+                phase_deg: 0.0,
+            },
+        )
+    }
+
+    fn at(gear: GearUnderTest, at: GapsAt) -> Self {
         let teeth = gear.teeth;
         Self {
             gear,
+            at,
             pass: 0,
-            sections: SectionBuilder::new(teeth, 0.0),
+            sections: SectionBuilder::at(teeth, at),
         }
     }
 
@@ -60,7 +83,7 @@ impl GearChecker {
         }
         if row.pass != self.pass {
             self.pass = row.pass;
-            self.sections = SectionBuilder::new(self.gear.teeth, 0.0);
+            self.sections = SectionBuilder::at(self.gear.teeth, self.at);
         }
         match (row.state == State::Cut, row.blank_err_arcsec) {
             (true, Some(e)) => self.sections.add(TrueSample {
@@ -108,16 +131,20 @@ impl GearChecker {
                 let draw = seed.wrapping_add(j as u64);
                 let mut rng = draw.wrapping_mul(0x9E37_79B9_7F4A_7C15) | 1;
                 let mut noisy = |um: f64| um + NOISE_UM * gaussian(&mut rng);
-                // Tooth k (0-based) stands between gap k and gap k+1.
-                let right: Vec<f64> = (0..z).map(|k| noisy(section.gap_um[(k + 1) % z])).collect();
-                let left: Vec<f64> = (0..z).map(|k| noisy(section.gap_um[k])).collect();
+                // Tooth k (0-based) stands between gap k and gap k+1 in table order.
+                let order = section.table_order();
+                let gap = |k: usize| section.gap_um[order[k % z]];
+                let right: Vec<f64> = (0..z).map(|k| noisy(gap(k + 1))).collect();
+                let left: Vec<f64> = (0..z).map(|k| noisy(gap(k))).collect();
+                let pitch_deg = 360.0 / g.teeth as f64;
+                let tooth_1_table_deg = (section.table_deg[order[0]] + pitch_deg / 2.0).rem_euclid(360.0);
                 PitchMeasurement {
                     header: Header {
                         gear: g.gear.clone(),
                         teeth: g.teeth,
                         normal_module_mm: g.normal_module_mm,
                         face_position_mm: section.y_mm - g.face_bottom_mm,
-                        tooth_1_table_deg: 180.0 / g.teeth as f64,
+                        tooth_1_table_deg,
                         counting: Counting::TablePositive,
                         checker: format!("hob-plant checker, {NOISE_UM} um noise, seed {draw}"),
                         measured_at: measured_at.to_string(),

@@ -15,18 +15,21 @@ fn cut_and_check(seeds: &[u64]) -> (Vec<PitchMeasurement>, hob_logger::predicted
     let machine = common::machine();
     let plant = Disturbance::Nominal.apply(&common::plant());
     let (job, cycle, plan) = common::program_on(&machine, "spur-z17-m5.toml", &[]);
-    let mut checker = GearChecker::new(GearUnderTest {
-        gear: job
-            .workpiece
-            .name
-            .clone()
-            .unwrap_or_else(|| "spur-z17-m5".to_string()),
-        teeth: plan.teeth,
-        normal_module_mm: plan.normal_module_mm,
-        pitch_radius_mm: plan.pitch_diameter_mm / 2.0,
-        face_bottom_mm: cycle.face_bottom_mm,
-        face_width_mm: plan.face_width_mm,
-    });
+    let mut checker = GearChecker::at_hob(
+        GearUnderTest {
+            gear: job
+                .workpiece
+                .name
+                .clone()
+                .unwrap_or_else(|| "spur-z17-m5".to_string()),
+            teeth: plan.teeth,
+            normal_module_mm: plan.normal_module_mm,
+            pitch_radius_mm: plan.pitch_diameter_mm / 2.0,
+            face_bottom_mm: cycle.face_bottom_mm,
+            face_width_mm: plan.face_width_mm,
+        },
+        plan.starts,
+    );
     let options = SimOptions {
         grade: 5,
         ..SimOptions::default()
@@ -36,7 +39,8 @@ fn cut_and_check(seeds: &[u64]) -> (Vec<PitchMeasurement>, hob_logger::predicted
     })
     .unwrap();
     assert!(s.completed, "{:?}", s.fault);
-    let gear = s.passes.last().unwrap().predicted.clone().unwrap();
+    // At the same gaps: where the hob cut them.
+    let gear = s.passes.last().unwrap().predicted_at_hob.clone().unwrap();
     let measured = seeds
         .iter()
         .map(|&seed| checker.clone().measure(seed, "2026-11-29T12:00:00Z").unwrap())

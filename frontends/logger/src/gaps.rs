@@ -4,11 +4,15 @@
 //! with it (so that it is not compensated twice) and tells the hob's errors from the
 //! table's by the hob's phase.
 //!
-//! The gaps are those of [`crate::predicted`]: gap `i` passes the hob at table angle
-//! `i * 360 / z`, crossed in whichever direction the table turns; a section is complete
-//! when every gap has passed once. Both quantities are interpolated at the crossing.
+//! The gaps are those of [`crate::predicted`]: where the hob cut them
+//! ([`GapRecorder::at_hob`], `GapsAt::Hob`), or at the fixed table angles `i * 360 / z`
+//! ([`GapRecorder::new`]), crossed in whichever direction the table turns; a section is
+//! complete when every gap has passed once, and its gaps are given in table order
+//! (`Section::table_order`) with the table angle each passed at. Every quantity is
+//! interpolated at the crossing. The record and the checker's measurement must take the
+//! same gaps: `hob_gear_check::decompose` matches them by table angle.
 
-use crate::predicted::{Section, SectionBuilder, TrueSample};
+use crate::predicted::{GapsAt, Section, SectionBuilder, TrueSample};
 use crate::trace::TraceRow;
 use hob_gear_check::decompose::GapRecord;
 use hob_gearing::units::arcsec_to_um_at_radius;
@@ -19,7 +23,8 @@ use hob_ipc::codec::State;
 pub struct GapSection {
     /// The section's mean Y, mm.
     pub y_mm: f64,
-    /// The table angle each gap passed the hob at, deg (`i * 360 / z`).
+    /// The table angle each gap passed the hob at, deg, modulo 360, ascending from the
+    /// section's gap 0.
     pub table_deg: Vec<f64>,
     /// The spindle's angle when it passed, deg (unwrapped).
     pub hob_phase_deg: Vec<f64>,
@@ -51,6 +56,7 @@ pub fn nearest(sections: &[GapSection], y_mm: f64) -> Option<&GapSection> {
 #[derive(Debug, Clone)]
 pub struct GapRecorder {
     teeth: u32,
+    at: GapsAt,
     pitch_radius_mm: f64,
     pass: u32,
     /// The same crossings twice: the controller's error and the spindle's angle, each
@@ -60,13 +66,32 @@ pub struct GapRecorder {
 }
 
 impl GapRecorder {
+    /// Gaps at fixed table angles `i * 360 / z` ([`GapsAt::Table`]).
     pub fn new(teeth: u32, pitch_radius_mm: f64) -> Self {
+        Self::at(teeth, GapsAt::Table { phase_deg: 0.0 }, pitch_radius_mm)
+    }
+
+    /// The gaps where a hob of `starts` starts cut them ([`GapsAt::Hob`], its phase 0: as
+    /// the simulated checker measures them).
+    pub fn at_hob(teeth: u32, starts: u32, pitch_radius_mm: f64) -> Self {
+        Self::at(
+            teeth,
+            GapsAt::Hob {
+                starts,
+                phase_deg: 0.0,
+            },
+            pitch_radius_mm,
+        )
+    }
+
+    fn at(teeth: u32, at: GapsAt, pitch_radius_mm: f64) -> Self {
         Self {
             teeth,
+            at,
             pitch_radius_mm,
             pass: 0,
-            controller: SectionBuilder::new(teeth, 0.0),
-            spindle: SectionBuilder::new(teeth, 0.0),
+            controller: SectionBuilder::at(teeth, at),
+            spindle: SectionBuilder::at(teeth, at),
         }
     }
 
@@ -79,8 +104,8 @@ impl GapRecorder {
         }
         if row.pass != self.pass {
             self.pass = row.pass;
-            self.controller = SectionBuilder::new(self.teeth, 0.0);
-            self.spindle = SectionBuilder::new(self.teeth, 0.0);
+            self.controller = SectionBuilder::at(self.teeth, self.at);
+            self.spindle = SectionBuilder::at(self.teeth, self.at);
         }
         let sample = |value: f64| TrueSample {
             table_deg: row.table_deg,
@@ -105,19 +130,23 @@ impl GapRecorder {
         }
     }
 
-    /// The last pass's complete sections, in the order cut.
+    /// The last pass's complete sections, in the order cut, each's gaps in table order
+    /// ([`Section::table_order`]) at the table angles they passed the hob at (modulo 360).
     pub fn finish(self) -> Vec<GapSection> {
-        let pitch_deg = 360.0 / self.teeth.max(1) as f64;
         let controller = self.controller.finish();
         let spindle = self.spindle.finish();
         controller
             .into_iter()
             .zip(spindle)
-            .map(|(c, s): (Section, Section)| GapSection {
-                y_mm: c.y_mm,
-                table_deg: (0..c.gap_um.len()).map(|i| i as f64 * pitch_deg).collect(),
-                hob_phase_deg: s.gap_um,
-                controller_um: c.gap_um,
+            .map(|(c, s): (Section, Section)| {
+                let order = c.table_order();
+                let pick = |v: &[f64]| order.iter().map(|&k| v[k]).collect::<Vec<f64>>();
+                GapSection {
+                    y_mm: c.y_mm,
+                    table_deg: pick(&c.table_deg).iter().map(|d| d.rem_euclid(360.0)).collect(),
+                    hob_phase_deg: pick(&s.gap_um),
+                    controller_um: pick(&c.gap_um),
+                }
             })
             .collect()
     }
@@ -171,5 +200,41 @@ mod tests {
         let r = first.records();
         assert_eq!((r[2].table_deg, r[2].hob_phase_deg), (180.0, 720.0));
         assert!((r[1].controller_um - um).abs() < 1e-9);
+    }
+
+    #[test]
+    fn at_the_hobs_gaps_the_record_is_in_table_order_at_the_angles_they_passed() {
+        // 4 teeth, a two-start hob, the table turning backwards 1 deg a row from 0.3 deg,
+        // the spindle twice as fast (table = starts / z * spindle): a gap every 180 deg of
+        // the spindle (0, -180, -360, ...), every 90 deg of the table (0, -90, -180, ...);
+        // 1100 deg of the table: three whole sections.
+        let mut r = GapRecorder::at_hob(4, 2, 100.0);
+        for k in 0..=1100 {
+            let t = 0.3 - k as f64;
+            r.add(&row(k as f64, t, 2.0 * t, 10.0));
+        }
+        let s = r.finish();
+        assert_eq!(s.len(), 3, "{s:?}");
+        for section in &s {
+            // Ascending in the table's positive direction, a pitch apart, modulo 360.
+            for w in section.table_deg.windows(2) {
+                assert!(
+                    ((w[1] - w[0]).rem_euclid(360.0) - 90.0).abs() < 1e-9,
+                    "{section:?}"
+                );
+            }
+            let off = |d: f64, step: f64| d.rem_euclid(step).min(step - d.rem_euclid(step));
+            assert!(
+                section.table_deg.iter().all(|&d| off(d, 90.0) < 1e-9),
+                "{section:?}"
+            );
+            // Every gap passed with the spindle at a multiple of 180 deg.
+            assert!(
+                section.hob_phase_deg.iter().all(|&p| off(p, 180.0) < 1e-9),
+                "{section:?}"
+            );
+        }
+        // The same gap first in both sections.
+        assert!((s[0].table_deg[0] - s[1].table_deg[0]).abs() < 1e-9, "{s:?}");
     }
 }

@@ -46,9 +46,24 @@ pub struct TrueSample {
 pub struct Section {
     pub y_mm: f64,
     pub gap_um: Vec<f64>,
+    /// The table's angle (deg, unwrapped) where each gap passed the hob.
+    pub table_deg: Vec<f64>,
 }
 
 impl Section {
+    /// The gaps in the table's positive direction, gap 0 first: gap `k` is the `k`-th gap
+    /// at or after gap 0's table angle. Gap 0 is the same gap in every section of a cut (at
+    /// the hob's gaps it follows the helix), so the order is the same in all of them.
+    pub fn table_order(&self) -> Vec<usize> {
+        let first = self.table_deg.first().copied().unwrap_or(0.0);
+        let mut order: Vec<usize> = (0..self.table_deg.len()).collect();
+        order.sort_by(|&a, &b| {
+            let at = |k: usize| (self.table_deg[k] - first).rem_euclid(360.0);
+            at(a).total_cmp(&at(b))
+        });
+        order
+    }
+
     /// The largest difference between neighbouring gaps, around the whole gear, um.
     pub fn single_pitch_um(&self) -> f64 {
         let z = self.gap_um.len();
@@ -115,6 +130,7 @@ pub struct SectionBuilder {
     /// Rows skipped since `prev`.
     skipped: u32,
     gap_um: Vec<f64>,
+    table_deg: Vec<f64>,
     filled: usize,
     y_sum: f64,
     out: Vec<Section>,
@@ -139,6 +155,7 @@ impl SectionBuilder {
             prev: None,
             skipped: 0,
             gap_um: vec![f64::NAN; z],
+            table_deg: vec![f64::NAN; z],
             filled: 0,
             y_sum: 0.0,
             out: Vec::new(),
@@ -177,11 +194,13 @@ impl SectionBuilder {
                 self.filled += 1;
             }
             self.gap_um[k] = a.error_um + f * (b.error_um - a.error_um);
+            self.table_deg[k] = a.table_deg + f * (b.table_deg - a.table_deg);
             self.y_sum += a.y_mm + f * (b.y_mm - a.y_mm);
             if self.filled == z {
                 self.out.push(Section {
                     y_mm: self.y_sum / z as f64,
                     gap_um: std::mem::replace(&mut self.gap_um, vec![f64::NAN; z]),
+                    table_deg: std::mem::replace(&mut self.table_deg, vec![f64::NAN; z]),
                 });
                 self.filled = 0;
                 self.y_sum = 0.0;
