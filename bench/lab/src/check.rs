@@ -110,7 +110,7 @@ pub fn run(machine: &MachineConfig, a: &Args<'_>) -> Result<String, CheckError> 
         a.seed
     );
     for (i, m) in measured.iter().enumerate() {
-        let file: PathBuf = a.out.join(format!("measurement-{}.csv", i + 1));
+        let file = measurement_file(a.out, i + 1);
         std::fs::write(&file, m.to_file())
             .map_err(|e| CheckError::Failed(format!("{}: {e}", file.display())))?;
         let (fpt, fp) = m.figures_um();
@@ -122,6 +122,11 @@ pub fn run(machine: &MachineConfig, a: &Args<'_>) -> Result<String, CheckError> 
         );
     }
     Ok(text)
+}
+
+/// The checker's file of the `n`th height (from 1, the lowest) in `out`.
+pub fn measurement_file(out: &Path, n: usize) -> PathBuf {
+    out.join(format!("measurement-{n}.csv"))
 }
 
 /// The trace rows of the recording's last cut (its newest run of `hob-rt`, from the last

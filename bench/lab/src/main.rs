@@ -9,6 +9,7 @@
 mod can_run;
 mod check;
 mod demo;
+mod demo_compensate;
 mod demo_hmi;
 mod simulate;
 
@@ -33,45 +34,9 @@ struct Cli {
 enum Command {
     /// Cut a program on the virtual machine with the real-time service, logger and
     /// watchdog as separate processes; prints the summary, last line `log: PATH`. With
-    /// --hmi: cut nothing, serve the touch HMI beside them until Ctrl-C.
-    Demo {
-        /// Program file [default: config/programs/demo-short-spur-z17-m5.toml].
-        program: Option<PathBuf>,
-        /// Machine configuration [default: config/machine.toml, then /etc/hob/machine.toml].
-        #[arg(long, value_name = "FILE")]
-        machine: Option<PathBuf>,
-        #[arg(long, value_name = "FILE", default_value = "config/plant.toml")]
-        plant: PathBuf,
-        /// CAN interface, or `shm` [default: vcan0 if it exists, else shm].
-        #[arg(long)]
-        iface: Option<String>,
-        /// Log directory [default: $XDG_STATE_HOME/hob/demo-UNIXTIME, else
-        /// ~/.local/state/hob/demo-UNIXTIME]: never the current directory.
-        #[arg(long = "log-dir", alias = "log", value_name = "DIR")]
-        log: Option<PathBuf>,
-        /// No progress bar.
-        #[arg(long)]
-        quiet: bool,
-        /// Bus and watchdog timing exactly as configured (for a PREEMPT_RT PC; a virtual
-        /// machine's stalls trip them).
-        #[arg(long)]
-        strict: bool,
-        /// Without --strict: bus silence tolerated before a fault, ms.
-        #[arg(long, default_value_t = 100)]
-        tolerance_ms: u32,
-        /// Cut nothing: also start the touch HMI (hob-hmi) and print the address to open
-        /// (`HMI: http://127.0.0.1:PORT/`); the operator does the job on the page. Runs
-        /// until Ctrl-C or SIGTERM, then stops every process it started.
-        #[arg(long)]
-        hmi: bool,
-        /// With --hmi: the HMI's port on 127.0.0.1 (0: any free port) [default: 8080].
-        #[arg(long, requires = "hmi")]
-        port: Option<u16>,
-        /// X and Y power up within MM of their home, for a short referencing (hob-sim
-        /// --power-on-near-home) [default: anywhere in their travel].
-        #[arg(long, value_name = "MM")]
-        near_home: Option<f64>,
-    },
+    /// --hmi: cut nothing, serve the touch HMI beside them until Ctrl-C. With --compensate:
+    /// cut, measure, compensate, cut again.
+    Demo(DemoOpts),
     /// Run a program against the simulated machine; write DIR/trace.csv and DIR/summary.json.
     Simulate {
         /// Program file (TOML).
@@ -141,6 +106,56 @@ enum Command {
     },
 }
 
+/// `hob demo`'s arguments.
+#[derive(Debug, clap::Args)]
+struct DemoOpts {
+    /// Program file [default: config/programs/demo-short-spur-z17-m5.toml; with
+    /// --compensate config/programs/demo-short-helical-z41-m2-2start.toml].
+    program: Option<PathBuf>,
+    /// Machine configuration [default: config/machine.toml, then /etc/hob/machine.toml].
+    #[arg(long, value_name = "FILE")]
+    machine: Option<PathBuf>,
+    /// The simulated machine's hidden values (its worm wheel's grade, the hob's runout).
+    #[arg(long, value_name = "FILE", default_value = "config/plant.toml")]
+    plant: PathBuf,
+    /// CAN interface, or `shm` [default: vcan0 if it exists, else shm].
+    #[arg(long)]
+    iface: Option<String>,
+    /// Log directory [default: $XDG_STATE_HOME/hob/demo-UNIXTIME, else
+    /// ~/.local/state/hob/demo-UNIXTIME]: never the current directory.
+    #[arg(long = "log-dir", alias = "log", value_name = "DIR")]
+    log: Option<PathBuf>,
+    /// No progress bar.
+    #[arg(long)]
+    quiet: bool,
+    /// Bus and watchdog timing exactly as configured (for a PREEMPT_RT PC; a virtual
+    /// machine's stalls trip them).
+    #[arg(long)]
+    strict: bool,
+    /// Without --strict: bus silence tolerated before a fault, ms.
+    #[arg(long, default_value_t = 100)]
+    tolerance_ms: u32,
+    /// Cut nothing: also start the touch HMI (hob-hmi) and print the address to open
+    /// (`HMI: http://127.0.0.1:PORT/`); the operator does the job on the page. Runs
+    /// until Ctrl-C or SIGTERM, then stops every process it started.
+    #[arg(long)]
+    hmi: bool,
+    /// With --hmi: the HMI's port on 127.0.0.1 (0: any free port) [default: 8080].
+    #[arg(long, requires = "hmi")]
+    port: Option<u16>,
+    /// Issue 34's loop: cut the first gear, measure it with the simulated gear checker,
+    /// store the compensation (`hob compensate --yes`) in the demo's own directory,
+    /// restart hob-rt, `hob pitch-compensation on`, cut the second gear, measure it;
+    /// print both side by side and where the files are. Not with --hmi (which cuts
+    /// nothing: the operator does the job on the page).
+    #[arg(long, conflicts_with = "hmi")]
+    compensate: bool,
+    /// X and Y power up within MM of their home, for a short referencing (hob-sim
+    /// --power-on-near-home) [default: anywhere in their travel].
+    #[arg(long, value_name = "MM")]
+    near_home: Option<f64>,
+}
+
 #[derive(Debug, Subcommand)]
 enum CanCommand {
     /// Boot the bus, power up, jog, and run a program over it (lockstep with the drives).
@@ -169,53 +184,7 @@ fn main() -> ExitCode {
 
 fn run(command: Command) -> Result<(), Failure> {
     match command {
-        Command::Demo {
-            program,
-            machine,
-            plant,
-            iface,
-            log,
-            quiet,
-            strict,
-            tolerance_ms,
-            hmi,
-            port,
-            near_home,
-        } => {
-            let machine_file = machine_path(machine.as_deref())?;
-            let machine = hob_store::files::load_machine(&machine_file).map_err(Failure::Refused)?;
-            let program = program.unwrap_or_else(|| PathBuf::from(demo::DEMO_PROGRAM));
-            let args = demo::DemoArgs {
-                program: &program,
-                machine_file: &machine_file,
-                plant: &plant,
-                iface: iface.as_deref(),
-                log_dir: log.as_deref(),
-                quiet,
-                strict,
-                tolerance_ms,
-                near_home_mm: near_home,
-            };
-            let result = if hmi {
-                demo_hmi::run(&machine, &args, port.unwrap_or(8080))
-            } else {
-                demo::run(&machine, &args)
-            };
-            match result {
-                Ok(text) => emit(&text),
-                // A refusal (the program, the tolerance, or hob-rt refusing the load or the
-                // start): the reasons on stderr, as every refusal.
-                Err((2, text)) => {
-                    eprintln!("hob: refused: demo: {text}");
-                    Err(Failure::Exit(2))
-                }
-                Err((code, text)) => {
-                    let _ = emit(&text);
-                    eprintln!("hob: demo: {}", text.lines().next().unwrap_or("failed"));
-                    Err(Failure::Exit(code))
-                }
-            }
-        }
+        Command::Demo(d) => demo_command(d),
         Command::Simulate {
             program,
             machine,
@@ -323,6 +292,65 @@ fn run(command: Command) -> Result<(), Failure> {
                     Err(Failure::Exit(code))
                 }
             }
+        }
+    }
+}
+
+/// `hob demo`: the cut, `--hmi` or `--compensate`.
+fn demo_command(d: DemoOpts) -> Result<(), Failure> {
+    let DemoOpts {
+        program,
+        machine,
+        plant,
+        iface,
+        log,
+        quiet,
+        strict,
+        tolerance_ms,
+        hmi,
+        port,
+        compensate,
+        near_home,
+    } = d;
+    let machine_file = machine_path(machine.as_deref())?;
+    let machine = hob_store::files::load_machine(&machine_file).map_err(Failure::Refused)?;
+    let program = program.unwrap_or_else(|| {
+        PathBuf::from(if compensate {
+            demo_compensate::PROGRAM
+        } else {
+            demo::DEMO_PROGRAM
+        })
+    });
+    let args = demo::DemoArgs {
+        program: &program,
+        machine_file: &machine_file,
+        plant: &plant,
+        iface: iface.as_deref(),
+        log_dir: log.as_deref(),
+        quiet,
+        strict,
+        tolerance_ms,
+        near_home_mm: near_home,
+    };
+    let result = if hmi {
+        demo_hmi::run(&machine, &args, port.unwrap_or(8080))
+    } else if compensate {
+        demo_compensate::run(&machine, &args)
+    } else {
+        demo::run(&machine, &args)
+    };
+    match result {
+        Ok(text) => emit(&text),
+        // A refusal (the program, the tolerance, or hob-rt refusing the load or the
+        // start): the reasons on stderr, as every refusal.
+        Err((2, text)) => {
+            eprintln!("hob: refused: demo: {text}");
+            Err(Failure::Exit(2))
+        }
+        Err((code, text)) => {
+            let _ = emit(&text);
+            eprintln!("hob: demo: {}", text.lines().next().unwrap_or("failed"));
+            Err(Failure::Exit(code))
         }
     }
 }

@@ -247,3 +247,41 @@ fn demo_hmi_refuses_without_the_web_libraries_before_creating_anything() {
     // The HMI's port belongs to --hmi.
     assert_refused(&["demo", "--port", "8081"], &["--hmi"]);
 }
+
+#[test]
+fn demo_compensate_refuses_what_it_cannot_compensate_before_creating_anything() {
+    let log = std::env::temp_dir().join(format!("hob-lab-test-compensate-refused-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&log);
+    let log_arg = log.to_str().unwrap();
+    // --hmi cuts nothing (the operator cuts on the page): nothing to measure.
+    assert_refused(&["demo", "--compensate", "--hmi"], &["--compensate", "--hmi"]);
+    // The compensation is kept per worm set of the table: a machine file without one.
+    let mut m = toml_file("config/machine.toml");
+    remove(&mut m, "table.worm_set");
+    let machine = temp_program("no-worm-set.toml", &toml::to_string(&m).unwrap());
+    let machine_arg = machine.to_str().unwrap();
+    let base = ["demo", "--compensate", "--iface", "shm", "--log-dir", log_arg];
+    let with = |more: &[&'static str]| -> Vec<&str> { base.iter().chain(more).copied().collect() };
+    let mut args = with(&["--machine"]);
+    args.push(machine_arg);
+    assert_refused(&args, &["--compensate", "table.worm_set is not set"]);
+    assert!(!log.exists(), "no log directory for a refused demo");
+    // The checker measures along the face what a radial-axial cycle hobbed.
+    for (program, cycle) in [
+        (
+            "config/programs/tooth-by-tooth-z24-m8.toml",
+            "a tooth-by-tooth cycle",
+        ),
+        (
+            "config/programs/spline-z12-m2-plunge.toml",
+            "a radial-plunge cycle",
+        ),
+    ] {
+        let args = with(&[program]);
+        assert_refused(
+            &args,
+            &[cycle, "radial-axial", "demo-short-helical-z41-m2-2start.toml"],
+        );
+        assert!(!log.exists(), "no log directory for a refused demo");
+    }
+}
