@@ -3049,3 +3049,189 @@ fn measure_the_first_gear_correct_the_second_over_the_bus() {
         },
     );
 }
+
+/// config/plant.toml with its worm wheel made ISO 1328-1 grade 6 (the hob's 3 um of axial
+/// runout kept), written into the bench's artifacts: the machine a compensation shows on.
+fn grade_6_plant(b: &Bench) -> std::path::PathBuf {
+    let shipped = std::fs::read_to_string(b.root.join("config/plant.toml")).unwrap();
+    for line in ["\nwheel_grade = 4\n", "\nhob_axial_runout_um = 3.0\n"] {
+        assert!(shipped.contains(line), "config/plant.toml's line {line:?} moved");
+    }
+    let plant = b.art.join("plant-grade-6.toml");
+    std::fs::write(
+        &plant,
+        shipped.replace("\nwheel_grade = 4\n", "\nwheel_grade = 6\n"),
+    )
+    .unwrap();
+    plant
+}
+
+/// The two numbers of a `hob demo --compensate` table row (`  f_pt, single pitch   9.02 um
+/// 153 % (grade 7)   2.65 um ...`) under the heading that starts with `section`: the first
+/// and the second gear's um.
+fn demo_row(out: &str, section: &str, row: &str) -> (f64, f64) {
+    let rest = &out[out
+        .find(section)
+        .unwrap_or_else(|| panic!("no {section:?} in:\n{out}"))..];
+    let line = rest
+        .lines()
+        .find(|l| l.trim_start().starts_with(row))
+        .unwrap_or_else(|| panic!("no row {row:?} under {section:?} in:\n{out}"));
+    let um: Vec<f64> = line
+        .split_whitespace()
+        .zip(line.split_whitespace().skip(1))
+        .filter(|(_, unit)| *unit == "um")
+        .map(|(v, _)| v.parse().unwrap_or_else(|_| panic!("{line}")))
+        .collect();
+    assert_eq!(um.len(), 2, "two figures in {line:?}");
+    (um[0], um[1])
+}
+
+/// `hob demo --compensate`, issue 34's loop as one command (the recipe of
+/// [`measure_the_first_gear_correct_the_second_over_the_bus`] run by the demo): on the grade 6
+/// plant it cuts the short two-start helical gear, measures it with the simulated checker,
+/// stores the compensation in its own directory, restarts hob-rt, switches it on, cuts and
+/// measures the second gear. By the truth (`hob log report` of each gear's log) the second
+/// gear is at least three times better in f_pt and F_p and within grade 5, and the demo's
+/// table prints those figures; the checker's files, the plot, `hob compensate`'s output and
+/// the compensation are where it says; the machine file it was given is not touched.
+#[test]
+#[ignore = "needs the release binaries and a bus; ci/test runs it (--ignored)"]
+fn demo_compensate_cuts_measures_compensates_and_cuts_again() {
+    const TEST: &str = "demo_compensate_cuts_measures_compensates_and_cuts_again";
+    // Two whole cuts: the emulated guest (2 ms cycle, stalls) would take many minutes.
+    if std::env::var("HOB_CAN_TESTS_ONLY").as_deref() == Ok("1") {
+        eprintln!("{TEST}: two whole cuts: run on the host's bus, not here (HOB_CAN_TESTS_ONLY=1)");
+        return;
+    }
+    let started = std::time::Instant::now();
+    let mut b = Bench::new("demo_compensate");
+    let machine = b.base_machine_file();
+    let original = std::fs::read_to_string(&machine).unwrap();
+    let plant = grade_6_plant(&b);
+    let dir = b.art.join("demo");
+    let (first, second) = (dir.join("first-gear"), dir.join("second-gear"));
+    let mut out = String::new();
+    b.step(
+        "hob demo --compensate: two cuts, the checker, hob compensate, hob-rt restarted",
+        |b| {
+            let mut args: Vec<String> = [
+                "demo",
+                "--compensate",
+                "--quiet",
+                "--machine",
+                &path(&machine),
+                "--plant",
+                &path(&plant),
+                "--iface",
+                &b.iface,
+                "--log-dir",
+                &path(&dir),
+                "--near-home",
+                SHORT_HOMING_MM,
+            ]
+            .map(str::to_string)
+            .to_vec();
+            if std::env::var("HOB_TOLERANCE_MS").is_ok_and(|v| !v.is_empty()) {
+                args.extend(["--tolerance-ms".into(), tolerance_ms().to_string()]);
+            }
+            let demo = b.spawn("hob demo --compensate", "hob", &args, "demo.txt");
+            b.add_log(dir.join("hob-sim.log"));
+            for g in [&first, &second] {
+                b.add_log(g.join("hob-rt.log"));
+            }
+            let st = b.wait_exit(demo, Duration::from_secs(1800));
+            out = std::fs::read_to_string(b.log_of(demo)).unwrap();
+            assert!(st.success(), "hob demo --compensate: {st}\n{out}");
+            let last = out.lines().last().unwrap_or("");
+            assert_eq!(last, format!("log: {}", dir.display()), "the last line");
+            out.lines()
+                .find(|l| l.starts_with("the whole loop took"))
+                .unwrap_or_default()
+                .to_string()
+        },
+    );
+    b.step(
+        "the files: the checker's, the plot, the compensation in the demo's own directory",
+        |_| {
+            for g in [&first, &second] {
+                for f in [
+                    "measurement-1.csv",
+                    "measurement-2.csv",
+                    "measurement-3.csv",
+                    "truth.csv",
+                ] {
+                    assert!(g.join(f).is_file(), "{}: not written", g.join(f).display());
+                }
+            }
+            for f in ["compensate.txt", "compensation.svg"] {
+                assert!(
+                    first.join(f).is_file(),
+                    "{}: not written",
+                    first.join(f).display()
+                );
+            }
+            let stored = dir.join("pitch-compensation/B-2019-07.toml");
+            assert!(stored.is_file(), "{}: not written", stored.display());
+            let compensate = std::fs::read_to_string(first.join("compensate.txt")).unwrap();
+            assert!(
+                compensate.contains(&format!("written: {}", stored.display())),
+                "{compensate}"
+            );
+            let demo_machine = TomlDoc::load(&dir.join("machine.toml"));
+            assert_eq!(
+                demo_machine.get("state.file").as_str(),
+                Some(path(&dir.join("machine-state.toml")).as_str()),
+                "the demo's machine file's state.file"
+            );
+            assert_eq!(
+                std::fs::read_to_string(&machine).unwrap(),
+                original,
+                "the machine file given changed"
+            );
+            let rt2 = std::fs::read_to_string(second.join("hob-rt.log")).unwrap();
+            assert!(
+                rt2.contains("pitch compensation for worm set \"B-2019-07\" loaded, switched off"),
+                "{rt2}"
+            );
+            stored.display().to_string()
+        },
+    );
+    b.step(
+        "by the truth: the second gear 3 times better in f_pt and F_p, within grade 5, as printed",
+        |b| {
+            let (f1, s1, p1, q1, first_line) = truth_gear(b, &first);
+            let (f2, s2, p2, q2, second_line) = truth_gear(b, &second);
+            eprintln!("the first gear: {first_line}");
+            eprintln!("the second gear: {second_line}");
+            assert!(
+                f1 >= 3.0 * f2 && p1 >= 3.0 * p2,
+                "f_pt {f1:.2} -> {f2:.2} um, F_p {p1:.2} -> {p2:.2} um: not 3 times better"
+            );
+            assert!(s2 <= 1.0 && q2 <= 1.0, "the second gear is not within grade 5: {second_line}");
+            let near = |a: f64, b: f64| (a - b).abs() <= 0.011;
+            let (pf1, pf2) = demo_row(&out, "by the truth", "f_pt");
+            let (pp1, pp2) = demo_row(&out, "by the truth", "F_p");
+            assert!(
+                near(pf1, f1) && near(pf2, f2) && near(pp1, p1) && near(pp2, p2),
+                "the demo printed f_pt {pf1} -> {pf2}, F_p {pp1} -> {pp2}; the reports say \
+                 {f1:.2} -> {f2:.2}, {p1:.2} -> {p2:.2}"
+            );
+            // The checker's reading (0.4 um of noise a flank, the worst of three heights).
+            let (cf1, cf2) = demo_row(&out, "by the checker's files", "f_pt");
+            let (cp1, cp2) = demo_row(&out, "by the checker's files", "F_p");
+            assert!(
+                cf1 >= 2.0 * cf2 && cp1 >= 3.0 * cp2,
+                "by the checker f_pt {cf1} -> {cf2}, F_p {cp1} -> {cp2}"
+            );
+            format!(
+                "f_pt {f1:.2} -> {f2:.2} um ({:.0} -> {:.0} % of grade 5), F_p {p1:.2} -> {p2:.2} um ({:.0} -> {:.0} %); by the checker f_pt {cf1:.2} -> {cf2:.2}, F_p {cp1:.2} -> {cp2:.2}; the test {:.0} s",
+                100.0 * s1,
+                100.0 * s2,
+                100.0 * q1,
+                100.0 * q2,
+                started.elapsed().as_secs_f64()
+            )
+        },
+    );
+}
