@@ -2805,13 +2805,6 @@ fn truth_gear(b: &Bench, log: &Path) -> (f64, f64, f64, f64, String) {
 #[test]
 #[ignore = "needs the release binaries and a bus; ci/test runs it (--ignored)"]
 fn measure_the_first_gear_correct_the_second_over_the_bus() {
-    const TEST: &str = "measure_the_first_gear_correct_the_second_over_the_bus";
-    // Two whole cuts: the emulated guest (2 ms cycle, stalls) would take many minutes, and
-    // adds nothing to what the host's bus tests here.
-    if std::env::var("HOB_CAN_TESTS_ONLY").as_deref() == Ok("1") {
-        eprintln!("{TEST}: two whole cuts: run on the host's bus, not here (HOB_CAN_TESTS_ONLY=1)");
-        return;
-    }
     let started = std::time::Instant::now();
     let mut b = Bench::new("compensation");
     let lab = b.bin.join("hob-lab");
