@@ -48,6 +48,14 @@ fn stack(b: &mut Bench) -> Vec<(&'static str, String)> {
             "analog_inputs".into(),
             toml::Value::Table(toml::toml! { table_gauge = { channel = 0 } }),
         );
+    // The machine's state file is hob-rt's (--state-file below): `hob compensate`, run by the
+    // HMI's COMPENSATE screen, writes the worm set's compensation beside it.
+    let state_file = b.art.join("machine-state.toml");
+    m.table
+        .get_mut("state")
+        .and_then(toml::Value::as_table_mut)
+        .unwrap()
+        .insert("file".into(), toml::Value::String(path(&state_file)));
     let machine = m.write(&b.art.join("machine.toml"));
     let (iface, program) = (b.iface.clone(), session_program());
     // The logger's directory, where the simulator writes its truth beside the record (the
@@ -80,7 +88,6 @@ fn stack(b: &mut Bench) -> Vec<(&'static str, String)> {
     std::fs::write(&control, "").unwrap();
     forward_lines(control.clone(), b.stdin_of(sim));
     std::thread::sleep(Duration::from_millis(300));
-    let state_file = b.art.join("machine-state.toml");
     b.spawn(
         "hob-rt",
         "hob-rt",
@@ -138,6 +145,16 @@ fn stack(b: &mut Bench) -> Vec<(&'static str, String)> {
         ],
         "gateway.txt",
     );
+    // The gear checker's folder (a USB stick's mount on the machine PC): the browser tests
+    // put their files in it, the HMI's user reads them.
+    let measurements = b.art.join("measurements");
+    std::fs::create_dir_all(&measurements).unwrap();
+    std::fs::set_permissions(&measurements, std::os::unix::fs::PermissionsExt::from_mode(0o777)).unwrap();
+    // Where `hob compensate` keeps the worm set's compensation (beside the state file): the
+    // HMI's user writes it (COMPENSATE's WRITE), as a deployment grants the setters.
+    let kept = b.art.join("pitch-compensation");
+    std::fs::create_dir_all(&kept).unwrap();
+    std::fs::set_permissions(&kept, std::os::unix::fs::PermissionsExt::from_mode(0o777)).unwrap();
     let job = TomlDoc::load(&program);
     let tip_mm = job.get("tool.outside_diameter_mm").as_float().unwrap();
     let blank_mm = job.get("workpiece.outside_diameter_mm").as_float().unwrap();
@@ -148,6 +165,9 @@ fn stack(b: &mut Bench) -> Vec<(&'static str, String)> {
         ("HOB_MACHINE", path(&machine)),
         ("HOB_LIBRARY", path(&library)),
         ("HOB_LOG_DIR", path(&log_dir)),
+        ("HOB_MEASUREMENTS_DIR", path(&measurements)),
+        ("HOB_STATE_FILE", path(&state_file)),
+        ("HOB_SESSION_PROGRAM_FILE", path(&program)),
         ("HOB_VENDOR", path(&vendor)),
         ("HOB_TOOL_TIP_MM", tip_mm.to_string()),
         // The touch-off test touches the blank of this diameter.

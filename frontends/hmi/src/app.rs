@@ -42,6 +42,9 @@ pub struct App {
     /// The program this HMI loaded last (accepted by the loop): its name, plan and the
     /// [`hob_ipc::program_hash`] of the text sent; used while the loop publishes that hash.
     pub loaded: Mutex<Option<Loaded>>,
+    /// The COMPENSATE screen: the `hob` CLI it runs, the checker's folder, what PREVIEW
+    /// holds for WRITE.
+    pub compensation: crate::compensation::Compensation,
     /// The last answer of [`App::changed_since_load`]: when, for which loop program, what.
     changed: Mutex<Option<(Instant, u64, bool)>>,
 }
@@ -70,7 +73,20 @@ impl App {
             log_dir,
             hello,
             loaded: Mutex::new(None),
+            compensation: crate::compensation::Compensation::new(crate::compensation::Setup {
+                hob: crate::compensation::Setup::hob_beside_me(),
+                measurements_dir: None,
+            }),
             changed: Mutex::new(None),
+        }
+    }
+
+    /// With the COMPENSATE screen's `hob` CLI and checker's folder (`hob-hmi --hob`,
+    /// `--measurements-dir`).
+    pub fn with_compensation(self, setup: crate::compensation::Setup) -> Self {
+        Self {
+            compensation: crate::compensation::Compensation::new(setup),
+            ..self
         }
     }
 

@@ -9,6 +9,8 @@ pub mod app;
 pub mod bridge;
 pub mod commander;
 pub mod commission;
+pub mod compensate;
+pub mod compensation;
 pub mod definition;
 pub mod error;
 pub mod form;

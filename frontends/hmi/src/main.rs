@@ -27,6 +27,15 @@ struct Args {
     /// The logger's directory, for cut reports.
     #[arg(long)]
     log_dir: Option<PathBuf>,
+    /// The folder of the gear checker's files (docs/gear-measurement.md): a USB stick's
+    /// mount or a share; the COMPENSATE screen lists its .csv files (without it, the screen
+    /// says it is off: the machine file has no key for it).
+    #[arg(long, value_name = "DIR")]
+    measurements_dir: Option<PathBuf>,
+    /// The `hob` CLI the COMPENSATE screen runs (`hob compensate`) [default: the hob next to
+    /// hob-hmi's own executable].
+    #[arg(long, value_name = "PATH")]
+    hob: Option<PathBuf>,
     /// Where the panel is served: a loopback address only (port 0: any free port).
     #[arg(long, default_value = "127.0.0.1:8080")]
     bind: SocketAddr,
@@ -111,6 +120,17 @@ fn panel_level(asked: &str) -> Result<Role, String> {
     )
 }
 
+/// The COMPENSATE screen's `hob` CLI and checker's folder (`--hob`, `--measurements-dir`).
+fn compensation(a: &Args) -> hob_hmi::compensation::Setup {
+    hob_hmi::compensation::Setup {
+        hob: a
+            .hob
+            .clone()
+            .unwrap_or_else(hob_hmi::compensation::Setup::hob_beside_me),
+        measurements_dir: a.measurements_dir.clone(),
+    }
+}
+
 fn run(a: Args) -> Result<(), String> {
     if !a.bind.ip().is_loopback() {
         return Err(format!(
@@ -154,15 +174,18 @@ fn run(a: Args) -> Result<(), String> {
         .name("commander".into())
         .spawn(move || commander::run(jobs))
         .map_err(|e| e.to_string())?;
-    let app = Arc::new(App::new(
-        hub,
-        commands,
-        machine,
-        a.machine.clone(),
-        library,
-        a.log_dir.clone(),
-        level,
-    ));
+    let app = Arc::new(
+        App::new(
+            hub,
+            commands,
+            machine,
+            a.machine.clone(),
+            library,
+            a.log_dir.clone(),
+            level,
+        )
+        .with_compensation(compensation(&a)),
+    );
 
     let rt = tokio::runtime::Builder::new_current_thread()
         .enable_all()

@@ -200,6 +200,25 @@ impl EventLog {
         Some((first, last))
     }
 
+    /// Every finished cycle the ring holds, newest first: from the loop's acceptance of its
+    /// START to its CYCLE_DONE (the cuts the COMPENSATE screen offers).
+    pub fn cycle_runs(&self) -> Vec<(u64, u64)> {
+        use hob_ipc::{command, event_kind};
+        let mut runs = Vec::new();
+        let mut started = None;
+        for e in &self.ring {
+            if e.kind == event_kind::ACCEPTED && e.a == command::START {
+                started = Some(e.cycle);
+            } else if e.kind == event_kind::CYCLE_DONE
+                && let Some(first) = started.take()
+            {
+                runs.push((first, e.cycle));
+            }
+        }
+        runs.reverse();
+        runs
+    }
+
     /// Up to `count` events before `seq` (0: the newest), newest first: the alarm screen's pages.
     pub fn page_before(&self, seq: u64, count: usize) -> Vec<EventSample> {
         self.ring
@@ -309,8 +328,17 @@ mod tests {
             Some((100, 900)),
             "the running one is not done"
         );
+        assert_eq!(log.cycle_runs(), [(100, 900)]);
         log.push(at(5, 2000, event_kind::CYCLE_DONE, 0));
         assert_eq!(log.last_cycle_run(), Some((1000, 2000)));
+        // Every finished one, newest first, each the same range the report takes.
+        assert_eq!(log.cycle_runs(), [(1000, 2000), (100, 900)]);
+        log.push(at(6, 2100, event_kind::CYCLE_DONE, 0));
+        assert_eq!(
+            log.cycle_runs(),
+            [(1000, 2000), (100, 900)],
+            "a done without a start"
+        );
     }
 
     proptest! {

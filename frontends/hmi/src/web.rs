@@ -4,7 +4,7 @@
 
 use crate::app::App;
 use crate::error::Error;
-use crate::{api, definition, ws};
+use crate::{api, compensate, definition, ws};
 use axum::Router;
 use axum::body::Body;
 use axum::extract::{Path, Request, State, WebSocketUpgrade};
@@ -25,6 +25,7 @@ pub const ASSETS: &[(&str, &str)] = &[
     ("hold.mjs", include_str!("../web/js/hold.mjs")),
     ("keypad.mjs", include_str!("../web/js/keypad.mjs")),
     ("screens.mjs", include_str!("../web/js/screens.mjs")),
+    ("compensate.mjs", include_str!("../web/js/compensate.mjs")),
     ("library.mjs", include_str!("../web/js/library.mjs")),
     ("plot.mjs", include_str!("../web/js/plot.mjs")),
     ("plot-reduce.mjs", include_str!("../web/js/plot-reduce.mjs")),
@@ -140,6 +141,9 @@ pub fn panel_router(app: Arc<App>, vendor_files: Arc<Vendor>, host: String) -> R
         .route("/api/span", post(definition::span))
         .route("/api/tool-from-form", post(definition::tool_from_form))
         .route("/api/span/carry", post(definition::span_carry))
+        .route("/api/compensate", get(compensate::overview))
+        .route("/api/compensate/preview", post(compensate::preview))
+        .route("/api/compensate/write", post(compensate::write))
         .with_state(app);
     Router::new()
         .route("/", get(index))

@@ -6,6 +6,7 @@ use futures_util::{SinkExt, StreamExt};
 use hob_hmi::app::App;
 use hob_hmi::bridge::Bridge;
 use hob_hmi::commander::{Commander, Job};
+use hob_hmi::compensation::Setup;
 use hob_hmi::web::{self, Vendor};
 use hob_ipc::gateway::Role;
 use hob_ipc::{CommandResponse, EventSample, StateSample, command, event_kind};
@@ -57,18 +58,23 @@ async fn start(view: bool) -> Fixture {
 
 /// [`start`] of a panel at a user level (`hob-hmi --level`).
 async fn start_at(level: Role) -> Fixture {
-    start_full(false, |_| None, level).await
+    start_full(false, |_| None, level, |_| None).await
 }
 
 /// [`start`] with the logger's directory `log(dir)` makes in the fixture's directory.
 async fn start_with(view: bool, log: impl FnOnce(&Path) -> Option<std::path::PathBuf>) -> Fixture {
-    start_full(view, log, Role::Build).await
+    start_full(view, log, Role::Build, |_| None).await
 }
+
+/// [`start_full`]'s COMPENSATE screen: the `hob` CLI and the checker's folder that
+/// `setup(dir)` makes in the fixture's directory (`None`: the defaults, no folder).
+type SetupFn = fn(&Path) -> Option<Setup>;
 
 async fn start_full(
     view: bool,
     log: impl FnOnce(&Path) -> Option<std::path::PathBuf>,
     level: Role,
+    setup: SetupFn,
 ) -> Fixture {
     let dir = std::env::temp_dir().join(format!(
         "hob-hmi-server-{}-{:?}",
@@ -82,7 +88,7 @@ async fn start_full(
     let (commands, jobs) = Commander::new();
     let seen = Arc::new(Mutex::new(Vec::new()));
     fake_loop(jobs, seen.clone());
-    let app = Arc::new(App::new(
+    let mut app = App::new(
         hub,
         commands,
         m,
@@ -90,7 +96,11 @@ async fn start_full(
         Library::open(&dir.join("library")).unwrap(),
         log_dir,
         level,
-    ));
+    );
+    if let Some(s) = setup(&dir) {
+        app = app.with_compensation(s);
+    }
+    let app = Arc::new(app);
     let listener = tokio::net::TcpListener::bind("127.0.0.1:0").await.unwrap();
     let addr = listener.local_addr().unwrap().to_string();
     let vendor = Arc::new(Vendor::default());
@@ -573,4 +583,228 @@ async fn an_operators_panel_changes_no_tool_and_carries_no_correction() {
     let s = start_at(Role::Set).await;
     let r = raw_post(&s.addr, "DELETE /api/tools/new-hob", "").await;
     assert!(!r.starts_with("HTTP/1.1 403"), "{r}");
+}
+
+/// The JSON body of a raw HTTP answer.
+fn json_body(r: &str) -> Value {
+    let body = r.split_once("\r\n\r\n").map_or("", |(_, b)| b);
+    serde_json::from_str(body).unwrap_or_else(|e| panic!("{e}: {r}"))
+}
+
+/// A stand-in for the `hob` CLI (the HMI links no control core and runs the real one; the
+/// browser suite runs that): it notes each call's arguments in `calls.txt` beside it and
+/// answers as `mode` beside it says: `refuse` as `hob compensate` refuses (exit 2, its
+/// words on standard error), `ok` with its arguments and a plot into `--svg`.
+const FAKE_HOB: &str = r#"#!/bin/sh
+here=$(dirname "$0")
+echo "$*" >> "$here/calls.txt"
+if [ "$(cat "$here/mode")" = refuse ]; then
+  echo 'hob: refused: /media/usb/other.csv: gear: the measurement is of "Spur z99", the program cuts "Thesis worst case"' >&2
+  exit 2
+fi
+prev=""
+for a in "$@"; do
+  [ "$prev" = "--svg" ] && echo '<svg xmlns="http://www.w3.org/2000/svg"><polyline points="0,0 1,1"/></svg>' > "$a"
+  echo "arg: $a"
+  prev="$a"
+done
+echo "not written (run again with --yes to write it)"
+"#;
+
+/// The COMPENSATE screen's set-up in the fixture's directory: the fake `hob` (answering as
+/// `mode` says) and a folder of two checker's files, `older.csv` a day older than `newer.csv`.
+fn fake_setup(dir: &Path) -> Option<Setup> {
+    use std::os::unix::fs::PermissionsExt;
+    let bin = dir.join("bin");
+    std::fs::create_dir_all(&bin).unwrap();
+    let hob = bin.join("hob");
+    std::fs::write(&hob, FAKE_HOB).unwrap();
+    std::fs::set_permissions(&hob, std::fs::Permissions::from_mode(0o755)).unwrap();
+    std::fs::write(bin.join("mode"), "ok").unwrap();
+    let folder = dir.join("measurements");
+    std::fs::create_dir_all(folder.join("sub")).unwrap();
+    for name in ["older.csv", "newer.csv", "sub/inner.csv", "notes.txt"] {
+        std::fs::write(folder.join(name), "# hob gear measurement 1\n").unwrap();
+    }
+    let day_ago = std::time::SystemTime::now() - Duration::from_secs(86_400);
+    std::fs::File::options()
+        .write(true)
+        .open(folder.join("older.csv"))
+        .unwrap()
+        .set_modified(day_ago)
+        .unwrap();
+    Some(Setup {
+        hob,
+        measurements_dir: Some(folder),
+    })
+}
+
+/// A panel at `level` with the fake `hob`, the folder, a log directory and the library
+/// program `gear`.
+async fn compensate_panel(level: Role) -> Fixture {
+    let f = start_full(false, |d| Some(d.join("log")), level, fake_setup).await;
+    let text = std::fs::read_to_string(
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("../../config/programs/spur-z17-m5.toml"),
+    )
+    .unwrap();
+    let r = raw_post(
+        &f.addr,
+        "POST /api/programs/gear",
+        &json!({ "text": text }).to_string(),
+    )
+    .await;
+    assert!(r.starts_with("HTTP/1.1 201"), "{r}");
+    f
+}
+
+fn calls(f: &Fixture) -> Vec<String> {
+    std::fs::read_to_string(f._dir.0.join("bin/calls.txt"))
+        .map(|t| t.lines().map(str::to_string).collect())
+        .unwrap_or_default()
+}
+
+async fn preview(f: &Fixture, measurements: &[&str]) -> String {
+    let body = json!({"program": "gear", "measurements": measurements, "cycles": [5, 9]});
+    raw_post(&f.addr, "POST /api/compensate/preview", &body.to_string()).await
+}
+
+#[tokio::test]
+async fn without_a_measurements_folder_the_screen_says_so_and_runs_nothing() {
+    let f = start_full(false, |d| Some(d.join("log")), Role::Build, |_| None).await;
+    let words = "hob-hmi was started without --measurements-dir";
+    let r = raw_http(&f.addr, "GET /api/compensate", &format!("http://{}", f.addr), "").await;
+    let v = json_body(&r);
+    assert!(v["files_refused"].as_str().unwrap().starts_with(words), "{v}");
+    assert_eq!(v["files"], json!([]));
+    let r = preview(&f, &["a.csv"]).await;
+    assert!(r.starts_with("HTTP/1.1 422"), "{r}");
+    assert!(
+        json_body(&r)["refused"].as_str().unwrap().starts_with(words),
+        "{r}"
+    );
+}
+
+#[tokio::test]
+async fn only_the_names_of_the_folders_checker_files_are_taken() {
+    let f = compensate_panel(Role::Build).await;
+    let r = raw_http(&f.addr, "GET /api/compensate", &format!("http://{}", f.addr), "").await;
+    let v = json_body(&r);
+    let names: Vec<&str> = v["files"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|e| e["name"].as_str().unwrap())
+        .collect();
+    assert_eq!(names, ["newer.csv", "older.csv"], "newest first, .csv files only");
+    assert_eq!(v["files_refused"], Value::Null);
+    for (name, words) in [
+        ("../newer.csv", "only the name of a file"),
+        ("/etc/passwd", "only the name of a file"),
+        ("sub/inner.csv", "only the name of a file"),
+        ("..", "only the name of a file"),
+        ("notes.txt", "no such checker's file"),
+        ("absent.csv", "no such checker's file"),
+    ] {
+        let r = preview(&f, &["newer.csv", name]).await;
+        assert!(r.starts_with("HTTP/1.1 422"), "{name}: {r}");
+        let refused = json_body(&r)["refused"].as_str().unwrap().to_string();
+        assert!(
+            refused.contains(words) && refused.contains("nothing was read"),
+            "{name}: {refused}"
+        );
+    }
+    assert_eq!(calls(&f), Vec::<String>::new(), "hob ran for a bad name");
+    let r = preview(&f, &[]).await;
+    assert!(
+        r.starts_with("HTTP/1.1 422") && r.contains("none is picked"),
+        "{r}"
+    );
+}
+
+#[tokio::test]
+async fn the_clis_refusal_reaches_the_page_word_for_word_and_nothing_is_held() {
+    let f = compensate_panel(Role::Set).await;
+    std::fs::write(f._dir.0.join("bin/mode"), "refuse").unwrap();
+    let r = preview(&f, &["newer.csv"]).await;
+    assert!(r.starts_with("HTTP/1.1 422"), "{r}");
+    let v = json_body(&r);
+    let said = "hob: refused: /media/usb/other.csv: gear: the measurement is of \"Spur z99\", the program cuts \"Thesis worst case\"";
+    assert_eq!(v["refused"], said);
+    assert_eq!(
+        (v["state"].as_str(), v["text"].as_str()),
+        (Some("refused"), Some(said))
+    );
+    let c = calls(&f);
+    assert_eq!(c.len(), 1);
+    assert!(!c[0].contains("--yes"), "{}", c[0]);
+    let r = raw_http(&f.addr, "GET /api/compensate", &format!("http://{}", f.addr), "").await;
+    assert_eq!(json_body(&r)["held"], Value::Null, "a refusal held a request");
+    let r = raw_post(&f.addr, "POST /api/compensate/write", "").await;
+    assert!(
+        r.starts_with("HTTP/1.1 422") && r.contains("nothing previewed to write"),
+        "{r}"
+    );
+    assert_eq!(calls(&f).len(), 1, "WRITE ran hob without a preview");
+}
+
+#[tokio::test]
+async fn a_preview_is_written_with_yes_and_only_at_the_setters_level() {
+    let origin = |f: &Fixture| format!("http://{}", f.addr);
+    // An operator's panel previews (nothing is written) but may not write.
+    let f = compensate_panel(Role::Operate).await;
+    let r = preview(&f, &["newer.csv", "older.csv"]).await;
+    assert!(r.starts_with("HTTP/1.1 200"), "{r}");
+    let v = json_body(&r);
+    assert_eq!(v["state"], "preview");
+    let text = v["text"].as_str().unwrap();
+    let folder = f._dir.0.join("measurements");
+    for arg in [
+        "arg: compensate".to_string(),
+        format!("arg: {}", f._dir.0.join("machine.toml").display()),
+        format!("arg: {}", f._dir.0.join("library/programs/gear.toml").display()),
+        format!("arg: {}", f._dir.0.join("log").display()),
+        format!("arg: {}", folder.join("newer.csv").display()),
+        format!("arg: {}", folder.join("older.csv").display()),
+        "arg: --cycles\narg: 5..9".to_string(),
+    ] {
+        assert!(text.contains(&arg), "{arg:?} not in:\n{text}");
+    }
+    assert!(!text.contains("arg: --yes"), "{text}");
+    assert!(v["svg"].as_str().unwrap().starts_with("<svg"), "{v}");
+    let over = json_body(&raw_http(&f.addr, "GET /api/compensate", &origin(&f), "").await);
+    assert_eq!(over["held"]["measurements"], json!(["newer.csv", "older.csv"]));
+    assert!(
+        over["write_refused"]
+            .as_str()
+            .unwrap()
+            .contains("a setter's work"),
+        "{over}"
+    );
+    let r = raw_post(&f.addr, "POST /api/compensate/write", "").await;
+    assert!(r.starts_with("HTTP/1.1 403"), "{r}");
+    assert!(
+        r.contains("this panel is at the operator level") && r.contains("a setter's work"),
+        "{r}"
+    );
+    assert_eq!(calls(&f).len(), 1, "the operator's WRITE ran hob");
+    // A setter's panel writes what it previewed, with --yes, once.
+    let s = compensate_panel(Role::Set).await;
+    assert!(preview(&s, &["older.csv"]).await.starts_with("HTTP/1.1 200"));
+    let r = raw_post(&s.addr, "POST /api/compensate/write", "").await;
+    assert!(r.starts_with("HTTP/1.1 200"), "{r}");
+    assert_eq!(json_body(&r)["state"], "written");
+    let c = calls(&s);
+    assert_eq!(c.len(), 2);
+    // The same arguments but the plot's scratch file, and --yes.
+    let without_svg = |call: &str| {
+        let words: Vec<&str> = call.split(' ').collect();
+        let at = words.iter().position(|w| *w == "--svg").unwrap();
+        [&words[..at], &words[at + 2..]].concat().join(" ")
+    };
+    assert_eq!(without_svg(&c[1]), format!("{} --yes", without_svg(&c[0])));
+    assert!(c[0].contains("older.csv --cycles 5..9 --svg"), "{}", c[0]);
+    let over = json_body(&raw_http(&s.addr, "GET /api/compensate", &origin(&s), "").await);
+    assert_eq!(over["held"], Value::Null, "the written request is still held");
+    let r = raw_post(&s.addr, "POST /api/compensate/write", "").await;
+    assert!(r.starts_with("HTTP/1.1 422"), "{r}");
 }

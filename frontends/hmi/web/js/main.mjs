@@ -9,6 +9,7 @@ import { installReleaseOnLeave } from "./hold.mjs";
 import { Keypad } from "./keypad.mjs";
 import { PowerUp, Jog, Automatic, Single, Alarms, Diagnostics, Report } from "./screens.mjs";
 import { Programs, Definition } from "./library.mjs";
+import { Compensate } from "./compensate.mjs";
 
 // The panel's socket, or the view-only one where the server says so (its page's meta).
 const socket = document.querySelector('meta[name="hob-socket"]').content;
@@ -33,7 +34,7 @@ window.hobConn = conn;
 const VIEW_SCREENS = ["automatic", "report", "alarms", "diagnostics"];
 const ALL_SCREENS = [
   ["powerup", () => t("POWER-UP")], ["jog", () => t("JOG")], ["programs", () => t("PROGRAMS")], ["definition", () => t("DEFINITION")],
-  ["single", () => t("SINGLE")], ["automatic", () => t("AUTOMATIC")], ["report", () => t("REPORT")], ["alarms", () => t("ALARMS")],
+  ["single", () => t("SINGLE")], ["automatic", () => t("AUTOMATIC")], ["report", () => t("REPORT")], ["compensate", () => t("COMPENSATE")], ["alarms", () => t("ALARMS")],
   ["diagnostics", () => t("DIAGNOSTICS")],
 ];
 const SCREENS = conn.viewOnly ? ALL_SCREENS.filter(([k]) => VIEW_SCREENS.includes(k)) : ALL_SCREENS;
@@ -93,7 +94,7 @@ function App() {
   const props = { conn, program, setProgram, go };
   const body = {
     powerup: PowerUp, jog: Jog, programs: Programs, definition: Definition, single: Single,
-    automatic: Automatic, report: Report, alarms: Alarms, diagnostics: Diagnostics,
+    automatic: Automatic, report: Report, compensate: Compensate, alarms: Alarms, diagnostics: Diagnostics,
   }[screen] || (conn.viewOnly ? Automatic : PowerUp);
   return html`<div class="shell">
     <${Status} conn=${conn} />

@@ -21,7 +21,9 @@ const BIN = () => need("HOB_BIN");
  *  builder`), not the deployed panel through the gateway. */
 export function startHmi(port = 0, { builder = false } = {}) {
   const args = ["--machine", need("HOB_MACHINE"), "--library", need("HOB_LIBRARY"), "--log-dir", need("HOB_LOG_DIR"),
-    "--bind", `127.0.0.1:${port}`, "--vendor", need("HOB_VENDOR"), ...(builder ? ["--level", "builder"] : [])];
+    "--bind", `127.0.0.1:${port}`, "--vendor", need("HOB_VENDOR"), ...(builder ? ["--level", "builder"] : []),
+    // The gear checker's folder of the COMPENSATE screen (its `hob` is the one beside hob-hmi).
+    ...(process.env.HOB_MEASUREMENTS_DIR ? ["--measurements-dir", process.env.HOB_MEASUREMENTS_DIR] : [])];
   // As deployed: another user than the bus's, through hob-gateway (HOB_HMI_USER uid:gid,
   // HOB_HMI_GATEWAY its socket; bench/system-tests/tests/hmi.rs sets both).
   const user = builder ? undefined : process.env.HOB_HMI_USER;
