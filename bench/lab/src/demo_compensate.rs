@@ -190,7 +190,9 @@ impl Session<'_> {
             Some(f) => Err((
                 3,
                 format!(
-                    "FAULT in the {name}: {f} (the machine retracted and stopped; see {}/events.log)\nlog: {}",
+                    "FAULT in the cut of the {}: {f} (the machine retracted and stopped; see \
+                     {}/events.log)\nlog: {}",
+                    name.replace('-', " "),
                     recording.display(),
                     self.p.dir.display()
                 ),
@@ -248,9 +250,10 @@ impl Session<'_> {
             heights: HEIGHTS,
             seed,
         };
+        let gear = name.replace('-', " ");
         let text = check::run(self.machine, &args).map_err(|e| match e {
-            check::CheckError::Refused(e) => (2, format!("the checker on the {name}: {e}")),
-            check::CheckError::Failed(e) => (1, format!("the checker on the {name}: {e}")),
+            check::CheckError::Refused(e) => (2, format!("the checker on the {gear}: {e}")),
+            check::CheckError::Failed(e) => (1, format!("the checker on the {gear}: {e}")),
         })?;
         say(self.a.quiet, text.trim_end());
         let mut files = Vec::new();
