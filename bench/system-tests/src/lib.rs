@@ -60,6 +60,18 @@ pub fn host_only(test: &str) -> bool {
     skip
 }
 
+/// The CAN bus the tests use: `HOB_IFACE`, else `vcan0` where the kernel has it, else
+/// `shm` (the shared-memory virtual CAN).
+pub fn bus_iface() -> String {
+    env_var("HOB_IFACE").unwrap_or_else(|| {
+        if Path::new("/sys/class/net/vcan0").exists() {
+            "vcan0".into()
+        } else {
+            "shm".into()
+        }
+    })
+}
+
 /// `HOB_MIN_PACE`, default 0.9.
 pub fn min_pace() -> f64 {
     env_num("HOB_MIN_PACE", Some(0.9)).unwrap_or(0.9)
@@ -373,13 +385,7 @@ impl Bench {
         let art = root.join("target/service-artifacts").join(test);
         let _ = std::fs::remove_dir_all(&art);
         std::fs::create_dir_all(&art).unwrap_or_else(|e| panic!("{}: {e}", art.display()));
-        let iface = env_var("HOB_IFACE").unwrap_or_else(|| {
-            if Path::new("/sys/class/net/vcan0").exists() {
-                "vcan0".into()
-            } else {
-                "shm".into()
-            }
-        });
+        let iface = bus_iface();
         let instance = format!("st-{}-{test}", std::process::id());
         eprintln!(
             "{test}: bus {iface}, instance {instance}, binaries {}, artifacts {}{}",

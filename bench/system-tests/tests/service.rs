@@ -2805,6 +2805,18 @@ fn truth_gear(b: &Bench, log: &Path) -> (f64, f64, f64, f64, String) {
 #[test]
 #[ignore = "needs the release binaries and a bus; ci/test runs it (--ignored)"]
 fn measure_the_first_gear_correct_the_second_over_the_bus() {
+    // On the shared-memory bus `demo_compensate_cuts_measures_compensates_and_cuts_again`
+    // runs the same loop (the same program, plant and code, through `hob demo
+    // --compensate`): two such tests of two cuts each cost the host's run 70 s. This one,
+    // with the operator's commands one by one, runs on vcan0 (the guest, a machine with
+    // vcan), where the demo's is left out.
+    if hob_system_tests::bus_iface() == "shm" {
+        eprintln!(
+            "measure_the_first_gear_correct_the_second_over_the_bus: on vcan0 only; on the \
+             shared-memory bus demo_compensate_cuts_measures_compensates_and_cuts_again runs the loop"
+        );
+        return;
+    }
     let started = std::time::Instant::now();
     let mut b = Bench::new("compensation");
     let lab = b.bin.join("hob-lab");
