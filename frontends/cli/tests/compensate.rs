@@ -118,7 +118,20 @@ fn sample(cycle: u64, r: &TraceRow, pitch_radius_mm: f64, module_mm: f64) -> Sta
 
 fn cut_first() -> First {
     let t0 = std::time::Instant::now();
-    let dir = std::env::temp_dir().join(format!("hob-cli-compensate-{}", std::process::id()));
+    // 400 MB of recording a test process: under the build's own scratch directory, and
+    // those of processes gone (each test is one under nextest) removed first, so that the
+    // runs do not fill the disk (they did: 79 left in /tmp, 32 GB).
+    let base = Path::new(env!("CARGO_TARGET_TMPDIR"));
+    for e in std::fs::read_dir(base).into_iter().flatten().flatten() {
+        let name = e.file_name().to_string_lossy().into_owned();
+        let pid = name
+            .strip_prefix("hob-cli-compensate-")
+            .and_then(|p| p.parse::<u32>().ok());
+        if pid.is_some_and(|pid| !Path::new(&format!("/proc/{pid}")).exists()) {
+            let _ = std::fs::remove_dir_all(e.path());
+        }
+    }
+    let dir = base.join(format!("hob-cli-compensate-{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&dir);
     std::fs::create_dir_all(&dir).unwrap();
     let machine = hob_store::files::load_machine(&root().join("config/machine.toml")).unwrap();
