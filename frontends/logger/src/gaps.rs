@@ -59,10 +59,9 @@ pub struct GapRecorder {
     at: GapsAt,
     pitch_radius_mm: f64,
     pass: u32,
-    /// The same crossings twice: the controller's error and the spindle's angle, each
-    /// interpolated where the gap passed.
+    /// The controller's error at each crossing; the section gives the table's and the
+    /// spindle's angle there too.
     controller: SectionBuilder,
-    spindle: SectionBuilder,
 }
 
 impl GapRecorder {
@@ -91,7 +90,6 @@ impl GapRecorder {
             pitch_radius_mm,
             pass: 0,
             controller: SectionBuilder::at(teeth, at),
-            spindle: SectionBuilder::at(teeth, at),
         }
     }
 
@@ -99,52 +97,37 @@ impl GapRecorder {
     pub fn add(&mut self, row: &TraceRow) {
         if row.pass == 0 {
             self.controller.interrupt();
-            self.spindle.interrupt();
             return;
         }
         if row.pass != self.pass {
             self.pass = row.pass;
             self.controller = SectionBuilder::at(self.teeth, self.at);
-            self.spindle = SectionBuilder::at(self.teeth, self.at);
         }
-        let sample = |value: f64| TrueSample {
-            table_deg: row.table_deg,
-            spindle_deg: row.spindle_deg,
-            y_mm: row.y_mm,
-            error_um: value,
-        };
         match (row.state == State::Cut, row.sync_err_arcsec) {
-            (true, Some(e)) => {
-                self.controller
-                    .add(sample(arcsec_to_um_at_radius(e, self.pitch_radius_mm)));
-                self.spindle.add(sample(row.spindle_deg));
-            }
-            (true, None) => {
-                self.controller.skip();
-                self.spindle.skip();
-            }
-            (false, _) => {
-                self.controller.interrupt();
-                self.spindle.interrupt();
-            }
+            (true, Some(e)) => self.controller.add(TrueSample {
+                table_deg: row.table_deg,
+                spindle_deg: row.spindle_deg,
+                y_mm: row.y_mm,
+                error_um: arcsec_to_um_at_radius(e, self.pitch_radius_mm),
+            }),
+            (true, None) => self.controller.skip(),
+            (false, _) => self.controller.interrupt(),
         }
     }
 
     /// The last pass's complete sections, in the order cut, each's gaps in table order
     /// ([`Section::table_order`]) at the table angles they passed the hob at (modulo 360).
     pub fn finish(self) -> Vec<GapSection> {
-        let controller = self.controller.finish();
-        let spindle = self.spindle.finish();
-        controller
+        self.controller
+            .finish()
             .into_iter()
-            .zip(spindle)
-            .map(|(c, s): (Section, Section)| {
+            .map(|c: Section| {
                 let order = c.table_order();
                 let pick = |v: &[f64]| order.iter().map(|&k| v[k]).collect::<Vec<f64>>();
                 GapSection {
                     y_mm: c.y_mm,
                     table_deg: pick(&c.table_deg).iter().map(|d| d.rem_euclid(360.0)).collect(),
-                    hob_phase_deg: pick(&s.gap_um),
+                    hob_phase_deg: pick(&c.spindle_deg),
                     controller_um: pick(&c.gap_um),
                 }
             })

@@ -48,6 +48,8 @@ pub struct Section {
     pub gap_um: Vec<f64>,
     /// The table's angle (deg, unwrapped) where each gap passed the hob.
     pub table_deg: Vec<f64>,
+    /// The spindle's angle (deg, unwrapped) then.
+    pub spindle_deg: Vec<f64>,
 }
 
 impl Section {
@@ -131,6 +133,7 @@ pub struct SectionBuilder {
     skipped: u32,
     gap_um: Vec<f64>,
     table_deg: Vec<f64>,
+    spindle_deg: Vec<f64>,
     filled: usize,
     y_sum: f64,
     out: Vec<Section>,
@@ -156,6 +159,7 @@ impl SectionBuilder {
             skipped: 0,
             gap_um: vec![f64::NAN; z],
             table_deg: vec![f64::NAN; z],
+            spindle_deg: vec![f64::NAN; z],
             filled: 0,
             y_sum: 0.0,
             out: Vec::new(),
@@ -195,12 +199,14 @@ impl SectionBuilder {
             }
             self.gap_um[k] = a.error_um + f * (b.error_um - a.error_um);
             self.table_deg[k] = a.table_deg + f * (b.table_deg - a.table_deg);
+            self.spindle_deg[k] = a.spindle_deg + f * (b.spindle_deg - a.spindle_deg);
             self.y_sum += a.y_mm + f * (b.y_mm - a.y_mm);
             if self.filled == z {
                 self.out.push(Section {
                     y_mm: self.y_sum / z as f64,
                     gap_um: std::mem::replace(&mut self.gap_um, vec![f64::NAN; z]),
                     table_deg: std::mem::replace(&mut self.table_deg, vec![f64::NAN; z]),
+                    spindle_deg: std::mem::replace(&mut self.spindle_deg, vec![f64::NAN; z]),
                 });
                 self.filled = 0;
                 self.y_sum = 0.0;
