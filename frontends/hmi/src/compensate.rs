@@ -220,13 +220,7 @@ pub async fn write(State(app): Shared) -> Response {
 #[allow(clippy::unwrap_used)]
 mod tests {
     use super::*;
-
-    fn scratch(name: &str) -> PathBuf {
-        let d = std::env::temp_dir().join(format!("hob-hmi-comp-{name}-{}", std::process::id()));
-        let _ = std::fs::remove_dir_all(&d);
-        std::fs::create_dir_all(&d).unwrap();
-        d
-    }
+    use crate::compensation::tests::scratch;
 
     /// Every text this screen's server makes has its German (the unit tests keep the panel
     /// in English: each text is made in English, then looked up).
