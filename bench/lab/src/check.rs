@@ -68,14 +68,7 @@ pub fn run(machine: &MachineConfig, a: &Args<'_>) -> Result<String, CheckError> 
         .map_err(|e| refused(format!("--log {}: {e}", a.log.display())))?;
     let (truth_gear, truth_rows) = truth::read(&truth_path).map_err(|e| refused(e.to_string()))?;
     let rows = truth_rows_of_last_cut(&states, &truth_rows, &gear, truth_gear, a.log)?;
-    let mut checker = GearChecker::new(GearUnderTest {
-        gear: gear.name.clone(),
-        teeth: gear.plan.teeth,
-        normal_module_mm: gear.plan.normal_module_mm,
-        pitch_radius_mm: gear.pitch_radius_mm(),
-        face_bottom_mm: gear.cycle.face_bottom_mm,
-        face_width_mm: gear.plan.face_width_mm,
-    });
+    let mut checker = GearChecker::new(GearUnderTest::of(gear.name.clone(), &gear.plan, &gear.cycle));
     for r in &rows {
         checker.add(r);
     }

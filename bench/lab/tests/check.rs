@@ -123,14 +123,11 @@ fn cut(compensation: Option<PitchCompensation>) -> Cut {
     let mut p = Problems::new();
     let cycle = CycleProgram::build(&job, &machine, &mut p).unwrap();
     let plan = planner::plan(&job, &machine, &mut p).unwrap();
-    let mut checker = GearChecker::new(GearUnderTest {
-        gear: job.workpiece.name.clone().unwrap(),
-        teeth: plan.teeth,
-        normal_module_mm: plan.normal_module_mm,
-        pitch_radius_mm: plan.pitch_diameter_mm / 2.0,
-        face_bottom_mm: cycle.face_bottom_mm,
-        face_width_mm: plan.face_width_mm,
-    });
+    let mut checker = GearChecker::new(GearUnderTest::of(
+        job.workpiece.name.clone().unwrap(),
+        &plan,
+        &cycle,
+    ));
     let mut rows = Vec::new();
     let options = SimOptions {
         grade: 5,

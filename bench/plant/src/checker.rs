@@ -38,6 +38,24 @@ pub struct GearUnderTest {
     pub face_width_mm: f64,
 }
 
+impl GearUnderTest {
+    /// The gear `gear` (its name for the checker) of a program as planned and built.
+    pub fn of(
+        gear: String,
+        plan: &hob_setup::planner::Plan,
+        cycle: &hob_control::program::CycleProgram,
+    ) -> Self {
+        Self {
+            gear,
+            teeth: plan.teeth,
+            normal_module_mm: plan.normal_module_mm,
+            pitch_radius_mm: plan.pitch_diameter_mm / 2.0,
+            face_bottom_mm: cycle.face_bottom_mm,
+            face_width_mm: plan.face_width_mm,
+        }
+    }
+}
+
 /// Collects the last pass's face sections from the trace rows of a cut.
 #[derive(Debug, Clone)]
 pub struct GearChecker {

@@ -16,18 +16,14 @@ fn cut_and_check(seeds: &[u64]) -> (Vec<PitchMeasurement>, hob_logger::predicted
     let plant = Disturbance::Nominal.apply(&common::plant());
     let (job, cycle, plan) = common::program_on(&machine, "spur-z17-m5.toml", &[]);
     let mut checker = GearChecker::at_hob(
-        GearUnderTest {
-            gear: job
-                .workpiece
+        GearUnderTest::of(
+            job.workpiece
                 .name
                 .clone()
                 .unwrap_or_else(|| "spur-z17-m5".to_string()),
-            teeth: plan.teeth,
-            normal_module_mm: plan.normal_module_mm,
-            pitch_radius_mm: plan.pitch_diameter_mm / 2.0,
-            face_bottom_mm: cycle.face_bottom_mm,
-            face_width_mm: plan.face_width_mm,
-        },
+            &plan,
+            &cycle,
+        ),
         plan.starts,
     );
     let options = SimOptions {

@@ -47,14 +47,7 @@ fn cut(plant: &PlantConfig, compensation: Option<PitchCompensation>) -> Cut {
     let machine = common::machine();
     let (job, cycle, plan) = common::program_on(&machine, GEAR, &[]);
     let mut checker = GearChecker::at_hob(
-        GearUnderTest {
-            gear: job.workpiece.name.clone().unwrap(),
-            teeth: plan.teeth,
-            normal_module_mm: plan.normal_module_mm,
-            pitch_radius_mm: plan.pitch_diameter_mm / 2.0,
-            face_bottom_mm: cycle.face_bottom_mm,
-            face_width_mm: plan.face_width_mm,
-        },
+        GearUnderTest::of(job.workpiece.name.clone().unwrap(), &plan, &cycle),
         plan.starts,
     );
     let mut recorder = GapRecorder::at_hob(plan.teeth, plan.starts, plan.pitch_diameter_mm / 2.0);

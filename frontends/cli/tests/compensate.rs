@@ -145,14 +145,11 @@ fn cut_first() -> First {
     plant.spindle.hob_axial_runout_um = 3.0;
     plant.simulation.seed = SEED;
     let r_mm = plan.pitch_diameter_mm / 2.0;
-    let mut checker = GearChecker::new(GearUnderTest {
-        gear: job.workpiece.name.clone().unwrap(),
-        teeth: plan.teeth,
-        normal_module_mm: plan.normal_module_mm,
-        pitch_radius_mm: r_mm,
-        face_bottom_mm: cycle.face_bottom_mm,
-        face_width_mm: plan.face_width_mm,
-    });
+    let mut checker = GearChecker::new(GearUnderTest::of(
+        job.workpiece.name.clone().unwrap(),
+        &plan,
+        &cycle,
+    ));
     let mut recorder = GapRecorder::new(plan.teeth, r_mm);
     let log = dir.join("log");
     std::fs::create_dir_all(&log).unwrap();
